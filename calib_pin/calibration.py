@@ -1,0 +1,192 @@
+"""The calibration pipeline: measurement set in, corrected model and report out."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import CableModel, CalibrationProblem, Drawstring
+from .estimators import DEFAULT_METHOD, EstimateResult, get_estimator, run_estimator
+from .exceptions import CalibPinError, DataError
+from .export import write_calibrated_urdf
+from .measurements import MeasurementSet, read_measurements
+from .metrics import Metrics, split_rows
+from .model import Chain, load_chain
+from .parameters import ParameterModel, parameter_model
+from .simulate import deviations_for_humans
+
+#: Sensor noise assumed when neither the data (``# noise_mm``) nor the caller give it.
+DEFAULT_NOISE_MM = 0.05
+
+
+@dataclass
+class CalibrationResult:
+    """A calibrated robot.
+
+    Attributes:
+        chain: The nominal robot chain.
+        params: Parameter model of the deviations.
+        method: Estimator name.
+        x: Estimated deviations, shape (n_params,), SI units ([m], [rad]).
+        estimate: The estimator's own result (history, iterations, time).
+        sensor: Drawstring geometry used.
+        data: The measurement set.
+        train, test: Data-row indices (0-based) of the two splits.
+        metrics: ``metrics[split][stage]`` for split in (train, test) and stage in
+            (before, after): reading residuals in [mm]. ``test`` is absent when no rows
+            were held out.
+        seed: Seed of the split and the estimator.
+    """
+
+    chain: Chain
+    params: ParameterModel
+    method: str
+    x: np.ndarray
+    estimate: EstimateResult
+    sensor: Drawstring
+    data: MeasurementSet
+    train: np.ndarray
+    test: np.ndarray
+    metrics: dict[str, dict[str, Metrics]]
+    seed: int
+
+    @property
+    def deltas(self) -> list[pin.SE3]:
+        return self.params.deltas(self.x)
+
+    @property
+    def model(self) -> pin.Model:
+        """Pinocchio model of the whole corrected robot (a new model on each call)."""
+        return self.chain.perturbed_model(self.deltas)
+
+    @property
+    def deviations(self) -> dict[str, float]:
+        """Estimated deviations by name with unit: ``a_2_mm``, ``theta_6_deg``."""
+        return deviations_for_humans(self.x, self.params.names, self.params.units)
+
+    def predict(self, q: np.ndarray) -> np.ndarray:
+        """Readings the corrected model predicts, shape (n_poses,), [m], q in [rad]."""
+        return CableModel(self.chain, self.params, self.sensor).predict(self.x, q)
+
+    def to_urdf(self, path: str | Path) -> Path:
+        """Write the corrected URDF (only joint origins differ from the input)."""
+        return write_calibrated_urdf(self.chain, self.deltas, path)
+
+    def report(self) -> dict:
+        """JSON-ready summary: metrics, deviations, sensor, split, timing."""
+        return {
+            "robot": self.chain.name,
+            "end_frame": self.chain.end_frame,
+            "data": self.data.source,
+            "method": self.method,
+            "seed": self.seed,
+            **{
+                split: {stage: m.as_dict() for stage, m in stages.items()}
+                for split, stages in self.metrics.items()
+            },
+            "time_s": self.estimate.time_s,
+            "iterations": self.estimate.iterations,
+            "stages": self.estimate.stages,
+            "evaluations": self.estimate.nfev,
+            "stop_reason": self.estimate.message,
+            "train_rmse_history_mm": [h * 1e3 for h in self.estimate.history],
+            "deviations": self.deviations,
+            "anchor_mm": (self.sensor.anchor * 1e3).tolist(),
+            "tool_mm": (self.sensor.hook * 1e3).tolist(),
+            "length_offset_mm": self.sensor.offset * 1e3,
+            "split": {"train": self.train.tolist(), "test": self.test.tolist()},
+        }
+
+
+def _vector_mm(value, name: str) -> np.ndarray:
+    v = np.asarray(value, dtype=float).reshape(-1)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise CalibPinError(f"{name} needs 3 finite numbers (x, y, z in mm)")
+    return v * 1e-3
+
+
+def _sensor(data: MeasurementSet, anchor_mm, tool_mm, offset_mm) -> Drawstring:
+    anchor = _vector_mm(anchor_mm, "anchor_mm") if anchor_mm is not None else data.anchor
+    tool = _vector_mm(tool_mm, "tool_mm") if tool_mm is not None else data.tool
+    if anchor is None:
+        raise DataError(data.source, "no sensor point: add '# anchor_mm: x, y, z' or pass --anchor-mm", None, "anchor_mm")
+    if tool is None:
+        raise DataError(data.source, "no hook point: add '# tool_mm: x, y, z' or pass --tool-mm", None, "tool_mm")
+    offset = data.length_offset if offset_mm is None else float(offset_mm) * 1e-3
+    return Drawstring(anchor=anchor, hook=tool, offset=offset)
+
+
+def calibrate(
+    robot: str,
+    data: str | Path | MeasurementSet | None = None,
+    *,
+    method: str = DEFAULT_METHOD,
+    seed: int = 0,
+    test_fraction: float = 0.2,
+    end_frame: str | None = None,
+    anchor_mm=None,
+    tool_mm=None,
+    length_offset_mm: float | None = None,
+    noise_mm: float | None = None,
+) -> CalibrationResult:
+    """Calibrate a robot's DH deviations from drawstring readings.
+
+    Args:
+        robot: Robot name or URDF path (``irb120``).
+        data: Measurement CSV or set; None uses the robot's shipped default set.
+        method: Estimator name (``ekf-qibas``, ``ekf``, ``qibas``, ``lm``).
+        seed: Seed of the train/test split and of the estimator.
+        test_fraction: Share of rows held out for the test metrics.
+        end_frame: End frame; default the file's ``end_frame`` or the robot's.
+        anchor_mm, tool_mm: Override the file's sensor point (base frame) and hook
+            point (end frame), 3 numbers each, [mm].
+        length_offset_mm: Override the file's sensor zero offset, [mm].
+        noise_mm: Sensor noise (1 sigma) [mm] for the EKF; default the file's
+            ``noise_mm`` or 0.05.
+
+    Raises:
+        CalibPinError: any bad input (robot, file, option), with a one-line message.
+    """
+    get_estimator(method)
+    if not 0.0 <= test_fraction < 1.0:
+        raise CalibPinError(f"test fraction must be in [0, 1), got {test_fraction:g}")
+    chain = load_chain(robot, end_frame)
+    parameter_model(chain)  # a robot that cannot be calibrated says so before anything else
+    if data is None:
+        data = chain.description.default_data
+        if data is None or not Path(data).is_file():
+            raise CalibPinError(f"robot '{chain.name}' has no default measurement set: pass --data")
+    if not isinstance(data, MeasurementSet):
+        data = read_measurements(data, chain)
+        if end_frame is None and data.end_frame and data.end_frame != chain.end_frame:
+            chain = load_chain(chain.description, data.end_frame)
+            data = read_measurements(data.source, chain)
+    params = parameter_model(chain)
+    sensor = _sensor(data, anchor_mm, tool_mm, length_offset_mm)
+    noise = (noise_mm * 1e-3 if noise_mm is not None else data.noise) or DEFAULT_NOISE_MM * 1e-3
+    train, test = split_rows(len(data), test_fraction, seed)
+    n_params = len(params.names)
+    if len(train) < n_params:
+        raise DataError(
+            data.source,
+            f"{len(data)} rows leave {len(train)} for training, fewer than the "
+            f"{n_params} parameters to estimate",
+        )
+    problem = CalibrationProblem(CableModel(chain, params, sensor), data.q, data.lengths)
+    x0 = np.zeros(n_params)
+    estimate = run_estimator(method, problem.subset(train), x0, seed=seed, noise=noise)
+    metrics = {}
+    for split, rows in (("train", train), ("test", test)):
+        if len(rows):
+            part = problem.subset(rows)
+            metrics[split] = {
+                "before": Metrics.of(part.residual(x0)),
+                "after": Metrics.of(part.residual(estimate.x)),
+            }
+    return CalibrationResult(
+        chain=chain, params=params, method=method, x=estimate.x, estimate=estimate,
+        sensor=sensor, data=data, train=train, test=test, metrics=metrics, seed=seed,
+    )

@@ -1,0 +1,217 @@
+"""Command line: ``calibrate`` and ``simulate``.
+
+Exit status 0 on success, 2 on bad input with a one-line message on stderr (never a
+traceback for a user's mistake).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .calibration import calibrate
+from .estimators import DEFAULT_METHOD, ESTIMATORS
+from .exceptions import CalibPinError
+from .metrics import Metrics
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line and exit 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def _xyz(text: str) -> tuple[float, float, float]:
+    parts = [p for p in text.replace(",", " ").split() if p]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not np.all(np.isfinite(values)):
+        raise argparse.ArgumentTypeError(f"expected 3 numbers 'x,y,z' in mm, got '{text}'")
+    return values  # type: ignore[return-value]
+
+
+def _fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0.0 <= value < 1.0:
+        raise argparse.ArgumentTypeError(f"expected a number in [0, 1), got '{text}'")
+    return value
+
+
+def _positive(kind: type) -> Callable[[str], float]:
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            value = -1
+        if not value >= 0 or not np.isfinite(value):
+            raise argparse.ArgumentTypeError(f"expected a non-negative number, got '{text}'")
+        return value
+
+    return parse
+
+
+def _table(metrics: dict[str, dict[str, Metrics]]) -> str:
+    lines = [f"{'':14s}{'RMSE mm':>10s}{'mean mm':>10s}{'max mm':>10s}"]
+    for split, stages in metrics.items():
+        for stage, m in stages.items():
+            label = f"{split} {stage}"
+            lines.append(f"{label:14s}{m.rmse_mm:10.4f}{m.mean_mm:10.4f}{m.max_mm:10.4f}")
+    return "\n".join(lines)
+
+
+def calibrate_parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="calibrate.py",
+        description="Calibrate a robot's kinematics from drawstring readings and write the "
+        "corrected URDF and a JSON report.",
+    )
+    p.add_argument("robot", help="robot name (irb120, or an example-robot-data name) or URDF path")
+    p.add_argument("--data", help="measurement set CSV (default: the robot's shipped set)")
+    p.add_argument(
+        "--method", default=DEFAULT_METHOD,
+        help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the split and the estimator (default 0)")
+    p.add_argument(
+        "--test-fraction", type=_fraction, default=0.2,
+        help="share of rows held out for testing (default 0.2)",
+    )
+    p.add_argument("--out", default="out", help="output folder (default ./out)")
+    p.add_argument("--end-frame", help="end frame (default: the file's, else tool0)")
+    p.add_argument("--anchor-mm", type=_xyz, help="sensor point P0 in the base frame, 'x,y,z' mm")
+    p.add_argument("--tool-mm", type=_xyz, help="cable hook point in the end frame, 'x,y,z' mm")
+    p.add_argument("--length-offset-mm", type=float, help="sensor zero offset, mm")
+    p.add_argument(
+        "--noise-mm", type=_positive(float),
+        help="sensor noise (1 sigma) for the EKF, mm (default: the file's, else 0.05)",
+    )
+    return p
+
+
+def calibrate_main(argv: Sequence[str] | None = None) -> int:
+    """``calibrate.py ROBOT [--data CSV] [--method NAME] [--seed N] [--test-fraction F] [--out DIR]``."""
+    args = calibrate_parser().parse_args(argv)
+    try:
+        result = calibrate(
+            args.robot,
+            args.data,
+            method=args.method,
+            seed=args.seed,
+            test_fraction=args.test_fraction,
+            end_frame=args.end_frame,
+            anchor_mm=args.anchor_mm,
+            tool_mm=args.tool_mm,
+            length_offset_mm=args.length_offset_mm,
+            noise_mm=args.noise_mm,
+        )
+        out = Path(args.out)
+        urdf = result.to_urdf(out / f"{result.chain.name}_calibrated.urdf")
+        report = result.report()
+        report["urdf"] = str(urdf)
+        report_path = out / "report.json"
+        report_path.write_text(json.dumps(report, indent=2) + "\n")
+    except CalibPinError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"error: cannot write to {args.out}: {e.strerror or e}", file=sys.stderr)
+        return 2
+    n_train, n_test = len(result.train), len(result.test)
+    print(
+        f"{result.chain.name}: {len(result.data)} poses from {result.data.source} "
+        f"({n_train} train, {n_test} test, seed {result.seed}), method {result.method}"
+    )
+    print(_table(result.metrics))
+    est = result.estimate
+    print(f"estimation: {est.time_s:.3f} s, {est.iterations} iterations ({est.message})")
+    after, before = result.metrics["train"]["after"], result.metrics["train"]["before"]
+    if after.rmse_mm > before.rmse_mm:
+        print("warning: the calibrated model fits the training poses worse than the nominal one")
+    print(f"wrote {urdf}")
+    print(f"wrote {report_path}")
+    return 0
+
+
+def simulate_parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="simulate.py",
+        description="Simulate a drawstring measurement set with known true deviations; "
+        "writes FILE.csv and FILE.truth.json.",
+    )
+    p.add_argument("robot", help="robot name or URDF path")
+    p.add_argument("--poses", type=int, default=120, help="number of poses (default 120)")
+    p.add_argument("--seed", type=int, default=0, help="seed (default 0)")
+    p.add_argument("--noise-mm", type=_positive(float), default=0.05, help="reading noise, 1 sigma, mm (default 0.05)")
+    p.add_argument(
+        "--nominal-rmse-mm", type=_positive(float), default=2.0,
+        help="reading error of the nominal model the true deviations cause, mm (default 2)",
+    )
+    p.add_argument("--anchor-mm", type=_xyz, help="sensor point in the base frame, 'x,y,z' mm (default 600,200,-100)")
+    p.add_argument("--tool-mm", type=_xyz, help="hook point in the end frame, 'x,y,z' mm (default 0,0,50)")
+    p.add_argument("--offset-mm", type=float, default=0.0, help="sensor zero offset, mm (default 0)")
+    p.add_argument("--end-frame", help="end frame (default tool0)")
+    p.add_argument("--out", required=True, help="output CSV")
+    return p
+
+
+def simulate_main(argv: Sequence[str] | None = None) -> int:
+    """``simulate.py ROBOT --poses N --seed S --noise-mm SIGMA --out FILE.csv``."""
+    from .model import load_chain
+    from .parameters import PlacementModel, parameter_model
+    from .simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate
+    from .measurements import write_measurements
+
+    args = simulate_parser().parse_args(argv)
+    if args.poses < 1:
+        print("error: --poses must be at least 1", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    truth_path = out.with_name(out.name.removesuffix(".csv") + ".truth.json")
+    try:
+        chain = load_chain(args.robot, args.end_frame)
+        if chain.description.dh is not None:
+            params, kind = parameter_model(chain), "DH"
+        else:
+            params, kind = PlacementModel(chain), "joint-placement"
+        data, truth = simulate(
+            chain, params, args.poses, args.seed,
+            noise_mm=args.noise_mm,
+            nominal_rmse_mm=args.nominal_rmse_mm,
+            anchor_mm=args.anchor_mm or DEFAULT_ANCHOR_MM,
+            tool_mm=args.tool_mm or DEFAULT_TOOL_MM,
+            offset_mm=args.offset_mm,
+        )
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_measurements(out, data)
+        truth.to_json(truth_path)
+    except CalibPinError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"error: cannot write {out}: {e.strerror or e}", file=sys.stderr)
+        return 2
+    print(f"{chain.name}: {args.poses} poses, {kind} deviations (seed {args.seed}), noise {args.noise_mm:g} mm")
+    print(f"wrote {out}")
+    print(f"wrote {truth_path}")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``calib-pin calibrate ...`` or ``calib-pin simulate ...``."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    commands = {"calibrate": calibrate_main, "simulate": simulate_main}
+    if not argv or argv[0] not in commands:
+        print("usage: calib-pin {calibrate,simulate} ... (see calib-pin calibrate --help)", file=sys.stderr)
+        return 2
+    return commands[argv[0]](argv[1:])

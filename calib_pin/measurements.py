@@ -1,0 +1,265 @@
+"""Measurement sets: drawstring readings at known joint angles, as CSV files.
+
+Format (one pose a row)::
+
+    # robot: irb120
+    # anchor_mm: 700, 200, 0
+    # tool_mm: 0, 0, 50
+    # length_offset_mm: 0
+    q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,length_mm
+    12.5,-30.0,10.0,45.0,-20.0,90.0,612.345
+
+- Leading ``# key: value`` lines are metadata. Known keys: ``robot``, ``end_frame``,
+  ``anchor_mm`` / ``anchor_m`` (P0 in the base frame), ``tool_mm`` / ``tool_m`` (hook
+  point in the end frame), ``length_offset_mm`` / ``length_offset_m`` (sensor zero
+  offset), ``noise_mm`` (the sensor's noise, 1 sigma). Other keys are kept as notes.
+- Every column names its unit: ``q<i>_deg`` or ``q<i>_rad`` for each joint of the
+  chain, ``length_mm`` or ``length_m``; an optional integer ``pose`` column labels rows.
+- Every value is checked; any problem raises :class:`~calib_pin.exceptions.DataError`
+  naming the file, the line and the field.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .exceptions import DataError
+from .model import Chain
+
+_JOINT = re.compile(r"^q(\d+)_(deg|rad)$")
+_LENGTH = re.compile(r"^length_(mm|m)$")
+_VECTOR_KEYS = ("anchor", "tool")
+
+
+@dataclass
+class MeasurementSet:
+    """Drawstring readings of one session.
+
+    Attributes:
+        q: Joint angles, shape (n_rows, n_joints), [rad].
+        lengths: Sensor readings, shape (n_rows,), [m].
+        anchor: P0 in the base frame, shape (3,), [m], or None if not given.
+        tool: Hook point in the end frame, shape (3,), [m], or None if not given.
+        length_offset: Sensor zero offset, [m] (0 if not given).
+        noise: Sensor noise (1 sigma), [m], or None if not given.
+        robot: Robot named in the file, or None.
+        end_frame: End frame named in the file, or None.
+        lines: 1-based file line of each row, shape (n_rows,).
+        source: File the set was read from ("" if built in memory).
+        notes: Other metadata, key to text.
+    """
+
+    q: np.ndarray
+    lengths: np.ndarray
+    anchor: np.ndarray | None = None
+    tool: np.ndarray | None = None
+    length_offset: float = 0.0
+    noise: float | None = None
+    robot: str | None = None
+    end_frame: str | None = None
+    lines: np.ndarray | None = None
+    source: str = ""
+    notes: dict[str, str] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.lengths)
+
+
+def _number(text: str, path: Path, line: int, name: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise DataError(path, f"'{text.strip()}' is not a number", line, name) from None
+    if not math.isfinite(value):
+        raise DataError(path, f"'{text.strip()}' is not a finite number", line, name)
+    return value
+
+
+def _metadata_value(key: str, text: str, path: Path, line: int):
+    """Convert one metadata value to SI; (name, value) or None for a note."""
+    base, _, unit = key.rpartition("_")
+    scale = {"mm": 1e-3, "m": 1.0}.get(unit)
+    if base in _VECTOR_KEYS and scale:
+        parts = [p for p in re.split(r"[,\s]+", text.strip()) if p]
+        if len(parts) != 3:
+            raise DataError(path, f"needs 3 numbers (x, y, z), got '{text.strip()}'", line, key)
+        return base, np.array([_number(p, path, line, key) for p in parts]) * scale
+    if base in ("length_offset", "noise") and scale:
+        value = _number(text, path, line, key) * scale
+        if base == "noise" and value < 0:
+            raise DataError(path, f"{text.strip()} is negative", line, key)
+        return base, value
+    if key in ("robot", "end_frame"):
+        return key, text.strip()
+    return None
+
+
+def read_measurements(path: str | Path, chain: Chain | None = None) -> MeasurementSet:
+    """Read and check a measurement set.
+
+    Args:
+        path: CSV file.
+        chain: Robot chain the set is for. When given, the joint columns must match its
+            joints and every angle must lie within its URDF limits.
+
+    Raises:
+        DataError: the file cannot be read, or a row, column or metadata value is wrong.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise DataError(path, "no such file") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise DataError(path, f"cannot be read: {e}") from None
+    meta: dict = {}
+    notes: dict[str, str] = {}
+    header: list[str] | None = None
+    header_line = 0
+    rows: list[tuple[int, list[str]]] = []
+    for number, raw in enumerate(text.splitlines(), start=1):
+        stripped = raw.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("#"):
+            if header is None and ":" in stripped:
+                key, _, value = stripped[1:].partition(":")
+                key = key.strip()
+                parsed = _metadata_value(key, value, path, number)
+                if parsed is None:
+                    notes[key] = value.strip()
+                else:
+                    meta[parsed[0]] = parsed[1]
+            continue
+        fields = next(csv.reader([raw]))
+        if header is None:
+            header, header_line = [f.strip() for f in fields], number
+        else:
+            rows.append((number, fields))
+    if header is None:
+        raise DataError(path, "no header line (q1_deg, ..., length_mm) and no data")
+
+    joint_cols: dict[int, tuple[int, str]] = {}
+    length_col: tuple[int, str] | None = None
+    pose_col: int | None = None
+    for col, name in enumerate(header):
+        if name in header[:col]:
+            raise DataError(path, "column appears twice", header_line, name)
+        if m := _JOINT.match(name):
+            joint_cols[int(m.group(1))] = (col, m.group(2))
+        elif m := _LENGTH.match(name):
+            length_col = (col, m.group(1))
+        elif name == "pose":
+            pose_col = col
+        else:
+            raise DataError(
+                path,
+                "unknown column (expected q<i>_deg or q<i>_rad, length_mm or length_m, pose)",
+                header_line,
+                name or f"column {col + 1}",
+            )
+    n_joints = chain.n_joints if chain is not None else len(joint_cols)
+    expected = set(range(1, n_joints + 1))
+    if chain is not None and set(joint_cols) - expected:
+        extra = sorted(set(joint_cols) - expected)
+        raise DataError(
+            path,
+            f"has joint column q{extra[0]} but robot '{chain.name}' has {n_joints} joints "
+            f"to '{chain.end_frame}'",
+            header_line,
+        )
+    for i in sorted(expected):
+        if i not in joint_cols:
+            raise DataError(path, f"missing column q{i}_deg (or q{i}_rad)", header_line)
+    if length_col is None:
+        raise DataError(path, "missing column length_mm (or length_m)", header_line)
+    if not rows:
+        raise DataError(path, "has a header but no data rows")
+
+    q = np.empty((len(rows), n_joints))
+    lengths = np.empty(len(rows))
+    length_scale = 1e-3 if length_col[1] == "mm" else 1.0
+    for r, (number, fields) in enumerate(rows):
+        if len(fields) != len(header):
+            raise DataError(
+                path, f"has {len(fields)} fields, the header has {len(header)}", number
+            )
+        for i in range(1, n_joints + 1):
+            col, unit = joint_cols[i]
+            name = header[col]
+            value = _number(fields[col], path, number, name)
+            q[r, i - 1] = math.radians(value) if unit == "deg" else value
+            if chain is not None:
+                lo, hi = chain.lower[i - 1], chain.upper[i - 1]
+                if not lo - 1e-9 <= q[r, i - 1] <= hi + 1e-9:
+                    to_unit = math.degrees if unit == "deg" else float
+                    raise DataError(
+                        path,
+                        f"{value:g} is outside the limits of {chain.joint_names[i - 1]} "
+                        f"[{to_unit(lo):g}, {to_unit(hi):g}] {unit}",
+                        number,
+                        name,
+                    )
+        length = _number(fields[length_col[0]], path, number, header[length_col[0]])
+        if length < 0:
+            raise DataError(path, f"{length:g} is negative", number, header[length_col[0]])
+        lengths[r] = length * length_scale
+        if pose_col is not None:
+            try:
+                int(fields[pose_col])
+            except ValueError:
+                raise DataError(
+                    path, f"'{fields[pose_col]}' is not a whole number", number, "pose"
+                ) from None
+    if chain is not None and meta.get("robot") not in (None, chain.name):
+        raise DataError(
+            path, f"is for robot '{meta['robot']}', not '{chain.name}'", None, "robot"
+        )
+    return MeasurementSet(
+        q=q,
+        lengths=lengths,
+        anchor=meta.get("anchor"),
+        tool=meta.get("tool"),
+        length_offset=meta.get("length_offset", 0.0),
+        noise=meta.get("noise"),
+        robot=meta.get("robot"),
+        end_frame=meta.get("end_frame"),
+        lines=np.array([number for number, _ in rows]),
+        source=str(path),
+        notes=notes,
+    )
+
+
+def _mm(v: np.ndarray) -> str:
+    return ", ".join(f"{x * 1e3:.6f}" for x in v)
+
+
+def write_measurements(path: str | Path, data: MeasurementSet) -> None:
+    """Write a measurement set in degrees and millimetres, metadata first.
+
+    Angles are written with 9 decimals of a degree and lengths with 6 decimals of a
+    millimetre (1 nm), far below any sensor's resolution.
+    """
+    lines = []
+    for key, value in (("robot", data.robot), ("end_frame", data.end_frame)):
+        if value:
+            lines.append(f"# {key}: {value}")
+    if data.anchor is not None:
+        lines.append(f"# anchor_mm: {_mm(data.anchor)}")
+    if data.tool is not None:
+        lines.append(f"# tool_mm: {_mm(data.tool)}")
+    lines.append(f"# length_offset_mm: {data.length_offset * 1e3:.6f}")
+    if data.noise is not None:
+        lines.append(f"# noise_mm: {data.noise * 1e3:.6f}")
+    lines += [f"# {k}: {v}" for k, v in data.notes.items()]
+    n = data.q.shape[1]
+    lines.append(",".join([f"q{i}_deg" for i in range(1, n + 1)] + ["length_mm"]))
+    for q, length in zip(np.rad2deg(data.q), data.lengths, strict=True):
+        lines.append(",".join([f"{v:.9f}" for v in q] + [f"{length * 1e3:.6f}"]))
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")

@@ -1,0 +1,46 @@
+"""Accuracy metrics of the paper (eq. 22) and the seeded train/test split."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Metrics:
+    """Residual statistics in [mm].
+
+    Attributes:
+        rmse_mm: Root mean square residual.
+        mean_mm: Mean absolute residual (the paper's "Std", eq. 22).
+        max_mm: Largest absolute residual.
+    """
+
+    rmse_mm: float
+    mean_mm: float
+    max_mm: float
+
+    @classmethod
+    def of(cls, residual: np.ndarray) -> Metrics:
+        """Metrics of residuals given in [m], shape (n,)."""
+        r = np.abs(np.asarray(residual, dtype=float)) * 1e3
+        return cls(float(np.sqrt(np.mean(r**2))), float(np.mean(r)), float(np.max(r)))
+
+    def as_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+def split_rows(n: int, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Seeded random split of rows 0..n-1 into sorted train and test indices.
+
+    Args:
+        n: Number of rows.
+        test_fraction: Share of rows held out, in [0, 1); the paper uses 0.2.
+        seed: Seed of the permutation.
+    """
+    if not 0.0 <= test_fraction < 1.0:
+        raise ValueError(f"test fraction must be in [0, 1), got {test_fraction}")
+    order = np.random.default_rng(seed).permutation(n)
+    n_test = int(round(test_fraction * n))
+    return np.sort(order[n_test:]), np.sort(order[:n_test])

@@ -1,0 +1,263 @@
+"""Parameter models: named kinematic deviations mapped onto placement perturbations.
+
+A parameter model turns a deviation vector ``x`` (SI units: [m] and [rad]) into the
+``n_joints + 1`` rigid transforms that :class:`calib_pin.model.Kinematics` multiplies
+onto the nominal joint placements and the end frame's placement, and gives the
+derivative of those transforms as right-multiplied twists. Every model therefore shares
+the same forward kinematics and the same Pinocchio regressor.
+
+:class:`DHModel` is the paper's model (eq. 4-5): per joint the deviations
+(a_i, d_i, alpha_i, theta_i) of a standard DH table, ordered joint by joint.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+import pinocchio as pin
+
+from .exceptions import RobotError
+from .model import Chain
+from .robots import DHTable
+
+_LIN_X = pin.Motion(np.array([1.0, 0, 0]), np.zeros(3))
+_LIN_Z = pin.Motion(np.array([0, 0, 1.0]), np.zeros(3))
+_ANG_X = pin.Motion(np.zeros(3), np.array([1.0, 0, 0]))
+_ANG_Z = pin.Motion(np.zeros(3), np.array([0, 0, 1.0]))
+
+
+class ParameterModel(Protocol):
+    """What every parameter model provides.
+
+    Attributes:
+        names: Parameter names, shape (n_params,), e.g. ``a_2``, ``theta_6``.
+        units: SI unit of each parameter, ``m`` or ``rad``.
+        scale: Typical size of each deviation in SI units, shape (n_params,): the
+            prior standard deviation of the Kalman filters and the column scaling of
+            the searches.
+    """
+
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    scale: np.ndarray
+
+    def deltas(self, x: np.ndarray) -> list[pin.SE3]:
+        """Transforms right-multiplied onto each joint placement, then the end frame."""
+        ...
+
+    def delta_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Derivative of :meth:`deltas` as right twists, shape (6 (n_joints + 1), n_params)."""
+        ...
+
+
+def _rz(angle: float) -> pin.SE3:
+    c, s = np.cos(angle), np.sin(angle)
+    return pin.SE3(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.zeros(3))
+
+
+def _rx(angle: float) -> pin.SE3:
+    c, s = np.cos(angle), np.sin(angle)
+    return pin.SE3(np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]), np.zeros(3))
+
+
+def _link(d: float, a: float, alpha: float) -> pin.SE3:
+    """Tz(d) Tx(a) Rx(alpha): the part of a DH transform after the joint rotation."""
+    out = _rx(alpha)
+    out.translation = np.array([a, 0.0, d])
+    return out
+
+
+def dh_transforms(table: DHTable, theta: np.ndarray) -> list[pin.SE3]:
+    """Frames 0..n of a standard DH chain (eq. 1-2) in frame 0, for joint angles theta.
+
+    Args:
+        table: DH table; ``theta`` is added to its ``theta_offset``.
+        theta: Joint readings, shape (n,), [rad].
+    """
+    frames = [pin.SE3.Identity()]
+    for i in range(table.n_joints):
+        a_i = _rz(table.theta_offset[i] + theta[i]) * _link(table.d[i], table.a[i], table.alpha[i])
+        frames.append(frames[-1] * a_i)
+    return frames
+
+
+class DHModel:
+    """Standard DH deviations (Δa, Δd, Δα, Δθ per joint, paper eq. 5) of a chain.
+
+    The DH frames need not be the URDF's link frames. For each joint the constant
+    transform C_i between DH frame i-1 (after its joint rotation) and the URDF's joint
+    frame i is found at the zero pose, and the DH table is checked to describe the URDF
+    at random poses. Then, with S_i = Tz(d_i) Tx(a_i) Rx(alpha_i),
+
+        joint placement i = nominal_i * (W_i(0)^-1 S_{i-1}(0)^-1 S_{i-1}(x) W_i(x)),
+        W_i(x) = Rz(theta_offset_i + Δθ_i) C_i,
+
+    and the end frame's placement gets E^-1 S_n(0)^-1 S_n(x) E, with E the end frame in
+    DH frame n. Zero deviation gives the nominal placements.
+
+    Args:
+        chain: The robot chain; the DH table's frame 0 is the URDF root frame.
+        table: The chain's DH table; one row per chain joint, revolute joints only.
+        scale_m, scale_rad: Typical deviation sizes for lengths [m] and angles [rad].
+
+    Raises:
+        RobotError: the table's size or geometry does not match the URDF.
+    """
+
+    def __init__(
+        self, chain: Chain, table: DHTable, scale_m: float = 1e-3, scale_rad: float = 2e-3
+    ) -> None:
+        n = chain.n_joints
+        if table.n_joints != n:
+            raise RobotError(
+                f"DH table of '{chain.name}' has {table.n_joints} rows, the chain to "
+                f"'{chain.end_frame}' has {n} joints"
+            )
+        if not all(kind.startswith("JointModelR") for kind in chain.joint_kinds):
+            raise RobotError(f"DH model of '{chain.name}' needs revolute joints only")
+        self.chain = chain
+        self.table = table
+        self.names = tuple(f"{p}_{i}" for i in range(1, n + 1) for p in ("a", "d", "alpha", "theta"))
+        self.units = ("m", "m", "rad", "rad") * n
+        self.scale = np.array([scale_m, scale_m, scale_rad, scale_rad] * n)
+        self._c, self._end = self._fit_frames()
+        self._check_against_urdf()
+
+    @property
+    def n_params(self) -> int:
+        return len(self.names)
+
+    def _joint_frames(self, q: np.ndarray) -> tuple[list[pin.SE3], pin.SE3]:
+        model = self.chain.model
+        data = model.createData()
+        pin.framesForwardKinematics(model, data, self.chain.configuration(q))
+        return [data.oMi[j].copy() for j in range(1, model.njoints)], data.oMf[
+            self.chain.frame_id
+        ].copy()
+
+    def _fit_frames(self) -> tuple[list[pin.SE3], pin.SE3]:
+        q0 = np.zeros(self.chain.n_joints)
+        joints, end = self._joint_frames(q0)
+        dh = dh_transforms(self.table, q0)
+        c = [
+            (dh[i] * _rz(self.table.theta_offset[i])).actInv(joints[i])
+            for i in range(self.chain.n_joints)
+        ]
+        return c, dh[-1].actInv(end)
+
+    def _check_against_urdf(self) -> None:
+        rng = np.random.default_rng(0)
+        lo = np.maximum(self.chain.lower, -np.pi)
+        hi = np.minimum(self.chain.upper, np.pi)
+        for q in [np.zeros(len(lo))] + [rng.uniform(lo, hi) for _ in range(5)]:
+            joints, end = self._joint_frames(q)
+            dh = dh_transforms(self.table, q)
+            for i, joint in enumerate(joints):
+                via_dh = dh[i] * _rz(self.table.theta_offset[i] + q[i]) * self._c[i]
+                gap = np.linalg.norm(pin.log6(via_dh.actInv(joint)).vector)
+                if gap > 1e-9:
+                    raise RobotError(
+                        f"DH table of '{self.chain.name}' does not describe its URDF: joint "
+                        f"'{self.chain.joint_names[i]}' is off by {gap:.3g} (m, rad)"
+                    )
+            gap = np.linalg.norm(pin.log6((dh[-1] * self._end).actInv(end)).vector)
+            if gap > 1e-9:
+                raise RobotError(
+                    f"DH table of '{self.chain.name}' does not reach '{self.chain.end_frame}'"
+                    f" of its URDF: off by {gap:.3g} (m, rad)"
+                )
+
+    def _split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        x = np.asarray(x, dtype=float).reshape(-1, 4)
+        return x[:, 0], x[:, 1], x[:, 2], x[:, 3]
+
+    def deltas(self, x: np.ndarray) -> list[pin.SE3]:
+        """Placement perturbations for deviations x, shape (4 n,), [m, m, rad, rad]."""
+        t = self.table
+        da, dd, dal, dth = self._split(x)
+        out = []
+        for i in range(t.n_joints):
+            w0 = _rz(t.theta_offset[i]) * self._c[i]
+            w = _rz(t.theta_offset[i] + dth[i]) * self._c[i]
+            if i == 0:
+                out.append(w0.actInv(w))
+            else:
+                s0 = _link(t.d[i - 1], t.a[i - 1], t.alpha[i - 1])
+                s = _link(t.d[i - 1] + dd[i - 1], t.a[i - 1] + da[i - 1], t.alpha[i - 1] + dal[i - 1])
+                out.append(w0.actInv(s0.actInv(s * w)))
+        k = t.n_joints - 1
+        s0 = _link(t.d[k], t.a[k], t.alpha[k])
+        s = _link(t.d[k] + dd[k], t.a[k] + da[k], t.alpha[k] + dal[k])
+        out.append(self._end.actInv(s0.actInv(s * self._end)))
+        return out
+
+    def delta_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Right-twist derivative of :meth:`deltas`, shape (6 (n + 1), 4 n)."""
+        t = self.table
+        n = t.n_joints
+        da, dd, dal, dth = self._split(x)
+        jac = np.zeros((6 * (n + 1), 4 * n))
+        for i in range(n):
+            # theta_i rotates about z in front of C_i: block of joint i.
+            jac[6 * i : 6 * i + 6, 4 * i + 3] = self._c[i].actInv(_ANG_Z).vector
+            # (d_i, a_i, alpha_i) sit in S_i: block of joint i+1, or of the end frame.
+            after = _rz(t.theta_offset[i + 1] + dth[i + 1]) * self._c[i + 1] if i + 1 < n else self._end
+            a, alpha = t.a[i] + da[i], t.alpha[i] + dal[i]
+            xa = _rx(alpha)
+            xa.translation = np.array([a, 0.0, 0.0])
+            twists = {
+                0: _rx(alpha).actInv(_LIN_X),  # a_i
+                1: xa.actInv(_LIN_Z),  # d_i
+                2: _ANG_X,  # alpha_i
+            }
+            for col, twist in twists.items():
+                jac[6 * (i + 1) : 6 * (i + 2), 4 * i + col] = after.actInv(twist).vector
+        return jac
+
+
+class PlacementModel:
+    """A 6D offset of every chain joint's placement and of the end frame.
+
+    Per placement, x holds a right twist (v_x, v_y, v_z [m], w_x, w_y, w_z [rad]);
+    the placement becomes nominal * exp6(twist). Valid for any URDF chain. Many of its
+    directions are not identifiable from readings, so calib-pin uses it to simulate
+    robots that have no DH table.
+    """
+
+    def __init__(self, chain: Chain, scale_m: float = 1e-3, scale_rad: float = 2e-3) -> None:
+        frames = (*chain.joint_names, chain.end_frame)
+        parts = ("x", "y", "z", "rx", "ry", "rz")
+        self.chain = chain
+        self.names = tuple(f"{f}.{p}" for f in frames for p in parts)
+        self.units = ("m", "m", "m", "rad", "rad", "rad") * len(frames)
+        self.scale = np.tile([scale_m] * 3 + [scale_rad] * 3, len(frames)).astype(float)
+
+    def deltas(self, x: np.ndarray) -> list[pin.SE3]:
+        """exp6 of each placement's twist, shape of x (6 (n + 1),)."""
+        return [pin.exp6(t) for t in np.asarray(x, dtype=float).reshape(-1, 6)]
+
+    def delta_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Block diagonal of exp6's right Jacobians, shape (6 (n + 1), 6 (n + 1))."""
+        twists = np.asarray(x, dtype=float).reshape(-1, 6)
+        jac = np.zeros((twists.size, twists.size))
+        for i, t in enumerate(twists):
+            jac[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = pin.Jexp6(pin.Motion(t))
+        return jac
+
+
+def parameter_model(chain: Chain, name: str = "dh") -> DHModel:
+    """The parameter model ``name`` for a chain.
+
+    Raises:
+        RobotError: the robot has no DH table, or the model name is unknown.
+    """
+    if name != "dh":
+        raise RobotError(f"unknown parameter model '{name}' (valid: dh)")
+    if chain.description.dh is None:
+        raise RobotError(
+            f"robot '{chain.name}' has no DH table, so it cannot be calibrated yet: add a "
+            f"[dh] table in robots/{chain.name}.toml (a parameter model for any URDF is "
+            "planned)"
+        )
+    return DHModel(chain, chain.description.dh)

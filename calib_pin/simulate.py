@@ -1,0 +1,141 @@
+"""Simulated drawstring sessions with known true deviations.
+
+The simulator draws true kinematic deviations, random poses within the joint limits,
+and the readings a drawstring sensor would give on the true robot plus noise. The truth
+is kept so every estimate can be checked against it.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import CableModel, Drawstring
+from .measurements import MeasurementSet
+from .model import Chain
+from .parameters import ParameterModel
+
+#: Default sensor geometry of simulated sessions: the sensor body on the floor in
+#: front of the robot, the cable hooked on the tool axis 50 mm out of the flange.
+DEFAULT_ANCHOR_MM = (600.0, 200.0, -100.0)
+DEFAULT_TOOL_MM = (0.0, 0.0, 50.0)
+
+
+@dataclass
+class Truth:
+    """What the simulator knows.
+
+    Attributes:
+        x: True deviations, shape (n_params,), SI units.
+        names: Parameter names.
+        units: SI unit of each parameter.
+        sensor: True sensor geometry.
+        noise: Noise of the readings (1 sigma), [m].
+        seed: Seed of the draw.
+    """
+
+    x: np.ndarray
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    sensor: Drawstring
+    noise: float
+    seed: int
+
+    def to_json(self, path: str | Path) -> None:
+        """Write the truth with deviations in mm and deg."""
+        doc = {
+            "seed": self.seed,
+            "noise_mm": self.noise * 1e3,
+            "anchor_mm": (self.sensor.anchor * 1e3).tolist(),
+            "tool_mm": (self.sensor.hook * 1e3).tolist(),
+            "length_offset_mm": self.sensor.offset * 1e3,
+            "deviations": deviations_for_humans(self.x, self.names, self.units),
+        }
+        Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+
+
+def deviations_for_humans(
+    x: np.ndarray, names: tuple[str, ...], units: tuple[str, ...]
+) -> dict[str, float]:
+    """Deviations keyed by name with their unit: ``a_2_mm``, ``theta_6_deg``."""
+    out = {}
+    for value, name, unit in zip(x, names, units, strict=True):
+        if unit == "m":
+            out[f"{name}_mm"] = float(value * 1e3)
+        else:
+            out[f"{name}_deg"] = float(np.rad2deg(value))
+    return out
+
+
+def random_poses(
+    chain: Chain, n: int, rng: np.random.Generator, margin: float = np.deg2rad(5.0)
+) -> np.ndarray:
+    """Uniform random joint angles within the limits less a margin, shape (n, n_joints) [rad].
+
+    A continuous joint (no limits) is drawn in [-pi, pi].
+    """
+    lo = np.where(np.isfinite(chain.lower), chain.lower + margin, -np.pi)
+    hi = np.where(np.isfinite(chain.upper), chain.upper - margin, np.pi)
+    return rng.uniform(lo, hi, size=(n, chain.n_joints))
+
+
+def simulate(
+    chain: Chain,
+    params: ParameterModel,
+    n_poses: int,
+    seed: int,
+    noise_mm: float = 0.05,
+    nominal_rmse_mm: float = 2.0,
+    anchor_mm: tuple[float, float, float] = DEFAULT_ANCHOR_MM,
+    tool_mm: tuple[float, float, float] = DEFAULT_TOOL_MM,
+    offset_mm: float = 0.0,
+) -> tuple[MeasurementSet, Truth]:
+    """Simulate a drawstring session.
+
+    True deviations are drawn normal with the parameter model's typical sizes, then
+    scaled so that the nominal model's reading error on the drawn poses has RMSE
+    ``nominal_rmse_mm`` (the paper's Table I "Before": 2.09 mm). Poses are uniform
+    within the joint limits less 5 deg, keeping only those with the hook point above
+    the base's mounting plane (z > 0).
+
+    Args:
+        chain, params: The robot and how its deviations are parametrised.
+        n_poses: Number of poses.
+        seed: Seed of every random draw.
+        noise_mm: Gaussian reading noise, 1 sigma, [mm].
+        nominal_rmse_mm: Reading error of the nominal model, [mm]; 0 keeps the robot
+            nominal.
+        anchor_mm, tool_mm: Sensor point (base frame) and hook point (end frame), [mm].
+        offset_mm: Sensor zero offset, [mm].
+    """
+    rng = np.random.default_rng(seed)
+    sensor = Drawstring(np.array(anchor_mm) * 1e-3, np.array(tool_mm) * 1e-3, offset_mm * 1e-3)
+    cable = CableModel(chain, params, sensor)
+    poses = np.empty((0, chain.n_joints))
+    while len(poses) < n_poses:
+        batch = random_poses(chain, 2 * n_poses, rng)
+        above = cable.hook_positions(None, batch)[:, 2] > 0.0
+        poses = np.vstack([poses, batch[above]])
+    poses = poses[:n_poses]
+    x = rng.normal(size=len(params.names)) * params.scale
+    nominal = cable.predict(np.zeros_like(x), poses)
+    if nominal_rmse_mm > 0:
+        gap = cable.predict(x, poses) - nominal
+        x *= nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap**2))
+    else:
+        x[:] = 0.0
+    readings = cable.predict(x, poses) + rng.normal(scale=noise_mm * 1e-3, size=n_poses)
+    data = MeasurementSet(
+        q=poses,
+        lengths=readings,
+        anchor=sensor.anchor,
+        tool=sensor.hook,
+        length_offset=sensor.offset,
+        robot=chain.name,
+        end_frame=chain.end_frame,
+        notes={"source": f"calib-pin simulator, seed {seed}, noise {noise_mm:g} mm (gauss)"},
+    )
+    return data, Truth(x, tuple(params.names), tuple(params.units), sensor, noise_mm * 1e-3, seed)

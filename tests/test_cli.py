@@ -1,0 +1,75 @@
+"""Command line: the main job, its outputs, and one-line errors with exit 2."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from calib_pin.cli import calibrate_main, simulate_main
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_calibrate_writes_urdf_and_report(tmp_path, capsys):
+    """calibrate.py irb120 on the shipped data prints the table and writes both files."""
+    assert calibrate_main(["irb120", "--out", str(tmp_path), "--method", "lm", "--seed", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "train before" in out and "test after" in out and "wrote" in out
+    report = json.loads((tmp_path / "report.json").read_text())
+    for split in ("train", "test"):
+        for stage in ("before", "after"):
+            assert set(report[split][stage]) == {"rmse_mm", "mean_mm", "max_mm"}
+    assert report["method"] == "lm" and report["time_s"] > 0 and report["iterations"] >= 1
+    assert "theta_6_deg" in report["deviations"] and len(report["anchor_mm"]) == 3
+    assert "length_offset_mm" in report
+    assert len(report["split"]["train"]) == 96 and len(report["split"]["test"]) == 24
+    assert report["test"]["after"]["rmse_mm"] < 0.2 * report["test"]["before"]["rmse_mm"]
+    assert (tmp_path / "irb120_calibrated.urdf").is_file()
+
+
+def test_simulate_then_calibrate(tmp_path, capsys):
+    """simulate.py writes a set and its truth file, which calibrate.py then reads."""
+    csv = tmp_path / "s.csv"
+    assert simulate_main(["irb120", "--poses", "60", "--seed", "1", "--out", str(csv)]) == 0
+    assert (tmp_path / "s.truth.json").is_file()
+    assert calibrate_main(["irb120", "--data", str(csv), "--out", str(tmp_path / "o"), "--method", "ekf"]) == 0
+
+
+def _run(*args):
+    return subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "calibrate.py"), *args],
+        capture_output=True, text=True, cwd=ROOT,
+    )
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["irb120", "--method", "gauss"], "unknown method 'gauss' (valid: ekf, qibas, ekf-qibas, lm"),
+        (["nosuchbot"], "unknown robot 'nosuchbot'"),
+        (["irb120", "--data", "missing.csv"], "missing.csv: no such file"),
+        (["irb120", "--test-fraction", "1.5"], "expected a number in [0, 1)"),
+        (["irb120", "--anchor-mm", "1,2"], "expected 3 numbers"),
+        (["ur5"], "robot 'ur5' has no DH table"),
+    ],
+)
+def test_bad_input_one_line_exit_2(args, message):
+    """Bad input: exit 2, one line on stderr, no traceback."""
+    proc = _run(*args)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0] and "Traceback" not in proc.stderr
+
+
+def test_bad_csv_row_one_line(tmp_path):
+    """A bad value in the data file: its file, line and field in one line."""
+    lines = (ROOT / "robots" / "irb120_default.csv").read_text().splitlines()
+    assert lines[10][0].isdigit() or lines[10][0] == "-"  # line 11 is a data row
+    lines[10] = "abc" + lines[10][lines[10].index(","):]
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    proc = _run("irb120", "--data", str(bad), "--out", str(tmp_path))
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == f"error: {bad}:11: q1_deg: 'abc' is not a number"

@@ -1,0 +1,66 @@
+"""Corrected URDF: only joint origins change, and it reloads to the calibrated FK."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+import yourdfpy
+from lxml import etree
+
+import calib_pin as cp
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory, session):
+    data, _ = session
+    result = cp.calibrate("irb120", data, method="lm")
+    path = result.to_urdf(tmp_path_factory.mktemp("urdf") / "irb120_calibrated.urdf")
+    return result, path
+
+
+def test_reloaded_fk_equals_calibrated_model(exported):
+    """Pinocchio reloads the file; tool0 and every joint frame match to 1e-9 m."""
+    result, path = exported
+    reloaded = pin.buildModelFromUrdf(str(path))
+    model = result.model
+    d1, d2 = model.createData(), reloaded.createData()
+    for q in cp.random_poses(result.chain, 20, np.random.default_rng(0)):
+        pin.framesForwardKinematics(model, d1, q)
+        pin.framesForwardKinematics(reloaded, d2, q)
+        for name in ("tool0", "flange", "link_3"):
+            a, b = d1.oMf[model.getFrameId(name)], d2.oMf[reloaded.getFrameId(name)]
+            assert np.linalg.norm(a.translation - b.translation) < 1e-9
+            assert np.abs(a.rotation - b.rotation).max() < 1e-9
+
+
+def test_only_joint_origins_change(exported):
+    """Names, limits, inertias, axes and comments are those of the input."""
+    result, path = exported
+
+    def strip_origins(file):
+        root = etree.parse(str(file)).getroot()
+        for joint in root.iter("joint"):
+            for origin in joint.findall("origin"):
+                joint.remove(origin)
+        return etree.tostring(root)
+
+    assert strip_origins(path) == strip_origins(result.chain.description.urdf)
+    changed = [j.get("name") for j in etree.parse(str(path)).getroot().iter("joint")]
+    assert "joint_1" in changed
+
+
+def test_yourdfpy_loads_it(exported):
+    """yourdfpy reads the corrected file with the same joints and limits."""
+    _, path = exported
+    urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False)
+    assert [j for j in urdf.actuated_joint_names] == [f"joint_{i}" for i in range(1, 7)]
+    assert urdf.joint_map["joint_3"].limit.upper == pytest.approx(np.deg2rad(70))
+
+
+def test_exported_model_is_the_calibrated_one(exported, fresh):
+    """Readings predicted through the reloaded URDF equal the calibration's predictions."""
+    result, path = exported
+    chain = cp.load_chain(str(path))
+    q = fresh[0][:50]
+    kin = cp.Kinematics(chain)
+    via_file = np.linalg.norm(kin.points(q, result.sensor.hook)[0] - result.sensor.anchor, axis=1)
+    np.testing.assert_allclose(via_file + result.sensor.offset, result.predict(q), atol=1e-9)

@@ -1,0 +1,99 @@
+"""Measurement CSVs: round trip, units, and one clear error per kind of bad input."""
+
+import numpy as np
+import pytest
+
+import calib_pin as cp
+
+HEADER = "q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,length_mm"
+META = "# robot: irb120\n# anchor_mm: 600, 200, -100\n# tool_mm: 0, 0, 50\n"
+ROW = "10,20,-30,40,-50,60,812.5"
+
+
+def _write(tmp_path, text, name="s.csv"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_round_trip(tmp_path, chain, session):
+    """Writing then reading a set gives the same angles (1e-9 deg) and readings (1 nm)."""
+    data, _ = session
+    path = tmp_path / "set.csv"
+    cp.write_measurements(path, data)
+    back = cp.read_measurements(path, chain)
+    np.testing.assert_allclose(back.q, data.q, atol=1e-10)
+    np.testing.assert_allclose(back.lengths, data.lengths, atol=1e-9)
+    np.testing.assert_allclose(back.anchor, data.anchor)
+    np.testing.assert_allclose(back.tool, data.tool)
+    assert back.robot == "irb120" and back.lines[0] == 8  # 6 metadata lines, header, then data
+
+
+def test_units_in_column_names(tmp_path, chain):
+    """_rad and _m columns are read as such; _deg and _mm converted to SI."""
+    deg = cp.read_measurements(_write(tmp_path, META + HEADER + "\n" + ROW + "\n"), chain)
+    rad_row = ",".join(str(np.deg2rad(v)) for v in (10, 20, -30, 40, -50, 60)) + ",0.8125"
+    rad = cp.read_measurements(
+        _write(tmp_path, META + HEADER.replace("_deg", "_rad").replace("_mm", "_m") + "\n" + rad_row + "\n", "r.csv"),
+        chain,
+    )
+    np.testing.assert_allclose(deg.q, rad.q)
+    np.testing.assert_allclose(deg.lengths, [0.8125])
+    np.testing.assert_allclose(deg.anchor, [0.6, 0.2, -0.1])
+
+
+@pytest.mark.parametrize(
+    "header, row, message",
+    [
+        (HEADER.replace("q4_deg,", ""), "10,20,-30,-50,60,812.5", r"s.csv:4: missing column q4_deg"),
+        (HEADER + ",temp", ROW + ",21", r"s.csv:4: temp: unknown column"),
+        (HEADER, ROW.replace("-30", "abc"), r"s.csv:5: q3_deg: 'abc' is not a number"),
+        (HEADER, ROW.replace("812.5", "nan"), r"s.csv:5: length_mm: 'nan' is not a finite number"),
+        (HEADER, ROW.replace("20", "inf"), r"s.csv:5: q2_deg: 'inf' is not a finite number"),
+        (HEADER.replace(",length_mm", ",q7_deg,length_mm"), "10,20,-30,40,-50,60,0,812.5", r"s.csv:4: has joint column q7 but robot 'irb120' has 6 joints"),
+        (HEADER, ROW.replace("-30", "75"), r"s.csv:5: q3_deg: 75 is outside the limits of joint_3 \[-110, 70\] deg"),
+        (HEADER, ROW.replace("812.5", "-1"), r"s.csv:5: length_mm: -1 is negative"),
+        (HEADER, "10,20,-30,40,-50,60", r"s.csv:5: has 6 fields, the header has 7"),
+        (HEADER.replace("q1_deg", "q1_deg,q1_deg"), "1," + ROW, r"s.csv:4: q1_deg: column appears twice"),
+    ],
+)
+def test_bad_rows_and_columns(tmp_path, chain, header, row, message):
+    """Each kind of bad input is one error naming file, line and field."""
+    path = _write(tmp_path, META + header + "\n" + row + "\n")
+    with pytest.raises(cp.DataError, match=message):
+        cp.read_measurements(path, chain)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("", r"s.csv: no header line"),
+        (META + HEADER + "\n", r"s.csv: has a header but no data rows"),
+        ("# anchor_mm: 1, 2\n" + HEADER + "\n" + ROW + "\n", r"s.csv:1: anchor_mm: needs 3 numbers"),
+        ("# robot: ur5\n" + HEADER + "\n" + ROW + "\n", r"s.csv: robot: is for robot 'ur5', not 'irb120'"),
+    ],
+)
+def test_bad_files_and_metadata(tmp_path, chain, text, message):
+    """Empty files, bad metadata and a file for another robot are refused."""
+    with pytest.raises(cp.DataError, match=message):
+        cp.read_measurements(_write(tmp_path, text), chain)
+
+
+def test_missing_file(tmp_path, chain):
+    """A missing file is named."""
+    with pytest.raises(cp.DataError, match="nope.csv: no such file"):
+        cp.read_measurements(tmp_path / "nope.csv", chain)
+
+
+def test_too_few_rows_for_the_parameters(tmp_path):
+    """Fewer training rows than parameters is refused before estimating."""
+    path = _write(tmp_path, META + HEADER + "\n" + "\n".join([ROW] * 20) + "\n")
+    with pytest.raises(cp.DataError, match=r"s.csv: 20 rows leave 16 for training, fewer than the 24 parameters"):
+        cp.calibrate("irb120", path)
+
+
+def test_missing_sensor_geometry(tmp_path):
+    """Without anchor_mm in the file or the call, calibration says where to give it."""
+    path = _write(tmp_path, "# tool_mm: 0,0,50\n" + HEADER + "\n" + "\n".join([ROW] * 40) + "\n")
+    with pytest.raises(cp.DataError, match=r"anchor_mm: no sensor point"):
+        cp.calibrate("irb120", path)

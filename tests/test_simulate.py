@@ -1,0 +1,42 @@
+"""The simulator draws deviations of the paper's size and records the truth."""
+
+import json
+
+import numpy as np
+
+import calib_pin as cp
+from calib_pin.errors import CableModel
+
+
+def test_nominal_error_and_noise(chain, params, session):
+    """Nominal model is off by 2 mm RMSE; the true model leaves the 0.05 mm noise."""
+    data, truth = session
+    cable = CableModel(chain, params, truth.sensor)
+    nominal = cable.predict(np.zeros(params.n_params), data.q) - data.lengths
+    true = cable.predict(truth.x, data.q) - data.lengths
+    assert 1.9 < np.sqrt(np.mean(nominal**2)) * 1e3 < 2.1
+    assert 0.035 < np.sqrt(np.mean(true**2)) * 1e3 < 0.065
+
+
+def test_poses_within_limits_and_seeded(chain, params, session):
+    """Poses respect the joint limits; the same seed gives the same session."""
+    data, truth = session
+    assert np.all(data.q >= chain.lower) and np.all(data.q <= chain.upper)
+    again, truth2 = cp.simulate(chain, params, 120, seed=7, noise_mm=0.05)
+    assert np.array_equal(again.lengths, data.lengths) and np.array_equal(truth2.x, truth.x)
+
+
+def test_truth_file(tmp_path, session):
+    """The truth file holds deviations in mm/deg, the sensor and the noise."""
+    _, truth = session
+    truth.to_json(tmp_path / "t.json")
+    doc = json.loads((tmp_path / "t.json").read_text())
+    assert doc["noise_mm"] == 0.05 and len(doc["deviations"]) == 24
+    assert doc["deviations"]["a_2_mm"] == truth.x[4] * 1e3
+
+
+def test_simulate_robot_without_dh_table():
+    """Robots with no DH table simulate with joint-placement deviations."""
+    chain = cp.load_chain("ur5")
+    data, truth = cp.simulate(chain, cp.PlacementModel(chain), 10, seed=0)
+    assert data.q.shape == (10, 6) and np.all(data.lengths > 0) and len(truth.x) == 42
