@@ -39,6 +39,7 @@ class CalibrationResult:
             (before, after): reading residuals in [mm]. ``test`` is absent when no rows
             were held out.
         seed: Seed of the split and the estimator.
+        noise: Sensor noise (1 sigma) the EKF assumed, [m].
     """
 
     chain: Chain
@@ -52,6 +53,7 @@ class CalibrationResult:
     test: np.ndarray
     metrics: dict[str, dict[str, Metrics]]
     seed: int
+    noise: float
 
     @property
     def deltas(self) -> list[pin.SE3]:
@@ -97,6 +99,7 @@ class CalibrationResult:
             "anchor_mm": (self.sensor.anchor * 1e3).tolist(),
             "tool_mm": (self.sensor.hook * 1e3).tolist(),
             "length_offset_mm": self.sensor.offset * 1e3,
+            "noise_mm": self.noise * 1e3,
             "split": {"train": self.train.tolist(), "test": self.test.tolist()},
         }
 
@@ -189,4 +192,5 @@ def calibrate(
     return CalibrationResult(
         chain=chain, params=params, method=method, x=estimate.x, estimate=estimate,
         sensor=sensor, data=data, train=train, test=test, metrics=metrics, seed=seed,
+        noise=noise,
     )

@@ -17,7 +17,11 @@ import numpy as np
 from .calibration import calibrate
 from .estimators import DEFAULT_METHOD, ESTIMATORS
 from .exceptions import CalibPinError
+from .measurements import write_measurements
 from .metrics import Metrics
+from .model import load_chain
+from .parameters import PlacementModel, parameter_model
+from .simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate
 
 
 class _Parser(argparse.ArgumentParser):
@@ -61,6 +65,24 @@ def _positive(kind: type) -> Callable[[str], float]:
     return parse
 
 
+def _report_errors(action: Callable[[], int], target: str) -> int:
+    """Run a command's work; a user's mistake becomes one line on stderr and exit 2."""
+    try:
+        return action()
+    except CalibPinError as e:
+        print(f"error: {e}", file=sys.stderr)
+    except OSError as e:
+        print(f"error: cannot write {target}: {e.strerror or e}", file=sys.stderr)
+    return 2
+
+
+def _add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str) -> None:
+    p.add_argument("robot", help="robot name (irb120, or an example-robot-data name) or URDF path")
+    p.add_argument("--end-frame", help="end frame (default tool0)")
+    p.add_argument("--anchor-mm", type=_xyz, help=f"sensor point P0 in the base frame, 'x,y,z' mm ({anchor_default})")
+    p.add_argument("--tool-mm", type=_xyz, help=f"cable hook point in the end frame, 'x,y,z' mm ({tool_default})")
+
+
 def _table(metrics: dict[str, dict[str, Metrics]]) -> str:
     lines = [f"{'':14s}{'RMSE mm':>10s}{'mean mm':>10s}{'max mm':>10s}"]
     for split, stages in metrics.items():
@@ -76,7 +98,7 @@ def calibrate_parser() -> argparse.ArgumentParser:
         description="Calibrate a robot's kinematics from drawstring readings and write the "
         "corrected URDF and a JSON report.",
     )
-    p.add_argument("robot", help="robot name (irb120, or an example-robot-data name) or URDF path")
+    _add_robot_arguments(p, "default: the file's", "default: the file's")
     p.add_argument("--data", help="measurement set CSV (default: the robot's shipped set)")
     p.add_argument(
         "--method", default=DEFAULT_METHOD,
@@ -88,9 +110,6 @@ def calibrate_parser() -> argparse.ArgumentParser:
         help="share of rows held out for testing (default 0.2)",
     )
     p.add_argument("--out", default="out", help="output folder (default ./out)")
-    p.add_argument("--end-frame", help="end frame (default: the file's, else tool0)")
-    p.add_argument("--anchor-mm", type=_xyz, help="sensor point P0 in the base frame, 'x,y,z' mm")
-    p.add_argument("--tool-mm", type=_xyz, help="cable hook point in the end frame, 'x,y,z' mm")
     p.add_argument("--length-offset-mm", type=float, help="sensor zero offset, mm")
     p.add_argument(
         "--noise-mm", type=_positive(float),
@@ -102,31 +121,28 @@ def calibrate_parser() -> argparse.ArgumentParser:
 def calibrate_main(argv: Sequence[str] | None = None) -> int:
     """``calibrate.py ROBOT [--data CSV] [--method NAME] [--seed N] [--test-fraction F] [--out DIR]``."""
     args = calibrate_parser().parse_args(argv)
-    try:
-        result = calibrate(
-            args.robot,
-            args.data,
-            method=args.method,
-            seed=args.seed,
-            test_fraction=args.test_fraction,
-            end_frame=args.end_frame,
-            anchor_mm=args.anchor_mm,
-            tool_mm=args.tool_mm,
-            length_offset_mm=args.length_offset_mm,
-            noise_mm=args.noise_mm,
-        )
-        out = Path(args.out)
-        urdf = result.to_urdf(out / f"{result.chain.name}_calibrated.urdf")
-        report = result.report()
-        report["urdf"] = str(urdf)
-        report_path = out / "report.json"
-        report_path.write_text(json.dumps(report, indent=2) + "\n")
-    except CalibPinError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    except OSError as e:
-        print(f"error: cannot write to {args.out}: {e.strerror or e}", file=sys.stderr)
-        return 2
+    return _report_errors(lambda: _calibrate(args), args.out)
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    result = calibrate(
+        args.robot,
+        args.data,
+        method=args.method,
+        seed=args.seed,
+        test_fraction=args.test_fraction,
+        end_frame=args.end_frame,
+        anchor_mm=args.anchor_mm,
+        tool_mm=args.tool_mm,
+        length_offset_mm=args.length_offset_mm,
+        noise_mm=args.noise_mm,
+    )
+    out = Path(args.out)
+    urdf = result.to_urdf(out / f"{result.chain.name}_calibrated.urdf")
+    report = result.report()
+    report["urdf"] = str(urdf)
+    report_path = out / "report.json"
+    report_path.write_text(json.dumps(report, indent=2) + "\n")
     n_train, n_test = len(result.train), len(result.test)
     print(
         f"{result.chain.name}: {len(result.data)} poses from {result.data.source} "
@@ -149,7 +165,7 @@ def simulate_parser() -> argparse.ArgumentParser:
         description="Simulate a drawstring measurement set with known true deviations; "
         "writes FILE.csv and FILE.truth.json.",
     )
-    p.add_argument("robot", help="robot name or URDF path")
+    _add_robot_arguments(p, "default 600,200,-100", "default 0,0,50")
     p.add_argument("--poses", type=int, default=120, help="number of poses (default 120)")
     p.add_argument("--seed", type=int, default=0, help="seed (default 0)")
     p.add_argument("--noise-mm", type=_positive(float), default=0.05, help="reading noise, 1 sigma, mm (default 0.05)")
@@ -157,50 +173,39 @@ def simulate_parser() -> argparse.ArgumentParser:
         "--nominal-rmse-mm", type=_positive(float), default=2.0,
         help="reading error of the nominal model the true deviations cause, mm (default 2)",
     )
-    p.add_argument("--anchor-mm", type=_xyz, help="sensor point in the base frame, 'x,y,z' mm (default 600,200,-100)")
-    p.add_argument("--tool-mm", type=_xyz, help="hook point in the end frame, 'x,y,z' mm (default 0,0,50)")
     p.add_argument("--offset-mm", type=float, default=0.0, help="sensor zero offset, mm (default 0)")
-    p.add_argument("--end-frame", help="end frame (default tool0)")
     p.add_argument("--out", required=True, help="output CSV")
     return p
 
 
 def simulate_main(argv: Sequence[str] | None = None) -> int:
     """``simulate.py ROBOT --poses N --seed S --noise-mm SIGMA --out FILE.csv``."""
-    from .model import load_chain
-    from .parameters import PlacementModel, parameter_model
-    from .simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate
-    from .measurements import write_measurements
-
     args = simulate_parser().parse_args(argv)
     if args.poses < 1:
         print("error: --poses must be at least 1", file=sys.stderr)
         return 2
+    return _report_errors(lambda: _simulate(args), args.out)
+
+
+def _simulate(args: argparse.Namespace) -> int:
     out = Path(args.out)
     truth_path = out.with_name(out.name.removesuffix(".csv") + ".truth.json")
-    try:
-        chain = load_chain(args.robot, args.end_frame)
-        if chain.description.dh is not None:
-            params, kind = parameter_model(chain), "DH"
-        else:
-            params, kind = PlacementModel(chain), "joint-placement"
-        data, truth = simulate(
-            chain, params, args.poses, args.seed,
-            noise_mm=args.noise_mm,
-            nominal_rmse_mm=args.nominal_rmse_mm,
-            anchor_mm=args.anchor_mm or DEFAULT_ANCHOR_MM,
-            tool_mm=args.tool_mm or DEFAULT_TOOL_MM,
-            offset_mm=args.offset_mm,
-        )
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_measurements(out, data)
-        truth.to_json(truth_path)
-    except CalibPinError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    except OSError as e:
-        print(f"error: cannot write {out}: {e.strerror or e}", file=sys.stderr)
-        return 2
+    chain = load_chain(args.robot, args.end_frame)
+    if chain.description.dh is not None:
+        params, kind = parameter_model(chain), "DH"
+    else:
+        params, kind = PlacementModel(chain), "joint-placement"
+    data, truth = simulate(
+        chain, params, args.poses, args.seed,
+        noise_mm=args.noise_mm,
+        nominal_rmse_mm=args.nominal_rmse_mm,
+        anchor_mm=args.anchor_mm or DEFAULT_ANCHOR_MM,
+        tool_mm=args.tool_mm or DEFAULT_TOOL_MM,
+        offset_mm=args.offset_mm,
+    )
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_measurements(out, data)
+    truth.to_json(truth_path)
     print(f"{chain.name}: {args.poses} poses, {kind} deviations (seed {args.seed}), noise {args.noise_mm:g} mm")
     print(f"wrote {out}")
     print(f"wrote {truth_path}")

@@ -63,6 +63,26 @@ def test_bad_input_one_line_exit_2(args, message):
     assert len(lines) == 1 and message in lines[0] and "Traceback" not in proc.stderr
 
 
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["irb120", "--poses", "0"], "error: --poses must be at least 1"),
+        (["nosuchbot"], "unknown robot 'nosuchbot'"),
+        (["panda"], "no frame 'tool0'"),
+        (["irb120", "--noise-mm", "-1"], "expected a non-negative number"),
+    ],
+)
+def test_simulate_bad_input(tmp_path, capsys, args, message):
+    """simulate.py: bad input gives exit 2 and one line on stderr."""
+    try:
+        code = simulate_main([*args, "--out", str(tmp_path / "s.csv")])
+    except SystemExit as stop:  # argparse's own errors
+        code = stop.code
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and message in err[0]
+    assert not (tmp_path / "s.csv").exists()
+
+
 def test_bad_csv_row_one_line(tmp_path):
     """A bad value in the data file: its file, line and field in one line."""
     lines = (ROOT / "robots" / "irb120_default.csv").read_text().splitlines()

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.estimators import SearchSpace
 from calib_pin.estimators.qibas import parabola_vertex
 
 METHODS = ["ekf-qibas", "lm", "ekf", "qibas"]
@@ -55,6 +56,19 @@ def test_seeded_reproducible(session):
     a = cp.calibrate("irb120", data, method="qibas", seed=5)
     b = cp.calibrate("irb120", data, method="qibas", seed=5)
     assert np.array_equal(a.x, b.x)
+
+
+def test_one_cable_sees_20_of_24_directions(chain, params):
+    """On the shipped IRB120 set, 20 DH directions are identifiable: theta_6 (hook on the
+    joint-6 axis), d_2 - d_3 (parallel joints 2 and 3) and two wrist combinations are not."""
+    data = cp.read_measurements(chain.description.default_data, chain)
+    sensor = cp.Drawstring(data.anchor, data.tool, data.length_offset)
+    problem = cp.CalibrationProblem(cp.CableModel(chain, params, sensor), data.q, data.lengths)
+    assert SearchSpace.whitened(problem, np.zeros(params.n_params)).dim == 20
+    jac = problem.jacobian(np.zeros(params.n_params))
+    names = list(params.names)
+    assert np.abs(jac[:, names.index("theta_6")]).max() < 1e-12
+    np.testing.assert_allclose(jac[:, names.index("d_2")], jac[:, names.index("d_3")], atol=1e-12)
 
 
 def test_unknown_method_lists_valid_names():
