@@ -37,8 +37,13 @@ def _set_origin(joint: etree._Element, placement: pin.SE3) -> None:
         element = etree.Element("origin")
         joint.insert(0, element)
     rpy = pin.rpy.matrixToRpy(placement.rotation)
-    element.set("xyz", " ".join(repr(float(v)) for v in placement.translation))
-    element.set("rpy", " ".join(repr(float(v)) for v in rpy))
+    element.set("xyz", _numbers(placement.translation))
+    element.set("rpy", _numbers(rpy))
+
+
+def _numbers(values: np.ndarray) -> str:
+    """Shortest exact text of each number; round-off residue below 1e-15 written as 0."""
+    return " ".join(repr(float(v)) if abs(v) > 1e-15 else "0" for v in values)
 
 
 def _tool_chain(joints: dict[str, etree._Element], chain: Chain) -> list[etree._Element]:
@@ -92,5 +97,7 @@ def write_calibrated_urdf(
         root.set("name", robot_name)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tree.write(str(path), xml_declaration=True, encoding="utf-8")
+    text = etree.tostring(tree, xml_declaration=True, encoding="utf-8")
+    # lxml drops the line breaks between top-level comments and the root element.
+    path.write_bytes(text.replace(b"--><", b"-->\n<") + b"\n")
     return path
