@@ -157,7 +157,7 @@ def calibrate(
     if not 0.0 <= test_fraction < 1.0:
         raise CalibPinError(f"test fraction must be in [0, 1), got {test_fraction:g}")
     chain = load_chain(robot, end_frame)
-    parameter_model(chain)  # a robot that cannot be calibrated says so before anything else
+    params = parameter_model(chain)  # a robot that cannot be calibrated says so first
     if data is None:
         data = chain.description.default_data
         if data is None or not Path(data).is_file():
@@ -166,8 +166,8 @@ def calibrate(
         data = read_measurements(data, chain)
         if end_frame is None and data.end_frame and data.end_frame != chain.end_frame:
             chain = load_chain(chain.description, data.end_frame)
+            params = parameter_model(chain)
             data = read_measurements(data.source, chain)
-    params = parameter_model(chain)
     sensor = _sensor(data, anchor_mm, tool_mm, length_offset_mm)
     noise = (noise_mm * 1e-3 if noise_mm is not None else data.noise) or DEFAULT_NOISE_MM * 1e-3
     train, test = split_rows(len(data), test_fraction, seed)

@@ -59,10 +59,20 @@ def _positive(kind: type) -> Callable[[str], float]:
         except ValueError:
             value = -1
         if not value >= 0 or not np.isfinite(value):
-            raise argparse.ArgumentTypeError(f"expected a non-negative number, got '{text}'")
+            raise argparse.ArgumentTypeError(f"expected a non-negative {kind.__name__}, got '{text}'")
         return value
 
     return parse
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not np.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got '{text}'")
+    return value
 
 
 def _report_errors(action: Callable[[], int], target: str) -> int:
@@ -78,7 +88,8 @@ def _report_errors(action: Callable[[], int], target: str) -> int:
 
 def _add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str) -> None:
     p.add_argument("robot", help="robot name (irb120, or an example-robot-data name) or URDF path")
-    p.add_argument("--end-frame", help="end frame (default tool0)")
+    p.add_argument("--end-frame", help="end frame (default: the data file's, else tool0)")
+    p.add_argument("--seed", type=_positive(int), default=0, help="seed, a whole number >= 0 (default 0)")
     p.add_argument("--anchor-mm", type=_xyz, help=f"sensor point P0 in the base frame, 'x,y,z' mm ({anchor_default})")
     p.add_argument("--tool-mm", type=_xyz, help=f"cable hook point in the end frame, 'x,y,z' mm ({tool_default})")
 
@@ -104,13 +115,12 @@ def calibrate_parser() -> argparse.ArgumentParser:
         "--method", default=DEFAULT_METHOD,
         help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the split and the estimator (default 0)")
     p.add_argument(
         "--test-fraction", type=_fraction, default=0.2,
         help="share of rows held out for testing (default 0.2)",
     )
     p.add_argument("--out", default="out", help="output folder (default ./out)")
-    p.add_argument("--length-offset-mm", type=float, help="sensor zero offset, mm")
+    p.add_argument("--length-offset-mm", type=_finite, help="sensor zero offset, mm")
     p.add_argument(
         "--noise-mm", type=_positive(float),
         help="sensor noise (1 sigma) for the EKF, mm (default: the file's, else 0.05)",
@@ -167,13 +177,12 @@ def simulate_parser() -> argparse.ArgumentParser:
     )
     _add_robot_arguments(p, "default 600,200,-100", "default 0,0,50")
     p.add_argument("--poses", type=int, default=120, help="number of poses (default 120)")
-    p.add_argument("--seed", type=int, default=0, help="seed (default 0)")
     p.add_argument("--noise-mm", type=_positive(float), default=0.05, help="reading noise, 1 sigma, mm (default 0.05)")
     p.add_argument(
         "--nominal-rmse-mm", type=_positive(float), default=2.0,
         help="reading error of the nominal model the true deviations cause, mm (default 2)",
     )
-    p.add_argument("--offset-mm", type=float, default=0.0, help="sensor zero offset, mm (default 0)")
+    p.add_argument("--offset-mm", type=_finite, default=0.0, help="sensor zero offset, mm (default 0)")
     p.add_argument("--out", required=True, help="output CSV")
     return p
 

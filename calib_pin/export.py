@@ -97,7 +97,8 @@ def write_calibrated_urdf(
         root.set("name", robot_name)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = etree.tostring(tree, xml_declaration=True, encoding="utf-8")
-    # lxml drops the line breaks between top-level comments and the root element.
-    path.write_bytes(text.replace(b"--><", b"-->\n<") + b"\n")
+    # Top-level comments one per line around the root (lxml keeps no text between them).
+    nodes = [*reversed(list(root.itersiblings(preceding=True))), root, *root.itersiblings()]
+    body = b"\n".join(etree.tostring(node, encoding="utf-8", with_tail=False) for node in nodes)
+    path.write_bytes(b'<?xml version="1.0" encoding="utf-8"?>\n' + body + b"\n")
     return path

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import CableModel, Drawstring
+from .exceptions import CalibPinError
 from .measurements import MeasurementSet
 from .model import Chain
 from .parameters import ParameterModel
@@ -115,10 +116,17 @@ def simulate(
     sensor = Drawstring(np.array(anchor_mm) * 1e-3, np.array(tool_mm) * 1e-3, offset_mm * 1e-3)
     cable = CableModel(chain, params, sensor)
     poses = np.empty((0, chain.n_joints))
-    while len(poses) < n_poses:
+    for _ in range(50):
         batch = random_poses(chain, 2 * n_poses, rng)
         above = cable.hook_positions(None, batch)[:, 2] > 0.0
         poses = np.vstack([poses, batch[above]])
+        if len(poses) >= n_poses:
+            break
+    else:
+        raise CalibPinError(
+            f"robot '{chain.name}': only {len(poses)} of {100 * n_poses} random poses put the "
+            "hook point above the base's mounting plane (z > 0); check the tool point"
+        )
     poses = poses[:n_poses]
     x = rng.normal(size=len(params.names)) * params.scale
     nominal = cable.predict(np.zeros_like(x), poses)

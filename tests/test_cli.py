@@ -53,6 +53,8 @@ def _run(*args):
         (["irb120", "--test-fraction", "1.5"], "expected a number in [0, 1)"),
         (["irb120", "--anchor-mm", "1,2"], "expected 3 numbers"),
         (["ur5"], "robot 'ur5' has no DH table"),
+        (["irb120", "--seed", "-1"], "expected a non-negative int, got '-1'"),
+        (["irb120", "--length-offset-mm", "nan"], "expected a finite number, got 'nan'"),
     ],
 )
 def test_bad_input_one_line_exit_2(args, message):
@@ -69,7 +71,8 @@ def test_bad_input_one_line_exit_2(args, message):
         (["irb120", "--poses", "0"], "error: --poses must be at least 1"),
         (["nosuchbot"], "unknown robot 'nosuchbot'"),
         (["panda"], "no frame 'tool0'"),
-        (["irb120", "--noise-mm", "-1"], "expected a non-negative number"),
+        (["irb120", "--noise-mm", "-1"], "expected a non-negative float"),
+        (["irb120", "--offset-mm", "inf"], "expected a finite number"),
     ],
 )
 def test_simulate_bad_input(tmp_path, capsys, args, message):

@@ -44,6 +44,7 @@ def test_only_joint_origins_change(exported):
         return etree.tostring(root)
 
     assert strip_origins(path) == strip_origins(result.chain.description.urdf)
+    assert path.read_text().splitlines()[:2] == result.chain.description.urdf.read_text().splitlines()[:2]
     changed = [j.get("name") for j in etree.parse(str(path)).getroot().iter("joint")]
     assert "joint_1" in changed
 

@@ -40,3 +40,13 @@ def test_simulate_robot_without_dh_table():
     chain = cp.load_chain("ur5")
     data, truth = cp.simulate(chain, cp.PlacementModel(chain), 10, seed=0)
     assert data.q.shape == (10, 6) and np.all(data.lengths > 0) and len(truth.x) == 42
+
+
+def test_pose_search_is_bounded(chain, params, monkeypatch):
+    """If no pose puts the hook above the mounting plane, the simulator says so, not hangs."""
+    import pytest
+
+    below = lambda self, x, q: np.tile([0.0, 0.0, -1.0], (len(q), 1))  # noqa: E731
+    monkeypatch.setattr(CableModel, "hook_positions", below)
+    with pytest.raises(cp.CalibPinError, match="above the base's mounting plane"):
+        cp.simulate(chain, params, 10, seed=0)
