@@ -1,8 +1,12 @@
-"""calib-pin: kinematic calibration of robot arms from drawstring readings, on Pinocchio."""
+"""calib-pin: kinematic calibration of robot arms from drawstring readings, on Pinocchio.
 
-from .calibration import CalibrationResult, calibrate
+Figures of a comparison (matplotlib) are in :mod:`calib_pin.figures`, imported on demand.
+"""
+
+from .calibration import CalibrationResult, CalibrationSetup, calibrate, prepare
+from .comparison import PAPER_TABLE1, Comparison, compare
 from .errors import CableModel, CalibrationProblem, Drawstring
-from .estimators import ESTIMATORS, EstimateResult, get_estimator, run_estimator
+from .estimators import ESTIMATORS, PAPER_LABELS, EstimateResult, get_estimator, run_estimator
 from .exceptions import CalibPinError, DataError, EstimatorError, RobotError
 from .export import write_calibrated_urdf
 from .measurements import MeasurementSet, read_measurements, write_measurements
@@ -10,7 +14,7 @@ from .metrics import Metrics, split_rows
 from .model import Chain, Kinematics, load_chain
 from .parameters import DHModel, ParameterModel, PlacementModel, parameter_model
 from .robots import DHTable, RobotDescription, resolve_robot
-from .simulate import Truth, random_poses, simulate
+from .simulate import NOISE_KINDS, Truth, random_poses, simulate
 
 __version__ = "0.1.0"
 
@@ -19,7 +23,9 @@ __all__ = [
     "CalibPinError",
     "CalibrationProblem",
     "CalibrationResult",
+    "CalibrationSetup",
     "Chain",
+    "Comparison",
     "DHModel",
     "DHTable",
     "DataError",
@@ -30,6 +36,9 @@ __all__ = [
     "Kinematics",
     "MeasurementSet",
     "Metrics",
+    "NOISE_KINDS",
+    "PAPER_LABELS",
+    "PAPER_TABLE1",
     "ParameterModel",
     "PlacementModel",
     "RobotDescription",
@@ -37,9 +46,11 @@ __all__ = [
     "Truth",
     "__version__",
     "calibrate",
+    "compare",
     "get_estimator",
     "load_chain",
     "parameter_model",
+    "prepare",
     "random_poses",
     "read_measurements",
     "resolve_robot",

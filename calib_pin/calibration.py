@@ -61,7 +61,10 @@ class CalibrationResult:
 
     @property
     def model(self) -> pin.Model:
-        """Pinocchio model of the whole corrected robot (a new model on each call)."""
+        """Pinocchio model of the whole corrected robot (a new model on each call).
+
+        For ``rbf``, which estimates no kinematic parameters, the nominal model.
+        """
         return self.chain.perturbed_model(self.deltas)
 
     @property
@@ -69,12 +72,26 @@ class CalibrationResult:
         """Estimated deviations by name with unit: ``a_2_mm``, ``theta_6_deg``."""
         return deviations_for_humans(self.x, self.params.names, self.params.units)
 
+    @property
+    def kinematic(self) -> bool:
+        """True when the method estimated kinematic parameters (all but ``rbf``)."""
+        return self.estimate.kinematic
+
     def predict(self, q: np.ndarray) -> np.ndarray:
-        """Readings the corrected model predicts, shape (n_poses,), [m], q in [rad]."""
-        return CableModel(self.chain, self.params, self.sensor).predict(self.x, q)
+        """Readings the calibration predicts, shape (n_poses,), [m], q in [rad]."""
+        return self.estimate.predict(CableModel(self.chain, self.params, self.sensor), q)
 
     def to_urdf(self, path: str | Path) -> Path:
-        """Write the corrected URDF (only joint origins differ from the input)."""
+        """Write the corrected URDF (only joint origins differ from the input).
+
+        Raises:
+            CalibPinError: the method yields no kinematic parameters (``rbf``).
+        """
+        if not self.kinematic:
+            raise CalibPinError(
+                f"method '{self.method}' learns a correction of the readings, not kinematic "
+                "parameters: there is no corrected URDF to write"
+            )
         return write_calibrated_urdf(self.chain, self.deltas, path)
 
     def report(self) -> dict:
@@ -95,7 +112,8 @@ class CalibrationResult:
             "evaluations": self.estimate.nfev,
             "stop_reason": self.estimate.message,
             "train_rmse_history_mm": [h * 1e3 for h in self.estimate.history],
-            "deviations": self.deviations,
+            "kinematic_parameters": self.kinematic,
+            "deviations": self.deviations if self.kinematic else {},
             "anchor_mm": (self.sensor.anchor * 1e3).tolist(),
             "tool_mm": (self.sensor.hook * 1e3).tolist(),
             "length_offset_mm": self.sensor.offset * 1e3,
@@ -122,6 +140,98 @@ def _sensor(data: MeasurementSet, anchor_mm, tool_mm, offset_mm) -> Drawstring:
     return Drawstring(anchor=anchor, hook=tool, offset=offset)
 
 
+@dataclass
+class CalibrationSetup:
+    """A robot, a measurement set and a sensor, ready to be calibrated by any method.
+
+    Attributes:
+        chain: The robot chain.
+        params: Parameter model of the deviations.
+        data: The measurement set.
+        sensor: Drawstring geometry.
+        noise: Sensor noise (1 sigma) the Kalman filters assume, [m].
+        problem: All rows of the data with the cable model.
+    """
+
+    chain: Chain
+    params: ParameterModel
+    data: MeasurementSet
+    sensor: Drawstring
+    noise: float
+    problem: CalibrationProblem
+
+    def split(self, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+        """Seeded train/test rows, checked to leave enough training rows.
+
+        Raises:
+            CalibPinError: bad fraction, or fewer training rows than parameters.
+        """
+        if not 0.0 <= test_fraction < 1.0:
+            raise CalibPinError(f"test fraction must be in [0, 1), got {test_fraction:g}")
+        train, test = split_rows(len(self.data), test_fraction, seed)
+        n_params = len(self.params.names)
+        if len(train) < n_params:
+            raise DataError(
+                self.data.source,
+                f"{len(self.data)} rows leave {len(train)} for training, fewer than the "
+                f"{n_params} parameters to estimate",
+            )
+        return train, test
+
+    def run(self, method: str = DEFAULT_METHOD, *, seed: int = 0, test_fraction: float = 0.2) -> CalibrationResult:
+        """Estimate with ``method`` on the training rows and score both splits."""
+        get_estimator(method)
+        train, test = self.split(test_fraction, seed)
+        x0 = np.zeros(len(self.params.names))
+        estimate = run_estimator(method, self.problem.subset(train), x0, seed=seed, noise=self.noise)
+        metrics = {}
+        for split, rows in (("train", train), ("test", test)):
+            if len(rows):
+                part = self.problem.subset(rows)
+                metrics[split] = {
+                    "before": Metrics.of(part.residual(x0)),
+                    "after": Metrics.of(estimate.residual(part)),
+                }
+        return CalibrationResult(
+            chain=self.chain, params=self.params, method=method, x=estimate.x,
+            estimate=estimate, sensor=self.sensor, data=self.data, train=train, test=test,
+            metrics=metrics, seed=seed, noise=self.noise,
+        )
+
+
+def prepare(
+    robot: str,
+    data: str | Path | MeasurementSet | None = None,
+    *,
+    end_frame: str | None = None,
+    anchor_mm=None,
+    tool_mm=None,
+    length_offset_mm: float | None = None,
+    noise_mm: float | None = None,
+) -> CalibrationSetup:
+    """Load a robot and a measurement set for calibration (arguments as :func:`calibrate`).
+
+    Raises:
+        CalibPinError: any bad input (robot, file, option), with a one-line message.
+    """
+    chain = load_chain(robot, end_frame)
+    params = parameter_model(chain)  # a robot that cannot be calibrated says so first
+    if data is None:
+        data = chain.description.default_data
+        if data is None or not Path(data).is_file():
+            raise CalibPinError(f"robot '{chain.name}' has no default measurement set: pass --data")
+    if not isinstance(data, MeasurementSet):
+        data = read_measurements(data, chain)
+        if end_frame is None and data.end_frame and data.end_frame != chain.end_frame:
+            chain = load_chain(chain.description, data.end_frame)
+            params = parameter_model(chain)
+            data = read_measurements(data.source, chain)
+    sensor = _sensor(data, anchor_mm, tool_mm, length_offset_mm)
+    noise = (noise_mm * 1e-3 if noise_mm is not None else data.noise) or DEFAULT_NOISE_MM * 1e-3
+    problem = CalibrationProblem(CableModel(chain, params, sensor), data.q, data.lengths)
+    return CalibrationSetup(chain, params, data, sensor, noise, problem)
+
+
 def calibrate(
     robot: str,
     data: str | Path | MeasurementSet | None = None,
@@ -140,15 +250,15 @@ def calibrate(
     Args:
         robot: Robot name or URDF path (``irb120``).
         data: Measurement CSV or set; None uses the robot's shipped default set.
-        method: Estimator name (``ekf-qibas``, ``ekf``, ``qibas``, ``lm``).
+        method: Estimator name (see ``calib_pin.ESTIMATORS``; default ``ekf-qibas``).
         seed: Seed of the train/test split and of the estimator.
         test_fraction: Share of rows held out for the test metrics.
         end_frame: End frame; default the file's ``end_frame`` or the robot's.
         anchor_mm, tool_mm: Override the file's sensor point (base frame) and hook
             point (end frame), 3 numbers each, [mm].
         length_offset_mm: Override the file's sensor zero offset, [mm].
-        noise_mm: Sensor noise (1 sigma) [mm] for the EKF; default the file's
-            ``noise_mm`` or 0.05.
+        noise_mm: Sensor noise (1 sigma) [mm] for the Kalman filters; default the
+            file's ``noise_mm`` or 0.05.
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
@@ -156,41 +266,8 @@ def calibrate(
     get_estimator(method)
     if not 0.0 <= test_fraction < 1.0:
         raise CalibPinError(f"test fraction must be in [0, 1), got {test_fraction:g}")
-    chain = load_chain(robot, end_frame)
-    params = parameter_model(chain)  # a robot that cannot be calibrated says so first
-    if data is None:
-        data = chain.description.default_data
-        if data is None or not Path(data).is_file():
-            raise CalibPinError(f"robot '{chain.name}' has no default measurement set: pass --data")
-    if not isinstance(data, MeasurementSet):
-        data = read_measurements(data, chain)
-        if end_frame is None and data.end_frame and data.end_frame != chain.end_frame:
-            chain = load_chain(chain.description, data.end_frame)
-            params = parameter_model(chain)
-            data = read_measurements(data.source, chain)
-    sensor = _sensor(data, anchor_mm, tool_mm, length_offset_mm)
-    noise = (noise_mm * 1e-3 if noise_mm is not None else data.noise) or DEFAULT_NOISE_MM * 1e-3
-    train, test = split_rows(len(data), test_fraction, seed)
-    n_params = len(params.names)
-    if len(train) < n_params:
-        raise DataError(
-            data.source,
-            f"{len(data)} rows leave {len(train)} for training, fewer than the "
-            f"{n_params} parameters to estimate",
-        )
-    problem = CalibrationProblem(CableModel(chain, params, sensor), data.q, data.lengths)
-    x0 = np.zeros(n_params)
-    estimate = run_estimator(method, problem.subset(train), x0, seed=seed, noise=noise)
-    metrics = {}
-    for split, rows in (("train", train), ("test", test)):
-        if len(rows):
-            part = problem.subset(rows)
-            metrics[split] = {
-                "before": Metrics.of(part.residual(x0)),
-                "after": Metrics.of(part.residual(estimate.x)),
-            }
-    return CalibrationResult(
-        chain=chain, params=params, method=method, x=estimate.x, estimate=estimate,
-        sensor=sensor, data=data, train=train, test=test, metrics=metrics, seed=seed,
-        noise=noise,
+    setup = prepare(
+        robot, data, end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
+        length_offset_mm=length_offset_mm, noise_mm=noise_mm,
     )
+    return setup.run(method, seed=seed, test_fraction=test_fraction)

@@ -1,4 +1,4 @@
-"""Command line: ``calibrate`` and ``simulate``.
+"""Command line: ``calibrate``, ``simulate`` and ``compare``.
 
 Exit status 0 on success, 2 on bad input with a one-line message on stderr (never a
 traceback for a user's mistake).
@@ -21,7 +21,7 @@ from .measurements import write_measurements
 from .metrics import Metrics
 from .model import load_chain
 from .parameters import PlacementModel, parameter_model
-from .simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate
+from .simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, NOISE_KINDS, simulate
 
 
 class _Parser(argparse.ArgumentParser):
@@ -148,9 +148,10 @@ def _calibrate(args: argparse.Namespace) -> int:
         noise_mm=args.noise_mm,
     )
     out = Path(args.out)
-    urdf = result.to_urdf(out / f"{result.chain.name}_calibrated.urdf")
+    urdf = result.to_urdf(out / f"{result.chain.name}_calibrated.urdf") if result.kinematic else None
     report = result.report()
-    report["urdf"] = str(urdf)
+    report["urdf"] = str(urdf) if urdf else None
+    out.mkdir(parents=True, exist_ok=True)
     report_path = out / "report.json"
     report_path.write_text(json.dumps(report, indent=2) + "\n")
     n_train, n_test = len(result.train), len(result.test)
@@ -164,7 +165,11 @@ def _calibrate(args: argparse.Namespace) -> int:
     after, before = result.metrics["train"]["after"], result.metrics["train"]["before"]
     if after.rmse_mm > before.rmse_mm:
         print("warning: the calibrated model fits the training poses worse than the nominal one")
-    print(f"wrote {urdf}")
+    if urdf:
+        print(f"wrote {urdf}")
+    else:
+        print(f"no URDF written: {result.method} learns a correction of the readings, not "
+              "kinematic parameters")
     print(f"wrote {report_path}")
     return 0
 
@@ -178,6 +183,11 @@ def simulate_parser() -> argparse.ArgumentParser:
     _add_robot_arguments(p, "default 600,200,-100", "default 0,0,50")
     p.add_argument("--poses", type=int, default=120, help="number of poses (default 120)")
     p.add_argument("--noise-mm", type=_positive(float), default=0.05, help="reading noise, 1 sigma, mm (default 0.05)")
+    p.add_argument(
+        "--noise-kind", choices=NOISE_KINDS, default="gauss",
+        help="gauss, student (t, 3 dof, heavy tails) or outliers (gauss + 5%% gross errors "
+        "of 1-3 mm) (default gauss)",
+    )
     p.add_argument(
         "--nominal-rmse-mm", type=_positive(float), default=2.0,
         help="reading error of the nominal model the true deviations cause, mm (default 2)",
@@ -211,21 +221,100 @@ def _simulate(args: argparse.Namespace) -> int:
         anchor_mm=args.anchor_mm or DEFAULT_ANCHOR_MM,
         tool_mm=args.tool_mm or DEFAULT_TOOL_MM,
         offset_mm=args.offset_mm,
+        noise_kind=args.noise_kind,
     )
     out.parent.mkdir(parents=True, exist_ok=True)
     write_measurements(out, data)
     truth.to_json(truth_path)
-    print(f"{chain.name}: {args.poses} poses, {kind} deviations (seed {args.seed}), noise {args.noise_mm:g} mm")
+    print(f"{chain.name}: {args.poses} poses, {kind} deviations (seed {args.seed}), "
+          f"noise {args.noise_mm:g} mm ({args.noise_kind})")
     print(f"wrote {out}")
     print(f"wrote {truth_path}")
     return 0
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``calib-pin calibrate ...`` or ``calib-pin simulate ...``."""
+def _methods(text: str) -> list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    unknown = [n for n in names if n not in ESTIMATORS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(
+            f"unknown method '{unknown[0] if unknown else text}' (valid: {', '.join(ESTIMATORS)})"
+        )
+    return names
+
+
+def _at_least_one(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got '{text}'")
+    return value
+
+
+def compare_parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="compare.py",
+        description="Run the estimators side by side on one data set and split (the paper's "
+        "Table I, Fig. 2, Fig. 3); writes table1.csv, table1.md and two PNG figures.",
+    )
+    p.add_argument("robot", help="robot name (irb120) or URDF path")
+    p.add_argument("--data", help="measurement set CSV (default: the robot's shipped set)")
+    p.add_argument("--trials", type=_at_least_one, default=1,
+                   help="repeat over N seeded splits (or simulated sets): mean ± sd (default 1)")
+    p.add_argument("--out", default="out/compare", help="output folder (default ./out/compare)")
+    p.add_argument("--methods", type=_methods, default=list(ESTIMATORS),
+                   help=f"comma-separated methods (default all: {','.join(ESTIMATORS)})")
+    p.add_argument("--seed", type=_positive(int), default=0, help="first seed (default 0)")
+    p.add_argument("--test-fraction", type=_fraction, default=0.2, help="held-out share (default 0.2)")
+    p.add_argument("--simulate", choices=NOISE_KINDS,
+                   help="run on seeded simulated sets with this noise kind instead of --data")
+    p.add_argument("--noise-mm", type=_positive(float), default=0.05,
+                   help="noise of simulated sets, 1 sigma, mm (default 0.05)")
+    p.add_argument("--poses", type=_at_least_one, default=120, help="poses of simulated sets (default 120)")
+    return p
+
+
+def compare_main(argv: Sequence[str] | None = None) -> int:
+    """``compare.py ROBOT [--data CSV] [--trials N] [--out DIR] [--methods a,b] [--simulate KIND]``."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    commands = {"calibrate": calibrate_main, "simulate": simulate_main}
+    args = compare_parser().parse_args(argv)
+    if args.simulate and args.data:
+        print("error: give either --data or --simulate, not both", file=sys.stderr)
+        return 2
+    return _report_errors(lambda: _compare(args, argv), args.out)
+
+
+def _compare(args: argparse.Namespace, argv: list[str]) -> int:
+    from .comparison import compare
+    from .figures import convergence_figure, residual_figure
+
+    result = compare(
+        args.robot, args.data, methods=args.methods, trials=args.trials, seed=args.seed,
+        test_fraction=args.test_fraction, simulate_noise=args.simulate,
+        noise_mm=args.noise_mm, poses=args.poses,
+    )
+    out = Path(args.out)
+    print(result.format_table())
+    command = "python scripts/compare.py " + " ".join(argv)
+    written = [
+        result.write_csv(out / "table1.csv"),
+        result.write_markdown(out / "table1.md", command),
+        residual_figure(result, out / "fig2_residuals.png"),
+        convergence_figure(result, out / "fig3_convergence.png"),
+    ]
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``calib-pin calibrate ...``, ``calib-pin simulate ...`` or ``calib-pin compare ...``."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    commands = {"calibrate": calibrate_main, "simulate": simulate_main, "compare": compare_main}
     if not argv or argv[0] not in commands:
-        print("usage: calib-pin {calibrate,simulate} ... (see calib-pin calibrate --help)", file=sys.stderr)
+        print("usage: calib-pin {calibrate,simulate,compare} ... (see calib-pin calibrate --help)",
+              file=sys.stderr)
         return 2
     return commands[argv[0]](argv[1:])

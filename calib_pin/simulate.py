@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import CableModel, Drawstring
-from .exceptions import CalibPinError
+from .exceptions import CalibPinError, DataError
 from .measurements import MeasurementSet
 from .model import Chain
 from .parameters import ParameterModel
@@ -23,6 +23,48 @@ from .parameters import ParameterModel
 #: front of the robot, the cable hooked on the tool axis 50 mm out of the flange.
 DEFAULT_ANCHOR_MM = (600.0, 200.0, -100.0)
 DEFAULT_TOOL_MM = (0.0, 0.0, 50.0)
+
+#: Kinds of reading noise the simulator draws (see :func:`reading_noise`).
+NOISE_KINDS = ("gauss", "student", "outliers")
+#: Degrees of freedom of the heavy-tailed Student-t noise.
+STUDENT_DOF = 3
+#: Share of rows with a gross error, and the range of its size [mm], for ``outliers``.
+OUTLIER_FRACTION = 0.05
+OUTLIER_MM = (1.0, 3.0)
+
+
+def reading_noise(
+    kind: str, n: int, noise_mm: float, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """Reading noise of ``n`` poses, [m], and the rows given a gross error.
+
+    Kinds:
+        ``gauss``: normal, standard deviation ``noise_mm``.
+        ``student``: Student-t with 3 degrees of freedom (heavy tails), scaled to the
+            same standard deviation ``noise_mm``.
+        ``outliers``: normal as ``gauss``, plus on 5 % of the rows (at least one) a
+            gross error of 1 to 3 mm with random sign, as a snagged or sagging cable
+            would give.
+
+    Raises:
+        CalibPinError: unknown kind.
+    """
+    sigma = noise_mm * 1e-3
+    outliers = np.zeros(n, dtype=bool)
+    if kind == "gauss":
+        noise = rng.normal(scale=sigma, size=n)
+    elif kind == "student":
+        dof = STUDENT_DOF
+        noise = rng.standard_t(dof, size=n) * sigma * np.sqrt((dof - 2) / dof)
+    elif kind == "outliers":
+        noise = rng.normal(scale=sigma, size=n)
+        rows = rng.choice(n, size=max(1, int(round(OUTLIER_FRACTION * n))), replace=False)
+        outliers[rows] = True
+        size = rng.uniform(*OUTLIER_MM, size=len(rows)) * 1e-3
+        noise[rows] += size * rng.choice([-1.0, 1.0], size=len(rows))
+    else:
+        raise CalibPinError(f"unknown noise kind '{kind}' (valid: {', '.join(NOISE_KINDS)})")
+    return noise, outliers
 
 
 @dataclass
@@ -36,6 +78,8 @@ class Truth:
         sensor: True sensor geometry.
         noise: Noise of the readings (1 sigma), [m].
         seed: Seed of the draw.
+        noise_kind: ``gauss``, ``student`` or ``outliers`` (see :func:`reading_noise`).
+        outliers: Data rows (0-based) given a gross error.
     """
 
     x: np.ndarray
@@ -44,18 +88,46 @@ class Truth:
     sensor: Drawstring
     noise: float
     seed: int
+    noise_kind: str = "gauss"
+    outliers: tuple[int, ...] = ()
 
     def to_json(self, path: str | Path) -> None:
         """Write the truth with deviations in mm and deg."""
         doc = {
             "seed": self.seed,
             "noise_mm": self.noise * 1e3,
+            "noise_kind": self.noise_kind,
+            "outlier_rows": list(self.outliers),
             "anchor_mm": (self.sensor.anchor * 1e3).tolist(),
             "tool_mm": (self.sensor.hook * 1e3).tolist(),
             "length_offset_mm": self.sensor.offset * 1e3,
             "deviations": deviations_for_humans(self.x, self.names, self.units),
         }
         Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+
+    @classmethod
+    def from_json(cls, path: str | Path, params: ParameterModel) -> Truth:
+        """Read a truth file written by :meth:`to_json` for the parameter model ``params``.
+
+        Raises:
+            DataError: unreadable file, or deviations that do not match ``params``.
+        """
+        try:
+            doc = json.loads(Path(path).read_text())
+            x = np.empty(len(params.names))
+            for i, (name, unit) in enumerate(zip(params.names, params.units, strict=True)):
+                x[i] = doc["deviations"][f"{name}_mm"] * 1e-3 if unit == "m" else np.deg2rad(
+                    doc["deviations"][f"{name}_deg"])
+            sensor = Drawstring(np.array(doc["anchor_mm"], dtype=float) * 1e-3,
+                                np.array(doc["tool_mm"], dtype=float) * 1e-3,
+                                float(doc["length_offset_mm"]) * 1e-3)
+            return cls(x, tuple(params.names), tuple(params.units), sensor,
+                       float(doc["noise_mm"]) * 1e-3, int(doc["seed"]),
+                       doc.get("noise_kind", "gauss"), tuple(doc.get("outlier_rows", ())))
+        except OSError as e:
+            raise DataError(str(path), f"cannot read: {e.strerror or e}") from None
+        except (ValueError, KeyError, TypeError) as e:
+            raise DataError(str(path), f"not a calib-pin truth file ({type(e).__name__}: {e})") from None
 
 
 def deviations_for_humans(
@@ -93,6 +165,7 @@ def simulate(
     anchor_mm: tuple[float, float, float] = DEFAULT_ANCHOR_MM,
     tool_mm: tuple[float, float, float] = DEFAULT_TOOL_MM,
     offset_mm: float = 0.0,
+    noise_kind: str = "gauss",
 ) -> tuple[MeasurementSet, Truth]:
     """Simulate a drawstring session.
 
@@ -106,12 +179,15 @@ def simulate(
         chain, params: The robot and how its deviations are parametrised.
         n_poses: Number of poses.
         seed: Seed of every random draw.
-        noise_mm: Gaussian reading noise, 1 sigma, [mm].
+        noise_mm: Reading noise, 1 sigma, [mm].
         nominal_rmse_mm: Reading error of the nominal model, [mm]; 0 keeps the robot
             nominal.
         anchor_mm, tool_mm: Sensor point (base frame) and hook point (end frame), [mm].
         offset_mm: Sensor zero offset, [mm].
+        noise_kind: ``gauss``, ``student`` or ``outliers`` (see :func:`reading_noise`).
     """
+    if noise_kind not in NOISE_KINDS:
+        raise CalibPinError(f"unknown noise kind '{noise_kind}' (valid: {', '.join(NOISE_KINDS)})")
     rng = np.random.default_rng(seed)
     sensor = Drawstring(np.array(anchor_mm) * 1e-3, np.array(tool_mm) * 1e-3, offset_mm * 1e-3)
     cable = CableModel(chain, params, sensor)
@@ -135,7 +211,8 @@ def simulate(
         x *= nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap**2))
     else:
         x[:] = 0.0
-    readings = cable.predict(x, poses) + rng.normal(scale=noise_mm * 1e-3, size=n_poses)
+    noise, outliers = reading_noise(noise_kind, n_poses, noise_mm, rng)
+    readings = cable.predict(x, poses) + noise
     data = MeasurementSet(
         q=poses,
         lengths=readings,
@@ -144,6 +221,10 @@ def simulate(
         length_offset=sensor.offset,
         robot=chain.name,
         end_frame=chain.end_frame,
-        notes={"source": f"calib-pin simulator, seed {seed}, noise {noise_mm:g} mm (gauss)"},
+        notes={"source": f"calib-pin simulator, seed {seed}, noise {noise_mm:g} mm ({noise_kind})"},
     )
-    return data, Truth(x, tuple(params.names), tuple(params.units), sensor, noise_mm * 1e-3, seed)
+    truth = Truth(
+        x, tuple(params.names), tuple(params.units), sensor, noise_mm * 1e-3, seed,
+        noise_kind, tuple(int(i) for i in np.flatnonzero(outliers)),
+    )
+    return data, truth

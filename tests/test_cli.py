@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from calib_pin.cli import calibrate_main, simulate_main
+from calib_pin.cli import calibrate_main, compare_main, simulate_main
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -37,9 +37,9 @@ def test_simulate_then_calibrate(tmp_path, capsys):
     assert calibrate_main(["irb120", "--data", str(csv), "--out", str(tmp_path / "o"), "--method", "ekf"]) == 0
 
 
-def _run(*args):
+def _run(*args, script="calibrate.py"):
     return subprocess.run(
-        [sys.executable, str(ROOT / "scripts" / "calibrate.py"), *args],
+        [sys.executable, str(ROOT / "scripts" / script), *args],
         capture_output=True, text=True, cwd=ROOT,
     )
 
@@ -47,7 +47,7 @@ def _run(*args):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["irb120", "--method", "gauss"], "unknown method 'gauss' (valid: ekf, qibas, ekf-qibas, lm"),
+        (["irb120", "--method", "gauss"], "unknown method 'gauss' (valid: ekf, bas, ukf, pso, rbf, lm, de, qibas, ekf-qibas)"),
         (["nosuchbot"], "unknown robot 'nosuchbot'"),
         (["irb120", "--data", "missing.csv"], "missing.csv: no such file"),
         (["irb120", "--test-fraction", "1.5"], "expected a number in [0, 1)"),
@@ -96,3 +96,41 @@ def test_bad_csv_row_one_line(tmp_path):
     proc = _run("irb120", "--data", str(bad), "--out", str(tmp_path))
     assert proc.returncode == 2
     assert proc.stderr.strip() == f"error: {bad}:11: q1_deg: 'abc' is not a number"
+
+
+def test_calibrate_rbf_writes_report_but_no_urdf(tmp_path, capsys):
+    """rbf learns no kinematic parameters: the report is written, the URDF is not, and it says so."""
+    assert calibrate_main(["irb120", "--method", "rbf", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "no URDF written: rbf learns a correction" in out
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["kinematic_parameters"] is False and report["urdf"] is None
+    assert not list(tmp_path.glob("*.urdf"))
+
+
+def test_compare_writes_tables_and_figures(tmp_path, capsys):
+    """compare.py prints Table I and writes table1.csv, table1.md and the two figures."""
+    args = ["irb120", "--simulate", "outliers", "--poses", "40", "--methods", "lm,rbf", "--out", str(tmp_path)]
+    assert compare_main(args) == 0
+    out = capsys.readouterr().out
+    assert "Before" in out and "M6" in out and "outliers noise" in out
+    for name in ("table1.csv", "table1.md", "fig2_residuals.png", "fig3_convergence.png"):
+        assert (tmp_path / name).is_file(), name
+    assert "python scripts/compare.py irb120 --simulate outliers" in (tmp_path / "table1.md").read_text()
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["irb120", "--methods", "lm,nope"], "unknown method 'nope' (valid: ekf, bas"),
+        (["irb120", "--trials", "0"], "expected a whole number >= 1, got '0'"),
+        (["irb120", "--simulate", "pink"], "invalid choice: 'pink'"),
+        (["irb120", "--data", "missing.csv"], "missing.csv: no such file"),
+        (["irb120", "--data", "x.csv", "--simulate", "gauss"], "either --data or --simulate"),
+    ],
+)
+def test_compare_bad_input_one_line_exit_2(args, message):
+    proc = _run(*args, script="compare.py")
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0] and "Traceback" not in proc.stderr

@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 
 import calib_pin as cp
 from calib_pin.errors import CableModel
@@ -50,3 +51,39 @@ def test_pose_search_is_bounded(chain, params, monkeypatch):
     monkeypatch.setattr(CableModel, "hook_positions", below)
     with pytest.raises(cp.CalibPinError, match="above the base's mounting plane"):
         cp.simulate(chain, params, 10, seed=0)
+
+
+@pytest.mark.parametrize("kind", cp.NOISE_KINDS)
+def test_noise_kinds(chain, params, kind):
+    """gauss and student have the stated sigma; student has heavy tails; outliers puts
+    1-3 mm gross errors on 5 % of the rows and records which."""
+    data, truth = cp.simulate(chain, params, 400, seed=11, noise_mm=0.05, noise_kind=kind)
+    noise = (data.lengths - CableModel(chain, params, truth.sensor).predict(truth.x, data.q)) * 1e3
+    assert truth.noise_kind == kind and kind in data.notes["source"]
+    clean = np.delete(noise, list(truth.outliers))
+    kurtosis = np.mean(clean**4) / np.mean(clean**2) ** 2
+    if kind == "outliers":
+        assert len(truth.outliers) == 20
+        assert np.all(np.abs(noise[list(truth.outliers)]) > 0.8)
+        assert np.all(np.abs(clean) < 0.3)
+    else:
+        assert truth.outliers == ()
+        assert 0.04 < np.std(noise) < 0.06
+        assert (kurtosis > 4.5) if kind == "student" else (2.5 < kurtosis < 3.5)
+
+
+def test_unknown_noise_kind(chain, params):
+    with pytest.raises(cp.CalibPinError, match="unknown noise kind 'pink'"):
+        cp.simulate(chain, params, 10, seed=0, noise_kind="pink")
+
+
+def test_truth_file_round_trip(tmp_path, params, session):
+    """A truth file reads back to the same deviations and sensor."""
+    _, truth = session
+    truth.to_json(tmp_path / "t.json")
+    back = cp.Truth.from_json(tmp_path / "t.json", params)
+    np.testing.assert_allclose(back.x, truth.x, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(back.sensor.anchor, truth.sensor.anchor)
+    (tmp_path / "bad.json").write_text("{}")
+    with pytest.raises(cp.DataError, match="bad.json: not a calib-pin truth file"):
+        cp.Truth.from_json(tmp_path / "bad.json", params)

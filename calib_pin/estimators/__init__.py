@@ -8,20 +8,34 @@ import numpy as np
 
 from ..errors import CalibrationProblem
 from ..exceptions import EstimatorError
-from .base import EstimateResult
+from .bas import BAS
+from .base import EstimateResult, Tracker
+from .de import DE
 from .ekf import EKF
 from .ekf_qibas import EKFQIBAS
 from .lm import LevenbergMarquardt
+from .pso import PSO
 from .qibas import QIBAS
+from .rbf import RBF
 from .search_space import SearchSpace
+from .ukf import UKF
 
-#: Registry: method name (as on the command line) to estimator with default settings.
+#: Registry: method name (as on the command line) to estimator with default settings,
+#: in the paper's order M1..M9.
 ESTIMATORS = {
     "ekf": EKF(),
+    "bas": BAS(),
+    "ukf": UKF(),
+    "pso": PSO(),
+    "rbf": RBF(),
+    "lm": LevenbergMarquardt(),
+    "de": DE(),
     "qibas": QIBAS(),
     "ekf-qibas": EKFQIBAS(),
-    "lm": LevenbergMarquardt(),
 }
+
+#: The paper's label of each method (Table I).
+PAPER_LABELS = {name: f"M{i}" for i, name in enumerate(ESTIMATORS, start=1)}
 
 DEFAULT_METHOD = "ekf-qibas"
 
@@ -52,14 +66,21 @@ def run_estimator(
 
 
 __all__ = [
+    "BAS",
+    "DE",
     "DEFAULT_METHOD",
     "EKF",
     "EKFQIBAS",
     "ESTIMATORS",
     "EstimateResult",
     "LevenbergMarquardt",
+    "PAPER_LABELS",
+    "PSO",
     "QIBAS",
+    "RBF",
     "SearchSpace",
+    "Tracker",
+    "UKF",
     "get_estimator",
     "run_estimator",
 ]

@@ -8,7 +8,7 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
 from ..errors import CalibrationProblem
-from .base import EstimateResult, rmse
+from .base import EstimateResult, Tracker, rmse
 
 
 @dataclass(frozen=True)
@@ -22,8 +22,10 @@ class EKF:
     R = noise^2, the sensor's stated noise. Each update relinearises the reading at
     the current state (H_k: the pose's row of the identification Jacobian, eq. 19-21).
 
-    ``iterations`` counts measurement updates (passes x poses); ``history`` holds the
-    training RMSE before the first and after every update; ``covariance`` is the final P.
+    One iteration is one measurement update (``passes`` x poses in all); each costs
+    1/n_poses of an evaluation. ``history`` holds the training RMSE before the first
+    and after every update (computed for the record, not counted as work);
+    ``covariance`` is the final P.
     """
 
     passes: int = 1
@@ -40,24 +42,22 @@ class EKF:
         kf.P = np.diag((self.prior * scale) ** 2)
         kf.Q = np.diag((self.process * scale) ** 2)
         kf.R = np.array([[noise**2]])
-        history = [rmse(problem.residual(kf.x[:, 0]))]
+        track = Tracker(problem)
+        track.record(rmse(problem.residual(kf.x[:, 0])))
         cable = problem.model
         for _ in range(self.passes):
             for k in range(problem.n_poses):
                 q = problem.q[k : k + 1]
                 value, row = cable.predict_with_jacobian(kf.x[:, 0], q)
+                track.nfev += 1.0 / problem.n_poses
                 kf.predict()
                 kf.update(
                     problem.readings[k : k + 1],
                     HJacobian=lambda x, row=row: row,
                     Hx=lambda x, value=value: value.reshape(1, 1),
                 )
-                history.append(rmse(problem.residual(kf.x[:, 0])))
-        return EstimateResult(
-            x=kf.x[:, 0].copy(),
-            history=history,
-            iterations=self.passes * problem.n_poses,
-            nfev=self.passes + len(history),
-            message=f"{self.passes} pass(es) over {problem.n_poses} poses",
-            covariance=kf.P.copy(),
+                track.record(rmse(problem.residual(kf.x[:, 0])))
+        return track.result(
+            kf.x[:, 0], self.passes * problem.n_poses,
+            f"{self.passes} pass(es) over {problem.n_poses} poses", covariance=kf.P.copy(),
         )

@@ -33,6 +33,7 @@ class EKFQIBAS:
         return EstimateResult(
             x=second.x,
             history=first.history + second.history[1:],
+            evaluations=first.evaluations + [first.nfev + e for e in second.evaluations[1:]],
             iterations=first.iterations + second.iterations,
             nfev=first.nfev + second.nfev,
             message=f"EKF: {first.message}; QIBAS: {second.message}",

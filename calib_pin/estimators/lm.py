@@ -8,7 +8,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import CalibrationProblem
-from .base import EstimateResult, rmse
+from .base import EstimateResult, Tracker, rmse
 from .search_space import SearchSpace
 
 
@@ -20,8 +20,9 @@ class LevenbergMarquardt:
     :mod:`.search_space`, with the analytic Jacobian mapped onto them); the others stay
     at x0. Stops on scipy's ``ftol``/``xtol``/``gtol`` or ``max_nfev`` evaluations.
 
-    ``iterations`` counts Jacobian evaluations (one per accepted LM step);
-    ``history`` holds the training RMSE after each residual evaluation that improved it.
+    One iteration is one Jacobian evaluation (MINPACK evaluates it once per outer
+    step); ``history`` holds the best training RMSE at the start and at the end of each
+    iteration.
     """
 
     ftol: float = 1e-8
@@ -32,28 +33,30 @@ class LevenbergMarquardt:
     def __call__(
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
+        track = Tracker(problem)
         space = SearchSpace.whitened(problem, np.asarray(x0, dtype=float))
-        history = [rmse(problem.residual(space.x0))]
+        track.nfev += 1  # the Jacobian that fixes the search space
+        best = [np.inf]
 
         def residual(z: np.ndarray) -> np.ndarray:
-            r = problem.residual(space.to_x(z))
-            history.append(min(history[-1], rmse(r)))
+            r = track.residual(space.to_x(z))
+            best[0] = min(best[0], rmse(r))
+            if not track.history:
+                track.record(best[0])
             return r
 
+        last = [None]
+
+        def jacobian(z: np.ndarray) -> np.ndarray:
+            # scipy checks the Jacobian at the start before MINPACK asks for it there.
+            if last[0] is not None and not np.array_equal(z, last[0]):
+                track.record(best[0])  # end of the previous iteration
+            last[0] = z.copy()
+            return track.jacobian(space.to_x(z)) @ space.basis
+
         fit = least_squares(
-            residual,
-            np.zeros(space.dim),
-            jac=lambda z: problem.jacobian(space.to_x(z)) @ space.basis,
-            method="lm",
-            ftol=self.ftol,
-            xtol=self.xtol,
-            gtol=self.gtol,
-            max_nfev=self.max_nfev,
+            residual, np.zeros(space.dim), jac=jacobian, method="lm",
+            ftol=self.ftol, xtol=self.xtol, gtol=self.gtol, max_nfev=self.max_nfev,
         )
-        return EstimateResult(
-            x=space.to_x(fit.x),
-            history=history,
-            iterations=int(fit.njev),
-            nfev=int(fit.nfev + fit.njev) + 2,
-            message=str(fit.message),
-        )
+        track.record(best[0])
+        return track.result(space.to_x(fit.x), len(track.history) - 1, str(fit.message))

@@ -1,0 +1,330 @@
+"""Every estimator on the same data and split: the paper's Table I, with repeated trials.
+
+:func:`compare` runs the chosen methods on one measurement set (or on seeded simulated
+sets), each trial on one seeded 80/20 split shared by all methods, and collects per
+method the test metrics, the convergence history and the wall time. When the true
+deviations are known (a simulated set, or a shipped set with its ``.truth.json``), it
+also scores each estimate on 1000 fresh poses against the noise-free truth: the test
+residual of a good calibration is mostly sensor noise, the fresh-pose error is not.
+
+:meth:`Comparison.rows` aggregates over trials (mean and standard deviation), and the
+writers give ``table1.csv`` and ``table1.md`` (with the paper's numbers beside ours).
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .calibration import CalibrationSetup, prepare
+from .errors import CableModel
+from .estimators import ESTIMATORS, PAPER_LABELS, get_estimator, run_estimator
+from .exceptions import CalibPinError
+from .metrics import Metrics
+from .model import load_chain
+from .parameters import parameter_model
+from .simulate import Truth, random_poses, simulate
+
+#: Table I of the paper: test RMSE, "Std" (mean absolute residual) and Max, [mm].
+PAPER_TABLE1 = {
+    "Before": (2.09, 2.00, 3.36),
+    "M1": (0.66, 0.56, 1.71),
+    "M2": (0.70, 0.56, 1.76),
+    "M3": (0.64, 0.55, 1.51),
+    "M4": (0.59, 0.49, 1.28),
+    "M5": (0.85, 0.72, 1.91),
+    "M6": (0.50, 0.41, 1.16),
+    "M7": (0.67, 0.58, 1.59),
+    "M8": (0.64, 0.54, 1.49),
+    "M9": (0.46, 0.38, 1.10),
+}
+
+#: A method's training RMSE counts as converged within this share of its final value.
+CONVERGED_TOLERANCE = 0.05
+
+#: Fresh poses drawn to score an estimate against the truth.
+FRESH_POSES = 1000
+
+
+@dataclass
+class MethodRun:
+    """One method on one trial.
+
+    Attributes:
+        method, label: Registry name and the paper's label (``M9``).
+        train, test: Reading residual metrics after calibration, [mm].
+        fresh_rmse_mm: RMSE on fresh poses against the noise-free truth [mm], or None.
+        iterations, evaluations: Work used in all (see :mod:`calib_pin.estimators.base`).
+        converged_iterations, converged_evaluations: Work used until the training RMSE
+            came within 5 % of its final value.
+        time_s: Wall time of the estimate, [s].
+        history_mm: Training RMSE [mm] at the start and after each iteration.
+        history_evaluations: Evaluations used at each history entry.
+        test_residual_mm: Test residuals (predicted - measured), shape (n_test,), [mm].
+    """
+
+    method: str
+    label: str
+    train: Metrics
+    test: Metrics
+    fresh_rmse_mm: float | None
+    iterations: int
+    evaluations: float
+    converged_iterations: int
+    converged_evaluations: float
+    time_s: float
+    history_mm: list[float]
+    history_evaluations: list[float]
+    test_residual_mm: np.ndarray
+
+
+@dataclass
+class Trial:
+    """All methods on one data set and split.
+
+    Attributes:
+        seed: Seed of the split, the estimators and (for simulated sets) the data.
+        source: Where the data came from.
+        before: Test metrics of the nominal model, [mm].
+        before_fresh_rmse_mm: Nominal model's fresh-pose error against the truth, or None.
+        before_residual_mm: Nominal test residuals, shape (n_test,), [mm].
+        runs: Method name to its run, in the order run.
+    """
+
+    seed: int
+    source: str
+    before: Metrics
+    before_fresh_rmse_mm: float | None
+    before_residual_mm: np.ndarray
+    runs: dict[str, MethodRun]
+
+
+@dataclass
+class Comparison:
+    """Trials of a comparison and their summary.
+
+    Attributes:
+        robot: Robot name.
+        methods: Method names compared.
+        trials: One entry per trial.
+        data: What the trials ran on, in words.
+    """
+
+    robot: str
+    methods: list[str]
+    trials: list[Trial]
+    data: str
+
+    def rows(self) -> list[dict]:
+        """Table I rows (Before, then each method), each value as (mean, sd) over trials.
+
+        Keys: ``item`` (Before / M1..M9), ``method``, ``rmse_mm``, ``mean_mm``,
+        ``max_mm``, ``fresh_rmse_mm`` (None when the truth is unknown),
+        ``converged_iterations``, ``converged_evaluations``, ``time_s`` (None for Before).
+        """
+
+        def stat(values) -> tuple[float, float] | None:
+            if any(v is None for v in values):
+                return None
+            return float(np.mean(values)), float(np.std(values))
+
+        rows = [{
+            "item": "Before", "method": "nominal",
+            "rmse_mm": stat([t.before.rmse_mm for t in self.trials]),
+            "mean_mm": stat([t.before.mean_mm for t in self.trials]),
+            "max_mm": stat([t.before.max_mm for t in self.trials]),
+            "fresh_rmse_mm": stat([t.before_fresh_rmse_mm for t in self.trials]),
+            "converged_iterations": None, "converged_evaluations": None, "time_s": None,
+        }]
+        for m in self.methods:
+            runs = [t.runs[m] for t in self.trials]
+            rows.append({
+                "item": runs[0].label, "method": m,
+                "rmse_mm": stat([r.test.rmse_mm for r in runs]),
+                "mean_mm": stat([r.test.mean_mm for r in runs]),
+                "max_mm": stat([r.test.max_mm for r in runs]),
+                "fresh_rmse_mm": stat([r.fresh_rmse_mm for r in runs]),
+                "converged_iterations": stat([r.converged_iterations for r in runs]),
+                "converged_evaluations": stat([r.converged_evaluations for r in runs]),
+                "time_s": stat([r.time_s for r in runs]),
+            })
+        return rows
+
+    def format_table(self) -> str:
+        """Table I as fixed-width text (mean, and +- sd when there are several trials)."""
+        header = ["item", "method", "RMSE mm", "mean mm", "max mm", "fresh mm",
+                  "iters", "evals", "time s"]
+        lines = [self.data, _fixed(header)]
+        for row in self.rows():
+            lines.append(_fixed([row["item"], row["method"], *self._cells(row)]))
+        return "\n".join(lines)
+
+    def _cells(self, row: dict) -> list[str]:
+        many = len(self.trials) > 1
+        formats = (("rmse_mm", ".3f"), ("mean_mm", ".3f"), ("max_mm", ".3f"),
+                   ("fresh_rmse_mm", ".3f"), ("converged_iterations", ".0f"),
+                   ("converged_evaluations", ".1f"), ("time_s", ".3f"))
+        out = []
+        for key, fmt in formats:
+            value = row[key]
+            if value is None:
+                out.append("-")
+            elif many:
+                out.append(f"{value[0]:{fmt}} ± {value[1]:{fmt}}")
+            else:
+                out.append(f"{value[0]:{fmt}}")
+        return out
+
+    def write_csv(self, path: str | Path) -> Path:
+        """Write ``table1.csv``: one row per item, ``<key>_mean`` and ``<key>_sd`` columns."""
+        keys = ("rmse_mm", "mean_mm", "max_mm", "fresh_rmse_mm", "converged_iterations",
+                "converged_evaluations", "time_s")
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with path.open("w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(["item", "method", "trials"]
+                            + [f"{k}_{s}" for k in keys for s in ("mean", "sd")]
+                            + ["paper_rmse_mm", "paper_std_mm", "paper_max_mm"])
+            for row in self.rows():
+                values = []
+                for k in keys:
+                    values += ["", ""] if row[k] is None else [f"{row[k][0]:.6g}", f"{row[k][1]:.6g}"]
+                paper = PAPER_TABLE1.get(row["item"], ("", "", ""))
+                writer.writerow([row["item"], row["method"], len(self.trials), *values, *paper])
+        return path
+
+    def write_markdown(self, path: str | Path, command: str = "") -> Path:
+        """Write ``table1.md``: our Table I with the paper's numbers beside it."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        many = len(self.trials) > 1
+        lines = [
+            f"Table I, {self.robot}: {self.data}.",
+            "Test-set reading residuals in mm; 'mean' is the paper's \"Std\" (mean absolute "
+            "residual); 'fresh' is the error on 1000 fresh poses against the noise-free truth "
+            "(- when the truth is unknown); iterations and evaluations until the training RMSE "
+            f"was within {CONVERGED_TOLERANCE:.0%} of its final value; wall time of the estimate."
+            + (f" Mean ± sd over {len(self.trials)} trials." if many else ""),
+            "",
+        ]
+        if command:
+            lines[1:1] = [f"Command: `{command}`"]
+        header = ["Item", "Method", "RMSE", "Mean (Std)", "Max", "Fresh", "Iterations",
+                  "Evaluations", "Time s", "Paper RMSE", "Paper Std", "Paper Max"]
+        lines.append("| " + " | ".join(header) + " |")
+        lines.append("|" + "|".join(["---"] * 2 + ["---:"] * (len(header) - 2)) + "|")
+        for row in self.rows():
+            paper = PAPER_TABLE1.get(row["item"])
+            paper_cells = [f"{p:.2f}" for p in paper] if paper else ["", "", ""]
+            cells = [row["item"], row["method"], *self._cells(row), *paper_cells]
+            lines.append("| " + " | ".join(cells) + " |")
+        path.write_text("\n".join(lines) + "\n")
+        return path
+
+
+def _fixed(cells: list[str]) -> str:
+    widths = [7, 10, 16, 16, 16, 16, 11, 13, 16]
+    return "".join(f"{c:<{w}s}" if i < 2 else f"{c:>{w}s}" for i, (c, w) in enumerate(zip(cells, widths)))
+
+
+def _fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Callable:
+    """score(predict) -> RMSE [mm] of ``predict(q)`` [m] on fresh poses against the
+    noise-free truth, or None when the truth is unknown."""
+    if truth is None:
+        return lambda predict: None
+    q = random_poses(setup.chain, FRESH_POSES, np.random.default_rng(seed + 10_000))
+    true_readings = CableModel(setup.chain, setup.params, truth.sensor).predict(truth.x, q)
+    return lambda predict: float(np.sqrt(np.mean((predict(q) - true_readings) ** 2)) * 1e3)
+
+
+def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], seed: int,
+           test_fraction: float) -> Trial:
+    train, test = setup.split(test_fraction, seed)
+    if not len(test):
+        raise CalibPinError("a comparison needs held-out rows: use a test fraction above 0")
+    train_problem, test_problem = setup.problem.subset(train), setup.problem.subset(test)
+    model = setup.problem.model
+    x0 = np.zeros(len(setup.params.names))
+    fresh = _fresh_scorer(setup, truth, seed)
+    runs = {}
+    for m in methods:
+        est = run_estimator(m, train_problem, x0, seed=seed, noise=setup.noise)
+        k, evals = est.converged(CONVERGED_TOLERANCE)
+        residual = est.residual(test_problem)
+        runs[m] = MethodRun(
+            method=m, label=PAPER_LABELS[m],
+            train=Metrics.of(est.residual(train_problem)), test=Metrics.of(residual),
+            fresh_rmse_mm=fresh(lambda q, est=est: est.predict(model, q)),
+            iterations=est.iterations, evaluations=est.nfev,
+            converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
+            history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
+            test_residual_mm=residual * 1e3,
+        )
+    before = test_problem.residual(x0)
+    return Trial(
+        seed=seed, source=setup.data.source or "simulated", before=Metrics.of(before),
+        before_fresh_rmse_mm=fresh(lambda q: model.predict(x0, q)),
+        before_residual_mm=before * 1e3, runs=runs,
+    )
+
+
+def compare(
+    robot: str,
+    data: str | Path | None = None,
+    *,
+    methods: list[str] | None = None,
+    trials: int = 1,
+    seed: int = 0,
+    test_fraction: float = 0.2,
+    simulate_noise: str | None = None,
+    noise_mm: float = 0.05,
+    poses: int = 120,
+) -> Comparison:
+    """Run estimators side by side.
+
+    Args:
+        robot: Robot name or URDF path.
+        data: Measurement CSV; None uses the robot's shipped set. Ignored when
+            ``simulate_noise`` is given.
+        methods: Method names (default: all nine, M1..M9).
+        trials: Number of trials. On a measurement set, trial i uses the split of seed
+            ``seed + i``; with ``simulate_noise``, trial i also simulates a new set of
+            seed ``seed + i``.
+        seed: First seed.
+        test_fraction: Share of rows held out (the paper's 0.2).
+        simulate_noise: ``gauss``, ``student`` or ``outliers``: run on simulated sets of
+            ``poses`` poses with that noise of size ``noise_mm`` [mm] (1 sigma).
+
+    Raises:
+        CalibPinError: bad method, robot, data or settings.
+    """
+    methods = list(ESTIMATORS) if methods is None else list(methods)
+    for m in methods:
+        get_estimator(m)
+    if trials < 1:
+        raise CalibPinError(f"trials must be at least 1, got {trials}")
+    out = []
+    if simulate_noise is None:
+        setup = prepare(robot, data)
+        truth_file = Path(setup.data.source).with_name(
+            Path(setup.data.source).name.removesuffix(".csv") + ".truth.json")
+        truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() else None
+        for i in range(trials):
+            out.append(_trial(setup, truth, methods, seed + i, test_fraction))
+        what = f"{len(setup.data)} poses from {Path(setup.data.source).name}"
+        what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
+    else:
+        chain = load_chain(robot)
+        params = parameter_model(chain)
+        for i in range(trials):
+            sim, truth = simulate(chain, params, poses, seed + i, noise_mm=noise_mm, noise_kind=simulate_noise)
+            setup = prepare(robot, sim)
+            out.append(_trial(setup, truth, methods, seed + i, test_fraction))
+        what = (f"simulated sets of {poses} poses, {simulate_noise} noise {noise_mm:g} mm, "
+                f"seed(s) {seed}..{seed + trials - 1}")
+    return Comparison(robot=robot, methods=methods, trials=out, data=what)

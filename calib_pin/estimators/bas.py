@@ -1,0 +1,112 @@
+"""Beetle antennae search (BAS, paper M2, eq. 9-13), the loop QIBAS builds on.
+
+The beetle sits at z (search coordinates, see :mod:`.search_space`) and, each iteration:
+
+1. draws a random unit direction b (eq. 10) and smells the cost at its antennae
+   z_r = z + m b and z_l = z - m b (eq. 11);
+2. BAS step (eq. 9/13, written for minimising): z_bas = z - delta b sign(f(z_r) - f(z_l));
+3. QIBAS only (:mod:`.qibas`): adds the quadratically interpolated point of eq. 16;
+4. moves to the best of the candidates (the antennae, already evaluated, the
+   interpolated point and, only if none of those improved, the BAS point) when it
+   improves the cost. This is the *greedy* variant: z is always the best point so far,
+   so the history never rises. (The original BAS moves by eq. 13 whatever the cost and
+   only remembers the best point; with a decaying step in 20 dimensions that wanders
+   and converged worse in our trials.)
+5. decays step and antenna length (eq. 12): delta <- mu delta + delta0,
+   m <- tau m + m0.
+
+Antennae are at +-m around z (not at the BAS step's end point). The cost is eq. 6,
+the mean squared residual. It stops after ``max_iter`` iterations, or when the RMSE
+improved by less than ``rtol`` (relative) over the last ``window`` iterations
+(``window`` 0: twice the search dimension).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import CalibrationProblem
+from .base import EstimateResult, Tracker
+from .search_space import SearchSpace
+
+#: Proposes an extra candidate from (z, m, b, f, f_l, f_r, z_bas); None for plain BAS.
+Interpolation = Callable[[np.ndarray, float, np.ndarray, float, float, float, np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class BAS:
+    """Greedy beetle antennae search.
+
+    Its step decays more slowly than QIBAS's (mu = tau = 0.98 against 0.95, with a
+    larger budget): without the interpolation the beetle needs more iterations, and
+    with 0.95 its step died before it reached the optimum (test RMSE 0.54 mm instead of
+    0.07 mm on a seeded session).
+
+    Attributes:
+        max_iter: Iteration budget.
+        step: Initial step delta_1 and antenna length m_1, as a fraction of the start
+            residual's norm (in whitened coordinates, the distance to the optimum is
+            at most that norm).
+        mu, tau: Decay factors of step and antenna length (eq. 12).
+        floor: delta0 and m0 of eq. 12, as a fraction of the initial step.
+        rtol, window: Stopping rule (see module docstring).
+    """
+
+    max_iter: int = 1500
+    step: float = 0.5
+    mu: float = 0.98
+    tau: float = 0.98
+    floor: float = 1e-4
+    rtol: float = 1e-4
+    window: int = 0
+
+    def __call__(
+        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+    ) -> EstimateResult:
+        return self._search(problem, x0, seed, None)
+
+    def _search(
+        self, problem: CalibrationProblem, x0: np.ndarray, seed: int, interpolate: Interpolation | None
+    ) -> EstimateResult:
+        rng = np.random.default_rng(seed)
+        track = Tracker(problem)
+        space = SearchSpace.whitened(problem, np.asarray(x0, dtype=float))
+        track.nfev += 1  # the Jacobian that fixes the search space
+
+        def cost(z: np.ndarray) -> float:
+            return track.cost(space.to_x(z))
+
+        z = np.zeros(space.dim)
+        f = cost(z)
+        delta = m = self.step * np.sqrt(f * problem.n_poses)
+        delta0, m0 = self.floor * delta, self.floor * m
+        window = self.window or 2 * space.dim
+        track.record(np.sqrt(f))
+        iterations = 0
+        message = f"iteration budget {self.max_iter} used"
+        for iterations in range(1, self.max_iter + 1):
+            b = rng.standard_normal(space.dim)
+            b /= np.linalg.norm(b)
+            z_r, z_l = z + m * b, z - m * b
+            f_r, f_l = cost(z_r), cost(z_l)
+            z_bas = z - delta * b * np.sign(f_r - f_l)
+            candidates = [(f_r, z_r), (f_l, z_l)]
+            if interpolate is not None:
+                z_qi = interpolate(z, m, b, f, f_l, f_r, z_bas)
+                candidates.append((cost(z_qi), z_qi))
+            if min(c[0] for c in candidates) >= f:
+                candidates.append((cost(z_bas), z_bas))
+            f_new, z_new = min(candidates, key=lambda c: c[0])
+            if f_new < f:
+                f, z = f_new, z_new
+            track.record(np.sqrt(f))
+            delta = self.mu * delta + delta0
+            m = self.tau * m + m0
+            h = track.history
+            if iterations >= window and h[-window - 1] - h[-1] <= self.rtol * h[-1]:
+                message = f"RMSE improved by less than {self.rtol:g} (relative) in {window} iterations"
+                break
+        return track.result(space.to_x(z), iterations, message)

@@ -1,0 +1,74 @@
+"""The comparison runs methods on one split, aggregates trials and writes Table I."""
+
+import csv
+
+import numpy as np
+import pytest
+
+import calib_pin as cp
+from calib_pin.figures import convergence_figure, residual_figure
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    """Two simulated trials of 40 poses, two fast methods (one iterative, rbf)."""
+    return cp.compare("irb120", methods=["lm", "rbf"], trials=2, simulate_noise="gauss", poses=40, seed=3)
+
+
+def test_trials_share_split_and_know_the_truth(tiny):
+    """Each trial scores every method on the same held-out rows and against the truth."""
+    assert [t.seed for t in tiny.trials] == [3, 4]
+    for trial in tiny.trials:
+        n_test = len(trial.before_residual_mm)
+        assert n_test == 8
+        assert all(len(r.test_residual_mm) == n_test for r in trial.runs.values())
+        assert trial.before.rmse_mm > 1.0 and trial.runs["lm"].test.rmse_mm < 0.2
+        assert trial.runs["lm"].fresh_rmse_mm < 0.2 and trial.before_fresh_rmse_mm > 1.0
+
+
+def test_rows_aggregate_mean_and_sd(tiny):
+    """Rows are Before then the methods with their paper label; values are mean and sd."""
+    rows = tiny.rows()
+    assert [r["item"] for r in rows] == ["Before", "M6", "M5"]
+    values = [t.runs["lm"].test.rmse_mm for t in tiny.trials]
+    assert rows[1]["rmse_mm"] == pytest.approx((np.mean(values), np.std(values)))
+    assert rows[0]["time_s"] is None and rows[1]["time_s"][0] > 0
+
+
+def test_table_writers(tiny, tmp_path):
+    """table1.csv has mean/sd columns and the paper's numbers; table1.md shows mean ± sd."""
+    tiny.write_csv(tmp_path / "table1.csv")
+    with (tmp_path / "table1.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert [r["item"] for r in rows] == ["Before", "M6", "M5"]
+    assert float(rows[1]["rmse_mm_mean"]) == pytest.approx(tiny.rows()[1]["rmse_mm"][0], rel=1e-5)
+    assert rows[1]["paper_rmse_mm"] == "0.5" and rows[0]["trials"] == "2"
+    assert rows[0]["time_s_mean"] == ""
+    md = tiny.write_markdown(tmp_path / "table1.md", "python scripts/compare.py irb120").read_text()
+    assert "| M6 | lm |" in md and "±" in md and "| 2.09 | 2.00 | 3.36 |" in md
+    assert "Command: `python scripts/compare.py irb120`" in md
+    text = tiny.format_table()
+    assert "Before" in text and "±" in text
+
+
+def test_figures_are_png(tiny, tmp_path):
+    """Fig. 2 and Fig. 3 are written as PNG files."""
+    for draw, name in ((residual_figure, "fig2.png"), (convergence_figure, "fig3.png")):
+        path = draw(tiny, tmp_path / name)
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
+
+
+def test_shipped_set_uses_its_truth_file():
+    """On the shipped set, the truth file next to it gives the fresh-pose column."""
+    result = cp.compare("irb120", methods=["lm"])
+    trial = result.trials[0]
+    assert trial.before_fresh_rmse_mm > 1.0 and trial.runs["lm"].fresh_rmse_mm < 0.06
+
+
+def test_bad_settings():
+    with pytest.raises(cp.EstimatorError, match="unknown method 'nope'"):
+        cp.compare("irb120", methods=["nope"])
+    with pytest.raises(cp.CalibPinError, match="trials must be at least 1"):
+        cp.compare("irb120", methods=["lm"], trials=0)
+    with pytest.raises(cp.CalibPinError, match="unknown noise kind 'pink'"):
+        cp.compare("irb120", methods=["lm"], simulate_noise="pink")
