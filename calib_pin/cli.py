@@ -24,7 +24,7 @@ from .parameters import PlacementModel, parameter_model
 from .simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, NOISE_KINDS, simulate
 
 
-class _Parser(argparse.ArgumentParser):
+class OneLineParser(argparse.ArgumentParser):
     """ArgumentParser whose errors are one line and exit 2."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
@@ -104,7 +104,7 @@ def _table(metrics: dict[str, dict[str, Metrics]]) -> str:
 
 
 def calibrate_parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = OneLineParser(
         prog="calibrate.py",
         description="Calibrate a robot's kinematics from drawstring readings and write the "
         "corrected URDF and a JSON report.",
@@ -175,7 +175,7 @@ def _calibrate(args: argparse.Namespace) -> int:
 
 
 def simulate_parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = OneLineParser(
         prog="simulate.py",
         description="Simulate a drawstring measurement set with known true deviations; "
         "writes FILE.csv and FILE.truth.json.",
@@ -254,7 +254,7 @@ def _at_least_one(text: str) -> int:
 
 
 def compare_parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = OneLineParser(
         prog="compare.py",
         description="Run the estimators side by side on one data set and split (the paper's "
         "Table I, Fig. 2, Fig. 3); writes table1.csv, table1.md and two PNG figures.",

@@ -228,8 +228,8 @@ class Comparison:
 
 
 def _fixed(cells: list[str]) -> str:
-    widths = [7, 10, 16, 16, 16, 16, 11, 13, 16]
-    return "".join(f"{c:<{w}s}" if i < 2 else f"{c:>{w}s}" for i, (c, w) in enumerate(zip(cells, widths)))
+    widths = [6, 10, 15, 15, 15, 15, 10, 16, 15]
+    return " ".join(f"{c:<{w}s}" if i < 2 else f"{c:>{w}s}" for i, (c, w) in enumerate(zip(cells, widths)))
 
 
 def _fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Callable:

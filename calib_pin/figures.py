@@ -54,7 +54,7 @@ def convergence_figure(comparison: Comparison, path: str | Path) -> Path:
     trial = comparison.trials[0]
     fig = Figure(figsize=(16, 5), layout="constrained")
     by_iter, by_eval, times = fig.subplots(1, 3)
-    styles = ["-", "--", "-.", ":"]
+    styles = ["-", "--", "-.", ":", (0, (6, 2, 1, 2, 1, 2))]
     for i, m in enumerate(comparison.methods):
         run = trial.runs[m]
         if run.iterations <= 1:  # not iterative (rbf)

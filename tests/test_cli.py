@@ -57,12 +57,20 @@ def _run(*args, script="calibrate.py"):
         (["irb120", "--length-offset-mm", "nan"], "expected a finite number, got 'nan'"),
     ],
 )
-def test_bad_input_one_line_exit_2(args, message):
-    """Bad input: exit 2, one line on stderr, no traceback."""
-    proc = _run(*args)
-    assert proc.returncode == 2
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and message in lines[0] and "Traceback" not in proc.stderr
+def test_bad_input_one_line_exit_2(args, message, tmp_path, capsys):
+    """Bad input: exit 2, one line on stderr, nothing written."""
+    assert _exit_code(calibrate_main, [*args, "--out", str(tmp_path / "o")]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+def _exit_code(main, argv) -> int:
+    """A command's exit status, whether it returns it or argparse exits."""
+    try:
+        return main(argv)
+    except SystemExit as stop:
+        return stop.code
 
 
 @pytest.mark.parametrize(
@@ -77,10 +85,7 @@ def test_bad_input_one_line_exit_2(args, message):
 )
 def test_simulate_bad_input(tmp_path, capsys, args, message):
     """simulate.py: bad input gives exit 2 and one line on stderr."""
-    try:
-        code = simulate_main([*args, "--out", str(tmp_path / "s.csv")])
-    except SystemExit as stop:  # argparse's own errors
-        code = stop.code
+    code = _exit_code(simulate_main, [*args, "--out", str(tmp_path / "s.csv")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and message in err[0]
     assert not (tmp_path / "s.csv").exists()
@@ -129,8 +134,16 @@ def test_compare_writes_tables_and_figures(tmp_path, capsys):
         (["irb120", "--data", "x.csv", "--simulate", "gauss"], "either --data or --simulate"),
     ],
 )
-def test_compare_bad_input_one_line_exit_2(args, message):
-    proc = _run(*args, script="compare.py")
-    assert proc.returncode == 2
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and message in lines[0] and "Traceback" not in proc.stderr
+def test_compare_bad_input_one_line_exit_2(args, message, tmp_path, capsys):
+    assert _exit_code(compare_main, [*args, "--out", str(tmp_path / "o")]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("script", ["calibrate.py", "compare.py"])
+def test_scripts_exit_2_without_traceback(script):
+    """The scripts themselves: a user's mistake is one line on stderr and exit 2."""
+    proc = _run("irb120", "--data", "missing.csv", script=script)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert proc.stderr.strip().splitlines() == ["error: missing.csv: no such file"]

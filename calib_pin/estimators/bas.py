@@ -30,7 +30,6 @@ import numpy as np
 
 from ..errors import CalibrationProblem
 from .base import EstimateResult, Tracker
-from .search_space import SearchSpace
 
 #: Proposes an extra candidate from (z, m, b, f, f_l, f_r, z_bas); None for plain BAS.
 Interpolation = Callable[[np.ndarray, float, np.ndarray, float, float, float, np.ndarray], np.ndarray]
@@ -73,8 +72,7 @@ class BAS:
     ) -> EstimateResult:
         rng = np.random.default_rng(seed)
         track = Tracker(problem)
-        space = SearchSpace.whitened(problem, np.asarray(x0, dtype=float))
-        track.nfev += 1  # the Jacobian that fixes the search space
+        space = track.whitened(x0)
 
         def cost(z: np.ndarray) -> float:
             return track.cost(space.to_x(z))

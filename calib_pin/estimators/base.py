@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import CableModel, CalibrationProblem
+from .search_space import SearchSpace
 
 
 @dataclass
@@ -95,6 +96,12 @@ class Tracker:
         self.nfev = 0.0
         self.history: list[float] = []
         self.evaluations: list[float] = []
+
+    def whitened(self, x0: np.ndarray) -> SearchSpace:
+        """The whitened search space at x0 (see :mod:`.search_space`); its Jacobian
+        counts as one evaluation."""
+        self.nfev += 1
+        return SearchSpace.whitened(self.problem, np.asarray(x0, dtype=float))
 
     def cost(self, x: np.ndarray) -> float:
         """Mean squared residual (eq. 6) [m^2], counted as one evaluation."""

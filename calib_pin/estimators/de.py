@@ -9,7 +9,6 @@ from scipy.optimize import differential_evolution
 
 from ..errors import CalibrationProblem
 from .base import EstimateResult, Tracker
-from .search_space import SearchSpace
 
 
 @dataclass(frozen=True)
@@ -37,8 +36,7 @@ class DE:
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
         track = Tracker(problem)
-        space = SearchSpace.whitened(problem, np.asarray(x0, dtype=float))
-        track.nfev += 1  # the Jacobian that fixes the search space
+        space = track.whitened(x0)
 
         def cost(z: np.ndarray) -> float:
             return track.cost(space.to_x(z))

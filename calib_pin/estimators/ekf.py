@@ -11,6 +11,18 @@ from ..errors import CalibrationProblem
 from .base import EstimateResult, Tracker, rmse
 
 
+def filter_moments(
+    problem: CalibrationProblem, prior: float, process: float, noise: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """P0, Q and R of the Kalman filters (EKF, UKF).
+
+    P0 = diag((prior * scale)^2) with the parameter model's typical deviation sizes,
+    Q = diag((process * scale)^2) per pose, R = [[noise^2]] ([m^2]).
+    """
+    scale = problem.model.params.scale
+    return np.diag((prior * scale) ** 2), np.diag((process * scale) ** 2), np.array([[noise**2]])
+
+
 @dataclass(frozen=True)
 class EKF:
     """Recursive estimate of the deviations, one measurement update per pose.
@@ -36,12 +48,9 @@ class EKF:
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
         n = problem.n_params
-        scale = problem.model.params.scale
         kf = ExtendedKalmanFilter(dim_x=n, dim_z=1)
         kf.x = np.asarray(x0, dtype=float).reshape(n, 1).copy()
-        kf.P = np.diag((self.prior * scale) ** 2)
-        kf.Q = np.diag((self.process * scale) ** 2)
-        kf.R = np.array([[noise**2]])
+        kf.P, kf.Q, kf.R = filter_moments(problem, self.prior, self.process, noise)
         track = Tracker(problem)
         track.record(rmse(problem.residual(kf.x[:, 0])))
         cable = problem.model

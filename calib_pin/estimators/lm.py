@@ -9,7 +9,6 @@ from scipy.optimize import least_squares
 
 from ..errors import CalibrationProblem
 from .base import EstimateResult, Tracker, rmse
-from .search_space import SearchSpace
 
 
 @dataclass(frozen=True)
@@ -34,8 +33,7 @@ class LevenbergMarquardt:
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
         track = Tracker(problem)
-        space = SearchSpace.whitened(problem, np.asarray(x0, dtype=float))
-        track.nfev += 1  # the Jacobian that fixes the search space
+        space = track.whitened(x0)
         best = [np.inf]
 
         def residual(z: np.ndarray) -> np.ndarray:

@@ -8,7 +8,6 @@ import numpy as np
 
 from ..errors import CalibrationProblem
 from .base import EstimateResult, Tracker
-from .search_space import SearchSpace
 
 
 @dataclass(frozen=True)
@@ -43,8 +42,7 @@ class PSO:
     ) -> EstimateResult:
         rng = np.random.default_rng(seed)
         track = Tracker(problem)
-        space = SearchSpace.whitened(problem, np.asarray(x0, dtype=float))
-        track.nfev += 1  # the Jacobian that fixes the search space
+        space = track.whitened(x0)
 
         def costs(z: np.ndarray) -> np.ndarray:
             return np.array([track.cost(space.to_x(p)) for p in z])

@@ -9,6 +9,7 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from ..errors import CalibrationProblem
 from .base import EstimateResult, Tracker, rmse
+from .ekf import filter_moments
 
 
 def _symmetric_sqrt(p: np.ndarray) -> np.ndarray:
@@ -47,7 +48,6 @@ class UKF:
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
         n = problem.n_params
-        scale = problem.model.params.scale
         cable = problem.model
         points = MerweScaledSigmaPoints(n, alpha=self.alpha, beta=self.beta, kappa=self.kappa,
                                         sqrt_method=_symmetric_sqrt)
@@ -56,9 +56,7 @@ class UKF:
             fx=lambda x, dt: x, hx=lambda x, q: cable.predict(x, q),
         )
         kf.x = np.asarray(x0, dtype=float).copy()
-        kf.P = np.diag((self.prior * scale) ** 2)
-        kf.Q = np.diag((self.process * scale) ** 2)
-        kf.R = np.array([[noise**2]])
+        kf.P, kf.Q, kf.R = filter_moments(problem, self.prior, self.process, noise)
         track = Tracker(problem)
         track.record(rmse(problem.residual(kf.x)))
         for _ in range(self.passes):
