@@ -4,12 +4,14 @@ Figures of a comparison (matplotlib) are in :mod:`calib_pin.figures`, imported o
 """
 
 from .calibration import CalibrationResult, CalibrationSetup, calibrate, prepare
+from .collect import Session, collect, open_session, read_pose_list
 from .comparison import PAPER_TABLE1, Comparison, compare
+from .drawstring import SensorFault, SensorProfile, StableReading, open_reader, read_stable
 from .errors import CableModel, CalibrationProblem, Drawstring
 from .estimators import ESTIMATORS, PAPER_LABELS, EstimateResult, get_estimator, run_estimator
 from .exceptions import CalibPinError, DataError, EstimatorError, RobotError
 from .export import write_calibrated_urdf
-from .measurements import MeasurementSet, read_measurements, write_measurements
+from .measurements import MeasurementSet, read_measurements, write_measurements, write_poses
 from .metrics import Metrics, split_rows
 from .model import Chain, Kinematics, load_chain
 from .parameters import DHModel, ParameterModel, PlacementModel, parameter_model
@@ -43,20 +45,30 @@ __all__ = [
     "PlacementModel",
     "RobotDescription",
     "RobotError",
+    "SensorFault",
+    "SensorProfile",
+    "Session",
+    "StableReading",
     "Truth",
     "__version__",
     "calibrate",
+    "collect",
     "compare",
     "get_estimator",
     "load_chain",
+    "open_reader",
+    "open_session",
     "parameter_model",
     "prepare",
     "random_poses",
     "read_measurements",
+    "read_pose_list",
+    "read_stable",
     "resolve_robot",
     "run_estimator",
     "simulate",
     "split_rows",
     "write_calibrated_urdf",
     "write_measurements",
+    "write_poses",
 ]

@@ -310,11 +310,14 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``calib-pin calibrate ...``, ``calib-pin simulate ...`` or ``calib-pin compare ...``."""
+    """``calib-pin calibrate|simulate|compare|collect|make-poses ...``."""
+    from .collect_cli import collect_main, make_poses_main
+
     argv = list(sys.argv[1:] if argv is None else argv)
-    commands = {"calibrate": calibrate_main, "simulate": simulate_main, "compare": compare_main}
+    commands = {"calibrate": calibrate_main, "simulate": simulate_main, "compare": compare_main,
+                "collect": collect_main, "make-poses": make_poses_main}
     if not argv or argv[0] not in commands:
-        print("usage: calib-pin {calibrate,simulate,compare} ... (see calib-pin calibrate --help)",
+        print(f"usage: calib-pin {{{','.join(commands)}}} ... (see calib-pin calibrate --help)",
               file=sys.stderr)
         return 2
     return commands[argv[0]](argv[1:])

@@ -53,6 +53,7 @@ class MeasurementSet:
         lines: 1-based file line of each row, shape (n_rows,).
         source: File the set was read from ("" if built in memory).
         notes: Other metadata, key to text.
+        pose_ids: The ``pose`` column's labels, shape (n_rows,), or None without one.
     """
 
     q: np.ndarray
@@ -66,9 +67,10 @@ class MeasurementSet:
     lines: np.ndarray | None = None
     source: str = ""
     notes: dict[str, str] = field(default_factory=dict)
+    pose_ids: np.ndarray | None = None
 
     def __len__(self) -> int:
-        return len(self.lengths)
+        return len(self.q)
 
 
 def _number(text: str, path: Path, line: int, name: str) -> float:
@@ -100,13 +102,17 @@ def _metadata_value(key: str, text: str, path: Path, line: int):
     return None
 
 
-def read_measurements(path: str | Path, chain: Chain | None = None) -> MeasurementSet:
-    """Read and check a measurement set.
+def read_measurements(
+    path: str | Path, chain: Chain | None = None, *, readings: bool = True, allow_empty: bool = False
+) -> MeasurementSet:
+    """Read and check a measurement set (or, with ``readings=False``, a pose list).
 
     Args:
         path: CSV file.
         chain: Robot chain the set is for. When given, the joint columns must match its
             joints and every angle must lie within its URDF limits.
+        readings: Require the length column. Without it (a pose list) ``lengths`` is NaN.
+        allow_empty: Accept a header with no data rows (a session not yet started).
 
     Raises:
         DataError: the file cannot be read, or a row, column or metadata value is wrong.
@@ -177,14 +183,15 @@ def read_measurements(path: str | Path, chain: Chain | None = None) -> Measureme
     for i in sorted(expected):
         if i not in joint_cols:
             raise DataError(path, f"missing column q{i}_deg (or q{i}_rad)", header_line)
-    if length_col is None:
+    if length_col is None and readings:
         raise DataError(path, "missing column length_mm (or length_m)", header_line)
-    if not rows:
+    if not rows and not allow_empty:
         raise DataError(path, "has a header but no data rows")
 
     q = np.empty((len(rows), n_joints))
-    lengths = np.empty(len(rows))
-    length_scale = 1e-3 if length_col[1] == "mm" else 1.0
+    lengths = np.full(len(rows), np.nan)
+    pose_ids = np.empty(len(rows), dtype=int)
+    length_scale = 1e-3 if length_col and length_col[1] == "mm" else 1.0
     for r, (number, fields) in enumerate(rows):
         if len(fields) != len(header):
             raise DataError(
@@ -206,17 +213,24 @@ def read_measurements(path: str | Path, chain: Chain | None = None) -> Measureme
                         number,
                         name,
                     )
-        length = _number(fields[length_col[0]], path, number, header[length_col[0]])
-        if length < 0:
-            raise DataError(path, f"{length:g} is negative", number, header[length_col[0]])
-        lengths[r] = length * length_scale
+        if length_col is not None:
+            length = _number(fields[length_col[0]], path, number, header[length_col[0]])
+            if length < 0:
+                raise DataError(path, f"{length:g} is negative", number, header[length_col[0]])
+            lengths[r] = length * length_scale
         if pose_col is not None:
             try:
-                int(fields[pose_col])
+                pose_ids[r] = int(fields[pose_col])
             except ValueError:
                 raise DataError(
                     path, f"'{fields[pose_col]}' is not a whole number", number, "pose"
                 ) from None
+    if pose_col is not None and len(set(pose_ids.tolist())) != len(pose_ids):
+        seen: set[int] = set()
+        for (number, _), pid in zip(rows, pose_ids, strict=True):
+            if pid in seen:
+                raise DataError(path, f"pose {pid} appears twice", number, "pose")
+            seen.add(int(pid))
     if chain is not None and meta.get("robot") not in (None, chain.name):
         raise DataError(
             path, f"is for robot '{meta['robot']}', not '{chain.name}'", None, "robot"
@@ -233,6 +247,7 @@ def read_measurements(path: str | Path, chain: Chain | None = None) -> Measureme
         lines=np.array([number for number, _ in rows]),
         source=str(path),
         notes=notes,
+        pose_ids=pose_ids if pose_col is not None else None,
     )
 
 
@@ -262,4 +277,22 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
     lines.append(",".join([f"q{i}_deg" for i in range(1, n + 1)] + ["length_mm"]))
     for q, length in zip(np.rad2deg(data.q), data.lengths, strict=True):
         lines.append(",".join([f"{v:.9f}" for v in q] + [f"{length * 1e3:.6f}"]))
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def write_poses(
+    path: str | Path, q: np.ndarray, *, robot: str | None = None, end_frame: str | None = None,
+    notes: dict[str, str] | None = None,
+) -> None:
+    """Write a pose list: ``pose,q1_deg,...`` with poses numbered from 1.
+
+    Args:
+        q: Joint angles, shape (n_poses, n_joints), [rad]; written in degrees with 9
+            decimals.
+    """
+    lines = [f"# {k}: {v}" for k, v in (("robot", robot), ("end_frame", end_frame)) if v]
+    lines += [f"# {k}: {v}" for k, v in (notes or {}).items()]
+    lines.append(",".join(["pose"] + [f"q{i}_deg" for i in range(1, q.shape[1] + 1)]))
+    for k, row in enumerate(np.rad2deg(q), start=1):
+        lines.append(",".join([str(k)] + [f"{v:.9f}" for v in row]))
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
