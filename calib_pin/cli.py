@@ -81,6 +81,8 @@ def _report_errors(action: Callable[[], int], target: str) -> int:
         return action()
     except CalibPinError as e:
         print(f"error: {e}", file=sys.stderr)
+    except BrokenPipeError:
+        print("error: standard output was closed (rows already written are kept)", file=sys.stderr)
     except OSError as e:
         print(f"error: cannot write {target}: {e.strerror or e}", file=sys.stderr)
     return 2
@@ -193,6 +195,7 @@ def simulate_parser() -> argparse.ArgumentParser:
         help="reading error of the nominal model the true deviations cause, mm (default 2)",
     )
     p.add_argument("--offset-mm", type=_finite, default=0.0, help="sensor zero offset, mm (default 0)")
+    p.add_argument("--poses-file", help="simulate at the poses of this pose list (make_poses.py) instead of random ones")
     p.add_argument("--out", required=True, help="output CSV")
     return p
 
@@ -214,6 +217,11 @@ def _simulate(args: argparse.Namespace) -> int:
         params, kind = parameter_model(chain), "DH"
     else:
         params, kind = PlacementModel(chain), "joint-placement"
+    poses = None
+    if args.poses_file:
+        from .collect import read_pose_list
+
+        poses = read_pose_list(args.poses_file, chain).q
     data, truth = simulate(
         chain, params, args.poses, args.seed,
         noise_mm=args.noise_mm,
@@ -222,11 +230,12 @@ def _simulate(args: argparse.Namespace) -> int:
         tool_mm=args.tool_mm or DEFAULT_TOOL_MM,
         offset_mm=args.offset_mm,
         noise_kind=args.noise_kind,
+        poses=poses,
     )
     out.parent.mkdir(parents=True, exist_ok=True)
     write_measurements(out, data)
     truth.to_json(truth_path)
-    print(f"{chain.name}: {args.poses} poses, {kind} deviations (seed {args.seed}), "
+    print(f"{chain.name}: {len(data)} poses, {kind} deviations (seed {args.seed}), "
           f"noise {args.noise_mm:g} mm ({args.noise_kind})")
     print(f"wrote {out}")
     print(f"wrote {truth_path}")

@@ -155,6 +155,23 @@ def random_poses(
     return rng.uniform(lo, hi, size=(n, chain.n_joints))
 
 
+def _poses_above_base(chain: Chain, cable: CableModel, n_poses: int, rng: np.random.Generator) -> np.ndarray:
+    """Random poses within the limits with the hook point above the mounting plane."""
+    poses = np.empty((0, chain.n_joints))
+    for _ in range(50):
+        batch = random_poses(chain, 2 * n_poses, rng)
+        above = cable.hook_positions(None, batch)[:, 2] > 0.0
+        poses = np.vstack([poses, batch[above]])
+        if len(poses) >= n_poses:
+            break
+    else:
+        raise CalibPinError(
+            f"robot '{chain.name}': only {len(poses)} of {100 * n_poses} random poses put the "
+            "hook point above the base's mounting plane (z > 0); check the tool point"
+        )
+    return poses[:n_poses]
+
+
 def simulate(
     chain: Chain,
     params: ParameterModel,
@@ -166,6 +183,7 @@ def simulate(
     tool_mm: tuple[float, float, float] = DEFAULT_TOOL_MM,
     offset_mm: float = 0.0,
     noise_kind: str = "gauss",
+    poses: np.ndarray | None = None,
 ) -> tuple[MeasurementSet, Truth]:
     """Simulate a drawstring session.
 
@@ -185,25 +203,19 @@ def simulate(
         anchor_mm, tool_mm: Sensor point (base frame) and hook point (end frame), [mm].
         offset_mm: Sensor zero offset, [mm].
         noise_kind: ``gauss``, ``student`` or ``outliers`` (see :func:`reading_noise`).
+        poses: Joint angles to use, shape (n_poses, n_joints) [rad], instead of random
+            ones (``n_poses`` is then ignored).
     """
     if noise_kind not in NOISE_KINDS:
         raise CalibPinError(f"unknown noise kind '{noise_kind}' (valid: {', '.join(NOISE_KINDS)})")
     rng = np.random.default_rng(seed)
     sensor = Drawstring(np.array(anchor_mm) * 1e-3, np.array(tool_mm) * 1e-3, offset_mm * 1e-3)
     cable = CableModel(chain, params, sensor)
-    poses = np.empty((0, chain.n_joints))
-    for _ in range(50):
-        batch = random_poses(chain, 2 * n_poses, rng)
-        above = cable.hook_positions(None, batch)[:, 2] > 0.0
-        poses = np.vstack([poses, batch[above]])
-        if len(poses) >= n_poses:
-            break
+    if poses is None:
+        poses = _poses_above_base(chain, cable, n_poses, rng)
     else:
-        raise CalibPinError(
-            f"robot '{chain.name}': only {len(poses)} of {100 * n_poses} random poses put the "
-            "hook point above the base's mounting plane (z > 0); check the tool point"
-        )
-    poses = poses[:n_poses]
+        poses = np.atleast_2d(np.asarray(poses, dtype=float))
+        n_poses = len(poses)
     x = rng.normal(size=len(params.names)) * params.scale
     nominal = cable.predict(np.zeros_like(x), poses)
     if nominal_rmse_mm > 0:

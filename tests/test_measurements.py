@@ -97,3 +97,16 @@ def test_missing_sensor_geometry(tmp_path):
     path = _write(tmp_path, "# tool_mm: 0,0,50\n" + HEADER + "\n" + "\n".join([ROW] * 40) + "\n")
     with pytest.raises(cp.DataError, match=r"anchor_mm: no sensor point"):
         cp.calibrate("irb120", path)
+
+
+def test_pose_list_and_duplicate_pose(tmp_path, chain):
+    """A pose list has no length column; a pose number may appear only once."""
+    path = tmp_path / "p.csv"
+    cp.write_poses(path, np.zeros((3, 6)), robot="irb120")
+    poses = cp.read_measurements(path, chain, readings=False)
+    assert poses.pose_ids.tolist() == [1, 2, 3] and np.all(np.isnan(poses.lengths)) and len(poses) == 3
+    with pytest.raises(cp.DataError, match="missing column length_mm"):
+        cp.read_measurements(path, chain)
+    path.write_text(path.read_text().replace("\n3,", "\n2,"))
+    with pytest.raises(cp.DataError, match=r"p.csv:5: pose: pose 2 appears twice"):
+        cp.read_measurements(path, chain, readings=False)
