@@ -89,6 +89,7 @@ class FakeIndicator:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.master, self._slave_fd = os.openpty()
+        self._fds_open = True
         tty.setraw(self._slave_fd)
         self.path = os.ttyname(self._slave_fd)
 
@@ -124,7 +125,12 @@ class FakeIndicator:
         self._stop.set()
         if self._thread:
             self._thread.join(timeout=2)
-        for fd in (self.master, self._slave_fd):
+        self._close()
+
+    def _close(self) -> None:
+        with self._lock:
+            fds, self._fds_open = (self.master, self._slave_fd) if self._fds_open else (), False
+        for fd in fds:  # once only: a descriptor number closed twice may be someone else's
             try:
                 os.close(fd)
             except OSError:
@@ -148,11 +154,7 @@ class FakeIndicator:
 
     def _disconnect(self) -> None:
         self._stop.set()
-        for fd in (self.master, self._slave_fd):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
+        self._close()
 
     def _registers(self) -> bytes:
         counts = int(round((self.current_mm() - self.zero_mm) / self.scale_mm))

@@ -40,6 +40,19 @@ def _collect(fake, poses_path, out, *extra):
                          *MODBUS, *FAST, *extra])
 
 
+def _start_collect_script(fake, poses_path, out, rows):
+    """Start scripts/collect.py as a process and return (command, process) once the
+    output holds ``rows`` rows."""
+    command = [sys.executable, str(ROOT / "scripts" / "collect.py"), "irb120", "--poses", str(poses_path),
+               "--port", fake.path, "--out", str(out), *MODBUS,
+               "--auto", "0.05", "--interval", "0", "--samples", "3", "--timeout", "0.2"]
+    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (out.exists() and len(_rows(out)[0]) >= rows):
+        time.sleep(0.02)
+    return command, proc
+
+
 def _rows(out):
     data = cp.read_measurements(out, CHAIN, allow_empty=True)
     return data.pose_ids.tolist(), data.lengths * 1e3
@@ -84,15 +97,7 @@ def test_kill_and_resume_loses_and_duplicates_nothing(poses, tmp_path):
     path, values = poses
     out = tmp_path / "s.csv"
     with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
-        command = [sys.executable, str(ROOT / "scripts" / "collect.py"), "irb120", "--poses", str(path),
-                   "--port", fake.path, "--out", str(out), *MODBUS,
-                   "--auto", "0.05", "--interval", "0", "--samples", "3", "--timeout", "0.2"]
-        proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            if out.exists() and len(_rows(out)[0]) >= 6:
-                break
-            time.sleep(0.02)
+        command, proc = _start_collect_script(fake, path, out, rows=6)
         proc.send_signal(signal.SIGKILL)
         proc.wait()
         ids_after_kill = _rows(out)[0]
@@ -109,13 +114,7 @@ def test_ctrl_c_keeps_rows_and_says_how_to_resume(poses, tmp_path):
     path, values = poses
     out = tmp_path / "s.csv"
     with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
-        command = [sys.executable, str(ROOT / "scripts" / "collect.py"), "irb120", "--poses", str(path),
-                   "--port", fake.path, "--out", str(out), *MODBUS,
-                   "--auto", "0.05", "--interval", "0", "--samples", "3", "--timeout", "0.2"]
-        proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not (out.exists() and len(_rows(out)[0]) >= 3):
-            time.sleep(0.02)
+        _, proc = _start_collect_script(fake, path, out, rows=3)
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=30)
     assert proc.returncode == 130 and "Traceback" not in err
