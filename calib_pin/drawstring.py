@@ -28,8 +28,8 @@ import serial
 
 from .exceptions import CalibPinError
 
-#: Default ASCII pattern: a signed decimal number followed by "mm".
-DEFAULT_PATTERN = r"\s*([-+]?\d+(?:\.\d*)?)\s*mm\s*"
+#: Default ASCII pattern: a signed decimal number, optionally followed by "mm".
+DEFAULT_PATTERN = r"\s*([-+]?\d+(?:\.\d*)?)\s*(?:mm)?\s*"
 
 
 class SensorFault(CalibPinError):

@@ -155,6 +155,27 @@ def test_sensor_fault_stops_without_a_bad_row(poses, tmp_path, capsys):
     assert _rows(out)[0] == list(range(1, N + 1))
 
 
+def test_unplugged_adapter_mid_session(poses, tmp_path, capsys, monkeypatch):
+    """The adapter vanishes after 4 poses: exit 3, a clear message, the 4 rows intact."""
+    import calib_pin.collect_cli as cli
+
+    path, values = poses
+    out = tmp_path / "s.csv"
+    with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
+        def unplug_after_four(text):
+            if "(4 of" in text:
+                fake.inject("disconnect")
+
+        original = cli.collect
+        monkeypatch.setattr(cli, "collect", lambda s, r, w: original(s, r, w, report=unplug_after_four))
+        assert _collect(fake, path, out) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "adapter unplugged" in err[0] and "4 of 20 poses are saved" in err[0]
+    ids, lengths = _rows(out)
+    assert ids == [1, 2, 3, 4]
+    np.testing.assert_allclose(lengths, values[:4], atol=0.0006)
+
+
 def test_resume_refuses_another_pose_list(poses, tmp_path, chain):
     path, values = poses
     out = tmp_path / "s.csv"
