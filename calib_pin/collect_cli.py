@@ -32,7 +32,7 @@ _PROFILE_FLAGS = {
     "protocol": "protocol", "baud": "baud", "parity": "parity", "stopbits": "stopbits",
     "bytesize": "bytesize", "timeout": "timeout_s", "slave": "slave", "function": "function",
     "register": "register", "words": "words", "signed": "signed", "word_order": "word_order",
-    "pattern": "pattern", "scale_mm": "scale_mm", "zero_mm": "zero_mm", "min_mm": "min_mm",
+    "pattern": "pattern", "scale_mm": "scale_mm", "ascii_scale_mm": "ascii_scale_mm", "zero_mm": "zero_mm", "min_mm": "min_mm",
     "max_mm": "max_mm", "samples": "samples", "tolerance_mm": "tolerance_mm",
     "max_reads": "max_reads", "interval": "interval_s", "retries": "retries",
 }
@@ -56,7 +56,8 @@ def _add_sensor_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--unsigned", dest="signed", action="store_false", help="value is unsigned (default)")
     g.add_argument("--word-order", choices=["high", "low"], help="for 32-bit: which word comes first (high)")
     g.add_argument("--pattern", help="ascii: regex whose group 1 is the number (default: '+0123.456 mm')")
-    g.add_argument("--scale-mm", type=float, help="mm per count / printed unit (1)")
+    g.add_argument("--scale-mm", type=float, help="modbus: mm per count (1)")
+    g.add_argument("--ascii-scale-mm", type=float, help="ascii: mm per printed unit (1: the indicator prints mm)")
     g.add_argument("--zero-mm", type=float, help="zero offset added after scaling, mm (0)")
     g.add_argument("--min-mm", type=float, help="sensor range low end, mm (0)")
     g.add_argument("--max-mm", type=float, help="sensor range high end, mm (5000)")

@@ -8,7 +8,8 @@ Two protocols, both on pyserial:
 - ``ascii``: an indicator that prints lines such as ``+0123.456 mm``; a regular
   expression with one group picks the number.
 
-Either way the raw number times ``scale_mm`` plus ``zero_mm`` is the reading in mm.
+The raw number times the scale (``scale_mm`` per Modbus count, ``ascii_scale_mm`` per
+printed unit) plus ``zero_mm`` is the reading in mm.
 A :class:`SensorProfile` holds every setting and can be saved to and loaded from a
 small JSON file. Faults raise :class:`SensorFault` subclasses with a clear message;
 :func:`read_stable` retries transient faults a bounded number of times and averages
@@ -79,7 +80,8 @@ class SensorProfile:
         word_order: ``high`` (high word first) or ``low`` (low word first), for 2 words.
         pattern: ASCII protocol: regular expression whose group 1 is the number;
             the whole line must match.
-        scale_mm: mm per count (modbus) or per printed unit (ascii).
+        scale_mm: Modbus: mm per count.
+        ascii_scale_mm: ASCII: mm per printed unit (1 for an indicator printing mm).
         zero_mm: Added after scaling, [mm].
         min_mm, max_mm: Sensor range; readings outside are faults.
         samples: Consecutive samples that must agree to count as stable.
@@ -103,6 +105,7 @@ class SensorProfile:
     word_order: str = "high"
     pattern: str = DEFAULT_PATTERN
     scale_mm: float = 1.0
+    ascii_scale_mm: float = 1.0
     zero_mm: float = 0.0
     min_mm: float = 0.0
     max_mm: float = 5000.0
@@ -127,6 +130,7 @@ class SensorProfile:
             (self.words in (1, 2), "words", "1 or 2"),
             (self.word_order in ("high", "low"), "word_order", "high or low"),
             (np.isfinite(self.scale_mm) and self.scale_mm != 0, "scale_mm", "a non-zero number"),
+            (np.isfinite(self.ascii_scale_mm) and self.ascii_scale_mm != 0, "ascii_scale_mm", "a non-zero number"),
             (np.isfinite(self.zero_mm), "zero_mm", "a finite number"),
             (self.min_mm < self.max_mm, "min_mm/max_mm", "min below max"),
             (self.samples >= 1, "samples", "at least 1"),
@@ -183,10 +187,15 @@ class SensorProfile:
         if self.protocol == "modbus":
             line += (f", slave {self.slave}, function {self.function}, register {self.register}, "
                      f"{16 * self.words}-bit {'signed' if self.signed else 'unsigned'}, "
-                     f"{self.word_order} word first")
+                     f"{self.word_order} word first, {self.scale_mm:g} mm/count")
         else:
-            line += f", pattern {self.pattern!r}"
-        return line + f", {self.scale_mm:g} mm/count + {self.zero_mm:g} mm"
+            line += f", pattern {self.pattern!r}, {self.ascii_scale_mm:g} mm/unit"
+        return line + f", zero {self.zero_mm:g} mm"
+
+    @property
+    def scale(self) -> float:
+        """mm per raw unit of the profile's protocol."""
+        return self.scale_mm if self.protocol == "modbus" else self.ascii_scale_mm
 
 
 class Reader:
@@ -211,7 +220,7 @@ class Reader:
             SensorFault: any fault (see the subclasses).
         """
         raw = self.read_raw()
-        value = raw * self.profile.scale_mm + self.profile.zero_mm
+        value = raw * self.profile.scale + self.profile.zero_mm
         if not self.profile.min_mm <= value <= self.profile.max_mm:
             raise OutOfRange(
                 f"reading {value:.3f} mm (raw {raw:g}) is outside the sensor range "

@@ -151,10 +151,11 @@ def test_ascii_faults(ascii_line, fault, error):
 
 def test_ascii_custom_pattern():
     with FakeIndicator("ascii", 55.25, period_s=0.005) as fake:
-        profile = dataclasses.replace(ASCII, pattern=r"\s*([-+]?\d+\.\d+) mm", scale_mm=1.0, zero_mm=10.0)
+        profile = dataclasses.replace(ASCII, pattern=r"\s*([-+]?\d+\.\d+) mm", scale_mm=0.001,
+                                      ascii_scale_mm=2.0, zero_mm=10.0)
         reader = open_reader(fake.path, profile)
         reader.flush()
-        assert reader.read_mm() == pytest.approx(65.25)
+        assert reader.read_mm() == pytest.approx(120.5)  # Modbus's scale_mm does not apply
         reader.close()
 
 
