@@ -9,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import CableModel, CalibrationProblem, Drawstring
-from .estimators import DEFAULT_METHOD, EstimateResult, get_estimator, run_estimator
+from .estimators import DEFAULT_METHOD, EstimateResult, get_estimator, get_robust, run_estimator
 from .exceptions import CalibPinError, DataError
 from .export import write_calibrated_urdf
 from .measurements import MeasurementSet, read_measurements
@@ -40,6 +40,7 @@ class CalibrationResult:
             were held out.
         seed: Seed of the split and the estimator.
         noise: Sensor noise (1 sigma) the EKF assumed, [m].
+        loss: ``linear`` or the robust loss used.
     """
 
     chain: Chain
@@ -54,6 +55,12 @@ class CalibrationResult:
     metrics: dict[str, dict[str, Metrics]]
     seed: int
     noise: float
+    loss: str = "linear"
+
+    @property
+    def outlier_rows(self) -> list[int]:
+        """Data rows (0-based) the robust estimate judged outliers."""
+        return [int(self.train[i]) for i in self.estimate.outliers]
 
     @property
     def deltas(self) -> list[pin.SE3]:
@@ -118,6 +125,9 @@ class CalibrationResult:
             "tool_mm": (self.sensor.hook * 1e3).tolist(),
             "length_offset_mm": self.sensor.offset * 1e3,
             "noise_mm": self.noise * 1e3,
+            "loss": self.loss,
+            "outlier_rows": self.outlier_rows,
+            "outlier_lines": [int(self.data.lines[r]) for r in self.outlier_rows] if self.data.lines is not None else [],
             "split": {"train": self.train.tolist(), "test": self.test.tolist()},
         }
 
@@ -178,12 +188,14 @@ class CalibrationSetup:
             )
         return train, test
 
-    def run(self, method: str = DEFAULT_METHOD, *, seed: int = 0, test_fraction: float = 0.2) -> CalibrationResult:
-        """Estimate with ``method`` on the training rows and score both splits."""
-        get_estimator(method)
+    def run(
+        self, method: str = DEFAULT_METHOD, *, seed: int = 0, test_fraction: float = 0.2, loss: str = "linear"
+    ) -> CalibrationResult:
+        """Estimate with ``method`` (and ``loss``) on the training rows and score both splits."""
+        get_robust(method, loss)
         train, test = self.split(test_fraction, seed)
         x0 = np.zeros(len(self.params.names))
-        estimate = run_estimator(method, self.problem.subset(train), x0, seed=seed, noise=self.noise)
+        estimate = run_estimator(method, self.problem.subset(train), x0, seed=seed, noise=self.noise, loss=loss)
         metrics = {}
         for split, rows in (("train", train), ("test", test)):
             if len(rows):
@@ -195,7 +207,7 @@ class CalibrationSetup:
         return CalibrationResult(
             chain=self.chain, params=self.params, method=method, x=estimate.x,
             estimate=estimate, sensor=self.sensor, data=self.data, train=train, test=test,
-            metrics=metrics, seed=seed, noise=self.noise,
+            metrics=metrics, seed=seed, noise=self.noise, loss=loss,
         )
 
 
@@ -244,6 +256,7 @@ def calibrate(
     tool_mm=None,
     length_offset_mm: float | None = None,
     noise_mm: float | None = None,
+    loss: str = "linear",
 ) -> CalibrationResult:
     """Calibrate a robot's DH deviations from drawstring readings.
 
@@ -259,15 +272,17 @@ def calibrate(
         length_offset_mm: Override the file's sensor zero offset, [mm].
         noise_mm: Sensor noise (1 sigma) [mm] for the Kalman filters; default the
             file's ``noise_mm`` or 0.05.
+        loss: ``linear``, or a robust loss (``huber``, ``soft_l1``, ``cauchy``) for the
+            methods that have one (``lm``).
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
     """
-    get_estimator(method)
+    get_robust(method, loss)
     if not 0.0 <= test_fraction < 1.0:
         raise CalibPinError(f"test fraction must be in [0, 1), got {test_fraction:g}")
     setup = prepare(
         robot, data, end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
         length_offset_mm=length_offset_mm, noise_mm=noise_mm,
     )
-    return setup.run(method, seed=seed, test_fraction=test_fraction)
+    return setup.run(method, seed=seed, test_fraction=test_fraction, loss=loss)

@@ -25,7 +25,7 @@ DEFAULT_ANCHOR_MM = (600.0, 200.0, -100.0)
 DEFAULT_TOOL_MM = (0.0, 0.0, 50.0)
 
 #: Kinds of reading noise the simulator draws (see :func:`reading_noise`).
-NOISE_KINDS = ("gauss", "student", "outliers")
+NOISE_KINDS = ("gauss", "student", "outliers", "student-outliers")
 #: Degrees of freedom of the heavy-tailed Student-t noise.
 STUDENT_DOF = 3
 #: Share of rows with a gross error, and the range of its size [mm], for ``outliers``.
@@ -45,25 +45,26 @@ def reading_noise(
         ``outliers``: normal as ``gauss``, plus on 5 % of the rows (at least one) a
             gross error of 1 to 3 mm with random sign, as a snagged or sagging cable
             would give.
+        ``student-outliers``: Student-t as ``student``, plus the gross errors of
+            ``outliers``.
 
     Raises:
         CalibPinError: unknown kind.
     """
     sigma = noise_mm * 1e-3
     outliers = np.zeros(n, dtype=bool)
-    if kind == "gauss":
-        noise = rng.normal(scale=sigma, size=n)
-    elif kind == "student":
+    if kind not in NOISE_KINDS:
+        raise CalibPinError(f"unknown noise kind '{kind}' (valid: {', '.join(NOISE_KINDS)})")
+    if kind.startswith("student"):
         dof = STUDENT_DOF
         noise = rng.standard_t(dof, size=n) * sigma * np.sqrt((dof - 2) / dof)
-    elif kind == "outliers":
+    else:
         noise = rng.normal(scale=sigma, size=n)
+    if kind.endswith("outliers"):
         rows = rng.choice(n, size=max(1, int(round(OUTLIER_FRACTION * n))), replace=False)
         outliers[rows] = True
         size = rng.uniform(*OUTLIER_MM, size=len(rows)) * 1e-3
         noise[rows] += size * rng.choice([-1.0, 1.0], size=len(rows))
-    else:
-        raise CalibPinError(f"unknown noise kind '{kind}' (valid: {', '.join(NOISE_KINDS)})")
     return noise, outliers
 
 

@@ -147,3 +147,10 @@ def test_scripts_exit_2_without_traceback(script):
     proc = _run("irb120", "--data", "missing.csv", script=script)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert proc.stderr.strip().splitlines() == ["error: missing.csv: no such file"]
+
+
+def test_analyze_prints_report_and_estimates_nothing(tmp_path, capsys):
+    assert calibrate_main(["irb120", "--analyze", "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "rank 20 of 24" in out and "d_2 +1 mm with d_3 -1 mm" in out and "base parameter set" in out
+    assert not (tmp_path / "o").exists()

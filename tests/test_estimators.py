@@ -139,3 +139,30 @@ def test_parabola_vertex():
     assert v[0] == pytest.approx(0.4) and ok.tolist() == [True, False]
     _, ok = parabola_vertex(x1[:1], x2[:1], x3[:1], -f(-1.0), -f(1.0), -f(0.2))
     assert not ok[0]
+
+
+def test_robust_loss_halves_the_error_with_outliers(chain, params, fresh):
+    """Must hold (issue 5): sigma 0.05 mm Student-t noise with 5 % gross outliers: the
+    robust LM's fresh-pose error is at most half of plain LM's, and it names the
+    outlier rows."""
+    data, truth = cp.simulate(chain, params, 120, seed=7, noise_mm=0.05, noise_kind="student-outliers")
+    q, _ = fresh
+    true_fresh = cp.CableModel(chain, params, truth.sensor).predict(truth.x, q)
+
+    def fresh_error(result):
+        return float(np.sqrt(np.mean((result.predict(q) - true_fresh) ** 2)))
+
+    plain = cp.calibrate("irb120", data, method="lm")
+    for loss in ("huber", "soft_l1", "cauchy"):
+        robust = cp.calibrate("irb120", data, method="lm", loss=loss)
+        assert fresh_error(robust) <= 0.5 * fresh_error(plain), loss
+        in_train = set(truth.outliers) & set(robust.train.tolist())
+        assert in_train <= set(robust.outlier_rows), loss
+        assert robust.report()["loss"] == loss
+
+
+def test_loss_only_where_supported():
+    with pytest.raises(cp.EstimatorError, match="method 'ekf' has no robust loss; --loss huber works with: lm"):
+        cp.calibrate("irb120", method="ekf", loss="huber")
+    with pytest.raises(cp.EstimatorError, match="unknown loss 'l2'"):
+        cp.calibrate("irb120", method="lm", loss="l2")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -13,7 +14,7 @@ from .base import EstimateResult, Tracker
 from .de import DE
 from .ekf import EKF
 from .ekf_qibas import EKFQIBAS
-from .lm import LevenbergMarquardt
+from .lm import LOSSES, LevenbergMarquardt
 from .pso import PSO
 from .qibas import QIBAS
 from .rbf import RBF
@@ -54,11 +55,30 @@ def get_estimator(name: str):
         ) from None
 
 
-def run_estimator(
-    name: str, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
-) -> EstimateResult:
-    """Run the estimator ``name`` and record its wall time in ``time_s``."""
+def get_robust(name: str, loss: str):
+    """The estimator ``name`` with a robust ``loss`` (see :mod:`.lm`).
+
+    Raises:
+        EstimatorError: unknown name or loss, or a method that has no robust variant.
+    """
     estimator = get_estimator(name)
+    if loss not in LOSSES:
+        raise EstimatorError(f"unknown loss '{loss}' (valid: {', '.join(LOSSES)})")
+    if loss == "linear":
+        return estimator
+    if not hasattr(estimator, "loss"):
+        robust = [n for n, e in ESTIMATORS.items() if hasattr(e, "loss")]
+        raise EstimatorError(f"method '{name}' has no robust loss; --loss {loss} works with: {', '.join(robust)}")
+    return dataclasses.replace(estimator, loss=loss)
+
+
+def run_estimator(
+    name: str, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+    loss: str = "linear",
+) -> EstimateResult:
+    """Run the estimator ``name`` (with ``loss``, see :func:`get_robust`) and record its
+    wall time in ``time_s``."""
+    estimator = get_robust(name, loss)
     start = time.perf_counter()
     result = estimator(problem, x0, seed=seed, noise=noise)
     result.time_s = time.perf_counter() - start
@@ -73,6 +93,7 @@ __all__ = [
     "EKFQIBAS",
     "ESTIMATORS",
     "EstimateResult",
+    "LOSSES",
     "LevenbergMarquardt",
     "PAPER_LABELS",
     "PSO",
@@ -82,5 +103,6 @@ __all__ = [
     "Tracker",
     "UKF",
     "get_estimator",
+    "get_robust",
     "run_estimator",
 ]

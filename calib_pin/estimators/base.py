@@ -45,6 +45,7 @@ class EstimateResult:
         correction: For a method that learns the readings' error instead of kinematic
             parameters (RBF): a function of joint angles (n_poses, n_joints) [rad]
             giving the amount (n_poses,) [m] to add to the readings predicted at x.
+        outliers: Rows of the training problem a robust method judged outliers.
     """
 
     x: np.ndarray
@@ -57,6 +58,7 @@ class EstimateResult:
     covariance: np.ndarray | None = None
     stages: dict[str, int] = field(default_factory=dict)
     correction: Callable[[np.ndarray], np.ndarray] | None = None
+    outliers: tuple[int, ...] = ()
 
     @property
     def kinematic(self) -> bool:

@@ -1,0 +1,143 @@
+"""What a set of poses can tell about the parameters: rank, observability, blind spots.
+
+The analysis works on the identification Jacobian J (readings per parameter) with each
+column scaled by the parameter's typical size D (1 mm, 2 mrad for DH), so that a
+singular value is "metres of reading per typical deviation". With J D = U S V^T
+(m poses, r singular values above ``rcond`` times the largest):
+
+- rank r, and the condition number s_1 / s_r of the identifiable part;
+- observability indices: O1 = (s_1 ... s_r)^(1/r) / sqrt(m) (Borm and Menq),
+  O3 = s_r (the weakest identifiable direction), O4 = s_r^2 / s_1 (Nahvi and
+  Hollerbach's noise amplification index); larger is better for all three;
+- parameters that cannot be identified (a zero column: the readings do not depend on
+  them at all), and combinations that can only be identified together (the null space
+  of the remaining columns, in reduced row-echelon form so each reads like
+  ``d_2 +1 mm with d_3 -1 mm``: a change no reading sees);
+- a base parameter set: r columns chosen by QR with column pivoting, which can be
+  estimated with the others held at zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import qr
+
+from .errors import CalibrationProblem
+
+
+@dataclass(frozen=True)
+class Identifiability:
+    """Identifiability of a parameter model on a set of poses.
+
+    Attributes:
+        names: Parameter names, shape (n_params,).
+        n_poses: Number of readings m.
+        singular_values: Of the scaled Jacobian, descending, shape (n_params,)
+            [m of reading per typical deviation].
+        rank: Identifiable directions r.
+        condition: s_1 / s_r.
+        o1, o3, o4: Observability indices (module docstring) [m].
+        unidentifiable: Parameters the readings do not depend on.
+        combinations: Combinations identifiable only together, readable text.
+        base: Base parameter set (r names, QR with column pivoting).
+    """
+
+    names: tuple[str, ...]
+    n_poses: int
+    singular_values: np.ndarray
+    rank: int
+    condition: float
+    o1: float
+    o3: float
+    o4: float
+    unidentifiable: tuple[str, ...]
+    combinations: tuple[str, ...]
+    base: tuple[str, ...]
+
+    def report(self) -> str:
+        """A few lines for people."""
+        n = len(self.names)
+        lines = [
+            f"identification Jacobian: {self.n_poses} readings x {n} parameters "
+            "(columns scaled by typical sizes: 1 mm, 2 mrad)",
+            f"rank {self.rank} of {n}; condition number {self.condition:.3g}",
+            f"observability: O1 {self.o1:.3g}, O3 {self.o3:.3g}, O4 {self.o4:.3g} "
+            "(m of reading per typical deviation; larger is better)",
+            "not identifiable (no effect on the readings): "
+            + (", ".join(self.unidentifiable) or "none"),
+            "identifiable only in combination (moving these together changes no reading):",
+        ]
+        lines += [f"  {c}" for c in self.combinations] or ["  none"]
+        lines.append(f"base parameter set ({len(self.base)}, QR with column pivoting): " + ", ".join(self.base))
+        return "\n".join(lines)
+
+
+def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list[str],
+              tol: float = 0.05) -> list[str]:
+    """Null-space basis (k, n) of scaled coordinates in reduced row-echelon form, as
+    text: each line is a change of the parameters (in mm and mrad) that no reading sees."""
+    a = null.copy()
+    rows, cols = a.shape
+    pivot_row = 0
+    for c in range(cols):
+        if pivot_row == rows:
+            break
+        p = pivot_row + int(np.argmax(np.abs(a[pivot_row:, c])))
+        if abs(a[p, c]) < 1e-9:
+            continue
+        a[[pivot_row, p]] = a[[p, pivot_row]]
+        a[pivot_row] /= a[pivot_row, c]
+        for r in range(rows):
+            if r != pivot_row:
+                a[r] -= a[r, c] * a[pivot_row]
+        pivot_row += 1
+    out = []
+    for row in a[:pivot_row]:
+        terms = []
+        for i, v in enumerate(row):
+            if abs(v) > tol:
+                size = v * scale[i] * 1e3
+                unit = "mm" if units[i] == "m" else "mrad"
+                terms.append(f"{names[i]} {size:+.2g} {unit}")
+        out.append(" with ".join(terms))
+    return out
+
+
+def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: float = 1e-3) -> Identifiability:
+    """Identifiability of ``problem``'s parameters at deviations x (default zero).
+
+    Args:
+        rcond: Singular values below ``rcond`` times the largest count as zero (the
+            same threshold the estimators' search space uses).
+    """
+    names = list(problem.model.params.names)
+    x = np.zeros(len(names)) if x is None else np.asarray(x, dtype=float)
+    scaled = problem.jacobian(x) * problem.model.params.scale
+    m, n = scaled.shape
+    s = np.linalg.svd(scaled, compute_uv=False)
+    rank = int(np.sum(s > rcond * s[0]))
+    kept = s[:rank]
+    column = np.linalg.norm(scaled, axis=0)
+    dead = column <= rcond * s[0] / np.sqrt(n)
+    live = np.flatnonzero(~dead)
+    _, s_live, vt_live = np.linalg.svd(scaled[:, live], full_matrices=True)
+    live_rank = int(np.sum(s_live > rcond * s[0]))
+    null = vt_live[live_rank:]
+    _, _, pivots = qr(scaled, pivoting=True, mode="economic")
+    return Identifiability(
+        names=tuple(names),
+        n_poses=m,
+        singular_values=s,
+        rank=rank,
+        condition=float(kept[0] / kept[-1]),
+        o1=float(np.exp(np.mean(np.log(kept))) / np.sqrt(m)),
+        o3=float(kept[-1]),
+        o4=float(kept[-1] ** 2 / kept[0]),
+        unidentifiable=tuple(names[i] for i in np.flatnonzero(dead)),
+        combinations=tuple(_readable(
+            null, [names[i] for i in live], problem.model.params.scale[live],
+            [problem.model.params.units[i] for i in live])) if len(null) else (),
+        base=tuple(names[i] for i in sorted(pivots[:rank])),
+    )
