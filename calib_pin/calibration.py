@@ -21,6 +21,11 @@ from .simulate import deviations_for_humans
 #: Sensor noise assumed when neither the data (``# noise_mm``) nor the caller give it.
 DEFAULT_NOISE_MM = 0.05
 
+#: No exported deviation may exceed these (a real arm's errors are a few mm and tenths
+#: of a degree); a larger one means the data could not determine it.
+SANITY_MM = 20.0
+SANITY_DEG = 5.0
+
 
 @dataclass
 class CalibrationResult:
@@ -99,7 +104,36 @@ class CalibrationResult:
                 f"method '{self.method}' learns a correction of the readings, not kinematic "
                 "parameters: there is no corrected URDF to write"
             )
+        self.check_sanity()
         return write_calibrated_urdf(self.chain, self.deltas, path)
+
+    def check_sanity(self) -> None:
+        """Refuse deviations beyond SANITY_MM / SANITY_DEG, naming the first one.
+
+        Raises:
+            CalibPinError: a deviation ran away.
+        """
+        for name, value in self.deviations.items():
+            bound = SANITY_MM if name.endswith("_mm") else SANITY_DEG
+            if abs(value) > bound:
+                unit = "mm" if name.endswith("_mm") else "deg"
+                raise CalibPinError(
+                    f"{name.rsplit('_', 1)[0]} = {value:+.3g} {unit} is beyond the sanity bound "
+                    f"{bound:g} {unit}: the data cannot support it (a parameter the poses barely "
+                    "see, see --analyze; a wrong anchor_mm/tool_mm or unit; or outliers, see "
+                    "--loss); no URDF written"
+                )
+
+    @property
+    def uncertainty(self):
+        """Standard errors and flange uncertainty (:mod:`calib_pin.uncertainty`); None for rbf."""
+        if not self.kinematic:
+            return None
+        from .uncertainty import estimate_uncertainty
+
+        train = CalibrationProblem(CableModel(self.chain, self.params, self.sensor),
+                                   self.data.q[self.train], self.data.lengths[self.train])
+        return estimate_uncertainty(train, self.x, seed=self.seed)
 
     def report(self) -> dict:
         """JSON-ready summary: metrics, deviations, sensor, split, timing."""
@@ -121,6 +155,7 @@ class CalibrationResult:
             "train_rmse_history_mm": [h * 1e3 for h in self.estimate.history],
             "kinematic_parameters": self.kinematic,
             "deviations": self.deviations if self.kinematic else {},
+            "uncertainty": self.uncertainty.as_dict() if self.kinematic else None,
             "anchor_mm": (self.sensor.anchor * 1e3).tolist(),
             "tool_mm": (self.sensor.hook * 1e3).tolist(),
             "length_offset_mm": self.sensor.offset * 1e3,

@@ -171,12 +171,24 @@ def _calibrate(args: argparse.Namespace) -> int:
         loss=args.loss,
     )
     out = Path(args.out)
-    urdf = result.to_urdf(out / f"{result.chain.name}_calibrated.urdf") if result.kinematic else None
-    report = result.report()
-    report["urdf"] = str(urdf) if urdf else None
     out.mkdir(parents=True, exist_ok=True)
+    report = result.report()
     report_path = out / "report.json"
-    report_path.write_text(json.dumps(report, indent=2) + "\n")
+    urdf_path = out / f"{result.chain.name}_calibrated.urdf"
+    urdf, refused = None, None
+    if result.kinematic:
+        try:
+            result.check_sanity()
+            urdf = urdf_path
+        except CalibPinError as e:
+            refused = str(e)
+    report["urdf"] = str(urdf) if urdf else None
+    report_path.write_text(json.dumps(report, indent=2) + "\n")  # kept even when the URDF is refused
+    if refused:
+        print(f"error: {refused} (report: {report_path})", file=sys.stderr)
+        return 2
+    if urdf:
+        result.to_urdf(urdf)
     n_train, n_test = len(result.train), len(result.test)
     print(
         f"{result.chain.name}: {len(result.data)} poses from {result.data.source} "
@@ -185,6 +197,11 @@ def _calibrate(args: argparse.Namespace) -> int:
     print(_table(result.metrics))
     est = result.estimate
     print(f"estimation: {est.time_s:.3f} s, {est.iterations} iterations ({est.message})")
+    if result.kinematic:
+        u = report["uncertainty"]
+        print(f"uncertainty: reading noise {u['noise_estimate_mm']:.4f} mm; flange position "
+              f"(1 sigma) over {u['flange_position_1sigma_mm']['poses']} workspace poses: RMS "
+              f"{u['flange_position_1sigma_mm']['rms']:.4f} mm, max {u['flange_position_1sigma_mm']['max']:.4f} mm")
     if result.loss != "linear":
         lines = ", ".join(str(line) for line in report["outlier_lines"]) or "none"
         print(f"outliers ({result.loss} loss): {len(result.outlier_rows)} training rows, file lines {lines}")

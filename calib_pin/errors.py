@@ -59,6 +59,17 @@ class CableModel:
         """Predicted readings, shape (n_poses,), [m], for joint angles q (n_poses, n) [rad]."""
         return np.linalg.norm(self.hook_positions(x, q) - self.sensor.anchor, axis=1) + self.sensor.offset
 
+    def point_jacobian(self, x: np.ndarray, q: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A point fixed in the end frame and its derivative with respect to x.
+
+        Returns:
+            positions: shape (n_poses, 3), [m], base frame.
+            jacobian: shape (n_poses, 3, n_params), [m per unit of each parameter].
+        """
+        self._kin.set_perturbation(self.params.deltas(x))
+        points, d_points = self._kin.points(q, point, jacobian=True)
+        return points, d_points @ self.params.delta_jacobian(x)
+
     def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Predicted readings and their derivative with respect to x.
 
@@ -66,13 +77,11 @@ class CableModel:
             readings: shape (n_poses,), [m].
             jacobian: shape (n_poses, n_params), [m per unit of each parameter].
         """
-        self._kin.set_perturbation(self.params.deltas(x))
-        points, d_points = self._kin.points(q, self.sensor.hook, jacobian=True)
+        points, d_points = self.point_jacobian(x, q, self.sensor.hook)
         cable = points - self.sensor.anchor
         length = np.linalg.norm(cable, axis=1)
         direction = cable / length[:, None]
-        d_length = np.einsum("ni,nij->nj", direction, d_points)
-        return length + self.sensor.offset, d_length @ self.params.delta_jacobian(x)
+        return length + self.sensor.offset, np.einsum("ni,nij->nj", direction, d_points)
 
 
 @dataclass

@@ -154,3 +154,15 @@ def test_analyze_prints_report_and_estimates_nothing(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "rank 20 of 24" in out and "d_2 +1 mm with d_3 -1 mm" in out and "base parameter set" in out
     assert not (tmp_path / "o").exists()
+
+
+def test_runaway_deviation_exit_2_report_kept(tmp_path, capsys):
+    """Data that asks for deviations of tens of mm: exit 2 naming the parameter; the report
+    is kept, no URDF is written."""
+    csv = tmp_path / "wild.csv"
+    assert simulate_main(["irb120", "--poses", "60", "--seed", "1", "--nominal-rmse-mm", "300",
+                          "--out", str(csv)]) == 0
+    code = calibrate_main(["irb120", "--data", str(csv), "--method", "lm", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "is beyond the sanity bound" in err[0]
+    assert (tmp_path / "o" / "report.json").is_file() and not list((tmp_path / "o").glob("*.urdf"))
