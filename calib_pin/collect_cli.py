@@ -215,6 +215,53 @@ def _make_poses(args: argparse.Namespace) -> int:
     return 0
 
 
+def plan_poses_main(argv: Sequence[str] | None = None) -> int:
+    """``plan_poses.py ROBOT --n 40 --candidates 5000 [--seed S] --out poses.csv``."""
+    p = OneLineParser(prog="plan_poses.py",
+                      description="Choose poses that maximise the observability of the parameters (D-optimal).")
+    p.add_argument("robot", help="robot name (irb120) or URDF path")
+    p.add_argument("--n", type=int, default=40, help="poses to choose (40)")
+    p.add_argument("--candidates", type=int, default=5000, help="random candidates to choose from (5000)")
+    p.add_argument("--seed", type=_positive(int), default=0, help="seed of the candidates (0)")
+    p.add_argument("--margin-deg", type=_positive(float), default=5.0, help="distance from the joint limits, deg (5)")
+    p.add_argument("--anchor-mm", type=_xyz, help="sensor point P0 in the base frame, x,y,z mm (600,200,-100)")
+    p.add_argument("--tool-mm", type=_xyz, help="hook point in the end frame, x,y,z mm (0,0,50)")
+    p.add_argument("--end-frame", help="end frame (default tool0)")
+    p.add_argument("--out", required=True, help="pose list CSV")
+    args = p.parse_args(argv)
+    if args.n < 1 or args.candidates < args.n:
+        print("error: need 1 <= --n <= --candidates", file=sys.stderr)
+        return 2
+    return _report_errors(lambda: _plan_poses(args), args.out)
+
+
+def _plan_poses(args: argparse.Namespace) -> int:
+    from .errors import CableModel, Drawstring
+    from .parameters import parameter_model
+    from .planning import plan_poses
+    from .simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
+
+    chain = load_chain(args.robot, args.end_frame)
+    sensor = Drawstring(np.array(args.anchor_mm or DEFAULT_ANCHOR_MM) * 1e-3,
+                        np.array(args.tool_mm or DEFAULT_TOOL_MM) * 1e-3)
+    model = CableModel(chain, parameter_model(chain), sensor)
+    try:
+        plan = plan_poses(model, args.n, args.candidates, seed=args.seed, margin=np.deg2rad(args.margin_deg))
+    except ValueError as e:
+        raise CalibPinError(str(e)) from None
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    write_poses(args.out, plan.q, robot=chain.name, end_frame=chain.end_frame,
+                notes={"source": f"plan_poses.py: {args.n} of {args.candidates} candidates (seed {args.seed}), "
+                                 "D-optimal for the DH model and the drawstring sensor"})
+    print(f"{chain.name}: {args.n} poses chosen from {args.candidates} candidates (seed {args.seed})")
+    print(f"observability O1 {plan.o1:.3g} (random poses: {plan.random_o1:.3g}), "
+          f"O3 {plan.o3:.3g} (random: {plan.random_o3:.3g})")
+    reach = f"the first {plan.reach}" if plan.reach else "none"
+    print(f"information of {args.n} random poses is reached by {reach} of the planned poses")
+    print(f"wrote {args.out}")
+    return 0
+
+
 def fake_indicator_main(argv: Sequence[str] | None = None) -> int:
     """``fake_indicator.py [--protocol modbus|ascii] [--value-mm V | --values F.csv --follow OUT.csv] ...``."""
     from .fake_indicator import FAULTS, FakeIndicator
