@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import OneLineParser, _positive, _report_errors, _xyz
+from .cli import OneLineParser, _at_least_one, _positive, _report_errors, _xyz
 from .collect import collect, open_session, read_pose_list
 from .drawstring import SensorFault, SensorProfile, open_reader, read_with_retries
 from .exceptions import CalibPinError
@@ -178,7 +178,7 @@ def _collect(args: argparse.Namespace) -> int:
 def make_poses_parser() -> argparse.ArgumentParser:
     p = OneLineParser(prog="make_poses.py", description="Write a random pose list within the joint limits.")
     p.add_argument("robot", help="robot name (irb120) or URDF path")
-    p.add_argument("--n", type=int, default=120, help="number of poses (120)")
+    p.add_argument("--n", type=_at_least_one, default=120, help="number of poses (120)")
     p.add_argument("--seed", type=_positive(int), default=0, help="seed (0)")
     p.add_argument("--margin-deg", type=_positive(float), default=5.0,
                    help="keep this far inside every joint limit, deg (5)")
@@ -190,9 +190,6 @@ def make_poses_parser() -> argparse.ArgumentParser:
 def make_poses_main(argv: Sequence[str] | None = None) -> int:
     """``make_poses.py ROBOT --n 120 --seed S --out poses.csv [--margin-deg 5]``."""
     args = make_poses_parser().parse_args(argv)
-    if args.n < 1:
-        print("error: --n must be at least 1", file=sys.stderr)
-        return 2
     return _report_errors(lambda: _make_poses(args), args.out)
 
 
@@ -220,8 +217,8 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     p = OneLineParser(prog="plan_poses.py",
                       description="Choose poses that maximise the observability of the parameters (D-optimal).")
     p.add_argument("robot", help="robot name (irb120) or URDF path")
-    p.add_argument("--n", type=int, default=40, help="poses to choose (40)")
-    p.add_argument("--candidates", type=int, default=5000, help="random candidates to choose from (5000)")
+    p.add_argument("--n", type=_at_least_one, default=40, help="poses to choose (40)")
+    p.add_argument("--candidates", type=_at_least_one, default=5000, help="random candidates to choose from (5000)")
     p.add_argument("--seed", type=_positive(int), default=0, help="seed of the candidates (0)")
     p.add_argument("--margin-deg", type=_positive(float), default=5.0, help="distance from the joint limits, deg (5)")
     p.add_argument("--anchor-mm", type=_xyz, help="sensor point P0 in the base frame, x,y,z mm (600,200,-100)")
@@ -229,8 +226,8 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--end-frame", help="end frame (default tool0)")
     p.add_argument("--out", required=True, help="pose list CSV")
     args = p.parse_args(argv)
-    if args.n < 1 or args.candidates < args.n:
-        print("error: need 1 <= --n <= --candidates", file=sys.stderr)
+    if args.candidates < args.n:
+        print(f"error: --candidates ({args.candidates}) must be at least --n ({args.n})", file=sys.stderr)
         return 2
     return _report_errors(lambda: _plan_poses(args), args.out)
 

@@ -69,10 +69,11 @@ class LevenbergMarquardt:
             return r
 
         last = [None]
+        recording = [True]  # the robust stage is recorded as one iteration at its end
 
         def jacobian(z: np.ndarray) -> np.ndarray:
             # scipy checks the Jacobian at the start before MINPACK asks for it there.
-            if last[0] is not None and not np.array_equal(z, last[0]):
+            if recording[0] and last[0] is not None and not np.array_equal(z, last[0]):
                 track.record(best[0])  # end of the previous iteration
             last[0] = z.copy()
             return track.jacobian(space.to_x(z)) @ space.basis
@@ -82,7 +83,7 @@ class LevenbergMarquardt:
         track.record(best[0])
         if self.loss == "linear":
             return track.result(space.to_x(fit.x), len(track.history) - 1, str(fit.message))
-        first = len(track.history)
+        recording[0] = False
         robust, scale = fit, np.inf
         for _ in range(3):  # refit while the noise scale estimate still shrinks
             new_scale = max(robust_scale(robust.fun), 1e-9)
@@ -92,8 +93,6 @@ class LevenbergMarquardt:
             robust = least_squares(residual, robust.x, jac=jacobian, method="trf", loss=self.loss,
                                    f_scale=scale, **tolerances)
         # The robust stage trades training RMSE for robustness: record its own RMSE.
-        track.history[first:] = []
-        track.evaluations[first:] = []
         track.record(rmse(robust.fun))
         outliers = tuple(int(i) for i in np.flatnonzero(np.abs(robust.fun) > OUTLIER_SCALES * scale))
         return track.result(
