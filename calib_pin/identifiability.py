@@ -112,9 +112,9 @@ def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: flo
         rcond: Singular values below ``rcond`` times the largest count as zero (the
             same threshold the estimators' search space uses).
     """
-    names = list(problem.model.params.names)
+    names = list(problem.model.names)
     x = np.zeros(len(names)) if x is None else np.asarray(x, dtype=float)
-    scaled = problem.jacobian(x) * problem.model.params.scale
+    scaled = problem.jacobian(x) * problem.model.scale
     m, n = scaled.shape
     s = np.linalg.svd(scaled, compute_uv=False)
     rank = int(np.sum(s > rcond * s[0]))
@@ -137,7 +137,7 @@ def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: flo
         o4=float(kept[-1] ** 2 / kept[0]),
         unidentifiable=tuple(names[i] for i in np.flatnonzero(dead)),
         combinations=tuple(_readable(
-            null, [names[i] for i in live], problem.model.params.scale[live],
-            [problem.model.params.units[i] for i in live])) if len(null) else (),
+            null, [names[i] for i in live], problem.model.scale[live],
+            [problem.model.units[i] for i in live])) if len(null) else (),
         base=tuple(names[i] for i in sorted(pivots[:rank])),
     )

@@ -253,7 +253,8 @@ class Kinematics:
 
         Args:
             q: Joint positions, shape (n_poses, n_joints), [rad].
-            point: The point in the end frame, shape (3,), [m].
+            point: The point in the end frame, shape (3,), [m], or one point per pose,
+                shape (n_poses, 3).
             jacobian: Also return the derivative with respect to the placement
                 perturbation (from Pinocchio's frame kinematic regressor).
 
@@ -262,15 +263,18 @@ class Kinematics:
             d_positions: shape (n_poses, 3, 6 * (n_joints + 1)) or None: derivative of
                 each position with respect to a right-multiplied twist (linear, angular;
                 [m], [rad]) of each joint placement, then of the end frame placement.
+                The end frame's three linear columns are its rotation matrix, which is
+                also the derivative of the position with respect to the point.
         """
         model, data, fid = self._model, self._data, self._fid
         configs = self.chain.configuration(np.atleast_2d(q))
         n = len(configs)
+        point = np.broadcast_to(np.asarray(point, dtype=float), (n, 3))
         if not jacobian:
             positions = np.empty((n, 3))
             for k in range(n):
                 pin.forwardKinematics(model, data, configs[k])
-                positions[k] = pin.updateFramePlacement(model, data, fid).act(point)
+                positions[k] = pin.updateFramePlacement(model, data, fid).act(point[k])
             return positions, None
         rot = np.empty((n, 3, 3))
         trans = np.empty((n, 3))
@@ -283,5 +287,7 @@ class Kinematics:
             reg[k] = pin.computeFrameKinematicRegressor(model, data, fid, pin.LOCAL)
         # Local twist (v, w) of the end frame moves the point by R (v - [point]x w).
         local = np.concatenate([reg, np.broadcast_to(np.eye(6), (n, 6, 6))], axis=2)
-        lever = np.hstack([np.eye(3), -pin.skew(point)])
-        return trans + rot @ point, rot @ (lever @ local)
+        lever = np.zeros((n, 3, 6))
+        lever[:, :, :3] = np.eye(3)
+        lever[:, :, 3:] = -np.cross(point[:, :, None], np.eye(3)[None], axis=1)
+        return trans + np.einsum("nij,nj->ni", rot, point), rot @ (lever @ local)

@@ -66,8 +66,8 @@ def plan_poses(
     pool = _hook_above_base(model, random_poses(model.chain, candidates, rng, margin=margin))
     if len(pool) < n:
         raise ValueError(f"only {len(pool)} of {candidates} candidates put the hook above the base; ask for more")
-    zero = np.zeros(len(model.params.names))
-    rows = model.predict_with_jacobian(zero, pool)[1] * model.params.scale
+    zero = np.zeros(model.n_params)
+    rows = model.predict_with_jacobian(zero, pool)[1] * model.scale
     _, s, vt = np.linalg.svd(rows, full_matrices=False)
     basis = vt[s > 1e-3 * s[0]].T
     z = rows @ basis  # candidates in the identifiable directions

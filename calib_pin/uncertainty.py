@@ -67,14 +67,14 @@ def estimate_uncertainty(
     problem: CalibrationProblem, x: np.ndarray, *, rcond: float = 1e-3, poses: int = 500, seed: int = 0
 ) -> Uncertainty:
     """Uncertainty of the estimate x fitted to ``problem`` (the training rows)."""
-    params = problem.model.params
-    scale = params.scale
+    model = problem.model
+    scale = model.scale
     jac = problem.jacobian(x) * scale
     _, s, vt = np.linalg.svd(jac, full_matrices=False)
     keep = s > rcond * s[0]
     r = int(keep.sum())
     residual = problem.residual(x)
-    dof = max(problem.n_poses - r, 1)
+    dof = max(problem.n_values - r, 1)
     noise = float(np.sqrt(residual @ residual / dof))
     basis = scale[:, None] * vt[keep].T / s[keep]  # x change per unit of whitened z
     cov = noise**2 * basis @ basis.T
@@ -83,7 +83,7 @@ def estimate_uncertainty(
     per_pose = np.einsum("nip,pk,nik->n", d_points, cov, d_points)
     flange = np.sqrt(np.clip(per_pose, 0.0, None))
     return Uncertainty(
-        names=tuple(params.names), units=tuple(params.units), x=np.asarray(x, dtype=float),
+        names=tuple(model.names), units=tuple(model.units), x=np.asarray(x, dtype=float),
         std=np.sqrt(np.clip(np.diag(cov), 0.0, None)), noise=noise,
         flange_rms=float(np.sqrt(np.mean(flange**2))), flange_max=float(flange.max()), poses=poses,
     )

@@ -79,7 +79,7 @@ class BAS:
 
         z = np.zeros(space.dim)
         f = cost(z)
-        delta = m = self.step * np.sqrt(f * problem.n_poses)
+        delta = m = self.step * np.sqrt(f * problem.n_values)
         delta0, m0 = self.floor * delta, self.floor * m
         window = self.window or 2 * space.dim
         track.record(np.sqrt(f))

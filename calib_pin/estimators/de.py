@@ -43,7 +43,7 @@ class DE:
 
         start = cost(np.zeros(space.dim))
         track.record(np.sqrt(start))
-        half = self.bound * np.sqrt(start * problem.n_poses)
+        half = self.bound * np.sqrt(start * problem.n_values)
         fit = differential_evolution(
             cost, [(-half, half)] * space.dim, x0=np.zeros(space.dim),
             strategy="best1bin", popsize=self.popsize, maxiter=self.max_iter,

@@ -5,7 +5,7 @@ scipy's trust-region least squares (``method="trf"``) with that loss, started fr
 with the loss's scale set from the data: 1.4826 x the median absolute deviation of the
 previous fit's residuals (a noise estimate that gross outliers barely inflate),
 refitted while that estimate shrinks by more than 10 % (at most 3 robust fits).
-Readings whose final residual exceeds ``OUTLIER_SCALES`` x that scale are reported as
+Rows with a value whose final residual exceeds ``OUTLIER_SCALES`` x that scale are reported as
 outliers (``EstimateResult.outliers``).
 """
 
@@ -94,7 +94,7 @@ class LevenbergMarquardt:
                                    f_scale=scale, **tolerances)
         # The robust stage trades training RMSE for robustness: record its own RMSE.
         track.record(rmse(robust.fun))
-        outliers = tuple(int(i) for i in np.flatnonzero(np.abs(robust.fun) > OUTLIER_SCALES * scale))
+        outliers = tuple(int(i) for i in problem.rows_of(np.flatnonzero(np.abs(robust.fun) > OUTLIER_SCALES * scale)))
         return track.result(
             space.to_x(robust.x), len(track.history) - 1,
             f"LM: {fit.message}; {self.loss} (scale {scale * 1e3:.3g} mm): {robust.message}",

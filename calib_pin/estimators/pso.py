@@ -49,7 +49,7 @@ class PSO:
 
         start = track.cost(space.x0)
         track.record(np.sqrt(start))
-        half = self.bound * np.sqrt(start * problem.n_poses)
+        half = self.bound * np.sqrt(start * problem.n_values)
         z = rng.uniform(-half, half, size=(self.particles, space.dim))
         z[0] = 0.0
         v = np.zeros_like(z)

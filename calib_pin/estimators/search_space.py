@@ -39,7 +39,7 @@ class SearchSpace:
 
     @classmethod
     def whitened(cls, problem: CalibrationProblem, x0: np.ndarray, rcond: float = 1e-3) -> SearchSpace:
-        scale = problem.model.params.scale
+        scale = problem.model.scale
         _, s, vt = np.linalg.svd(problem.jacobian(x0) * scale, full_matrices=False)
         keep = s > rcond * s[0]
         return cls(np.array(x0, dtype=float), (scale[:, None] * vt[keep].T) / s[keep])

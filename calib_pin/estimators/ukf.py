@@ -26,9 +26,9 @@ def _symmetric_sqrt(p: np.ndarray) -> np.ndarray:
 class UKF:
     """Recursive estimate of the deviations with sigma points instead of a Jacobian.
 
-    Same state, P0, Q and R as :class:`.ekf.EKF` (P0 = (prior * scale)^2, Q =
-    (process * scale)^2, R = noise^2); the reading of pose k is predicted at the
-    2 n + 1 sigma points of Van der Merwe's scaled set (``alpha``, ``beta``, ``kappa``;
+    Same state (the whitened coordinates, dimension n), P0, Q and R as
+    :class:`.ekf.EKF` (P0 = (prior * scale)^2, Q = (process * scale)^2, R = noise^2);
+    the values of pose k are predicted at the 2 n + 1 sigma points of Van der Merwe's scaled set (``alpha``, ``beta``, ``kappa``;
     with alpha = 1 and kappa = 0 the centre point has no weight in the mean and the
     others sit at +-sqrt(n) standard deviations). No derivative is used.
 
@@ -47,26 +47,28 @@ class UKF:
     def __call__(
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
-        n = problem.n_params
-        cable = problem.model
+        track = Tracker(problem)
+        space = track.whitened(x0)
+        n = space.dim
         points = MerweScaledSigmaPoints(n, alpha=self.alpha, beta=self.beta, kappa=self.kappa,
                                         sqrt_method=_symmetric_sqrt)
         kf = UnscentedKalmanFilter(
-            dim_x=n, dim_z=1, dt=1.0, points=points,
-            fx=lambda x, dt: x, hx=lambda x, q: cable.predict(x, q),
+            dim_x=n, dim_z=problem.model.values_per_row, dt=1.0, points=points,
+            fx=lambda z, dt: z, hx=lambda z, row: row.predict(space.to_x(z)).reshape(-1),
         )
-        kf.x = np.asarray(x0, dtype=float).copy()
-        kf.P, kf.Q, kf.R = filter_moments(problem, self.prior, self.process, noise)
-        track = Tracker(problem)
-        track.record(rmse(problem.residual(kf.x)))
+        kf.x = np.zeros(n)
+        kf.P, kf.Q, kf.R = filter_moments(problem, space, self.prior, self.process, noise)
+        track.record(rmse(problem.residual(x0)))
         for _ in range(self.passes):
             for k in range(problem.n_poses):
+                row = problem.subset(slice(k, k + 1))
                 kf.predict()
-                kf.update(problem.readings[k : k + 1], q=problem.q[k : k + 1])
+                kf.update(row.readings.reshape(-1), row=row)
                 kf.P = 0.5 * (kf.P + kf.P.T)
                 track.nfev += (2 * n + 1) / problem.n_poses
-                track.record(rmse(problem.residual(kf.x)))
+                track.record(rmse(problem.residual(space.to_x(kf.x))))
         return track.result(
-            kf.x, self.passes * problem.n_poses,
-            f"{self.passes} pass(es) over {problem.n_poses} poses", covariance=kf.P.copy(),
+            space.to_x(kf.x), self.passes * problem.n_poses,
+            f"{self.passes} pass(es) over {problem.n_poses} poses",
+            covariance=space.basis @ kf.P @ space.basis.T,
         )
