@@ -20,7 +20,8 @@ from .exceptions import CalibPinError
 from .measurements import write_measurements
 from .metrics import Metrics
 from .model import load_chain
-from .parameters import PlacementModel, parameter_model
+from .errors import CABLE_EXTRAS
+from .parameters import MODELS, PlacementModel, parameter_model
 from .simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, NOISE_KINDS, simulate
 
 
@@ -96,6 +97,12 @@ def _add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_d
     p.add_argument("--tool-mm", type=_xyz, help=f"cable hook point in the end frame, 'x,y,z' mm ({tool_default})")
 
 
+def _rows(data) -> str:
+    if data.kind == "position" and data.pose_ids is not None:
+        return f"{len(data)} positions at {len(np.unique(data.pose_ids))} poses"
+    return f"{len(data)} poses"
+
+
 def _table(metrics: dict[str, dict[str, Metrics]]) -> str:
     lines = [f"{'':14s}{'RMSE mm':>10s}{'mean mm':>10s}{'max mm':>10s}"]
     for split, stages in metrics.items():
@@ -103,6 +110,15 @@ def _table(metrics: dict[str, dict[str, Metrics]]) -> str:
             label = f"{split} {stage}"
             lines.append(f"{label:14s}{m.rmse_mm:10.4f}{m.mean_mm:10.4f}{m.max_mm:10.4f}")
     return "\n".join(lines)
+
+
+def _extras(text: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    bad = [n for n in names if n not in CABLE_EXTRAS]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(
+            f"cannot estimate '{bad[0] if bad else text}' (valid: {', '.join(CABLE_EXTRAS)}, comma-separated)")
+    return names
 
 
 def calibrate_parser() -> argparse.ArgumentParser:
@@ -128,7 +144,12 @@ def calibrate_parser() -> argparse.ArgumentParser:
         help="sensor noise (1 sigma) for the EKF, mm (default: the file's, else 0.05)",
     )
     p.add_argument("--loss", default="linear",
-                   help="linear (default), or a robust loss for lm: huber, soft_l1, cauchy")
+                   help="linear (default), or a robust loss: huber, soft_l1, cauchy")
+    p.add_argument("--model", choices=MODELS,
+                   help="parameter model: dh (default with a DH table), hayati (dh with a tilt beta "
+                   "for parallel axes), placement (6D offset per joint, any URDF; default without a DH table)")
+    p.add_argument("--estimate", type=_extras, default=(),
+                   help="drawstring geometry to estimate with the robot: anchor, offset or anchor,offset")
     p.add_argument("--analyze", action="store_true",
                    help="only print the identifiability report of the data's poses, estimate nothing")
     return p
@@ -145,9 +166,17 @@ def _analyze(args: argparse.Namespace) -> int:
     from .identifiability import analyze
 
     setup = prepare(args.robot, args.data, end_frame=args.end_frame, anchor_mm=args.anchor_mm,
-                    tool_mm=args.tool_mm, length_offset_mm=args.length_offset_mm)
-    print(f"{setup.chain.name}: {len(setup.data)} poses from {setup.data.source}, DH model, "
-          "drawstring sensor with known P0")
+                    tool_mm=args.tool_mm, length_offset_mm=args.length_offset_mm,
+                    model=args.model, estimate=args.estimate)
+    if setup.data.kind == "position":
+        sensor = "positions of markers, device frame and marker points estimated"
+    else:
+        known = [p for p in ("anchor", "offset") if p not in args.estimate]
+        sensor = "drawstring sensor, " + (f"{' and '.join(known)} known" if known else "nothing known")
+        if args.estimate:
+            sensor += f", {' and '.join(args.estimate)} estimated"
+    print(f"{setup.chain.name}: {_rows(setup.data)} from {setup.data.source}, "
+          f"{setup.model_name} model, {sensor}")
     print(analyze(setup.problem).report())
     print("the estimators move only the identifiable directions: the deviations along the blind "
           "ones above stay at zero in the export")
@@ -169,6 +198,8 @@ def _calibrate(args: argparse.Namespace) -> int:
         length_offset_mm=args.length_offset_mm,
         noise_mm=args.noise_mm,
         loss=args.loss,
+        model=args.model,
+        estimate=args.estimate,
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -191,15 +222,22 @@ def _calibrate(args: argparse.Namespace) -> int:
         result.to_urdf(urdf)
     n_train, n_test = len(result.train), len(result.test)
     print(
-        f"{result.chain.name}: {len(result.data)} poses from {result.data.source} "
-        f"({n_train} train, {n_test} test, seed {result.seed}), method {result.method}"
+        f"{result.chain.name}: {_rows(result.data)} from {result.data.source} "
+        f"({n_train} train, {n_test} test rows, seed {result.seed}), {result.model_name} model, "
+        f"method {result.method}"
     )
+    if result.data.kind == "position":
+        print("errors are Euclidean position errors in the device frame")
     print(_table(result.metrics))
+    if result.sensor_corrections:
+        shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items()
+                          if not k.startswith("marker"))
+        print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
     est = result.estimate
     print(f"estimation: {est.time_s:.3f} s, {est.iterations} iterations ({est.message})")
     if result.kinematic:
         u = report["uncertainty"]
-        print(f"uncertainty: reading noise {u['noise_estimate_mm']:.4f} mm; flange position "
+        print(f"uncertainty: noise {u['noise_estimate_mm']:.4f} mm per value; flange position "
               f"(1 sigma) over {u['flange_position_1sigma_mm']['poses']} workspace poses: RMS "
               f"{u['flange_position_1sigma_mm']['rms']:.4f} mm, max {u['flange_position_1sigma_mm']['max']:.4f} mm")
     if result.loss != "linear":

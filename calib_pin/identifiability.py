@@ -60,7 +60,7 @@ class Identifiability:
         """A few lines for people."""
         n = len(self.names)
         lines = [
-            f"identification Jacobian: {self.n_poses} readings x {n} parameters "
+            f"identification Jacobian: {self.n_poses} values (readings or coordinates) x {n} unknowns "
             "(columns scaled by typical sizes: 1 mm, 2 mrad)",
             f"rank {self.rank} of {n}; condition number {self.condition:.3g}",
             f"observability: O1 {self.o1:.3g}, O3 {self.o3:.3g}, O4 {self.o4:.3g} "

@@ -15,6 +15,10 @@ Format (one pose a row)::
   offset), ``noise_mm`` (the sensor's noise, 1 sigma). Other keys are kept as notes.
 - Every column names its unit: ``q<i>_deg`` or ``q<i>_rad`` for each joint of the
   chain, ``length_mm`` or ``length_m``; an optional integer ``pose`` column labels rows.
+- A *position* set (laser tracker, CMM) has ``x_mm, y_mm, z_mm`` (or ``_m``) instead of
+  the length: a marker's position in the measuring device's frame, and an optional
+  integer ``point_id`` naming the marker (several markers per pose; one marker if
+  absent). Each (pose, point_id) pair appears once.
 - Every value is checked; any problem raises :class:`~calib_pin.exceptions.DataError`
   naming the file, the line and the field.
 """
@@ -34,6 +38,7 @@ from .model import Chain
 
 _JOINT = re.compile(r"^q(\d+)_(deg|rad)$")
 _LENGTH = re.compile(r"^length_(mm|m)$")
+_COORD = re.compile(r"^([xyz])_(mm|m)$")
 _VECTOR_KEYS = ("anchor", "tool")
 
 
@@ -54,6 +59,9 @@ class MeasurementSet:
         source: File the set was read from ("" if built in memory).
         notes: Other metadata, key to text.
         pose_ids: The ``pose`` column's labels, shape (n_rows,), or None without one.
+        positions: For a position set, marker positions, shape (n_rows, 3), [m],
+            device frame (``lengths`` is then NaN); None for readings.
+        point_ids: For a position set, each row's marker label, shape (n_rows,).
     """
 
     q: np.ndarray
@@ -68,9 +76,16 @@ class MeasurementSet:
     source: str = ""
     notes: dict[str, str] = field(default_factory=dict)
     pose_ids: np.ndarray | None = None
+    positions: np.ndarray | None = None
+    point_ids: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.q)
+
+    @property
+    def kind(self) -> str:
+        """``cable`` (drawstring readings) or ``position``."""
+        return "cable" if self.positions is None else "position"
 
 
 def _number(text: str, path: Path, line: int, name: str) -> float:
@@ -154,6 +169,8 @@ def read_measurements(
     joint_cols: dict[int, tuple[int, str]] = {}
     length_col: tuple[int, str] | None = None
     pose_col: int | None = None
+    point_col: int | None = None
+    coord_cols: dict[str, tuple[int, str]] = {}
     for col, name in enumerate(header):
         if name in header[:col]:
             raise DataError(path, "column appears twice", header_line, name)
@@ -161,12 +178,17 @@ def read_measurements(
             joint_cols[int(m.group(1))] = (col, m.group(2))
         elif m := _LENGTH.match(name):
             length_col = (col, m.group(1))
+        elif m := _COORD.match(name):
+            coord_cols[m.group(1)] = (col, m.group(2))
         elif name == "pose":
             pose_col = col
+        elif name == "point_id":
+            point_col = col
         else:
             raise DataError(
                 path,
-                "unknown column (expected q<i>_deg or q<i>_rad, length_mm or length_m, pose)",
+                "unknown column (expected q<i>_deg or q<i>_rad, length_mm or length_m, "
+                "x_mm/y_mm/z_mm, pose, point_id)",
                 header_line,
                 name or f"column {col + 1}",
             )
@@ -183,7 +205,14 @@ def read_measurements(
     for i in sorted(expected):
         if i not in joint_cols:
             raise DataError(path, f"missing column q{i}_deg (or q{i}_rad)", header_line)
-    if length_col is None and readings:
+    position = bool(coord_cols) or point_col is not None
+    if position and length_col is not None:
+        raise DataError(path, "has both length and x/y/z columns: one set holds one sensor's data", header_line)
+    if position:
+        for axis in "xyz":
+            if axis not in coord_cols:
+                raise DataError(path, f"missing column {axis}_mm (or {axis}_m) of a position set", header_line)
+    if length_col is None and readings and not position:
         raise DataError(path, "missing column length_mm (or length_m)", header_line)
     if not rows and not allow_empty:
         raise DataError(path, "has a header but no data rows")
@@ -191,6 +220,8 @@ def read_measurements(
     q = np.empty((len(rows), n_joints))
     lengths = np.full(len(rows), np.nan)
     pose_ids = np.empty(len(rows), dtype=int)
+    positions = np.full((len(rows), 3), np.nan) if position else None
+    point_ids = np.ones(len(rows), dtype=int) if position else None
     length_scale = 1e-3 if length_col and length_col[1] == "mm" else 1.0
     for r, (number, fields) in enumerate(rows):
         if len(fields) != len(header):
@@ -218,19 +249,24 @@ def read_measurements(
             if length < 0:
                 raise DataError(path, f"{length:g} is negative", number, header[length_col[0]])
             lengths[r] = length * length_scale
-        if pose_col is not None:
-            try:
-                pose_ids[r] = int(fields[pose_col])
-            except ValueError:
-                raise DataError(
-                    path, f"'{fields[pose_col]}' is not a whole number", number, "pose"
-                ) from None
-    if pose_col is not None and len(set(pose_ids.tolist())) != len(pose_ids):
-        seen: set[int] = set()
-        for (number, _), pid in zip(rows, pose_ids, strict=True):
-            if pid in seen:
-                raise DataError(path, f"pose {pid} appears twice", number, "pose")
-            seen.add(int(pid))
+        if position:
+            for a, axis in enumerate("xyz"):
+                col, unit = coord_cols[axis]
+                positions[r, a] = _number(fields[col], path, number, header[col]) * (1e-3 if unit == "mm" else 1.0)
+        for col, name, target in ((pose_col, "pose", pose_ids), (point_col, "point_id", point_ids)):
+            if col is not None:
+                try:
+                    target[r] = int(fields[col])
+                except ValueError:
+                    raise DataError(path, f"'{fields[col]}' is not a whole number", number, name) from None
+    if pose_col is not None:
+        seen: set = set()
+        for r, (number, _) in enumerate(rows):
+            key = (int(pose_ids[r]), int(point_ids[r])) if position else int(pose_ids[r])
+            if key in seen:
+                what = f"pose {key[0]} point {key[1]}" if position else f"pose {key}"
+                raise DataError(path, f"{what} appears twice", number, "pose")
+            seen.add(key)
     if chain is not None and meta.get("robot") not in (None, chain.name):
         raise DataError(
             path, f"is for robot '{meta['robot']}', not '{chain.name}'", None, "robot"
@@ -248,6 +284,8 @@ def read_measurements(
         source=str(path),
         notes=notes,
         pose_ids=pose_ids if pose_col is not None else None,
+        positions=positions,
+        point_ids=point_ids,
     )
 
 
@@ -258,8 +296,9 @@ def _mm(v: np.ndarray) -> str:
 def write_measurements(path: str | Path, data: MeasurementSet) -> None:
     """Write a measurement set in degrees and millimetres, metadata first.
 
-    Angles are written with 9 decimals of a degree and lengths with 6 decimals of a
-    millimetre (1 nm), far below any sensor's resolution.
+    Angles are written with 9 decimals of a degree and lengths (or positions) with 6
+    decimals of a millimetre (1 nm), far below any sensor's resolution. A position set
+    is written with ``pose`` and ``point_id`` columns.
     """
     lines = []
     for key, value in (("robot", data.robot), ("end_frame", data.end_frame)):
@@ -274,9 +313,19 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
         lines.append(f"# noise_mm: {data.noise * 1e3:.6f}")
     lines += [f"# {k}: {v}" for k, v in data.notes.items()]
     n = data.q.shape[1]
-    lines.append(",".join([f"q{i}_deg" for i in range(1, n + 1)] + ["length_mm"]))
-    for q, length in zip(np.rad2deg(data.q), data.lengths, strict=True):
-        lines.append(",".join([f"{v:.9f}" for v in q] + [f"{length * 1e3:.6f}"]))
+    joints = [f"q{i}_deg" for i in range(1, n + 1)]
+    angles = np.rad2deg(data.q)
+    if data.kind == "position":
+        poses = data.pose_ids if data.pose_ids is not None else np.arange(1, len(data) + 1)
+        lines.append(",".join(["pose", "point_id"] + joints + ["x_mm", "y_mm", "z_mm"]))
+        for k in range(len(data)):
+            lines.append(",".join([str(int(poses[k])), str(int(data.point_ids[k]))]
+                                  + [f"{v:.9f}" for v in angles[k]]
+                                  + [f"{v * 1e3:.6f}" for v in data.positions[k]]))
+    else:
+        lines.append(",".join(joints + ["length_mm"]))
+        for q, length in zip(angles, data.lengths, strict=True):
+            lines.append(",".join([f"{v:.9f}" for v in q] + [f"{length * 1e3:.6f}"]))
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 

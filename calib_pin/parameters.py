@@ -24,7 +24,11 @@ from .robots import DHTable
 _LIN_X = pin.Motion(np.array([1.0, 0, 0]), np.zeros(3))
 _LIN_Z = pin.Motion(np.array([0, 0, 1.0]), np.zeros(3))
 _ANG_X = pin.Motion(np.zeros(3), np.array([1.0, 0, 0]))
+_ANG_Y = pin.Motion(np.zeros(3), np.array([0, 1.0, 0]))
 _ANG_Z = pin.Motion(np.zeros(3), np.array([0, 0, 1.0]))
+
+#: Parameter models calib-pin offers, by ``--model`` name.
+MODELS = ("dh", "hayati", "placement")
 
 
 class ParameterModel(Protocol):
@@ -59,6 +63,11 @@ def _rz(angle: float) -> pin.SE3:
 def _rx(angle: float) -> pin.SE3:
     c, s = np.cos(angle), np.sin(angle)
     return pin.SE3(np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]), np.zeros(3))
+
+
+def _ry(angle: float) -> pin.SE3:
+    c, s = np.cos(angle), np.sin(angle)
+    return pin.SE3(np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]), np.zeros(3))
 
 
 def _link(d: float, a: float, alpha: float) -> pin.SE3:
@@ -105,6 +114,9 @@ class DHModel:
         RobotError: the table's size or geometry does not match the URDF.
     """
 
+    #: Rows whose d deviation is replaced by a rotation beta about y (Hayati); none here.
+    hayati_rows: tuple[int, ...] = ()
+
     def __init__(
         self, chain: Chain, table: DHTable, scale_m: float = 1e-3, scale_rad: float = 2e-3
     ) -> None:
@@ -118,9 +130,15 @@ class DHModel:
             raise RobotError(f"DH model of '{chain.name}' needs revolute joints only")
         self.chain = chain
         self.table = table
-        self.names = tuple(f"{p}_{i}" for i in range(1, n + 1) for p in ("a", "d", "alpha", "theta"))
-        self.units = ("m", "m", "rad", "rad") * n
-        self.scale = np.array([scale_m, scale_m, scale_rad, scale_rad] * n)
+        beta = set(self.hayati_rows)
+        self.names = tuple(
+            f"{'beta' if p == 'd' and i - 1 in beta else p}_{i}"
+            for i in range(1, n + 1) for p in ("a", "d", "alpha", "theta")
+        )
+        self.units = tuple(u for i in range(n) for u in ("m", "rad" if i in beta else "m", "rad", "rad"))
+        self.scale = np.array(
+            [v for i in range(n) for v in (scale_m, scale_rad if i in beta else scale_m, scale_rad, scale_rad)]
+        )
         self._c, self._end = self._fit_frames()
         self._check_against_urdf()
 
@@ -172,10 +190,26 @@ class DHModel:
         x = np.asarray(x, dtype=float).reshape(-1, 4)
         return x[:, 0], x[:, 1], x[:, 2], x[:, 3]
 
-    def deltas(self, x: np.ndarray) -> list[pin.SE3]:
-        """Placement perturbations for deviations x, shape (4 n,), [m, m, rad, rad]."""
+    def _links(self, x: np.ndarray) -> list[tuple[pin.SE3, pin.SE3]]:
+        """Per row i, (nominal S_i, S_i at x); S_i = Tz(d) Tx(a) Rx(alpha) [Ry(beta)]."""
         t = self.table
-        da, dd, dal, dth = self._split(x)
+        da, dd, dal, _ = self._split(x)
+        out = []
+        for i in range(t.n_joints):
+            s0 = _link(t.d[i], t.a[i], t.alpha[i])
+            if i in self.hayati_rows:
+                s = _link(t.d[i], t.a[i] + da[i], t.alpha[i] + dal[i]) * _ry(dd[i])
+            else:
+                s = _link(t.d[i] + dd[i], t.a[i] + da[i], t.alpha[i] + dal[i])
+            out.append((s0, s))
+        return out
+
+    def deltas(self, x: np.ndarray) -> list[pin.SE3]:
+        """Placement perturbations for deviations x, shape (4 n,), [m, m, rad, rad]
+        (a Hayati row's second entry is beta [rad])."""
+        t = self.table
+        dth = self._split(x)[3]
+        links = self._links(x)
         out = []
         for i in range(t.n_joints):
             w0 = _rz(t.theta_offset[i]) * self._c[i]
@@ -183,12 +217,9 @@ class DHModel:
             if i == 0:
                 out.append(w0.actInv(w))
             else:
-                s0 = _link(t.d[i - 1], t.a[i - 1], t.alpha[i - 1])
-                s = _link(t.d[i - 1] + dd[i - 1], t.a[i - 1] + da[i - 1], t.alpha[i - 1] + dal[i - 1])
+                s0, s = links[i - 1]
                 out.append(w0.actInv(s0.actInv(s * w)))
-        k = t.n_joints - 1
-        s0 = _link(t.d[k], t.a[k], t.alpha[k])
-        s = _link(t.d[k] + dd[k], t.a[k] + da[k], t.alpha[k] + dal[k])
+        s0, s = links[-1]
         out.append(self._end.actInv(s0.actInv(s * self._end)))
         return out
 
@@ -211,6 +242,10 @@ class DHModel:
                 1: xa.actInv(_LIN_Z),  # d_i
                 2: _ANG_X,  # alpha_i
             }
+            if i in self.hayati_rows:  # S_i ends with Ry(beta_i), which replaces d_i
+                tail = _ry(dd[i])
+                twists = {col: tail.actInv(tw) for col, tw in twists.items() if col != 1}
+                twists[1] = _ANG_Y
             for col, twist in twists.items():
                 jac[6 * (i + 1) : 6 * (i + 2), 4 * i + col] = after.actInv(twist).vector
         return jac
@@ -246,18 +281,44 @@ class PlacementModel:
         return jac
 
 
-def parameter_model(chain: Chain, name: str = "dh") -> DHModel:
-    """The parameter model ``name`` for a chain.
+class HayatiModel(DHModel):
+    """DH deviations with Hayati's fix for parallel consecutive joint axes.
+
+    Where joint i+1's axis is parallel to joint i's (DH row i has alpha_i = 0, e.g.
+    joints 2 and 3 of the IRB120), a small tilt moves the common normal along the axis
+    without bound, so d_i is ill-conditioned. Hayati replaces that row's Δd_i by a
+    rotation beta_i about the row's y axis: S_i = Tz(d_i) Tx(a_i) Rx(alpha_i) Ry(beta_i).
+    Names: ``beta_<i>`` [rad] in place of ``d_<i>``; everything else as
+    :class:`DHModel`. The last row (the end frame) keeps its d.
+
+    Args:
+        tolerance: |alpha_i| below this counts as parallel, [rad].
+    """
+
+    def __init__(self, chain: Chain, table: DHTable, scale_m: float = 1e-3, scale_rad: float = 2e-3,
+                 tolerance: float = np.deg2rad(1.0)) -> None:
+        self.hayati_rows = tuple(
+            i for i in range(table.n_joints - 1) if abs(np.arctan2(np.sin(table.alpha[i]), np.cos(table.alpha[i]))) < tolerance
+        )
+        super().__init__(chain, table, scale_m, scale_rad)
+
+
+def parameter_model(chain: Chain, name: str = "dh") -> DHModel | PlacementModel:
+    """The parameter model ``name`` (one of :data:`MODELS`) for a chain.
+
+    ``dh`` and ``hayati`` need the robot's DH table (``robots/<name>.toml``);
+    ``placement`` works for any URDF chain.
 
     Raises:
-        RobotError: the robot has no DH table, or the model name is unknown.
+        RobotError: the robot has no DH table for a DH model, or the name is unknown.
     """
-    if name != "dh":
-        raise RobotError(f"unknown parameter model '{name}' (valid: dh)")
+    if name not in MODELS:
+        raise RobotError(f"unknown parameter model '{name}' (valid: {', '.join(MODELS)})")
+    if name == "placement":
+        return PlacementModel(chain)
     if chain.description.dh is None:
         raise RobotError(
-            f"robot '{chain.name}' has no DH table, so it cannot be calibrated yet: add a "
-            f"[dh] table in robots/{chain.name}.toml (a parameter model for any URDF is "
-            "planned)"
+            f"robot '{chain.name}' has no DH table for the '{name}' model: use --model "
+            f"placement (any URDF), or add a [dh] table in robots/{chain.name}.toml"
         )
-    return DHModel(chain, chain.description.dh)
+    return (HayatiModel if name == "hayati" else DHModel)(chain, chain.description.dh)

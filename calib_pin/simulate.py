@@ -12,12 +12,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 
 from .errors import CableModel, Drawstring
 from .exceptions import CalibPinError, DataError
 from .measurements import MeasurementSet
 from .model import Chain
 from .parameters import ParameterModel
+from .position import PositionDevice, PositionModel
 
 #: Default sensor geometry of simulated sessions: the sensor body on the floor in
 #: front of the robot, the cable hooked on the tool axis 50 mm out of the flange.
@@ -241,3 +243,54 @@ def simulate(
         noise_kind, tuple(int(i) for i in np.flatnonzero(outliers)),
     )
     return data, truth
+
+
+#: Default marker points of simulated position sets, end frame, [mm].
+DEFAULT_MARKERS_MM = ((60.0, 0.0, 40.0), (-30.0, 52.0, 40.0), (-30.0, -52.0, 40.0))
+
+
+def simulate_positions(
+    chain: Chain,
+    params: ParameterModel,
+    n_poses: int,
+    seed: int,
+    noise_mm: float = 0.05,
+    nominal_rmse_mm: float = 2.0,
+    markers_mm=DEFAULT_MARKERS_MM,
+    device: pin.SE3 | None = None,
+) -> tuple[MeasurementSet, np.ndarray, PositionDevice]:
+    """Simulate a position session: every marker measured at each pose by a device.
+
+    True deviations are drawn like :func:`simulate`'s, scaled so the nominal model's
+    position error (Euclidean, over all rows) has RMSE ``nominal_rmse_mm``. Each
+    coordinate gets Gaussian noise ``noise_mm`` (1 sigma). ``device`` is T_DB (default:
+    the device 2 m in front of the robot, turned 150 deg about z).
+
+    Returns:
+        The set (rows: pose-major, markers labelled 1..k), the true deviations x
+        (shape (n_params,), SI) and the true device geometry.
+    """
+    rng = np.random.default_rng(seed)
+    if device is None:
+        device = pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4]))
+    markers = np.asarray(markers_mm, dtype=float) * 1e-3
+    labels = tuple(range(1, len(markers) + 1))
+    truth_device = PositionDevice(device, markers, labels)
+    model = PositionModel(chain, params, truth_device, estimate=())
+    q = np.repeat(random_poses(chain, n_poses, rng), len(markers), axis=0)
+    index = np.tile(np.arange(len(markers)), n_poses)
+    x = rng.normal(size=len(params.names)) * params.scale
+    nominal = model.predict(None, q, index)
+    if nominal_rmse_mm > 0:
+        gap = np.linalg.norm(model.predict(x, q, index) - nominal, axis=1)
+        x *= nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap**2))
+    else:
+        x[:] = 0.0
+    positions = model.predict(x, q, index) + rng.normal(size=q.shape[:1] + (3,)) * noise_mm * 1e-3
+    data = MeasurementSet(
+        q=q, lengths=np.full(len(q), np.nan), robot=chain.name, end_frame=chain.end_frame,
+        notes={"source": f"calib-pin position simulator, seed {seed}, noise {noise_mm:g} mm per axis"},
+        pose_ids=np.repeat(np.arange(1, n_poses + 1), len(markers)), positions=positions,
+        point_ids=np.array(labels)[index], noise=noise_mm * 1e-3,
+    )
+    return data, x, truth_device

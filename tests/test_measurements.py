@@ -88,7 +88,7 @@ def test_missing_file(tmp_path, chain):
 def test_too_few_rows_for_the_parameters(tmp_path):
     """Fewer training rows than parameters is refused before estimating."""
     path = _write(tmp_path, META + HEADER + "\n" + "\n".join([ROW] * 20) + "\n")
-    with pytest.raises(cp.DataError, match=r"s.csv: 20 rows leave 16 for training, fewer than the 24 parameters"):
+    with pytest.raises(cp.DataError, match=r"s.csv: 20 rows leave 16 values for training, fewer than the 24 unknowns"):
         cp.calibrate("irb120", path)
 
 

@@ -67,7 +67,7 @@ class EKF:
                 track.nfev += 1.0 / problem.n_poses
                 kf.predict()
                 kf.update(
-                    row.readings.reshape(-1),
+                    row.readings.reshape(-1, 1),  # a column, as Hx returns
                     HJacobian=lambda z, h=jac @ space.basis: h,
                     Hx=lambda z, value=value: value.reshape(-1, 1),
                 )
