@@ -14,7 +14,8 @@ from .base import EstimateResult, Tracker
 from .de import DE
 from .ekf import EKF
 from .ekf_qibas import EKFQIBAS
-from .lm import LOSSES, LevenbergMarquardt
+from .lm import LevenbergMarquardt
+from .robust import LOSSES
 from .pso import PSO
 from .qibas import QIBAS
 from .rbf import RBF

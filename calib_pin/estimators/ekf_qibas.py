@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -17,19 +18,22 @@ class EKFQIBAS:
     """One EKF pass over the training poses, then QIBAS started from its estimate.
 
     The QIBAS stage starts with a smaller step (a tenth of the start residual's norm)
-    since the EKF already brought the estimate near the optimum. ``iterations`` is the
+    since the EKF already brought the estimate near the optimum. With a robust
+    ``loss`` the QIBAS stage refits with it (:func:`.robust.refit`); the EKF stays
+    plain (a Kalman filter has no robust loss here). ``iterations`` is the
     sum of both stages' (EKF updates + QIBAS iterations), itemised in ``stages``;
     ``covariance`` is the EKF's P.
     """
 
     ekf: EKF = field(default_factory=EKF)
     qibas: QIBAS = field(default_factory=lambda: QIBAS(step=0.1))
+    loss: str = "linear"
 
     def __call__(
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
         first = self.ekf(problem, x0, seed=seed, noise=noise)
-        second = self.qibas(problem, first.x, seed=seed, noise=noise)
+        second = dataclasses.replace(self.qibas, loss=self.loss)(problem, first.x, seed=seed, noise=noise)
         return EstimateResult(
             x=second.x,
             history=first.history + second.history[1:],
@@ -38,5 +42,7 @@ class EKFQIBAS:
             nfev=first.nfev + second.nfev,
             message=f"EKF: {first.message}; QIBAS: {second.message}",
             covariance=first.covariance,
-            stages={"ekf": first.iterations, "qibas": second.iterations},
+            stages={"ekf": first.iterations, **{f"qibas {k}": v for k, v in second.stages.items()}}
+            if second.stages else {"ekf": first.iterations, "qibas": second.iterations},
+            outliers=second.outliers,
         )

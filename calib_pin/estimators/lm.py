@@ -6,7 +6,8 @@ with the loss's scale set from the data: 1.4826 x the median absolute deviation 
 previous fit's residuals (a noise estimate that gross outliers barely inflate),
 refitted while that estimate shrinks by more than 10 % (at most 3 robust fits).
 Rows with a value whose final residual exceeds ``OUTLIER_SCALES`` x that scale are reported as
-outliers (``EstimateResult.outliers``).
+outliers (``EstimateResult.outliers``). The search methods get the same scheme through
+:func:`.robust.refit`.
 """
 
 from __future__ import annotations
@@ -18,18 +19,7 @@ from scipy.optimize import least_squares
 
 from ..errors import CalibrationProblem
 from .base import EstimateResult, Tracker, rmse
-
-#: Robust losses (scipy.optimize.least_squares names); "linear" is plain least squares.
-LOSSES = ("linear", "huber", "soft_l1", "cauchy")
-
-#: A residual beyond this many noise scales marks an outlier.
-OUTLIER_SCALES = 3.0
-
-
-def robust_scale(residual: np.ndarray) -> float:
-    """1.4826 x median absolute deviation [unit of the residual]: sigma for Gaussian
-    noise, barely moved by a few gross errors."""
-    return float(1.4826 * np.median(np.abs(residual - np.median(residual))))
+from .robust import LOSSES, MAX_REFITS, outlier_rows, robust_scale
 
 
 @dataclass(frozen=True)
@@ -85,7 +75,7 @@ class LevenbergMarquardt:
             return track.result(space.to_x(fit.x), len(track.history) - 1, str(fit.message))
         recording[0] = False
         robust, scale = fit, np.inf
-        for _ in range(3):  # refit while the noise scale estimate still shrinks
+        for _ in range(MAX_REFITS):  # refit while the noise scale estimate still shrinks
             new_scale = max(robust_scale(robust.fun), 1e-9)
             if new_scale > 0.9 * scale:
                 break
@@ -94,7 +84,7 @@ class LevenbergMarquardt:
                                    f_scale=scale, **tolerances)
         # The robust stage trades training RMSE for robustness: record its own RMSE.
         track.record(rmse(robust.fun))
-        outliers = tuple(int(i) for i in problem.rows_of(np.flatnonzero(np.abs(robust.fun) > OUTLIER_SCALES * scale)))
+        outliers = outlier_rows(problem, robust.fun, scale)
         return track.result(
             space.to_x(robust.x), len(track.history) - 1,
             f"LM: {fit.message}; {self.loss} (scale {scale * 1e3:.3g} mm): {robust.message}",

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CalibrationProblem
+from .robust import refit
 from .base import EstimateResult, Tracker
 
 
@@ -36,10 +37,13 @@ class PSO:
     bound: float = 1.0
     rtol: float = 1e-3
     window: int = 30
+    loss: str = "linear"
 
     def __call__(
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
+        if self.loss != "linear":
+            return refit(self, problem, x0, self.loss, seed=seed, noise=noise)
         rng = np.random.default_rng(seed)
         track = Tracker(problem)
         space = track.whitened(x0)
