@@ -15,6 +15,7 @@ from .export import write_calibrated_urdf
 from .measurements import MeasurementSet, read_measurements
 from .metrics import Metrics, split_rows
 from .model import Chain, load_chain
+from .robots import RobotDescription, resolve_robot
 from .parameters import ParameterModel, parameter_model
 from .position import PositionDevice, PositionModel, fit_device
 from .simulate import deviations_for_humans
@@ -348,7 +349,11 @@ def prepare(
         CalibPinError: any bad input (robot, file, option), with a one-line message.
     """
     estimate = _check_estimate(estimate)
-    chain = load_chain(robot, end_frame)
+    description = robot if isinstance(robot, RobotDescription) else resolve_robot(robot)
+    if end_frame is None and description.end_frame is None and data is not None:
+        # No tool0 in the URDF: the data file may name the end frame.
+        end_frame = (data if isinstance(data, MeasurementSet) else read_measurements(data)).end_frame
+    chain = load_chain(description, end_frame)
 
     def params_for(chain: Chain) -> tuple[ParameterModel, str]:
         name = model or ("dh" if chain.description.dh is not None else "placement")

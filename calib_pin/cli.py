@@ -21,7 +21,7 @@ from .measurements import write_measurements
 from .metrics import Metrics
 from .model import load_chain
 from .errors import CABLE_EXTRAS
-from .parameters import MODELS, PlacementModel, parameter_model
+from .parameters import MODELS, parameter_model
 from .simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, NOISE_KINDS, simulate
 
 
@@ -275,6 +275,8 @@ def simulate_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--offset-mm", type=_finite, default=0.0, help="sensor zero offset, mm (default 0)")
     p.add_argument("--poses-file", help="simulate at the poses of this pose list (make_poses.py) instead of random ones")
+    p.add_argument("--model", choices=MODELS,
+                   help="parameter model of the true deviations (default dh with a DH table, else placement)")
     p.add_argument("--out", required=True, help="output CSV")
     return p
 
@@ -292,10 +294,9 @@ def _simulate(args: argparse.Namespace) -> int:
     out = Path(args.out)
     truth_path = out.with_name(out.name.removesuffix(".csv") + ".truth.json")
     chain = load_chain(args.robot, args.end_frame)
-    if chain.description.dh is not None:
-        params, kind = parameter_model(chain), "DH"
-    else:
-        params, kind = PlacementModel(chain), "joint-placement"
+    model = args.model or ("dh" if chain.description.dh is not None else "placement")
+    params = parameter_model(chain, model)
+    kind = {"dh": "DH", "hayati": "Hayati", "placement": "joint-placement"}[model]
     poses = None
     if args.poses_file:
         from .collect import read_pose_list

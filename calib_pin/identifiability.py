@@ -61,7 +61,7 @@ class Identifiability:
         n = len(self.names)
         lines = [
             f"identification Jacobian: {self.n_poses} values (readings or coordinates) x {n} unknowns "
-            "(columns scaled by typical sizes: 1 mm, 2 mrad)",
+            "(columns scaled by each unknown's typical size, e.g. 1 mm, 2 mrad)",
             f"rank {self.rank} of {n}; condition number {self.condition:.3g}",
             f"observability: O1 {self.o1:.3g}, O3 {self.o3:.3g}, O4 {self.o4:.3g} "
             "(m of reading per typical deviation; larger is better)",

@@ -169,3 +169,27 @@ def test_runaway_deviation_exit_2_report_kept(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "is beyond the sanity bound" in err[0]
     assert (tmp_path / "o" / "report.json").is_file() and not list((tmp_path / "o").glob("*.urdf"))
+
+
+def test_models_and_sensor_unknowns_from_the_command_line(tmp_path, capsys):
+    """--model hayati and --estimate anchor,offset reach the report and the analysis."""
+    out = tmp_path / "o"
+    assert calibrate_main(["irb120", "--model", "hayati", "--estimate", "anchor,offset", "--method", "lm",
+                           "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "hayati model" in text and "sensor geometry estimated: anchor_x_mm" in text
+    report = json.loads((out / "report.json").read_text())
+    assert report["model"] == "hayati" and "beta_2_deg" in report["deviations"]
+    assert set(report["sensor_corrections"]) == {"anchor_x_mm", "anchor_y_mm", "anchor_z_mm", "offset_mm"}
+    assert calibrate_main(["irb120", "--analyze", "--estimate", "anchor", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "dh model, drawstring sensor, offset known, anchor estimated" in text
+    assert "d_1 +1 mm with anchor_z +1 mm" in text
+
+
+def test_simulate_with_a_model_then_calibrate_it(tmp_path, capsys):
+    csv = tmp_path / "h.csv"
+    assert simulate_main(["ur5", "--model", "placement", "--poses", "60", "--out", str(csv)]) == 0
+    assert "joint-placement deviations" in capsys.readouterr().out
+    assert calibrate_main(["ur5", "--data", str(csv), "--method", "lm", "--out", str(tmp_path / "o")]) == 0
+    assert "placement model" in capsys.readouterr().out

@@ -166,3 +166,58 @@ def test_loss_only_where_supported():
         cp.calibrate("irb120", method="ekf", loss="huber")
     with pytest.raises(cp.EstimatorError, match="unknown loss 'l2'"):
         cp.calibrate("irb120", method="lm", loss="l2")
+
+
+@pytest.mark.parametrize("method", ["bas", "qibas", "ekf-qibas"])
+def test_robust_search_methods_halve_the_error_with_outliers(chain, params, fresh, method):
+    """Must hold (issue 5) for the search methods too: with Student-t noise and 5 %
+    gross outliers, the method with the Cauchy loss is at most half as far from the
+    truth on fresh poses as plain LM, and lists the outliers it found."""
+    data, truth = cp.simulate(chain, params, 120, seed=7, noise_mm=0.05, noise_kind="student-outliers")
+    q, _ = fresh
+    true_fresh = cp.CableModel(chain, params, truth.sensor).predict(truth.x, q)
+
+    def fresh_error(result):
+        return float(np.sqrt(np.mean((result.predict(q) - true_fresh) ** 2)))
+
+    plain = cp.calibrate("irb120", data, method="lm")
+    robust = cp.calibrate("irb120", data, method=method, loss="cauchy")
+    assert fresh_error(robust) <= 0.5 * fresh_error(plain)
+    assert set(truth.outliers) & set(robust.train.tolist()) <= set(robust.outlier_rows)
+    est = robust.estimate
+    assert len(est.history) == est.iterations + 1 == len(est.evaluations)
+    assert "cauchy" in est.stages or "qibas cauchy" in est.stages
+
+
+@pytest.mark.parametrize("seed", [7, 11, 15])
+def test_default_pipeline_reaches_the_attainable_floor(chain, params, fresh, seed):
+    """Must hold (issue 5): with Gaussian noise the default pipeline's fresh-pose error
+    is within 5 % of an LM fit started from the true deviations on the same rows."""
+    from calib_pin.estimators import LevenbergMarquardt
+
+    data, truth = cp.simulate(chain, params, 120, seed=seed)
+    q, _ = fresh
+    true_fresh = cp.CableModel(chain, params, truth.sensor).predict(truth.x, q)
+    result = cp.calibrate("irb120", data)
+    floor = LevenbergMarquardt()(result.problem.subset(result.train), truth.x).x
+    model = result.problem.model
+
+    def fresh_error(x):
+        return float(np.sqrt(np.mean((model.predict(x, q) - true_fresh) ** 2)))
+
+    assert fresh_error(result.x) <= 1.05 * fresh_error(floor)
+
+
+@pytest.mark.parametrize(("robot", "end_frame"), [("ur5", None), ("panda", "panda_hand_tcp")])
+def test_any_urdf_arm_calibrates_with_the_placement_model(robot, end_frame):
+    """example-robot-data arms have no DH table: the placement model (6D offset of every
+    joint, reduced to the identifiable directions) calibrates them to the noise floor."""
+    chain = cp.load_chain(robot, end_frame)
+    placement = cp.parameter_model(chain, "placement")
+    data, truth = cp.simulate(chain, placement, 120, seed=2)
+    result = cp.calibrate(robot, data, method="lm")
+    assert result.model_name == "placement" and len(result.x) == 6 * (chain.n_joints + 1)
+    q = cp.random_poses(chain, 500, np.random.default_rng(4))
+    true_fresh = cp.CableModel(chain, placement, truth.sensor).predict(truth.x, q)
+    fresh = np.sqrt(np.mean((result.predict(q) - true_fresh) ** 2)) * 1e3
+    assert fresh < 0.06 and result.metrics["test"]["before"].rmse_mm > 1.0
