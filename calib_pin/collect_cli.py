@@ -16,11 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import OneLineParser, _at_least_one, _positive, _report_errors, _xyz
+from .cli import OneLineParser, _at_least_one, _extras, _positive, _report_errors, _xyz
 from .collect import collect, open_session, read_pose_list
 from .drawstring import SensorFault, SensorProfile, open_reader, read_with_retries
 from .exceptions import CalibPinError
 from .measurements import write_poses
+from .parameters import MODELS
 from .model import load_chain
 from .simulate import random_poses
 
@@ -224,6 +225,10 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--anchor-mm", type=_xyz, help="sensor point P0 in the base frame, x,y,z mm (600,200,-100)")
     p.add_argument("--tool-mm", type=_xyz, help="hook point in the end frame, x,y,z mm (0,0,50)")
     p.add_argument("--end-frame", help="end frame (default tool0)")
+    p.add_argument("--model", choices=MODELS,
+                   help="parameter model to plan for (default dh with a DH table, else placement)")
+    p.add_argument("--estimate", type=_extras, default=(),
+                   help="sensor geometry that will be estimated too: anchor, offset or anchor,offset")
     p.add_argument("--out", required=True, help="pose list CSV")
     args = p.parse_args(argv)
     if args.candidates < args.n:
@@ -241,7 +246,8 @@ def _plan_poses(args: argparse.Namespace) -> int:
     chain = load_chain(args.robot, args.end_frame)
     sensor = Drawstring(np.array(args.anchor_mm or DEFAULT_ANCHOR_MM) * 1e-3,
                         np.array(args.tool_mm or DEFAULT_TOOL_MM) * 1e-3)
-    model = CableModel(chain, parameter_model(chain), sensor)
+    name = args.model or ("dh" if chain.description.dh is not None else "placement")
+    model = CableModel(chain, parameter_model(chain, name), sensor, args.estimate)
     try:
         plan = plan_poses(model, args.n, args.candidates, seed=args.seed, margin=np.deg2rad(args.margin_deg))
     except ValueError as e:
@@ -249,8 +255,10 @@ def _plan_poses(args: argparse.Namespace) -> int:
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     write_poses(args.out, plan.q, robot=chain.name, end_frame=chain.end_frame,
                 notes={"source": f"plan_poses.py: {args.n} of {args.candidates} candidates (seed {args.seed}), "
-                                 "D-optimal for the DH model and the drawstring sensor"})
-    print(f"{chain.name}: {args.n} poses chosen from {args.candidates} candidates (seed {args.seed})")
+                                 f"D-optimal for the {name} model and the drawstring sensor"
+                                 + (f" with {' and '.join(args.estimate)} estimated" if args.estimate else "")})
+    print(f"{chain.name}: {args.n} poses chosen from {args.candidates} candidates (seed {args.seed}), "
+          f"{name} model" + (f", {' and '.join(args.estimate)} estimated" if args.estimate else ""))
     print(f"observability O1 {plan.o1:.3g} (random poses: {plan.random_o1:.3g}), "
           f"O3 {plan.o3:.3g} (random: {plan.random_o3:.3g})")
     reach = f"the first {plan.reach}" if plan.reach else "none"

@@ -249,23 +249,23 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
         raise CalibPinError("a comparison needs held-out rows: use a test fraction above 0")
     train_problem, test_problem = setup.problem.subset(train), setup.problem.subset(test)
     model = setup.problem.model
-    x0 = np.zeros(len(setup.params.names))
+    x0 = np.zeros(setup.problem.n_params)
     fresh = _fresh_scorer(setup, truth, seed)
     runs = {}
     for m in methods:
         est = run_estimator(m, train_problem, x0, seed=seed, noise=setup.noise)
         k, evals = est.converged(CONVERGED_TOLERANCE)
-        residual = est.residual(test_problem)
+        residual = test_problem.row_errors(est.residual(test_problem))
         runs[m] = MethodRun(
             method=m, label=PAPER_LABELS[m],
-            train=Metrics.of(est.residual(train_problem)), test=Metrics.of(residual),
+            train=Metrics.of(train_problem.row_errors(est.residual(train_problem))), test=Metrics.of(residual),
             fresh_rmse_mm=fresh(lambda q, est=est: est.predict(model, q)),
             iterations=est.iterations, evaluations=est.nfev,
             converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
             history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
             test_residual_mm=residual * 1e3,
         )
-    before = test_problem.residual(x0)
+    before = test_problem.row_errors(test_problem.residual(x0))
     return Trial(
         seed=seed, source=setup.data.source or "simulated", before=Metrics.of(before),
         before_fresh_rmse_mm=fresh(lambda q: model.predict(x0, q)),
@@ -311,6 +311,8 @@ def compare(
     out = []
     if simulate_noise is None:
         setup = prepare(robot, data)
+        if setup.data.kind == "position" and "rbf" in methods:
+            raise CalibPinError("method 'rbf' learns a correction of cable readings; leave it out for position data (--methods)")
         truth_file = Path(setup.data.source).with_name(
             Path(setup.data.source).name.removesuffix(".csv") + ".truth.json")
         truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() else None

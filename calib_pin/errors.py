@@ -63,6 +63,18 @@ class MeasurementModel:
         self.units = tuple(params.units) + tuple(e[1] for e in extra)
         self.scale = np.concatenate([params.scale, [e[2] for e in extra]])
 
+    @staticmethod
+    def chosen(estimate: tuple[str, ...], valid: tuple[str, ...], sensor: str) -> tuple[str, ...]:
+        """The sensor unknowns to estimate, in ``valid``'s order.
+
+        Raises:
+            ValueError: a name this sensor has no such unknown for.
+        """
+        unknown = set(estimate) - set(valid)
+        if unknown:
+            raise ValueError(f"{sensor} cannot estimate {sorted(unknown)[0]!r} (valid: {', '.join(valid)})")
+        return tuple(e for e in valid if e in estimate)
+
     @property
     def n_params(self) -> int:
         return len(self.names)
@@ -103,14 +115,11 @@ class CableModel(MeasurementModel):
     """
 
     def __init__(self, chain: Chain, params: ParameterModel, sensor: Drawstring, estimate: tuple[str, ...] = ()) -> None:
-        unknown = set(estimate) - set(CABLE_EXTRAS)
-        if unknown:
-            raise ValueError(f"a drawstring cannot estimate {sorted(unknown)[0]!r} (valid: {', '.join(CABLE_EXTRAS)})")
+        self.estimate = self.chosen(estimate, CABLE_EXTRAS, "a drawstring")
         extra = [(f"anchor_{a}", "m", 2e-3) for a in "xyz"] if "anchor" in estimate else []
         extra += [("offset", "m", 1e-3)] if "offset" in estimate else []
         super().__init__(chain, params, extra)
         self.sensor = sensor
-        self.estimate = tuple(e for e in CABLE_EXTRAS if e in estimate)
 
     def sensor_at(self, x: np.ndarray | None) -> Drawstring:
         """The sensor geometry x implies (``sensor`` plus the estimated corrections)."""

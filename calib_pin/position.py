@@ -56,9 +56,7 @@ class PositionModel(MeasurementModel):
 
     def __init__(self, chain: Chain, params: ParameterModel, device: PositionDevice,
                  estimate: tuple[str, ...] = POSITION_EXTRAS) -> None:
-        unknown = set(estimate) - set(POSITION_EXTRAS)
-        if unknown:
-            raise ValueError(f"a position device cannot estimate {sorted(unknown)[0]!r} (valid: {', '.join(POSITION_EXTRAS)})")
+        self.estimate = self.chosen(estimate, POSITION_EXTRAS, "a position device")
         extra = []
         if "device" in estimate:
             extra += [(f"device_{a}", "m", 2e-3) for a in "xyz"] + [(f"device_r{a}", "rad", 2e-3) for a in "xyz"]
@@ -66,7 +64,6 @@ class PositionModel(MeasurementModel):
             extra += [(f"marker{label}_{a}", "m", 1e-3) for label in device.labels for a in "xyz"]
         super().__init__(chain, params, extra)
         self.device = device
-        self.estimate = tuple(e for e in POSITION_EXTRAS if e in estimate)
 
     def device_at(self, x: np.ndarray | None) -> PositionDevice:
         """The device frame and markers x implies."""

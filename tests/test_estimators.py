@@ -141,10 +141,9 @@ def test_parabola_vertex():
     assert not ok[0]
 
 
-def test_robust_loss_halves_the_error_with_outliers(chain, params, fresh):
-    """Must hold (issue 5): sigma 0.05 mm Student-t noise with 5 % gross outliers: the
-    robust LM's fresh-pose error is at most half of plain LM's, and it names the
-    outlier rows."""
+def _outlier_session(chain, params, fresh):
+    """Seed 7, sigma 0.05 mm Student-t noise with 5 % gross outliers; and a function
+    giving a result's RMSE [m] on the fresh poses against the truth."""
     data, truth = cp.simulate(chain, params, 120, seed=7, noise_mm=0.05, noise_kind="student-outliers")
     q, _ = fresh
     true_fresh = cp.CableModel(chain, params, truth.sensor).predict(truth.x, q)
@@ -152,6 +151,14 @@ def test_robust_loss_halves_the_error_with_outliers(chain, params, fresh):
     def fresh_error(result):
         return float(np.sqrt(np.mean((result.predict(q) - true_fresh) ** 2)))
 
+    return data, truth, fresh_error
+
+
+def test_robust_loss_halves_the_error_with_outliers(chain, params, fresh):
+    """Must hold (issue 5): sigma 0.05 mm Student-t noise with 5 % gross outliers: the
+    robust LM's fresh-pose error is at most half of plain LM's, and it names the
+    outlier rows."""
+    data, truth, fresh_error = _outlier_session(chain, params, fresh)
     plain = cp.calibrate("irb120", data, method="lm")
     for loss in ("huber", "soft_l1", "cauchy"):
         robust = cp.calibrate("irb120", data, method="lm", loss=loss)
@@ -173,13 +180,7 @@ def test_robust_search_methods_halve_the_error_with_outliers(chain, params, fres
     """Must hold (issue 5) for the search methods too: with Student-t noise and 5 %
     gross outliers, the method with the Cauchy loss is at most half as far from the
     truth on fresh poses as plain LM, and lists the outliers it found."""
-    data, truth = cp.simulate(chain, params, 120, seed=7, noise_mm=0.05, noise_kind="student-outliers")
-    q, _ = fresh
-    true_fresh = cp.CableModel(chain, params, truth.sensor).predict(truth.x, q)
-
-    def fresh_error(result):
-        return float(np.sqrt(np.mean((result.predict(q) - true_fresh) ** 2)))
-
+    data, truth, fresh_error = _outlier_session(chain, params, fresh)
     plain = cp.calibrate("irb120", data, method="lm")
     robust = cp.calibrate("irb120", data, method=method, loss="cauchy")
     assert fresh_error(robust) <= 0.5 * fresh_error(plain)
