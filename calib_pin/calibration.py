@@ -158,6 +158,13 @@ class CalibrationResult:
 
         return estimate_uncertainty(self.problem.subset(self.train), self.x, seed=self.seed)
 
+    @property
+    def identifiability(self):
+        """What the training poses can identify (:func:`calib_pin.identifiability.analyze` at zero)."""
+        from .identifiability import analyze
+
+        return analyze(self.problem.subset(self.train))
+
     def _sensor_report(self) -> dict:
         sensor = self.sensor
         if isinstance(sensor, Drawstring):
@@ -199,6 +206,7 @@ class CalibrationResult:
             "deviations": self.deviations if self.kinematic else {},
             "sensor_corrections": self.sensor_corrections if self.kinematic else {},
             "uncertainty": self.uncertainty.as_dict() if self.kinematic else None,
+            "identifiability": self.identifiability.as_dict(),
             **self._sensor_report(),
             "noise_mm": self.noise * 1e3,
             "loss": self.loss,

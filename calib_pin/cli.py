@@ -240,6 +240,11 @@ def _calibrate(args: argparse.Namespace) -> int:
         print(f"uncertainty: noise {u['noise_estimate_mm']:.4f} mm per value; flange position "
               f"(1 sigma) over {u['flange_position_1sigma_mm']['poses']} workspace poses: RMS "
               f"{u['flange_position_1sigma_mm']['rms']:.4f} mm, max {u['flange_position_1sigma_mm']['max']:.4f} mm")
+    ident = report["identifiability"]
+    blind = ", ".join(ident["unidentifiable"]) or "none"
+    print(f"identifiable: {ident['rank']} of {ident['unknowns']} directions on the training poses; "
+          f"not identifiable: {blind}; {len(ident['combinations'])} combination(s) only together "
+          "(--analyze lists them); blind directions stay at zero")
     if result.loss != "linear":
         lines = ", ".join(str(line) for line in report["outlier_lines"]) or "none"
         print(f"outliers ({result.loss} loss): {len(result.outlier_rows)} training rows, file lines {lines}")

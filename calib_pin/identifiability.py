@@ -56,6 +56,16 @@ class Identifiability:
     combinations: tuple[str, ...]
     base: tuple[str, ...]
 
+    def as_dict(self) -> dict:
+        """JSON-ready summary (no singular values)."""
+        return {
+            "rank": self.rank, "unknowns": len(self.names), "condition": self.condition,
+            "o1": self.o1, "o3": self.o3, "o4": self.o4,
+            "unidentifiable": list(self.unidentifiable), "combinations": list(self.combinations),
+            "base": list(self.base),
+            "note": "the estimators move only the identifiable directions; the blind ones stay at their start (zero)",
+        }
+
     def report(self) -> str:
         """A few lines for people."""
         n = len(self.names)

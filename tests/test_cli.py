@@ -27,6 +27,11 @@ def test_calibrate_writes_urdf_and_report(tmp_path, capsys):
     assert len(report["split"]["train"]) == 96 and len(report["split"]["test"]) == 24
     assert report["test"]["after"]["rmse_mm"] < 0.2 * report["test"]["before"]["rmse_mm"]
     assert (tmp_path / "irb120_calibrated.urdf").is_file()
+    ident = report["identifiability"]
+    assert ident["rank"] == 20 and ident["unidentifiable"] == ["theta_6"]
+    assert "d_2 +1 mm with d_3 -1 mm" in ident["combinations"]
+    assert abs(report["deviations"]["theta_6_deg"]) < 1e-9  # blind: left at zero in the export
+    assert "identifiable: 20 of 24 directions" in out
 
 
 def test_simulate_then_calibrate(tmp_path, capsys):
