@@ -234,7 +234,12 @@ def _sensor(data: MeasurementSet, anchor_mm, tool_mm, offset_mm) -> Drawstring:
     return Drawstring(anchor=anchor, hook=tool, offset=offset)
 
 
-def _check_estimate(estimate) -> tuple[str, ...]:
+def check_estimate(estimate) -> tuple[str, ...]:
+    """The drawstring unknowns named in ``estimate`` (names, blanks dropped).
+
+    Raises:
+        CalibPinError: a name that is not one of CABLE_EXTRAS.
+    """
     estimate = tuple(e.strip() for e in (estimate or ()) if e.strip())
     for e in estimate:
         if e not in CABLE_EXTRAS:
@@ -356,7 +361,7 @@ def prepare(
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
     """
-    estimate = _check_estimate(estimate)
+    estimate = check_estimate(estimate)
     description = robot if isinstance(robot, RobotDescription) else resolve_robot(robot)
     if end_frame is None and description.end_frame is None and data is not None:
         # No tool0 in the URDF: the data file may name the end frame.

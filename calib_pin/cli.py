@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .calibration import calibrate
+from .calibration import calibrate, check_estimate
 from .estimators import DEFAULT_METHOD, ESTIMATORS
 from .exceptions import CalibPinError
 from .measurements import write_measurements
@@ -113,11 +113,12 @@ def _table(metrics: dict[str, dict[str, Metrics]]) -> str:
 
 
 def _extras(text: str) -> tuple[str, ...]:
-    names = tuple(n.strip() for n in text.split(",") if n.strip())
-    bad = [n for n in names if n not in CABLE_EXTRAS]
-    if bad or not names:
-        raise argparse.ArgumentTypeError(
-            f"cannot estimate '{bad[0] if bad else text}' (valid: {', '.join(CABLE_EXTRAS)}, comma-separated)")
+    try:
+        names = check_estimate(text.split(","))
+    except CalibPinError as e:
+        raise argparse.ArgumentTypeError(f"{e}, comma-separated") from None
+    if not names:
+        raise argparse.ArgumentTypeError(f"cannot estimate '{text}' (valid: {', '.join(CABLE_EXTRAS)}, comma-separated)")
     return names
 
 

@@ -92,18 +92,19 @@ class MeasurementModel:
             jacobian: shape (n_poses, 3, n_params), [m per unit of each parameter];
                 zero in the sensor's columns.
         """
-        xr = self.robot(x)
-        self._kin.set_perturbation(self.params.deltas(xr))
-        points, d_points = self._kin.points(q, point, jacobian=True)
-        jac = np.zeros((len(points), 3, self.n_params))
-        jac[:, :, : self.n_robot] = d_points @ self.params.delta_jacobian(xr)
+        points, _, jac = self._points_with_jacobians(x, q, point)
         return points, jac
 
-    def end_rotations(self, d_points_placement: np.ndarray) -> np.ndarray:
-        """End-frame rotations from :meth:`Kinematics.points`'s derivative (its end
-        frame's linear columns), shape (n_poses, 3, 3)."""
-        k = 6 * self.chain.n_joints
-        return d_points_placement[:, :, k : k + 3]
+    def _points_with_jacobians(self, x: np.ndarray, q: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`point_jacobian` plus the end-frame rotations, shape (n_poses, 3, 3)
+        (the derivative of each position with respect to the point itself)."""
+        xr = self.robot(x)
+        self._kin.set_perturbation(self.params.deltas(xr))
+        points, d_place = self._kin.points(q, point, jacobian=True)
+        jac = np.zeros((len(points), 3, self.n_params))
+        jac[:, :, : self.n_robot] = d_place @ self.params.delta_jacobian(xr)
+        k = 6 * self.chain.n_joints  # the end frame's linear columns are its rotation
+        return points, d_place[:, :, k : k + 3], jac
 
 
 class CableModel(MeasurementModel):

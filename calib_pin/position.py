@@ -87,12 +87,9 @@ class PositionModel(MeasurementModel):
     def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray, markers: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Device-frame positions (n_poses, 3) [m] and their derivative (n_poses, 3, n_params)."""
         device = self.device_at(x)
-        xr = self.robot(x)
-        self._kin.set_perturbation(self.params.deltas(xr))
-        points, d_place = self._kin.points(q, device.markers[markers], jacobian=True)
+        points, end_rot, jac = self._points_with_jacobians(x, q, device.markers[markers])
         rot = device.frame.rotation
-        jac = np.zeros((len(points), 3, self.n_params))
-        jac[:, :, : self.n_robot] = rot @ (d_place @ self.params.delta_jacobian(xr))
+        jac = rot @ jac  # the sensor's columns are still zero
         col = self.n_robot
         if "device" in self.estimate:
             twist = np.asarray(x, dtype=float)[col : col + 6]
@@ -104,9 +101,9 @@ class PositionModel(MeasurementModel):
             jac[:, :, col : col + 6] = rot @ (lever @ pin.Jexp6(pin.Motion(twist)))
             col += 6
         if "markers" in self.estimate:
-            end_rot = rot @ self.end_rotations(d_place)
-            for row, k in enumerate(markers):
-                jac[row, :, col + 3 * k : col + 3 * k + 3] = end_rot[row]
+            # Row n's position moves with its own marker's three columns by R_DB R_end.
+            cols = col + 3 * np.asarray(markers)[:, None] + np.arange(3)
+            jac[np.arange(len(points))[:, None, None], np.arange(3)[None, :, None], cols[:, None, :]] = rot @ end_rot
         return points @ rot.T + device.frame.translation, jac
 
 
@@ -133,10 +130,7 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
     """
     n_markers = len(labels)
     model = PositionModel(chain, params, PositionDevice(pin.SE3.Identity(), np.zeros((n_markers, 3)), labels))
-    model._kin.set_perturbation(None)
-    _, d_place = model._kin.points(q, np.zeros(3), jacobian=True)
-    origin = model._kin.points(q, np.zeros(3))[0]
-    end_rot = model.end_rotations(d_place)
+    origin, end_rot, _ = model._points_with_jacobians(np.zeros(model.n_params), q, np.zeros(3))
     points = np.zeros((n_markers, 3))
     for _ in range(30):
         base = origin + np.einsum("nij,nj->ni", end_rot, points[markers])
@@ -146,7 +140,6 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
         points = np.array([local[markers == k].mean(axis=0) for k in range(n_markers)])
     device = PositionDevice(frame, points, labels)
     model = PositionModel(chain, params, device)
-    rows = np.arange(len(q))
     zero = np.zeros(model.n_robot)
 
     def residual(e: np.ndarray) -> np.ndarray:
@@ -154,7 +147,7 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
 
     def jacobian(e: np.ndarray) -> np.ndarray:
         jac = model.predict_with_jacobian(np.concatenate([zero, e]), q, markers)[1]
-        return jac[rows][:, :, model.n_robot :].reshape(3 * len(q), -1)
+        return jac[:, :, model.n_robot :].reshape(3 * len(q), -1)
 
     fit = least_squares(residual, np.zeros(model.n_params - model.n_robot), jac=jacobian, method="lm")
     return model.device_at(np.concatenate([zero, fit.x]))

@@ -8,6 +8,7 @@ is kept so every estimate can be checked against it.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -175,6 +176,16 @@ def _poses_above_base(chain: Chain, cable: CableModel, n_poses: int, rng: np.ran
     return poses[:n_poses]
 
 
+def _true_deviations(params: ParameterModel, rng: np.random.Generator, nominal_rmse_mm: float,
+                     gap: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """Deviations drawn normal with the model's typical sizes, scaled so that the
+    nominal model's errors ``gap(x)`` [m] have RMSE ``nominal_rmse_mm`` (0: all zero)."""
+    x = rng.normal(size=len(params.names)) * params.scale
+    if nominal_rmse_mm <= 0:
+        return np.zeros_like(x)
+    return x * (nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap(x) ** 2)))
+
+
 def simulate(
     chain: Chain,
     params: ParameterModel,
@@ -219,13 +230,9 @@ def simulate(
     else:
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
         n_poses = len(poses)
-    x = rng.normal(size=len(params.names)) * params.scale
-    nominal = cable.predict(np.zeros_like(x), poses)
-    if nominal_rmse_mm > 0:
-        gap = cable.predict(x, poses) - nominal
-        x *= nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap**2))
-    else:
-        x[:] = 0.0
+    nominal = cable.predict(np.zeros(len(params.names)), poses)
+    x = _true_deviations(params, rng, nominal_rmse_mm,
+                         lambda x: np.abs(cable.predict(x, poses) - nominal))
     noise, outliers = reading_noise(noise_kind, n_poses, noise_mm, rng)
     readings = cable.predict(x, poses) + noise
     data = MeasurementSet(
@@ -279,13 +286,9 @@ def simulate_positions(
     model = PositionModel(chain, params, truth_device, estimate=())
     q = np.repeat(random_poses(chain, n_poses, rng), len(markers), axis=0)
     index = np.tile(np.arange(len(markers)), n_poses)
-    x = rng.normal(size=len(params.names)) * params.scale
     nominal = model.predict(None, q, index)
-    if nominal_rmse_mm > 0:
-        gap = np.linalg.norm(model.predict(x, q, index) - nominal, axis=1)
-        x *= nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap**2))
-    else:
-        x[:] = 0.0
+    x = _true_deviations(params, rng, nominal_rmse_mm,
+                         lambda x: np.linalg.norm(model.predict(x, q, index) - nominal, axis=1))
     positions = model.predict(x, q, index) + rng.normal(size=q.shape[:1] + (3,)) * noise_mm * 1e-3
     data = MeasurementSet(
         q=q, lengths=np.full(len(q), np.nan), robot=chain.name, end_frame=chain.end_frame,

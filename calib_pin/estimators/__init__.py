@@ -15,7 +15,7 @@ from .de import DE
 from .ekf import EKF
 from .ekf_qibas import EKFQIBAS
 from .lm import LevenbergMarquardt
-from .robust import LOSSES
+from .robust import LOSSES, Robust
 from .pso import PSO
 from .qibas import QIBAS
 from .rbf import RBF
@@ -57,7 +57,7 @@ def get_estimator(name: str):
 
 
 def get_robust(name: str, loss: str):
-    """The estimator ``name`` with a robust ``loss`` (see :mod:`.lm`).
+    """The estimator ``name`` with a robust ``loss`` (see :mod:`.robust`).
 
     Raises:
         EstimatorError: unknown name or loss, or a method that has no robust variant.
@@ -67,10 +67,12 @@ def get_robust(name: str, loss: str):
         raise EstimatorError(f"unknown loss '{loss}' (valid: {', '.join(LOSSES)})")
     if loss == "linear":
         return estimator
-    if not hasattr(estimator, "loss"):
-        robust = [n for n, e in ESTIMATORS.items() if hasattr(e, "loss")]
-        raise EstimatorError(f"method '{name}' has no robust loss; --loss {loss} works with: {', '.join(robust)}")
-    return dataclasses.replace(estimator, loss=loss)
+    if hasattr(estimator, "loss"):  # its own robust stage: LM (scipy's losses), EKF-QIBAS
+        return dataclasses.replace(estimator, loss=loss)
+    if getattr(estimator, "minimises_cost", False):  # searches: one shared refit scheme
+        return Robust(estimator, loss)
+    robust = [n for n, e in ESTIMATORS.items() if hasattr(e, "loss") or getattr(e, "minimises_cost", False)]
+    raise EstimatorError(f"method '{name}' has no robust loss; --loss {loss} works with: {', '.join(robust)}")
 
 
 def run_estimator(
@@ -100,6 +102,7 @@ __all__ = [
     "PSO",
     "QIBAS",
     "RBF",
+    "Robust",
     "SearchSpace",
     "Tracker",
     "UKF",

@@ -25,12 +25,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from ..errors import CalibrationProblem
 from .base import EstimateResult, Tracker
-from .robust import refit
 
 #: Proposes an extra candidate from (z, m, b, f, f_l, f_r, z_bas); None for plain BAS.
 Interpolation = Callable[[np.ndarray, float, np.ndarray, float, float, float, np.ndarray], np.ndarray]
@@ -53,7 +53,6 @@ class BAS:
         mu, tau: Decay factors of step and antenna length (eq. 12).
         floor: delta0 and m0 of eq. 12, as a fraction of the initial step.
         rtol, window: Stopping rule (see module docstring).
-        loss: ``linear``, or a robust loss (:mod:`.robust`).
     """
 
     max_iter: int = 1500
@@ -63,13 +62,13 @@ class BAS:
     floor: float = 1e-4
     rtol: float = 1e-4
     window: int = 0
-    loss: str = "linear"
+
+    #: It minimises ``problem.cost``: the registry can make it robust (:class:`.robust.Robust`).
+    minimises_cost: ClassVar[bool] = True
 
     def __call__(
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
-        if self.loss != "linear":
-            return refit(self, problem, x0, self.loss, seed=seed, noise=noise)
         return self._search(problem, x0, seed, None)
 
     def _search(

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from scipy.optimize import differential_evolution
 
 from ..errors import CalibrationProblem
-from .robust import refit
 from .base import EstimateResult, Tracker
 
 
@@ -32,13 +32,11 @@ class DE:
     recombination: float = 0.7
     tol: float = 1e-2
     bound: float = 1.0
-    loss: str = "linear"
+    minimises_cost: ClassVar[bool] = True  # see :class:`.robust.Robust`
 
     def __call__(
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
-        if self.loss != "linear":
-            return refit(self, problem, x0, self.loss, seed=seed, noise=noise)
         track = Tracker(problem)
         space = track.whitened(x0)
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -11,6 +10,7 @@ from ..errors import CalibrationProblem
 from .base import EstimateResult
 from .ekf import EKF
 from .qibas import QIBAS
+from .robust import Robust
 
 
 @dataclass(frozen=True)
@@ -19,7 +19,7 @@ class EKFQIBAS:
 
     The QIBAS stage starts with a smaller step (a tenth of the start residual's norm)
     since the EKF already brought the estimate near the optimum. With a robust
-    ``loss`` the QIBAS stage refits with it (:func:`.robust.refit`); the EKF stays
+    ``loss`` the QIBAS stage refits with it (:class:`.robust.Robust`); the EKF stays
     plain (a Kalman filter has no robust loss here). ``iterations`` is the
     sum of both stages' (EKF updates + QIBAS iterations), itemised in ``stages``;
     ``covariance`` is the EKF's P.
@@ -33,7 +33,8 @@ class EKFQIBAS:
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
         first = self.ekf(problem, x0, seed=seed, noise=noise)
-        second = dataclasses.replace(self.qibas, loss=self.loss)(problem, first.x, seed=seed, noise=noise)
+        qibas = self.qibas if self.loss == "linear" else Robust(self.qibas, self.loss)
+        second = qibas(problem, first.x, seed=seed, noise=noise)
         return EstimateResult(
             x=second.x,
             history=first.history + second.history[1:],

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from ..errors import CalibrationProblem
-from .robust import refit
 from .base import EstimateResult, Tracker
 
 
@@ -37,13 +37,11 @@ class PSO:
     bound: float = 1.0
     rtol: float = 1e-3
     window: int = 30
-    loss: str = "linear"
+    minimises_cost: ClassVar[bool] = True  # see :class:`.robust.Robust`
 
     def __call__(
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
-        if self.loss != "linear":
-            return refit(self, problem, x0, self.loss, seed=seed, noise=noise)
         rng = np.random.default_rng(seed)
         track = Tracker(problem)
         space = track.whitened(x0)

@@ -17,7 +17,6 @@ import numpy as np
 from ..errors import CalibrationProblem
 from .base import EstimateResult
 from .bas import BAS
-from .robust import refit
 
 #: upsilon_0 of eq. 16: guards the parabola's denominator, in coordinates normalised by
 #: the antenna length and the best cost.
@@ -72,6 +71,4 @@ class QIBAS(BAS):
     def __call__(
         self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
     ) -> EstimateResult:
-        if self.loss != "linear":
-            return refit(self, problem, x0, self.loss, seed=seed, noise=noise)
         return self._search(problem, x0, seed, interpolated_point)

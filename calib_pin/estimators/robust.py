@@ -9,16 +9,15 @@ A robust loss replaces the squared residual r^2 by s^2 rho((r / s)^2), with scip
 
 The scale s comes from the data: 1.4826 x the median absolute deviation of the
 residuals of the previous fit (sigma for Gaussian noise, barely moved by a few gross
-errors). :func:`refit` turns any estimator that minimises ``problem.cost`` (BAS, QIBAS,
-PSO, DE, and the QIBAS stage of EKF-QIBAS) into a robust one: a plain fit first, then
-refits with the robust cost started from the previous estimate, while the scale
-estimate shrinks by more than 10 % (at most 3). LM does the same with scipy's own
+errors). :class:`Robust` (through :func:`refit`) turns any estimator that minimises
+``problem.cost`` (BAS, QIBAS, PSO, DE, and the QIBAS stage of EKF-QIBAS) into a robust
+one: a plain fit first, then refits with the robust cost started from the previous
+estimate, while the scale estimate shrinks by more than 10 % (at most 3). LM does the same with scipy's own
 losses (:mod:`.lm`). Rows with a residual beyond ``OUTLIER_SCALES`` scales are reported.
 """
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -73,7 +72,7 @@ def outlier_rows(problem: CalibrationProblem, residual: np.ndarray, scale: float
 
 
 def refit(estimator, problem: CalibrationProblem, x0: np.ndarray, loss: str, *, seed: int, noise: float) -> EstimateResult:
-    """``estimator`` (with ``loss="linear"``) made robust as the module docstring says.
+    """``estimator`` (which minimises ``problem.cost``) made robust as the module docstring says.
 
     The plain fit's history is kept; each robust refit adds one history entry (the
     training RMSE it ends at) and its evaluations; ``stages`` gives the plain fit's
@@ -81,8 +80,7 @@ def refit(estimator, problem: CalibrationProblem, x0: np.ndarray, loss: str, *, 
     """
     if loss not in LOSSES:
         raise ValueError(f"unknown loss {loss!r} (valid: {', '.join(LOSSES)})")
-    plain = dataclasses.replace(estimator, loss="linear")
-    first = plain(problem, x0, seed=seed, noise=noise)
+    first = estimator(problem, x0, seed=seed, noise=noise)
     history, evaluations = list(first.history), list(first.evaluations)
     nfev, x, scale, refits, inner = first.nfev, first.x, np.inf, 0, 0
     messages = [first.message]
@@ -92,7 +90,7 @@ def refit(estimator, problem: CalibrationProblem, x0: np.ndarray, loss: str, *, 
             break
         scale = new_scale
         robust = RobustProblem(problem.model, problem.q, problem.readings, problem.markers, loss, scale)
-        step = plain(robust, x, seed=seed, noise=noise)
+        step = estimator(robust, x, seed=seed, noise=noise)
         x, refits, inner, nfev = step.x, refits + 1, inner + step.iterations, nfev + step.nfev
         history.append(rmse(problem.residual(x)))
         evaluations.append(nfev)
@@ -104,3 +102,17 @@ def refit(estimator, problem: CalibrationProblem, x0: np.ndarray, loss: str, *, 
         stages={**(first.stages or {"linear": first.iterations}), loss: inner},
         outliers=outlier_rows(problem, problem.residual(x), scale),
     )
+
+
+@dataclass(frozen=True)
+class Robust:
+    """An estimator that minimises ``problem.cost``, with a robust ``loss``: the same
+    call signature as every estimator (see :func:`refit`)."""
+
+    estimator: object
+    loss: str
+
+    def __call__(
+        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+    ) -> EstimateResult:
+        return refit(self.estimator, problem, x0, self.loss, seed=seed, noise=noise)

@@ -28,7 +28,8 @@ class UKF:
 
     Same state (the whitened coordinates, dimension n), P0, Q and R as
     :class:`.ekf.EKF` (P0 = (prior * scale)^2, Q = (process * scale)^2, R = noise^2);
-    the values of pose k are predicted at the 2 n + 1 sigma points of Van der Merwe's scaled set (``alpha``, ``beta``, ``kappa``;
+    the values of pose k are predicted at the 2 n + 1 sigma points of Van der
+    Merwe's scaled set (``alpha``, ``beta``, ``kappa``;
     with alpha = 1 and kappa = 0 the centre point has no weight in the mean and the
     others sit at +-sqrt(n) standard deviations). No derivative is used.
 
