@@ -1,30 +1,42 @@
 """calib-pin: kinematic calibration of robot arms from drawstring readings or marker
 positions, on Pinocchio.
 
-Figures of a comparison (matplotlib) are in :mod:`calib_pin.figures`, imported on demand.
+The public API is below; each name is imported from its module on first use, so
+``import calib_pin`` is quick and pulls in no optional dependency. Figures
+(matplotlib) are in :mod:`calib_pin.figures`, the sensor hardware in
+:mod:`calib_pin.hardware`.
 """
 
-from .calibration import CalibrationResult, CalibrationSetup, calibrate, prepare
-from .collect import Session, collect, open_session, read_pose_list
-from .comparison import PAPER_TABLE1, Comparison, compare
-from .drawstring import SensorFault, SensorProfile, StableReading, open_reader, read_stable
-from .errors import CABLE_EXTRAS, CableModel, CalibrationProblem, Drawstring
-from .estimators import ESTIMATORS, LOSSES, PAPER_LABELS, EstimateResult, get_estimator, run_estimator
-from .exceptions import CalibPinError, DataError, EstimatorError, RobotError
-from .export import write_calibrated_urdf
-from .measurements import MeasurementSet, read_measurements, write_measurements, write_poses
-from .metrics import Metrics, split_rows
-from .model import Chain, Kinematics, load_chain
-from .identifiability import Identifiability, analyze
-from .parameters import MODELS, DHModel, HayatiModel, ParameterModel, PlacementModel, parameter_model
-from .position import PositionDevice, PositionModel, fit_device
-from .robots import DHTable, RobotDescription, resolve_robot
-from .simulate import NOISE_KINDS, Truth, random_poses, simulate, simulate_positions
+from __future__ import annotations
 
-__version__ = "0.1.0"
+import importlib
+from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
+
+try:
+    __version__ = version("calib-pin")
+except PackageNotFoundError:  # a source tree that was not installed
+    __version__ = "0+unknown"
+
+#: Public name -> the module that defines it.
+_API = {
+    "calibrate": "pipeline", "prepare": "pipeline", "CalibrationSetup": "pipeline",
+    "CalibrationResult": "result",
+    "compare": "comparison", "Comparison": "comparison",
+    "analyze": "identifiability",
+    "CalibrationProblem": "problem",
+    "Chain": "robot", "Kinematics": "robot", "load_chain": "robot",
+    "DHModel": "parameters", "HayatiModel": "parameters", "PlacementModel": "parameters",
+    "parameter_model": "parameters",
+    "CableModel": "sensors", "Drawstring": "sensors", "PositionModel": "sensors", "PositionDevice": "sensors",
+    "MeasurementSet": "measurements", "read_measurements": "measurements", "write_measurements": "measurements",
+    "simulate": "simulation", "simulate_positions": "simulation", "Truth": "simulation",
+    "ESTIMATORS": "estimators", "EstimateResult": "estimators", "run_estimator": "estimators",
+    "CalibPinError": "exceptions", "DataError": "exceptions", "EstimatorError": "exceptions",
+    "RobotError": "exceptions",
+}
 
 __all__ = [
-    "CABLE_EXTRAS",
     "CableModel",
     "CalibPinError",
     "CalibrationProblem",
@@ -33,55 +45,56 @@ __all__ = [
     "Chain",
     "Comparison",
     "DHModel",
-    "DHTable",
     "DataError",
     "Drawstring",
     "ESTIMATORS",
     "EstimateResult",
     "EstimatorError",
     "HayatiModel",
-    "Identifiability",
     "Kinematics",
-    "LOSSES",
-    "MODELS",
     "MeasurementSet",
-    "Metrics",
-    "NOISE_KINDS",
-    "PAPER_LABELS",
-    "PAPER_TABLE1",
-    "ParameterModel",
     "PlacementModel",
     "PositionDevice",
     "PositionModel",
-    "RobotDescription",
     "RobotError",
-    "SensorFault",
-    "SensorProfile",
-    "Session",
-    "StableReading",
     "Truth",
     "analyze",
     "calibrate",
-    "collect",
     "compare",
-    "fit_device",
-    "get_estimator",
     "load_chain",
-    "open_reader",
-    "open_session",
     "parameter_model",
     "prepare",
-    "random_poses",
     "read_measurements",
-    "read_pose_list",
-    "read_stable",
-    "resolve_robot",
     "run_estimator",
     "simulate",
     "simulate_positions",
-    "split_rows",
-    "write_calibrated_urdf",
     "write_measurements",
-    "write_poses",
     "__version__",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _API:
+        value = getattr(importlib.import_module(f".{_API[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'calib_pin' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return __all__
+
+
+if TYPE_CHECKING:
+    from .comparison import Comparison, compare
+    from .estimators import ESTIMATORS, EstimateResult, run_estimator
+    from .exceptions import CalibPinError, DataError, EstimatorError, RobotError
+    from .identifiability import analyze
+    from .measurements import MeasurementSet, read_measurements, write_measurements
+    from .parameters import DHModel, HayatiModel, PlacementModel, parameter_model
+    from .pipeline import CalibrationSetup, calibrate, prepare
+    from .problem import CalibrationProblem
+    from .result import CalibrationResult
+    from .robot import Chain, Kinematics, load_chain
+    from .sensors import CableModel, Drawstring, PositionDevice, PositionModel
+    from .simulation import Truth, simulate, simulate_positions

@@ -20,14 +20,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .calibration import CalibrationSetup, prepare
-from .errors import CableModel
-from .estimators import ESTIMATORS, PAPER_LABELS, get_estimator, run_estimator
+from .estimators import ESTIMATORS, PAPER_LABELS, get_method, run_estimator
 from .exceptions import CalibPinError
 from .metrics import Metrics
-from .model import load_chain
 from .parameters import parameter_model
-from .simulate import Truth, random_poses, simulate
+from .pipeline import CalibrationSetup, prepare
+from .problem import CalibrationProblem
+from .robot import load_chain
+from .simulation import Truth, random_poses, simulate
 
 #: Table I of the paper: test RMSE, "Std" (mean absolute residual) and Max, [mm].
 PAPER_TABLE1 = {
@@ -229,17 +229,21 @@ class Comparison:
 
 def _fixed(cells: list[str]) -> str:
     widths = [6, 10, 15, 15, 15, 15, 10, 16, 15]
-    return " ".join(f"{c:<{w}s}" if i < 2 else f"{c:>{w}s}" for i, (c, w) in enumerate(zip(cells, widths)))
+    return " ".join(f"{c:<{w}s}" if i < 2 else f"{c:>{w}s}" for i, (c, w) in enumerate(zip(cells, widths, strict=False)))
 
 
-def _fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Callable:
-    """score(predict) -> RMSE [mm] of ``predict(q)`` [m] on fresh poses against the
-    noise-free truth, or None when the truth is unknown."""
+def fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Callable:
+    """score(predict) -> RMSE [mm] of ``predict(q, points)`` [m] on fresh poses (every
+    point the sensor measures, at each) against the noise-free truth, or None when the
+    truth is unknown."""
     if truth is None:
         return lambda predict: None
-    q = random_poses(setup.chain, FRESH_POSES, np.random.default_rng(seed + 10_000))
-    true_readings = CableModel(setup.chain, setup.params, truth.sensor).predict(truth.x, q)
-    return lambda predict: float(np.sqrt(np.mean((predict(q) - true_readings) ** 2)) * 1e3)
+    poses = random_poses(setup.chain, FRESH_POSES, np.random.default_rng(seed + 10_000))
+    model = truth.model(setup.chain, setup.params)
+    rows, points = model.grid_points(len(poses))
+    q = poses[rows]
+    true_values = model.predict(truth.x, q, points)
+    return lambda predict: float(np.sqrt(np.mean((predict(q, points) - true_values) ** 2)) * 1e3)
 
 
 def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], seed: int,
@@ -247,10 +251,11 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
     train, test = setup.split(test_fraction, seed)
     if not len(test):
         raise CalibPinError("a comparison needs held-out rows: use a test fraction above 0")
-    train_problem, test_problem = setup.problem.subset(train), setup.problem.subset(test)
-    model = setup.problem.model
-    x0 = np.zeros(setup.problem.n_params)
-    fresh = _fresh_scorer(setup, truth, seed)
+    problem: CalibrationProblem = setup.problem_on(train)  # nothing fitted on test rows
+    train_problem, test_problem = problem.subset(train), problem.subset(test)
+    model = problem.model
+    x0 = np.zeros(problem.n_params)
+    fresh = fresh_scorer(setup, truth, seed)
     runs = {}
     for m in methods:
         est = run_estimator(m, train_problem, x0, seed=seed, noise=setup.noise)
@@ -259,7 +264,7 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
         runs[m] = MethodRun(
             method=m, label=PAPER_LABELS[m],
             train=Metrics.of(train_problem.row_errors(est.residual(train_problem))), test=Metrics.of(residual),
-            fresh_rmse_mm=fresh(lambda q, est=est: est.predict(model, q)),
+            fresh_rmse_mm=fresh(lambda q, points, est=est: est.predict(model, q, points)),
             iterations=est.iterations, evaluations=est.nfev,
             converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
             history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
@@ -268,7 +273,7 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
     before = test_problem.row_errors(test_problem.residual(x0))
     return Trial(
         seed=seed, source=setup.data.source or "simulated", before=Metrics.of(before),
-        before_fresh_rmse_mm=fresh(lambda q: model.predict(x0, q)),
+        before_fresh_rmse_mm=fresh(lambda q, points: model.predict(x0, q, points)),
         before_residual_mm=before * 1e3, runs=runs,
     )
 
@@ -305,14 +310,14 @@ def compare(
     """
     methods = list(ESTIMATORS) if methods is None else list(methods)
     for m in methods:
-        get_estimator(m)
+        get_method(m)
     if trials < 1:
         raise CalibPinError(f"trials must be at least 1, got {trials}")
     out = []
     if simulate_noise is None:
         setup = prepare(robot, data)
-        if setup.data.kind == "position" and "rbf" in methods:
-            raise CalibPinError("method 'rbf' learns a correction of cable readings; leave it out for position data (--methods)")
+        for m in methods:
+            get_method(m).check(kind=setup.data.kind)
         truth_file = Path(setup.data.source).with_name(
             Path(setup.data.source).name.removesuffix(".csv") + ".truth.json")
         truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() else None

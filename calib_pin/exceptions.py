@@ -7,6 +7,8 @@ status 2; library callers catch it like any exception.
 
 from __future__ import annotations
 
+import os
+
 
 class CalibPinError(Exception):
     """Base class of the errors calib-pin raises for bad input."""
@@ -27,7 +29,7 @@ class DataError(CalibPinError):
     """
 
     def __init__(
-        self, path: str, reason: str, line: int | None = None, field: str | None = None
+        self, path: str | os.PathLike[str], reason: str, line: int | None = None, field: str | None = None
     ) -> None:
         self.path = str(path)
         self.line = line

@@ -7,12 +7,18 @@ state) from a :class:`calib_pin.comparison.Comparison`.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
-from .comparison import Comparison
+from .optional import require
+
+require("matplotlib")
+from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+if TYPE_CHECKING:
+    from .comparison import Comparison
 
 
 def _save(fig: Figure, path: str | Path) -> Path:

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import qr
 
-from .errors import CalibrationProblem
+from .problem import CalibrationProblem
+from .subspace import RCOND, Subspace
 
 
 @dataclass(frozen=True)
@@ -115,24 +116,27 @@ def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list
     return out
 
 
-def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: float = 1e-3) -> Identifiability:
-    """Identifiability of ``problem``'s parameters at deviations x (default zero).
+def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: float = RCOND) -> Identifiability:
+    """Identifiability of ``problem``'s unknowns at x (default zero).
 
     Args:
         rcond: Singular values below ``rcond`` times the largest count as zero (the
-            same threshold the estimators' search space uses).
+            same cut the estimators' search space uses, :data:`calib_pin.subspace.RCOND`).
     """
-    names = list(problem.model.names)
+    model = problem.model
+    names = list(model.names)
     x = np.zeros(len(names)) if x is None else np.asarray(x, dtype=float)
-    scaled = problem.jacobian(x) * problem.model.scale
+    jacobian = problem.jacobian(x)
+    space = Subspace.of(jacobian, model.scale, x, rcond)
+    scaled = jacobian * model.scale
     m, n = scaled.shape
-    s = np.linalg.svd(scaled, compute_uv=False)
-    rank = int(np.sum(s > rcond * s[0]))
-    kept = s[:rank]
+    s, rank, kept = space.singular_values, space.rank, space.kept
     column = np.linalg.norm(scaled, axis=0)
     dead = column <= rcond * s[0] / np.sqrt(n)
     live = np.flatnonzero(~dead)
-    _, s_live, vt_live = np.linalg.svd(scaled[:, live], full_matrices=True)
+    # The null space of the live columns: every right singular vector, so the square
+    # factor is (live x live), never (m x m).
+    _, s_live, vt_live = np.linalg.svd(scaled[:, live], full_matrices=m < len(live))
     live_rank = int(np.sum(s_live > rcond * s[0]))
     null = vt_live[live_rank:]
     _, _, pivots = qr(scaled, pivoting=True, mode="economic")
@@ -147,7 +151,7 @@ def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: flo
         o4=float(kept[-1] ** 2 / kept[0]),
         unidentifiable=tuple(names[i] for i in np.flatnonzero(dead)),
         combinations=tuple(_readable(
-            null, [names[i] for i in live], problem.model.scale[live],
-            [problem.model.units[i] for i in live])) if len(null) else (),
+            null, [names[i] for i in live], model.scale[live],
+            [model.units[i] for i in live])) if len(null) else (),
         base=tuple(names[i] for i in sorted(pivots[:rank])),
     )

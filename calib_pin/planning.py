@@ -1,6 +1,6 @@
 """Choosing poses that make the parameters observable (D-optimal greedy design).
 
-From ``candidates`` random poses within the joint limits (hook above the mounting
+From ``candidates`` random poses within the joint limits (tool point above the mounting
 plane), the planner picks ``n`` one at a time, each the candidate that most increases
 log det of the information matrix of the identifiable directions (the scaled
 identification Jacobian projected on the directions the whole candidate set can see).
@@ -13,9 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import CableModel, CalibrationProblem
 from .identifiability import analyze
-from .simulate import random_poses
+from .problem import CalibrationProblem
+from .sensors import CableModel
+from .simulation import random_poses
+from .subspace import Subspace
 
 #: Regularisation of the starting information matrix (relative to the largest row norm^2).
 RIDGE = 1e-6
@@ -43,8 +45,8 @@ class Plan:
     target: float
 
 
-def _hook_above_base(model: CableModel, q: np.ndarray) -> np.ndarray:
-    return q[model.hook_positions(None, q)[:, 2] > 0.0]
+def _tool_above_base(model: CableModel, q: np.ndarray) -> np.ndarray:
+    return q[model.tool_positions(None, q)[:, 2] > 0.0]
 
 
 def plan_poses(
@@ -63,14 +65,13 @@ def plan_poses(
             mean of the singular values; default: that of n random poses).
     """
     rng = np.random.default_rng(seed)
-    pool = _hook_above_base(model, random_poses(model.chain, candidates, rng, margin=margin))
+    pool = _tool_above_base(model, random_poses(model.chain, candidates, rng, margin=margin))
     if len(pool) < n:
-        raise ValueError(f"only {len(pool)} of {candidates} candidates put the hook above the base; ask for more")
+        raise ValueError(f"only {len(pool)} of {candidates} candidates put the tool point above the base; ask for more")
     zero = np.zeros(model.n_params)
-    rows = model.predict_with_jacobian(zero, pool)[1] * model.scale
-    _, s, vt = np.linalg.svd(rows, full_matrices=False)
-    basis = vt[s > 1e-3 * s[0]].T
-    z = rows @ basis  # candidates in the identifiable directions
+    jacobian = model.predict_with_jacobian(zero, pool)[1]
+    basis = Subspace.of(jacobian, model.scale).vt.T
+    z = (jacobian * model.scale) @ basis  # candidates in the identifiable directions
     inverse = np.eye(basis.shape[1]) / (RIDGE * np.max(np.sum(z**2, axis=1)))
     chosen: list[int] = []
     available = np.ones(len(pool), dtype=bool)

@@ -18,8 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import CalibrationProblem
-from .simulate import random_poses
+from .problem import CalibrationProblem
+from .simulation import random_poses
+from .subspace import RCOND, Subspace
 
 #: z of the two-sided 95 % normal interval.
 Z95 = 1.959964
@@ -64,20 +65,15 @@ class Uncertainty:
 
 
 def estimate_uncertainty(
-    problem: CalibrationProblem, x: np.ndarray, *, rcond: float = 1e-3, poses: int = 500, seed: int = 0
+    problem: CalibrationProblem, x: np.ndarray, *, rcond: float = RCOND, poses: int = 500, seed: int = 0
 ) -> Uncertainty:
     """Uncertainty of the estimate x fitted to ``problem`` (the training rows)."""
     model = problem.model
-    scale = model.scale
-    jac = problem.jacobian(x) * scale
-    _, s, vt = np.linalg.svd(jac, full_matrices=False)
-    keep = s > rcond * s[0]
-    r = int(keep.sum())
+    space = Subspace.of(problem.jacobian(x), model.scale, x, rcond)
     residual = problem.residual(x)
-    dof = max(problem.n_values - r, 1)
+    dof = max(problem.n_values - space.rank, 1)
     noise = float(np.sqrt(residual @ residual / dof))
-    basis = scale[:, None] * vt[keep].T / s[keep]  # x change per unit of whitened z
-    cov = noise**2 * basis @ basis.T
+    cov = space.covariance(noise)
     q = random_poses(problem.model.chain, poses, np.random.default_rng(seed))
     _, d_points = problem.model.point_jacobian(x, q, np.zeros(3))
     per_pose = np.einsum("nip,pk,nik->n", d_points, cov, d_points)

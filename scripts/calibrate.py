@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Thin wrapper: see `python scripts/calibrate.py --help` and calib_pin.cli."""
+"""`python scripts/calibrate.py --help`: the same as `calib-pin calibrate` (calib_pin.cli)."""
 
 import sys
 
-from calib_pin.cli import calibrate_main
+from calib_pin.cli import command
 
 if __name__ == "__main__":
-    sys.exit(calibrate_main())
+    sys.exit(command("calibrate")(sys.argv[1:]))

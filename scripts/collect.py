@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Thin wrapper: see `python scripts/collect.py --help` and calib_pin.collect_cli."""
+"""`python scripts/collect.py --help`: the same as `calib-pin collect` (calib_pin.cli)."""
 
 import sys
 
-from calib_pin.collect_cli import collect_main
+from calib_pin.cli import command
 
 if __name__ == "__main__":
-    sys.exit(collect_main())
+    sys.exit(command("collect")(sys.argv[1:]))

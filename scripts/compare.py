@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Thin wrapper: see `python scripts/compare.py --help` and calib_pin.cli."""
+"""`python scripts/compare.py --help`: the same as `calib-pin compare` (calib_pin.cli)."""
 
 import sys
 
-from calib_pin.cli import compare_main
+from calib_pin.cli import command
 
 if __name__ == "__main__":
-    sys.exit(compare_main())
+    sys.exit(command("compare")(sys.argv[1:]))

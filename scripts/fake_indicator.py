@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Thin wrapper: see `python scripts/fake_indicator.py --help` and calib_pin.collect_cli."""
+"""`python scripts/fake_indicator.py --help`: the same as `calib-pin fake-indicator` (calib_pin.cli)."""
 
 import sys
 
-from calib_pin.collect_cli import fake_indicator_main
+from calib_pin.cli import command
 
 if __name__ == "__main__":
-    sys.exit(fake_indicator_main())
+    sys.exit(command("fake-indicator")(sys.argv[1:]))

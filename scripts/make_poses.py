@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Thin wrapper: see `python scripts/make_poses.py --help` and calib_pin.collect_cli."""
+"""`python scripts/make_poses.py --help`: the same as `calib-pin make-poses` (calib_pin.cli)."""
 
 import sys
 
-from calib_pin.collect_cli import make_poses_main
+from calib_pin.cli import command
 
 if __name__ == "__main__":
-    sys.exit(make_poses_main())
+    sys.exit(command("make-poses")(sys.argv[1:]))

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Thin wrapper: see `python scripts/simulate.py --help` and calib_pin.cli."""
+"""`python scripts/simulate.py --help`: the same as `calib-pin simulate` (calib_pin.cli)."""
 
 import sys
 
-from calib_pin.cli import simulate_main
+from calib_pin.cli import command
 
 if __name__ == "__main__":
-    sys.exit(simulate_main())
+    sys.exit(command("simulate")(sys.argv[1:]))

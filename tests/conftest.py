@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.errors import CableModel
+from calib_pin.simulation import random_poses
+from calib_pin.sensors import CableModel
 
 
 @pytest.fixture(scope="session")
@@ -29,7 +30,7 @@ def session(chain, params):
 def fresh(chain, params, session):
     """1000 fresh poses and their noise-free true readings [m]."""
     _, truth = session
-    q = cp.random_poses(chain, 1000, np.random.default_rng(123))
+    q = random_poses(chain, 1000, np.random.default_rng(123))
     return q, CableModel(chain, params, truth.sensor).predict(truth.x, q)
 
 

@@ -7,7 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from calib_pin.cli import calibrate_main, compare_main, simulate_main
+from calib_pin.cli.calibrate import calibrate_main
+from calib_pin.cli.compare import compare_main
+from calib_pin.cli.simulate import simulate_main
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -84,11 +86,11 @@ def _exit_code(main, argv) -> int:
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["irb120", "--poses", "0"], "error: --poses must be at least 1"),
+        (["irb120", "--poses", "0"], "expected a whole number from 1 to"),
         (["nosuchbot"], "unknown robot 'nosuchbot'"),
         (["panda"], "no frame 'tool0'"),
-        (["irb120", "--noise-mm", "-1"], "expected a non-negative float"),
-        (["irb120", "--offset-mm", "inf"], "expected a finite number"),
+        (["irb120", "--noise-mm", "-1"], "expected a number in (0, 100]"),
+        (["irb120", "--length-offset-mm", "inf"], "expected a finite number"),
     ],
 )
 def test_simulate_bad_input(tmp_path, capsys, args, message):
@@ -136,7 +138,7 @@ def test_compare_writes_tables_and_figures(tmp_path, capsys):
     "args, message",
     [
         (["irb120", "--methods", "lm,nope"], "unknown method 'nope' (valid: ekf, bas"),
-        (["irb120", "--trials", "0"], "expected a whole number >= 1, got '0'"),
+        (["irb120", "--trials", "0"], "expected a whole number from 1 to 100000, got '0'"),
         (["irb120", "--simulate", "pink"], "invalid choice: 'pink'"),
         (["irb120", "--data", "missing.csv"], "missing.csv: no such file"),
         (["irb120", "--data", "x.csv", "--simulate", "gauss"], "either --data or --simulate"),

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.measurements import write_poses
 
 HEADER = "q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,length_mm"
 META = "# robot: irb120\n# anchor_mm: 600, 200, -100\n# tool_mm: 0, 0, 50\n"
@@ -88,7 +89,7 @@ def test_missing_file(tmp_path, chain):
 def test_too_few_rows_for_the_parameters(tmp_path):
     """Fewer training rows than parameters is refused before estimating."""
     path = _write(tmp_path, META + HEADER + "\n" + "\n".join([ROW] * 20) + "\n")
-    with pytest.raises(cp.DataError, match=r"s.csv: 20 rows leave 16 values for training, fewer than the 24 unknowns"):
+    with pytest.raises(cp.DataError, match=r"s.csv: 16 training rows give 16 values, fewer than the 24 unknowns"):
         cp.calibrate("irb120", path)
 
 
@@ -102,9 +103,9 @@ def test_missing_sensor_geometry(tmp_path):
 def test_pose_list_and_duplicate_pose(tmp_path, chain):
     """A pose list has no length column; a pose number may appear only once."""
     path = tmp_path / "p.csv"
-    cp.write_poses(path, np.zeros((3, 6)), robot="irb120")
+    write_poses(path, np.zeros((3, 6)), robot="irb120")
     poses = cp.read_measurements(path, chain, readings=False)
-    assert poses.pose_ids.tolist() == [1, 2, 3] and np.all(np.isnan(poses.lengths)) and len(poses) == 3
+    assert poses.pose_ids.tolist() == [1, 2, 3] and poses.kind == "poses" and len(poses) == 3
     with pytest.raises(cp.DataError, match="missing column length_mm"):
         cp.read_measurements(path, chain)
     path.write_text(path.read_text().replace("\n3,", "\n2,"))

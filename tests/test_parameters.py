@@ -5,7 +5,7 @@ import pinocchio as pin
 import pytest
 
 import calib_pin as cp
-from calib_pin.robots import DHTable
+from calib_pin.robot.description import DHTable
 
 
 def _fd_delta_jacobian(model, x, h=1e-7):

@@ -3,8 +3,9 @@
 import numpy as np
 
 import calib_pin as cp
-from calib_pin.collect_cli import plan_poses_main
-from calib_pin.errors import CableModel
+from calib_pin.simulation import random_poses
+from calib_pin.cli.poses import plan_poses_main
+from calib_pin.sensors import CableModel
 from calib_pin.planning import plan_poses
 
 
@@ -12,7 +13,7 @@ def _fresh_error(chain, params, truth, q, rng, fresh):
     """Calibrate (LM) on readings of the true robot at poses q; error on fresh poses [mm]."""
     model = CableModel(chain, params, truth.sensor)
     readings = model.predict(truth.x, q) + rng.normal(scale=truth.noise, size=len(q))
-    data = cp.MeasurementSet(q=q, lengths=readings, anchor=truth.sensor.anchor, tool=truth.sensor.hook,
+    data = cp.MeasurementSet(q=q, values=readings, anchor=truth.sensor.anchor, tool=truth.sensor.tool,
                              robot="irb120")
     result = cp.calibrate("irb120", data, method="lm", test_fraction=0.0)
     fresh_q, true_fresh = fresh
@@ -29,8 +30,8 @@ def test_planned_poses_beat_random_ones(chain, params, session, fresh):
         assert plan.o1 > plan.random_o1 and plan.o3 > plan.random_o3
         assert plan.reach is not None and plan.reach < 40
         rng = np.random.default_rng(seed)
-        pool = cp.random_poses(chain, 400, np.random.default_rng(100 + seed))
-        random_q = pool[model.hook_positions(None, pool)[:, 2] > 0][:40]
+        pool = random_poses(chain, 400, np.random.default_rng(100 + seed))
+        random_q = pool[model.tool_positions(None, pool)[:, 2] > 0][:40]
         planned = _fresh_error(chain, params, truth, plan.q, rng, fresh)
         random = _fresh_error(chain, params, truth, random_q, rng, fresh)
         assert planned < random, (seed, planned, random)

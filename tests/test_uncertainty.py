@@ -34,12 +34,15 @@ def test_more_poses_shrink_the_uncertainty(chain, params):
 
 def test_runaway_deviation_is_refused(session, tmp_path):
     """An estimate beyond the sanity bound writes no URDF and says which parameter."""
+    import dataclasses
+
     import pytest
 
     data, _ = session
     result = cp.calibrate("irb120", data, method="lm")
-    result.x = result.x.copy()
-    result.x[list(result.params.names).index("d_4")] = 0.05
+    x = result.x.copy()
+    x[list(result.params.names).index("d_4")] = 0.05
+    result = dataclasses.replace(result, x=x)
     with pytest.raises(cp.CalibPinError, match=r"d_4 = \+50 mm is beyond the sanity bound 20 mm"):
         result.to_urdf(tmp_path / "x.urdf")
     assert not (tmp_path / "x.urdf").exists()

@@ -1,112 +1,144 @@
-"""Estimators by name, all with one signature and one result type (see :mod:`.base`)."""
+"""Estimators by name: a registry of frozen method records that state what each can do.
+
+Every estimator has one signature and one result type (see :mod:`.base`). The record
+:class:`Method` tells callers what they would otherwise ask of the estimator's type:
+whether it takes a robust loss (natively, or through the shared refit scheme of
+:mod:`.robust`), whether it estimates kinematic parameters, and which data kinds it
+takes. Estimator modules are imported when a method is first asked for.
+"""
 
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import time
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from ..errors import CalibrationProblem
 from ..exceptions import EstimatorError
-from .bas import BAS
-from .base import EstimateResult, Tracker
-from .de import DE
-from .ekf import EKF
-from .ekf_qibas import EKFQIBAS
-from .lm import LevenbergMarquardt
-from .robust import LOSSES, Robust
-from .pso import PSO
-from .qibas import QIBAS
-from .rbf import RBF
-from .search_space import SearchSpace
-from .ukf import UKF
+from ..problem import LeastSquares
+from .base import EstimateResult, History
 
-#: Registry: method name (as on the command line) to estimator with default settings,
-#: in the paper's order M1..M9.
-ESTIMATORS = {
-    "ekf": EKF(),
-    "bas": BAS(),
-    "ukf": UKF(),
-    "pso": PSO(),
-    "rbf": RBF(),
-    "lm": LevenbergMarquardt(),
-    "de": DE(),
-    "qibas": QIBAS(),
-    "ekf-qibas": EKFQIBAS(),
-}
+#: Robust losses (scipy.optimize.least_squares names); "linear" is plain least squares.
+LOSSES = ("linear", "huber", "soft_l1", "cauchy")
+
+
+@dataclass(frozen=True)
+class Method:
+    """One estimator of the registry and what it can do.
+
+    Attributes:
+        name: Name on the command line (``ekf-qibas``).
+        label: The paper's label (``M9``).
+        title: What it is, for people.
+        target: ``module:Class`` of the estimator, imported on first use.
+        robust: ``native`` (its own robust stage: set its ``loss``), ``refit`` (the
+            shared refit scheme of :mod:`.robust`), or ``""`` (no robust loss).
+        kinematic: Estimates kinematic parameters (False: learns a correction of the
+            values, so there is no URDF to write).
+        kinds: Data kinds it takes (empty: every kind).
+    """
+
+    name: str
+    label: str
+    title: str
+    target: str
+    robust: str = ""
+    kinematic: bool = True
+    kinds: tuple[str, ...] = ()
+
+    def estimator(self, loss: str = "linear") -> Any:
+        """The estimator with default settings and ``loss``.
+
+        Raises:
+            EstimatorError: a loss it cannot take.
+        """
+        self.check(loss)
+        module, _, cls = self.target.partition(":")
+        estimator = getattr(importlib.import_module(f"{__name__}.{module}"), cls)()
+        if loss == "linear":
+            return estimator
+        if self.robust == "native":
+            return dataclasses.replace(estimator, loss=loss)
+        from .robust import Robust
+
+        return Robust(estimator, loss)
+
+    def check(self, loss: str = "linear", kind: str | None = None) -> None:
+        """Refuse a loss or a data kind this method does not take, in one line.
+
+        Raises:
+            EstimatorError: unknown loss, a loss it has no robust variant for, or data
+                of a kind it does not take.
+        """
+        if loss not in LOSSES:
+            raise EstimatorError(f"unknown loss '{loss}' (valid: {', '.join(LOSSES)})")
+        if loss != "linear" and not self.robust:
+            robust = [m.name for m in METHODS.values() if m.robust]
+            raise EstimatorError(f"method '{self.name}' has no robust loss; --loss {loss} works with: "
+                                 f"{', '.join(robust)}")
+        if kind is not None and self.kinds and kind not in self.kinds:
+            raise EstimatorError(f"method '{self.name}' takes {' or '.join(self.kinds)} data, not {kind} data; "
+                                 "use a parameter method")
+
+
+#: The registry, in the paper's order M1..M9.
+METHODS: dict[str, Method] = {m.name: m for m in (
+    Method("ekf", "M1", "extended Kalman filter (filterpy)", "ekf:EKF"),
+    Method("bas", "M2", "beetle antennae search", "bas:BAS", robust="refit"),
+    Method("ukf", "M3", "unscented Kalman filter (filterpy)", "ukf:UKF"),
+    Method("pso", "M4", "particle swarm", "pso:PSO", robust="refit"),
+    Method("rbf", "M5", "RBF network on the values' error (scipy)", "rbf:RBF", kinematic=False, kinds=("cable",)),
+    Method("lm", "M6", "Levenberg-Marquardt (scipy)", "lm:LevenbergMarquardt", robust="native"),
+    Method("de", "M7", "differential evolution (scipy)", "de:DE", robust="refit"),
+    Method("qibas", "M8", "quadratic interpolated BAS", "qibas:QIBAS", robust="refit"),
+    Method("ekf-qibas", "M9", "EKF, then QIBAS (the paper's method)", "ekf_qibas:EKFQIBAS", robust="native"),
+)}
+
+#: Method names, in the paper's order.
+ESTIMATORS = tuple(METHODS)
 
 #: The paper's label of each method (Table I).
-PAPER_LABELS = {name: f"M{i}" for i, name in enumerate(ESTIMATORS, start=1)}
+PAPER_LABELS = {m.name: m.label for m in METHODS.values()}
 
 DEFAULT_METHOD = "ekf-qibas"
 
 
-def get_estimator(name: str):
-    """The estimator registered as ``name``.
+def get_method(name: str) -> Method:
+    """The method record registered as ``name``.
 
     Raises:
         EstimatorError: unknown name, with the list of valid ones.
     """
     try:
-        return ESTIMATORS[name]
+        return METHODS[name]
     except KeyError:
-        raise EstimatorError(
-            f"unknown method '{name}' (valid: {', '.join(ESTIMATORS)})"
-        ) from None
+        raise EstimatorError(f"unknown method '{name}' (valid: {', '.join(METHODS)})") from None
 
 
-def get_robust(name: str, loss: str):
-    """The estimator ``name`` with a robust ``loss`` (see :mod:`.robust`).
-
-    Raises:
-        EstimatorError: unknown name or loss, or a method that has no robust variant.
-    """
-    estimator = get_estimator(name)
-    if loss not in LOSSES:
-        raise EstimatorError(f"unknown loss '{loss}' (valid: {', '.join(LOSSES)})")
-    if loss == "linear":
-        return estimator
-    if hasattr(estimator, "loss"):  # its own robust stage: LM (scipy's losses), EKF-QIBAS
-        return dataclasses.replace(estimator, loss=loss)
-    if getattr(estimator, "minimises_cost", False):  # searches: one shared refit scheme
-        return Robust(estimator, loss)
-    robust = [n for n, e in ESTIMATORS.items() if hasattr(e, "loss") or getattr(e, "minimises_cost", False)]
-    raise EstimatorError(f"method '{name}' has no robust loss; --loss {loss} works with: {', '.join(robust)}")
+def get_estimator(name: str, loss: str = "linear") -> Any:
+    """The estimator registered as ``name``, with ``loss`` (see :meth:`Method.estimator`)."""
+    return get_method(name).estimator(loss)
 
 
 def run_estimator(
-    name: str, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
-    loss: str = "linear",
+    name: str, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+    loss: str = "linear", history: bool = True,
 ) -> EstimateResult:
-    """Run the estimator ``name`` (with ``loss``, see :func:`get_robust`) and record its
-    wall time in ``time_s``."""
-    estimator = get_robust(name, loss)
+    """Run the estimator ``name`` (with ``loss``), recording its convergence history
+    (unless ``history`` is False) and its wall time ``time_s``."""
+    estimator = get_estimator(name, loss)
+    recorder = History() if history else None
     start = time.perf_counter()
-    result = estimator(problem, x0, seed=seed, noise=noise)
-    result.time_s = time.perf_counter() - start
-    return result
+    result = estimator(problem, x0, seed=seed, noise=noise, callback=recorder)
+    elapsed = time.perf_counter() - start
+    if recorder is None:
+        return dataclasses.replace(result, time_s=elapsed)
+    return dataclasses.replace(result, time_s=elapsed, history=tuple(recorder.history),
+                               evaluations=tuple(recorder.evaluations))
 
 
-__all__ = [
-    "BAS",
-    "DE",
-    "DEFAULT_METHOD",
-    "EKF",
-    "EKFQIBAS",
-    "ESTIMATORS",
-    "EstimateResult",
-    "LOSSES",
-    "LevenbergMarquardt",
-    "PAPER_LABELS",
-    "PSO",
-    "QIBAS",
-    "RBF",
-    "Robust",
-    "SearchSpace",
-    "Tracker",
-    "UKF",
-    "get_estimator",
-    "get_robust",
-    "run_estimator",
-]
+__all__ = ["DEFAULT_METHOD", "ESTIMATORS", "LOSSES", "METHODS", "PAPER_LABELS", "EstimateResult", "Method",
+           "get_estimator", "get_method", "run_estimator"]

@@ -1,6 +1,6 @@
 """Beetle antennae search (BAS, paper M2, eq. 9-13), the loop QIBAS builds on.
 
-The beetle sits at z (search coordinates, see :mod:`.search_space`) and, each iteration:
+The beetle sits at z (search coordinates, see :mod:`calib_pin.subspace`) and, each iteration:
 
 1. draws a random unit direction b (eq. 10) and smells the cost at its antennae
    z_r = z + m b and z_l = z - m b (eq. 11);
@@ -29,8 +29,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..errors import CalibrationProblem
-from .base import EstimateResult, Tracker
+from ..problem import LeastSquares
+from .base import Callback, EstimateResult, Tracker
 
 #: Proposes an extra candidate from (z, m, b, f, f_l, f_r, z_bas); None for plain BAS.
 Interpolation = Callable[[np.ndarray, float, np.ndarray, float, float, float, np.ndarray], np.ndarray]
@@ -67,15 +67,17 @@ class BAS:
     minimises_cost: ClassVar[bool] = True
 
     def __call__(
-        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+        self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+        callback: Callback | None = None,
     ) -> EstimateResult:
-        return self._search(problem, x0, seed, None)
+        return self._search(problem, x0, seed, None, callback)
 
     def _search(
-        self, problem: CalibrationProblem, x0: np.ndarray, seed: int, interpolate: Interpolation | None
+        self, problem: LeastSquares, x0: np.ndarray, seed: int, interpolate: Interpolation | None,
+        callback: Callback | None = None,
     ) -> EstimateResult:
         rng = np.random.default_rng(seed)
-        track = Tracker(problem)
+        track = Tracker(problem, callback)
         space = track.whitened(x0)
 
         def cost(z: np.ndarray) -> float:
@@ -86,9 +88,10 @@ class BAS:
         delta = m = self.step * np.sqrt(f * problem.n_values)
         delta0, m0 = self.floor * delta, self.floor * m
         window = self.window or 2 * space.dim
-        track.record(np.sqrt(f))
+        h = [np.sqrt(f)]  # best RMSE after each iteration: the stopping rule's record
+        track.record(h[0])
         iterations = 0
-        message = f"iteration budget {self.max_iter} used"
+        message, status = f"iteration budget {self.max_iter} used", 1
         for iterations in range(1, self.max_iter + 1):
             b = rng.standard_normal(space.dim)
             b /= np.linalg.norm(b)
@@ -104,11 +107,11 @@ class BAS:
             f_new, z_new = min(candidates, key=lambda c: c[0])
             if f_new < f:
                 f, z = f_new, z_new
-            track.record(np.sqrt(f))
+            h.append(np.sqrt(f))
+            track.record(h[-1])
             delta = self.mu * delta + delta0
             m = self.tau * m + m0
-            h = track.history
             if iterations >= window and h[-window - 1] - h[-1] <= self.rtol * h[-1]:
-                message = f"RMSE improved by less than {self.rtol:g} (relative) in {window} iterations"
+                message, status = f"RMSE improved by less than {self.rtol:g} (relative) in {window} iterations", 0
                 break
-        return track.result(space.to_x(z), iterations, message)
+        return track.result(space.to_x(z), iterations, message, status=status)

@@ -3,107 +3,165 @@
 An estimator is a small frozen dataclass whose fields are its settings (with documented
 defaults) and whose call is::
 
-    estimator(problem, x0, *, seed=0, noise=5e-5) -> EstimateResult
+    estimator(problem, x0, *, seed=0, noise=5e-5, callback=None) -> EstimateResult
 
-``problem`` is a :class:`calib_pin.errors.CalibrationProblem` (the one residual and
-the one Jacobian), ``x0`` the start deviations (SI units), ``seed`` seeds any
-randomness, ``noise`` is the sensor's noise (1 sigma, [m]) for methods that weigh
-measurements by it.
+``problem`` is any :class:`calib_pin.problem.LeastSquares` (residual, Jacobian, scale and
+row blocks; a calibration problem is one), ``x0`` the start (SI units), ``seed`` seeds any
+randomness, ``noise`` is the measurement noise (1 sigma, [m]) for methods that weigh
+values by it. ``callback(rmse, evaluations)``, when given, is called with the training
+RMSE [m] at the start and after every iteration and the evaluations used so far: the
+convergence history. Without it nothing is recorded, so a benchmark times the method
+and not its bookkeeping.
 
 Work is counted in *evaluations*: one evaluation is the residual (or the Jacobian) of
-the whole training set; a Kalman update that predicts one pose counts 1/n_poses of an
-evaluation per prediction.
+the whole training set; a Kalman update that predicts one row counts 1/n_rows of an
+evaluation.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from ..errors import CableModel, CalibrationProblem
-from .search_space import SearchSpace
+from ..problem import LeastSquares
+from ..subspace import Subspace
+
+#: ``callback(rmse, evaluations)``: training RMSE [m] reached with that many evaluations.
+Callback = Callable[[float, float], None]
 
 
-@dataclass
+@dataclass(frozen=True)
 class EstimateResult:
-    """Outcome of one estimate.
+    """Outcome of one estimate (not changed after it is returned).
 
     Attributes:
-        x: Estimated deviations, shape (n_params,), SI units ([m], [rad]).
-        history: Training-set RMSE [m] at the start and after each iteration, so
-            ``iterations + 1`` entries.
-        evaluations: Evaluations used when each ``history`` entry was reached, same
-            length as ``history`` (0 at the start, non-decreasing).
+        x: Estimated unknowns, shape (n_params,), SI units ([m], [rad]).
+        success: True when the method stopped on its convergence rule, not on a budget
+            or a failure.
+        status: 0 converged, 1 iteration or evaluation budget used, 2 failed.
+        message: Why the method stopped.
         iterations: Iterations of the method's main loop (see each method).
         nfev: Evaluations used in all (see the module docstring).
+        history: Training RMSE [m] at the start and after each iteration, when recorded
+            (a callback was given), else empty.
+        evaluations: Evaluations used when each ``history`` entry was reached.
         time_s: Wall time of the estimate, [s].
-        message: Why the method stopped.
-        covariance: Covariance of x where the method gives one (the EKF's P), or None.
-        stages: For a pipeline, the iterations of each stage by name.
-        correction: For a method that learns the readings' error instead of kinematic
-            parameters (RBF): a function of joint angles (n_poses, n_joints) [rad]
-            giving the amount (n_poses,) [m] to add to the readings predicted at x.
-        outliers: Rows of the training problem a robust method judged outliers.
+        extras: Method-specific results: ``covariance`` (a Kalman filter's P carried to
+            x), ``stages`` (a pipeline's iterations per stage), ``correction`` (RBF: a
+            function of joint angles giving what to add to the predicted values [m]),
+            ``outliers`` (rows a robust method judged outliers).
     """
 
     x: np.ndarray
-    history: list[float]
-    evaluations: list[float]
+    success: bool
+    status: int
+    message: str
     iterations: int
     nfev: float
+    history: tuple[float, ...] = ()
+    evaluations: tuple[float, ...] = ()
     time_s: float = 0.0
-    message: str = ""
-    covariance: np.ndarray | None = None
-    stages: dict[str, int] = field(default_factory=dict)
-    correction: Callable[[np.ndarray], np.ndarray] | None = None
-    outliers: tuple[int, ...] = ()
+    extras: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def kinematic(self) -> bool:
         """True when x alone is the calibration (it can be exported as a URDF)."""
         return self.correction is None
 
-    def predict(self, model: CableModel, q: np.ndarray) -> np.ndarray:
-        """Readings [m], shape (n_poses,), that this estimate predicts at joint angles q [rad]."""
-        readings = model.predict(self.x, q)
-        if self.correction is not None:
-            readings = readings + self.correction(np.atleast_2d(q))
-        return readings
+    @property
+    def correction(self) -> Callable[[np.ndarray], np.ndarray] | None:
+        return self.extras.get("correction")
 
-    def residual(self, problem: CalibrationProblem) -> np.ndarray:
-        """Predicted minus measured readings of ``problem``'s poses, shape (n_poses,), [m]."""
+    @property
+    def covariance(self) -> np.ndarray | None:
+        return self.extras.get("covariance")
+
+    @property
+    def stages(self) -> dict[str, int]:
+        return dict(self.extras.get("stages", {}))
+
+    @property
+    def outliers(self) -> tuple[int, ...]:
+        return tuple(self.extras.get("outliers", ()))
+
+    def predict(self, model: Any, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """Values [m] this estimate predicts at joint angles q [rad] with a measurement model."""
+        values = model.predict(self.x, q, points)
+        if self.correction is not None:
+            values = values + self.correction(np.atleast_2d(q)).reshape(values.shape)
+        return values
+
+    def residual(self, problem: LeastSquares) -> np.ndarray:
+        """Predicted minus measured values of ``problem``'s rows, flattened, [m]."""
+        r = problem.residual(self.x)
         if self.correction is None:
-            return problem.residual(self.x)
-        return problem.residual(self.x) + self.correction(problem.q)
+            return r
+        return r + self.correction(problem.q).reshape(-1)  # type: ignore[attr-defined]
 
     def converged(self, tolerance: float = 0.05) -> tuple[int, float]:
         """Iterations and evaluations used until the training RMSE first came within
-        ``tolerance`` (relative) of its final value."""
+        ``tolerance`` (relative) of its final value (needs a recorded history)."""
+        if not self.history:
+            return self.iterations, float(self.nfev)
         h = np.asarray(self.history)
         k = int(np.argmax(h <= h[-1] * (1.0 + tolerance)))
         return k, float(self.evaluations[k])
 
 
-class Tracker:
-    """Counts evaluations and records the convergence history of one estimate.
+class History:
+    """A callback that keeps what it is given: ``history`` [m] and ``evaluations``."""
 
-    Args:
-        problem: The calibration problem.
-    """
-
-    def __init__(self, problem: CalibrationProblem) -> None:
-        self.problem = problem
-        self.nfev = 0.0
+    def __init__(self) -> None:
         self.history: list[float] = []
         self.evaluations: list[float] = []
 
-    def whitened(self, x0: np.ndarray) -> SearchSpace:
-        """The whitened search space at x0 (see :mod:`.search_space`); its Jacobian
+    def __call__(self, rmse_m: float, evaluations: float) -> None:
+        self.history.append(float(rmse_m))
+        self.evaluations.append(float(evaluations))
+
+
+def offset(callback: Callback | None, evaluations: float, skip_first: bool = True) -> Callback | None:
+    """A callback for a later stage: its evaluations counted after ``evaluations``
+    already used, and (``skip_first``) its start not recorded again."""
+    if callback is None:
+        return None
+    state = {"first": skip_first}
+
+    def inner(rmse_m: float, used: float) -> None:
+        if state["first"]:
+            state["first"] = False
+            return
+        callback(rmse_m, evaluations + used)
+
+    return inner
+
+
+class Tracker:
+    """Counts evaluations and reports progress to an optional callback.
+
+    Args:
+        problem: The least-squares problem.
+        callback: See the module docstring; None records nothing.
+    """
+
+    def __init__(self, problem: LeastSquares, callback: Callback | None = None) -> None:
+        self.problem = problem
+        self.callback = callback
+        self.nfev = 0.0
+
+    @property
+    def recording(self) -> bool:
+        return self.callback is not None
+
+    def whitened(self, x0: np.ndarray) -> Subspace:
+        """The identifiable subspace at x0 (:mod:`calib_pin.subspace`); its Jacobian
         counts as one evaluation."""
         self.nfev += 1
-        return SearchSpace.whitened(self.problem, np.asarray(x0, dtype=float))
+        x0 = np.asarray(x0, dtype=float)
+        return Subspace.of(self.problem.jacobian(x0), self.problem.scale, x0)
 
     def cost(self, x: np.ndarray) -> float:
         """Mean squared residual (eq. 6) [m^2], counted as one evaluation."""
@@ -116,20 +174,26 @@ class Tracker:
         return self.problem.residual(x)
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
-        """Identification Jacobian, counted as one evaluation."""
+        """Jacobian, counted as one evaluation."""
         self.nfev += 1
         return self.problem.jacobian(x)
 
     def record(self, rmse_m: float) -> None:
-        """Append a training RMSE [m] reached with the evaluations counted so far."""
-        self.history.append(float(rmse_m))
-        self.evaluations.append(self.nfev)
+        """Report a training RMSE [m] reached with the evaluations counted so far."""
+        if self.callback is not None:
+            self.callback(float(rmse_m), self.nfev)
 
-    def result(self, x: np.ndarray, iterations: int, message: str, **extra) -> EstimateResult:
+    def record_at(self, x: np.ndarray) -> None:
+        """Report the training RMSE at x; computed only when recording, and not counted
+        as work (it is bookkeeping, not part of the method)."""
+        if self.callback is not None:
+            self.callback(rmse(self.problem.residual(x)), self.nfev)
+
+    def result(self, x: np.ndarray, iterations: int, message: str, *, status: int = 0,
+               **extras: Any) -> EstimateResult:
         return EstimateResult(
-            x=np.asarray(x, dtype=float).copy(), history=self.history,
-            evaluations=self.evaluations, iterations=iterations, nfev=self.nfev,
-            message=message, **extra,
+            x=np.asarray(x, dtype=float).copy(), success=status == 0, status=status, message=message,
+            iterations=iterations, nfev=self.nfev, extras={k: v for k, v in extras.items() if v is not None},
         )
 
 

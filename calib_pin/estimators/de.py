@@ -8,13 +8,13 @@ from typing import ClassVar
 import numpy as np
 from scipy.optimize import differential_evolution
 
-from ..errors import CalibrationProblem
-from .base import EstimateResult, Tracker
+from ..problem import LeastSquares
+from .base import Callback, EstimateResult, Tracker
 
 
 @dataclass(frozen=True)
 class DE:
-    """scipy's differential evolution in the whitened search coordinates of :mod:`.search_space`.
+    """scipy's differential evolution in the whitened search coordinates of :mod:`calib_pin.subspace`.
 
     Strategy ``best1bin`` with dithered mutation (0.5, 1) and recombination 0.7 (scipy's
     defaults), a population of ``popsize`` x dimension members, Latin-hypercube start in
@@ -35,9 +35,10 @@ class DE:
     minimises_cost: ClassVar[bool] = True  # see :class:`.robust.Robust`
 
     def __call__(
-        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+        self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+        callback: Callback | None = None,
     ) -> EstimateResult:
-        track = Tracker(problem)
+        track = Tracker(problem, callback)
         space = track.whitened(x0)
 
         def cost(z: np.ndarray) -> float:
@@ -53,4 +54,4 @@ class DE:
             seed=seed, polish=False, init="latinhypercube",
             callback=lambda intermediate_result: track.record(np.sqrt(intermediate_result.fun)),
         )
-        return track.result(space.to_x(fit.x), int(fit.nit), str(fit.message))
+        return track.result(space.to_x(fit.x), int(fit.nit), str(fit.message), status=0 if fit.success else 1)

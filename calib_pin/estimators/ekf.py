@@ -7,13 +7,13 @@ from dataclasses import dataclass
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
-from ..errors import CalibrationProblem
-from .base import EstimateResult, Tracker, rmse
-from .search_space import SearchSpace
+from ..problem import LeastSquares
+from ..subspace import Subspace
+from .base import Callback, EstimateResult, Tracker
 
 
 def filter_moments(
-    problem: CalibrationProblem, space: SearchSpace, prior: float, process: float, noise: float
+    problem: LeastSquares, space: Subspace, prior: float, process: float, noise: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """P0, Q and R of the Kalman filters (EKF, UKF) in the search coordinates z.
 
@@ -22,10 +22,10 @@ def filter_moments(
     R = noise^2 I for each of a row's values ([m^2]).
     """
     to_z = np.linalg.pinv(space.basis)
-    scale = problem.model.scale
+    scale = problem.scale
     p0 = to_z @ np.diag((prior * scale) ** 2) @ to_z.T
     q = to_z @ np.diag((process * scale) ** 2) @ to_z.T
-    return p0, q, noise**2 * np.eye(problem.model.values_per_row)
+    return p0, q, noise**2 * np.eye(problem.values_per_row)
 
 
 @dataclass(frozen=True)
@@ -33,7 +33,7 @@ class EKF:
     """Recursive estimate of the deviations, one measurement update per pose.
 
     State: the deviations (eq. 17), constant between poses (F = I), in the whitened
-    coordinates of :mod:`.search_space` like every estimator: directions the data
+    coordinates of :mod:`calib_pin.subspace` like every estimator: directions the data
     cannot see are not estimated and stay at x0. P0 = (prior * scale)^2: the model's
     typical deviation sizes (1 mm, 2 mrad for DH) times ``prior``. Q = (process *
     scale)^2 per pose (eq. 18), zero by default since the robot's geometry does not
@@ -52,28 +52,27 @@ class EKF:
     process: float = 0.0
 
     def __call__(
-        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+        self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+        callback: Callback | None = None,
     ) -> EstimateResult:
-        track = Tracker(problem)
+        track = Tracker(problem, callback)
         space = track.whitened(x0)
-        kf = ExtendedKalmanFilter(dim_x=space.dim, dim_z=problem.model.values_per_row)
+        kf = ExtendedKalmanFilter(dim_x=space.dim, dim_z=problem.values_per_row)
         kf.x = np.zeros((space.dim, 1))
         kf.P, kf.Q, kf.R = filter_moments(problem, space, self.prior, self.process, noise)
-        track.record(rmse(problem.residual(x0)))
+        track.record_at(x0)
+        zero = np.zeros((problem.values_per_row, 1))
         for _ in range(self.passes):
-            for k in range(problem.n_poses):
-                row = problem.subset(slice(k, k + 1))
-                value, jac = row.predict_with_jacobian(space.to_x(kf.x[:, 0]))
-                track.nfev += 1.0 / problem.n_poses
+            for k in range(problem.n_rows):
+                # The residual (predicted - measured) is the prediction of a zero measurement.
+                residual, jac = problem.row_residual_with_jacobian(space.to_x(kf.x[:, 0]), k)
+                track.nfev += 1.0 / problem.n_rows
                 kf.predict()
-                kf.update(
-                    row.readings.reshape(-1, 1),  # a column, as Hx returns
-                    HJacobian=lambda z, h=jac @ space.basis: h,
-                    Hx=lambda z, value=value: value.reshape(-1, 1),
-                )
-                track.record(rmse(problem.residual(space.to_x(kf.x[:, 0]))))
+                kf.update(zero, HJacobian=lambda z, h=jac @ space.basis: h,
+                          Hx=lambda z, r=residual: r.reshape(-1, 1))
+                track.record_at(space.to_x(kf.x[:, 0]))
         return track.result(
-            space.to_x(kf.x[:, 0]), self.passes * problem.n_poses,
-            f"{self.passes} pass(es) over {problem.n_poses} poses",
+            space.to_x(kf.x[:, 0]), self.passes * problem.n_rows,
+            f"{self.passes} pass(es) over {problem.n_rows} rows",
             covariance=space.basis @ kf.P @ space.basis.T,
         )

@@ -6,8 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import CalibrationProblem
-from .base import EstimateResult
+from ..problem import LeastSquares
+from .base import Callback, EstimateResult, offset
 from .ekf import EKF
 from .qibas import QIBAS
 from .robust import Robust
@@ -30,20 +30,17 @@ class EKFQIBAS:
     loss: str = "linear"
 
     def __call__(
-        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+        self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+        callback: Callback | None = None,
     ) -> EstimateResult:
-        first = self.ekf(problem, x0, seed=seed, noise=noise)
+        first = self.ekf(problem, x0, seed=seed, noise=noise, callback=callback)
         qibas = self.qibas if self.loss == "linear" else Robust(self.qibas, self.loss)
-        second = qibas(problem, first.x, seed=seed, noise=noise)
+        second = qibas(problem, first.x, seed=seed, noise=noise, callback=offset(callback, first.nfev))
+        stages = ({"ekf": first.iterations, **{f"qibas {k}": v for k, v in second.stages.items()}}
+                  if second.stages else {"ekf": first.iterations, "qibas": second.iterations})
         return EstimateResult(
-            x=second.x,
-            history=first.history + second.history[1:],
-            evaluations=first.evaluations + [first.nfev + e for e in second.evaluations[1:]],
-            iterations=first.iterations + second.iterations,
-            nfev=first.nfev + second.nfev,
+            x=second.x, success=second.success, status=second.status,
             message=f"EKF: {first.message}; QIBAS: {second.message}",
-            covariance=first.covariance,
-            stages={"ekf": first.iterations, **{f"qibas {k}": v for k, v in second.stages.items()}}
-            if second.stages else {"ekf": first.iterations, "qibas": second.iterations},
-            outliers=second.outliers,
+            iterations=first.iterations + second.iterations, nfev=first.nfev + second.nfev,
+            extras={"covariance": first.covariance, "stages": stages, "outliers": second.outliers},
         )

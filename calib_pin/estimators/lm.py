@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..errors import CalibrationProblem
-from .base import EstimateResult, Tracker, rmse
-from .robust import LOSSES, MAX_REFITS, outlier_rows, robust_scale
+from ..problem import LeastSquares
+from .base import Callback, EstimateResult, Tracker, rmse
+from .robust import outlier_rows, refit_scales
 
 
 @dataclass(frozen=True)
@@ -27,7 +27,7 @@ class LevenbergMarquardt:
     """MINPACK's Levenberg-Marquardt through ``scipy.optimize.least_squares(method="lm")``.
 
     It solves for the identifiable directions only (the whitened coordinates of
-    :mod:`.search_space`, with the analytic Jacobian mapped onto them); the others stay
+    :mod:`calib_pin.subspace`, with the analytic Jacobian mapped onto them); the others stay
     at x0. Stops on scipy's ``ftol``/``xtol``/``gtol`` or ``max_nfev`` evaluations.
     ``loss`` other than ``linear`` adds the robust stage of the module docstring.
 
@@ -43,50 +43,52 @@ class LevenbergMarquardt:
     loss: str = "linear"
 
     def __call__(
-        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+        self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+        callback: Callback | None = None,
     ) -> EstimateResult:
-        if self.loss not in LOSSES:
-            raise ValueError(f"unknown loss {self.loss!r} (valid: {', '.join(LOSSES)})")
-        track = Tracker(problem)
+        track = Tracker(problem, callback)
         space = track.whitened(x0)
         best = [np.inf]
+        started = [False]
 
         def residual(z: np.ndarray) -> np.ndarray:
             r = track.residual(space.to_x(z))
-            best[0] = min(best[0], rmse(r))
-            if not track.history:
-                track.record(best[0])
+            if track.recording:
+                best[0] = min(best[0], rmse(r))
+                if not started[0]:
+                    started[0] = True
+                    track.record(best[0])
             return r
 
-        last = [None]
+        last: list[np.ndarray | None] = [None]
+        iterations = [0]
         recording = [True]  # the robust stage is recorded as one iteration at its end
 
         def jacobian(z: np.ndarray) -> np.ndarray:
             # scipy checks the Jacobian at the start before MINPACK asks for it there.
             if recording[0] and last[0] is not None and not np.array_equal(z, last[0]):
+                iterations[0] += 1
                 track.record(best[0])  # end of the previous iteration
             last[0] = z.copy()
             return track.jacobian(space.to_x(z)) @ space.basis
 
         tolerances = {"ftol": self.ftol, "xtol": self.xtol, "gtol": self.gtol, "max_nfev": self.max_nfev}
         fit = least_squares(residual, np.zeros(space.dim), jac=jacobian, method="lm", **tolerances)
+        iterations[0] += 1
         track.record(best[0])
+        status = 0 if fit.status > 0 else (1 if fit.status == 0 else 2)
         if self.loss == "linear":
-            return track.result(space.to_x(fit.x), len(track.history) - 1, str(fit.message))
+            return track.result(space.to_x(fit.x), iterations[0], str(fit.message), status=status)
         recording[0] = False
         robust, scale = fit, np.inf
-        for _ in range(MAX_REFITS):  # refit while the noise scale estimate still shrinks
-            new_scale = max(robust_scale(robust.fun), 1e-9)
-            if new_scale > 0.9 * scale:
-                break
-            scale = new_scale
+        for scale in refit_scales(lambda: robust.fun):  # noqa: B023 (reads the latest fit)
             robust = least_squares(residual, robust.x, jac=jacobian, method="trf", loss=self.loss,
                                    f_scale=scale, **tolerances)
         # The robust stage trades training RMSE for robustness: record its own RMSE.
+        iterations[0] += 1
         track.record(rmse(robust.fun))
-        outliers = outlier_rows(problem, robust.fun, scale)
         return track.result(
-            space.to_x(robust.x), len(track.history) - 1,
+            space.to_x(robust.x), iterations[0],
             f"LM: {fit.message}; {self.loss} (scale {scale * 1e3:.3g} mm): {robust.message}",
-            outliers=outliers,
+            status=status, outliers=outlier_rows(problem, robust.fun, scale),
         )

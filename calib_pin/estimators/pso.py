@@ -7,13 +7,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..errors import CalibrationProblem
-from .base import EstimateResult, Tracker
+from ..problem import LeastSquares
+from .base import Callback, EstimateResult, Tracker
 
 
 @dataclass(frozen=True)
 class PSO:
-    """Global-best particle swarm in the whitened search coordinates of :mod:`.search_space`.
+    """Global-best particle swarm in the whitened search coordinates of :mod:`calib_pin.subspace`.
 
     Every iteration each particle's velocity becomes
     ``inertia * v + c1 * r1 * (own best - z) + c2 * r2 * (swarm best - z)``
@@ -40,17 +40,19 @@ class PSO:
     minimises_cost: ClassVar[bool] = True  # see :class:`.robust.Robust`
 
     def __call__(
-        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+        self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+        callback: Callback | None = None,
     ) -> EstimateResult:
         rng = np.random.default_rng(seed)
-        track = Tracker(problem)
+        track = Tracker(problem, callback)
         space = track.whitened(x0)
 
         def costs(z: np.ndarray) -> np.ndarray:
             return np.array([track.cost(space.to_x(p)) for p in z])
 
         start = track.cost(space.x0)
-        track.record(np.sqrt(start))
+        h = [np.sqrt(start)]  # the swarm's best RMSE per iteration: the stopping rule's record
+        track.record(h[0])
         half = self.bound * np.sqrt(start * problem.n_values)
         z = rng.uniform(-half, half, size=(self.particles, space.dim))
         z[0] = 0.0
@@ -59,7 +61,7 @@ class PSO:
         own, own_f = z.copy(), f.copy()
         best = int(np.argmin(own_f))
         iterations = 0
-        message = f"iteration budget {self.max_iter} used"
+        message, status = f"iteration budget {self.max_iter} used", 1
         for iterations in range(1, self.max_iter + 1):
             r1, r2 = rng.random(z.shape), rng.random(z.shape)
             v = self.inertia * v + self.c1 * r1 * (own - z) + self.c2 * r2 * (own[best] - z)
@@ -69,10 +71,10 @@ class PSO:
             better = f < own_f
             own[better], own_f[better] = z[better], f[better]
             best = int(np.argmin(own_f))
-            track.record(np.sqrt(min(own_f[best], start)))
-            h = track.history
+            h.append(np.sqrt(min(own_f[best], start)))
+            track.record(h[-1])
             if iterations >= self.window and h[-self.window - 1] - h[-1] <= self.rtol * h[-1]:
-                message = f"RMSE improved by less than {self.rtol:g} (relative) in {self.window} iterations"
+                message, status = f"RMSE improved by less than {self.rtol:g} (relative) in {self.window} iterations", 0
                 break
         x = space.to_x(own[best]) if own_f[best] < start else space.x0
-        return track.result(x, iterations, message)
+        return track.result(x, iterations, message, status=status)

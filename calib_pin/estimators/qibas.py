@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CalibrationProblem
-from .base import EstimateResult
+from ..problem import LeastSquares
 from .bas import BAS
+from .base import Callback, EstimateResult
 
 #: upsilon_0 of eq. 16: guards the parabola's denominator, in coordinates normalised by
 #: the antenna length and the best cost.
@@ -69,6 +69,7 @@ class QIBAS(BAS):
     tau: float = 0.95
 
     def __call__(
-        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+        self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+        callback: Callback | None = None,
     ) -> EstimateResult:
-        return self._search(problem, x0, seed, interpolated_point)
+        return self._search(problem, x0, seed, interpolated_point, callback)

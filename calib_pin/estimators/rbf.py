@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import RBFInterpolator
 
-from ..errors import CalibrationProblem
-from .base import EstimateResult, Tracker, rmse
+from ..problem import LeastSquares
+from .base import Callback, EstimateResult, Tracker, rmse
 
 
 @dataclass(frozen=True)
@@ -39,13 +39,14 @@ class RBF:
     folds: int = 5
 
     def __call__(
-        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+        self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+        callback: Callback | None = None,
     ) -> EstimateResult:
-        track = Tracker(problem)
+        track = Tracker(problem, callback)
         x0 = np.asarray(x0, dtype=float)
         error = -track.residual(x0)  # measured minus predicted, [m]
         track.record(rmse(error))
-        q = problem.q
+        q = problem.q  # type: ignore[attr-defined]  # RBF learns over the joint angles
         fold = np.random.default_rng(seed).permutation(len(q)) % min(self.folds, len(q))
 
         def cv_error(smoothing: float) -> float:
@@ -63,5 +64,6 @@ class RBF:
             x0, 1, f"{self.kernel} network, smoothing {chosen:g} by {fold.max() + 1}-fold "
             "cross-validation", correction=lambda q_new: net(np.atleast_2d(q_new)),
         )
-        track.record(rmse(result.residual(problem)))
+        if track.recording:
+            track.record(rmse(result.residual(problem)))
         return result

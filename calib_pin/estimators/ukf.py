@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-from ..errors import CalibrationProblem
-from .base import EstimateResult, Tracker, rmse
+from ..problem import LeastSquares
+from .base import Callback, EstimateResult, Tracker
 from .ekf import filter_moments
 
 
@@ -46,30 +46,31 @@ class UKF:
     kappa: float = 0.0
 
     def __call__(
-        self, problem: CalibrationProblem, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5
+        self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
+        callback: Callback | None = None,
     ) -> EstimateResult:
-        track = Tracker(problem)
+        track = Tracker(problem, callback)
         space = track.whitened(x0)
         n = space.dim
         points = MerweScaledSigmaPoints(n, alpha=self.alpha, beta=self.beta, kappa=self.kappa,
                                         sqrt_method=_symmetric_sqrt)
         kf = UnscentedKalmanFilter(
-            dim_x=n, dim_z=problem.model.values_per_row, dt=1.0, points=points,
-            fx=lambda z, dt: z, hx=lambda z, row: row.predict(space.to_x(z)).reshape(-1),
+            dim_x=n, dim_z=problem.values_per_row, dt=1.0, points=points,
+            fx=lambda z, dt: z, hx=lambda z, row: row.residual(space.to_x(z)),
         )
         kf.x = np.zeros(n)
         kf.P, kf.Q, kf.R = filter_moments(problem, space, self.prior, self.process, noise)
-        track.record(rmse(problem.residual(x0)))
+        track.record_at(x0)
+        zero = np.zeros(problem.values_per_row)  # the residual is the prediction of a zero measurement
         for _ in range(self.passes):
-            for k in range(problem.n_poses):
-                row = problem.subset(slice(k, k + 1))
+            for k in range(problem.n_rows):
                 kf.predict()
-                kf.update(row.readings.reshape(-1), row=row)
+                kf.update(zero, row=problem.subset(slice(k, k + 1)))
                 kf.P = 0.5 * (kf.P + kf.P.T)
-                track.nfev += (2 * n + 1) / problem.n_poses
-                track.record(rmse(problem.residual(space.to_x(kf.x))))
+                track.nfev += (2 * n + 1) / problem.n_rows
+                track.record_at(space.to_x(kf.x))
         return track.result(
-            space.to_x(kf.x), self.passes * problem.n_poses,
-            f"{self.passes} pass(es) over {problem.n_poses} poses",
+            space.to_x(kf.x), self.passes * problem.n_rows,
+            f"{self.passes} pass(es) over {problem.n_rows} rows",
             covariance=space.basis @ kf.P @ space.basis.T,
         )

@@ -1,0 +1,84 @@
+"""Timing calib-pin's estimators on a seeded simulated IRB120 session.
+
+For each method: median (and min/max) wall time of the estimate on the training poses
+over repeated runs (history recording off: the method, not its bookkeeping), iterations,
+evaluations of the training residual, peak Python memory of one run (tracemalloc, in a
+separate untimed run), and the error predicting 1000 fresh poses against the noise-free
+truth. The machine may be shared and noisy: compare medians and ratios, not single runs.
+"""
+
+from __future__ import annotations
+
+import statistics
+import tracemalloc
+from dataclasses import dataclass
+
+import numpy as np
+
+from .comparison import fresh_scorer
+from .estimators import run_estimator
+from .metrics import split_rows
+from .parameters import parameter_model
+from .pipeline import prepare
+from .robot import load_chain
+from .simulation import simulate
+
+
+@dataclass(frozen=True)
+class Timing:
+    """One method's benchmark row: times [s], work, peak memory [MiB], fresh RMSE [mm]."""
+
+    method: str
+    median_s: float
+    min_s: float
+    max_s: float
+    iterations: int
+    evaluations: float
+    peak_mib: float
+    fresh_rmse_mm: float
+
+
+def benchmark(methods: list[str], repeats: int = 5, seed: int = 0, poses: int = 120) -> tuple[str, list[Timing]]:
+    """Time ``methods`` on a simulated IRB120 session of ``poses`` poses (80 % train).
+
+    Returns:
+        A one-line description of the set, and one :class:`Timing` per method.
+    """
+    chain = load_chain("irb120")
+    params = parameter_model(chain)
+    data, truth = simulate(chain, params, poses, seed=seed, noise_mm=0.05)
+    setup = prepare("irb120", data)
+    train, _ = split_rows(len(data), 0.2, seed)
+    problem = setup.problem_on(train)
+    training = problem.subset(train)
+    fresh = fresh_scorer(setup, truth, seed - 10_000 + 1)
+    x0 = np.zeros(problem.n_params)
+    rows = []
+    for name in methods:
+        times, result = [], None
+        for _ in range(repeats):
+            result = run_estimator(name, training, x0, seed=seed, history=False)
+            times.append(result.time_s)
+        assert result is not None
+        tracemalloc.start()
+        run_estimator(name, training, x0, seed=seed, history=False)
+        peak = tracemalloc.get_traced_memory()[1] / 2**20
+        tracemalloc.stop()
+        error = fresh(lambda q, points, est=result: est.predict(problem.model, q, points))
+        rows.append(Timing(name, statistics.median(times), min(times), max(times), result.iterations,
+                           result.nfev, peak, error))
+    return f"IRB120, {len(train)} training poses, sigma 0.05 mm, seed {seed}, {repeats} repeats", rows
+
+
+def format_timings(rows: list[Timing]) -> str:
+    """The benchmark table, and each median relative to LM's when LM ran."""
+    lines = [f"{'method':12s}{'median s':>10s}{'min s':>9s}{'max s':>9s}{'iters':>7s}"
+             f"{'evals':>8s}{'peak MiB':>10s}{'fresh RMSE mm':>15s}"]
+    for r in rows:
+        lines.append(f"{r.method:12s}{r.median_s:10.4f}{r.min_s:9.4f}{r.max_s:9.4f}{r.iterations:7d}"
+                     f"{r.evaluations:8.0f}{r.peak_mib:10.2f}{r.fresh_rmse_mm:15.4f}")
+    medians = {r.method: r.median_s for r in rows}
+    if "lm" in medians and len(medians) > 1:
+        ratios = ", ".join(f"{m} {t / medians['lm']:.1f}x" for m, t in medians.items() if m != "lm")
+        lines.append(f"median time relative to LM: {ratios}")
+    return "\n".join(lines)

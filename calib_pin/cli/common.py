@@ -1,0 +1,169 @@
+"""What every command shares: one-line errors, argument types, the exit codes.
+
+Exit status: 0 done; 2 bad input, one line on stderr naming the file, line or field
+(never a traceback for a user's mistake); 3 a sensor fault (collect); 130 stopped by
+Ctrl-C, with one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+from typing import Any, NoReturn
+
+import numpy as np
+
+from ..exceptions import CalibPinError
+
+BAD_INPUT_EXIT = 2
+SENSOR_FAULT_EXIT = 3
+INTERRUPTED_EXIT = 130
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line and exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(BAD_INPUT_EXIT, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def fail(message: str) -> int:
+    """Print one error line on stderr; the bad-input exit status."""
+    print(f"error: {message}", file=sys.stderr)
+    return BAD_INPUT_EXIT
+
+
+def run(action: Callable[[], int], interrupted: str = "stopped by Ctrl-C: nothing was written") -> int:
+    """Run a command's work: a user's mistake becomes one line on stderr and exit 2,
+    Ctrl-C one line and exit 130."""
+    try:
+        return action()
+    except CalibPinError as e:
+        return fail(str(e))
+    except KeyboardInterrupt:
+        print(f"\n{interrupted}", file=sys.stderr)
+        return INTERRUPTED_EXIT
+    except BrokenPipeError:
+        return fail("standard output was closed (files already written are kept)")
+    except MemoryError:
+        return fail("not enough memory for this size: ask for fewer poses or candidates")
+    except OSError as e:
+        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+        return fail(f"{where}{e.strerror or e}")
+
+
+def xyz_mm(text: str) -> tuple[float, float, float]:
+    """``x,y,z`` in mm: three finite numbers."""
+    parts = [p for p in text.replace(",", " ").split() if p]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(np.isfinite(v) and abs(v) < 1e6 for v in values):
+        raise argparse.ArgumentTypeError(f"expected 3 numbers 'x,y,z' in mm, got '{text[:40]}'")
+    return values  # type: ignore[return-value]
+
+
+def fraction(text: str) -> float:
+    """A number in [0, 1)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0.0 <= value < 1.0:
+        raise argparse.ArgumentTypeError(f"expected a number in [0, 1), got '{text[:40]}'")
+    return value
+
+
+def non_negative(kind: type, upper: float = 1e9) -> Callable[[str], Any]:
+    """A non-negative ``kind`` (int or float) no larger than ``upper``."""
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except (ValueError, OverflowError):
+            value = -1
+        if not value >= 0:
+            raise argparse.ArgumentTypeError(f"expected a non-negative {kind.__name__}, got '{text[:40]}'")
+        if value > upper:
+            raise argparse.ArgumentTypeError(f"expected at most {upper:g}, got '{text[:40]}'")
+        return value
+
+    return parse
+
+
+def positive_float(upper: float) -> Callable[[str], float]:
+    """A number in (0, upper]."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = -1.0
+        if not 0.0 < value <= upper:
+            raise argparse.ArgumentTypeError(f"expected a number in (0, {upper:g}], got '{text[:40]}'")
+        return value
+
+    return parse
+
+
+def finite(text: str) -> float:
+    """A finite number (|value| < 1e6)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (np.isfinite(value) and abs(value) < 1e6):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got '{text[:40]}'")
+    return value
+
+
+def count(upper: int) -> Callable[[str], int]:
+    """A whole number in [1, upper]."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            try:
+                as_float = float(text)
+                value = int(as_float) if as_float.is_integer() and abs(as_float) < 1e18 else 0
+            except (ValueError, OverflowError):
+                value = 0
+        if not 1 <= value <= upper:
+            raise argparse.ArgumentTypeError(f"expected a whole number from 1 to {upper}, got '{text[:40]}'")
+        return value
+
+    return parse
+
+
+def methods(text: str) -> list[str]:
+    """Comma-separated estimator names."""
+    from ..estimators import ESTIMATORS
+
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    unknown = [n for n in names if n not in ESTIMATORS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(
+            f"unknown method '{unknown[0] if unknown else text}' (valid: {', '.join(ESTIMATORS)})")
+    return names
+
+
+def estimate_names(text: str) -> tuple[str, ...]:
+    """Comma-separated sensor unknowns to estimate."""
+    from ..pipeline import check_estimate
+
+    try:
+        names = check_estimate(text.split(","))
+    except CalibPinError as e:
+        raise argparse.ArgumentTypeError(f"{e}, comma-separated") from None
+    if not names:
+        raise argparse.ArgumentTypeError(f"cannot estimate '{text}' (comma-separated names)")
+    return names
+
+
+def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str) -> None:
+    """The robot and drawstring geometry arguments shared by calibrate and simulate."""
+    p.add_argument("robot", help="robot name (irb120, or an example-robot-data name) or URDF path")
+    p.add_argument("--end-frame", help="end frame (default: the data file's, else tool0)")
+    p.add_argument("--seed", type=non_negative(int), default=0, help="seed, a whole number >= 0 (default 0)")
+    p.add_argument("--anchor-mm", type=xyz_mm, help=f"sensor point P0 in the base frame, 'x,y,z' mm ({anchor_default})")
+    p.add_argument("--tool-mm", type=xyz_mm, help=f"cable tool point in the end frame, 'x,y,z' mm ({tool_default})")

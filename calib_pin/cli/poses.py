@@ -1,0 +1,115 @@
+"""``make-poses`` (random poses within the limits) and ``plan-poses`` (D-optimal poses)."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..exceptions import CalibPinError
+from ..parameters import MODELS
+from .common import OneLineParser, count, estimate_names, fail, non_negative, run, xyz_mm
+
+#: Most poses or candidates a pose command draws (more would not fit in memory here).
+MAX_POSES = 1_000_000
+
+
+def make_poses_parser() -> argparse.ArgumentParser:
+    p = OneLineParser(prog="make_poses.py", description="Write a random pose list within the joint limits.")
+    p.add_argument("robot", help="robot name (irb120) or URDF path")
+    p.add_argument("--n", type=count(MAX_POSES), default=120, help="number of poses (120)")
+    p.add_argument("--seed", type=non_negative(int), default=0, help="seed (0)")
+    p.add_argument("--margin-deg", type=non_negative(float), default=5.0,
+                   help="keep this far inside every joint limit, deg (5)")
+    p.add_argument("--end-frame", help="end frame (default tool0)")
+    p.add_argument("--out", required=True, help="pose list CSV")
+    return p
+
+
+def make_poses_main(argv: Sequence[str] | None = None) -> int:
+    """``make_poses.py ROBOT --n 120 --seed S --out poses.csv [--margin-deg 5]``."""
+    args = make_poses_parser().parse_args(argv)
+    return run(lambda: _make_poses(args))
+
+
+def _make_poses(args: argparse.Namespace) -> int:
+    from ..measurements import write_poses
+    from ..robot import load_chain
+    from ..simulation import random_poses
+
+    chain = load_chain(args.robot, args.end_frame)
+    margin = np.deg2rad(args.margin_deg)
+    span = np.where(np.isfinite(chain.upper - chain.lower), chain.upper - chain.lower, np.inf)
+    if np.any(span <= 2 * margin):
+        k = int(np.argmin(span))
+        raise CalibPinError(
+            f"--margin-deg {args.margin_deg:g} leaves no range for {chain.joint_names[k]} "
+            f"({np.rad2deg(span[k]):g} deg between its limits)"
+        )
+    q = random_poses(chain, args.n, np.random.default_rng(args.seed), margin=margin)
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    write_poses(args.out, q, robot=chain.name, end_frame=chain.end_frame,
+                notes={"source": f"make_poses.py seed {args.seed}, margin {args.margin_deg:g} deg"})
+    print(f"{chain.name}: {args.n} poses within the joint limits less {args.margin_deg:g} deg (seed {args.seed})")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def plan_poses_main(argv: Sequence[str] | None = None) -> int:
+    """``plan_poses.py ROBOT --n 40 --candidates 5000 [--seed S] --out poses.csv``."""
+    p = OneLineParser(prog="plan_poses.py",
+                      description="Choose poses that maximise the observability of the parameters (D-optimal).")
+    p.add_argument("robot", help="robot name (irb120) or URDF path")
+    p.add_argument("--n", type=count(MAX_POSES), default=40, help="poses to choose (40)")
+    p.add_argument("--candidates", type=count(MAX_POSES), default=5000, help="random candidates to choose from (5000)")
+    p.add_argument("--seed", type=non_negative(int), default=0, help="seed of the candidates (0)")
+    p.add_argument("--margin-deg", type=non_negative(float), default=5.0, help="distance from the joint limits, deg (5)")
+    p.add_argument("--anchor-mm", type=xyz_mm, help="sensor point P0 in the base frame, x,y,z mm (600,200,-100)")
+    p.add_argument("--tool-mm", type=xyz_mm, help="tool point in the end frame, x,y,z mm (0,0,50)")
+    p.add_argument("--end-frame", help="end frame (default tool0)")
+    p.add_argument("--model", choices=MODELS,
+                   help="parameter model to plan for (default dh with a DH table, else placement)")
+    p.add_argument("--estimate", type=estimate_names, default=(),
+                   help="sensor geometry that will be estimated too: anchor, offset or anchor,offset")
+    p.add_argument("--out", required=True, help="pose list CSV")
+    args = p.parse_args(argv)
+    if args.candidates < args.n:
+        return fail(f"--candidates ({args.candidates}) must be at least --n ({args.n})")
+    return run(lambda: _plan_poses(args))
+
+
+def _plan_poses(args: argparse.Namespace) -> int:
+    from ..measurements import write_poses
+    from ..parameters import parameter_model
+    from ..planning import plan_poses
+    from ..robot import load_chain
+    from ..sensors import CableModel, Drawstring
+    from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
+
+    chain = load_chain(args.robot, args.end_frame)
+    sensor = Drawstring(np.array(args.anchor_mm or DEFAULT_ANCHOR_MM) * 1e-3,
+                        np.array(args.tool_mm or DEFAULT_TOOL_MM) * 1e-3)
+    params = parameter_model(chain, args.model)
+    name = params.name
+    model = CableModel(chain, params, sensor, args.estimate)
+    try:
+        plan = plan_poses(model, args.n, args.candidates, seed=args.seed, margin=np.deg2rad(args.margin_deg))
+    except ValueError as e:
+        raise CalibPinError(str(e)) from None
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    write_poses(args.out, plan.q, robot=chain.name, end_frame=chain.end_frame,
+                notes={"source": f"plan_poses.py: {args.n} of {args.candidates} candidates (seed {args.seed}), "
+                                 f"D-optimal for the {name} model and the drawstring sensor"
+                                 + (f" with {' and '.join(args.estimate)} estimated" if args.estimate else "")})
+    print(f"{chain.name}: {args.n} poses chosen from {args.candidates} candidates (seed {args.seed}), "
+          f"{name} model" + (f", {' and '.join(args.estimate)} estimated" if args.estimate else ""))
+    print(f"observability O1 {plan.o1:.3g} (random poses: {plan.random_o1:.3g}), "
+          f"O3 {plan.o3:.3g} (random: {plan.random_o3:.3g})")
+    reach = f"the first {plan.reach}" if plan.reach else "none"
+    print(f"information of {args.n} random poses is reached by {reach} of the planned poses")
+    print(f"wrote {args.out}")
+    return 0
+
+

@@ -1,0 +1,104 @@
+"""Corrected URDF: the input file with only its joint origins changed.
+
+Each chain joint's ``<origin>`` is right-multiplied by its placement perturbation (in
+Pinocchio the joint placement is the product of the fixed joints' origins before it
+and its own origin, so the change lands on the joint's own origin). The end frame's
+perturbation goes on the first fixed joint after the last moving joint, carried through
+the fixed joints that follow, so that the whole tool chain (``flange``, ``tool0``) moves
+rigidly. Names, limits, inertias, meshes, comments and every other element are kept.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+from lxml import etree
+
+from ..exceptions import RobotError
+from ..robot.chain import Chain
+
+
+def _origin(joint: etree._Element) -> pin.SE3:
+    element = joint.find("origin")
+    xyz = np.zeros(3)
+    rpy = np.zeros(3)
+    if element is not None:
+        xyz = np.array([float(v) for v in element.get("xyz", "0 0 0").split()])
+        rpy = np.array([float(v) for v in element.get("rpy", "0 0 0").split()])
+    return pin.SE3(pin.rpy.rpyToMatrix(rpy), xyz)
+
+
+def _set_origin(joint: etree._Element, placement: pin.SE3) -> None:
+    element = joint.find("origin")
+    if element is None:
+        element = etree.Element("origin")
+        joint.insert(0, element)
+    rpy = pin.rpy.matrixToRpy(placement.rotation)
+    element.set("xyz", _numbers(placement.translation))
+    element.set("rpy", _numbers(rpy))
+
+
+def _numbers(values: np.ndarray) -> str:
+    """Shortest exact text of each number; round-off residue below 1e-15 written as 0."""
+    return " ".join(repr(float(v)) if abs(v) > 1e-15 else "0" for v in values)
+
+
+def _tool_chain(joints: dict[str, etree._Element], chain: Chain) -> list[etree._Element]:
+    """Fixed joints from the last moving joint's link down to the end frame's link."""
+    by_child = {j.find("child").get("link"): j for j in joints.values()}
+    end = chain.end_frame
+    link = joints[end].find("child").get("link") if end in joints else end
+    last_link = joints[chain.joint_names[-1]].find("child").get("link")
+    path = []
+    while link != last_link:
+        joint = by_child.get(link)
+        if joint is None or joint.get("type") != "fixed":
+            raise RobotError(f"cannot find the fixed joints from '{last_link}' to '{end}'")
+        path.append(joint)
+        link = joint.find("parent").get("link")
+    return path[::-1]
+
+
+def write_calibrated_urdf(
+    chain: Chain, deltas: Sequence[pin.SE3], path: str | Path, robot_name: str | None = None
+) -> Path:
+    """Write the chain's URDF with perturbed joint origins.
+
+    Args:
+        chain: The nominal chain (its URDF is the source).
+        deltas: ``n_joints + 1`` transforms from a parameter model.
+        path: Output file.
+        robot_name: New ``<robot name>``, or None to keep the source's.
+
+    Raises:
+        RobotError: the end frame has a deviation but no fixed joint to carry it.
+    """
+    tree = etree.parse(str(chain.description.urdf), etree.XMLParser(remove_blank_text=False))
+    root = tree.getroot()
+    joints = {j.get("name"): j for j in root.iter("joint") if j.getparent() is root}
+    for name, delta in zip(chain.joint_names, deltas[:-1], strict=True):
+        _set_origin(joints[name], _origin(joints[name]) * delta)
+    tool = _tool_chain(joints, chain)
+    end_delta = deltas[-1]
+    if tool:
+        rest = pin.SE3.Identity()
+        for joint in tool[1:]:
+            rest = rest * _origin(joint)
+        _set_origin(tool[0], _origin(tool[0]) * rest * end_delta * rest.inverse())
+    elif np.linalg.norm(pin.log6(end_delta).vector) > 1e-15:
+        raise RobotError(
+            f"'{chain.end_frame}' is the link of joint '{chain.joint_names[-1]}': add a "
+            "fixed tool frame to the URDF so the end frame's correction can be written"
+        )
+    if robot_name:
+        root.set("name", robot_name)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # Top-level comments one per line around the root (lxml keeps no text between them).
+    nodes = [*reversed(list(root.itersiblings(preceding=True))), root, *root.itersiblings()]
+    body = b"\n".join(etree.tostring(node, encoding="utf-8", with_tail=False) for node in nodes)
+    path.write_bytes(b'<?xml version="1.0" encoding="utf-8"?>\n' + body + b"\n")
+    return path

@@ -1,0 +1,78 @@
+"""Writing measurement sets and pose lists as CSV, in degrees and millimetres.
+
+The one place that knows the row format written by calib-pin (the simulator, the
+collector and the pose tools all write through here).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+
+import numpy as np
+
+from .dataset import MeasurementSet
+
+
+def _mm(v: np.ndarray) -> str:
+    return ", ".join(f"{x * 1e3:.6f}" for x in v)
+
+
+def metadata_lines(data: MeasurementSet) -> list[str]:
+    """The ``# key: value`` lines of a set: robot, end frame, sensor geometry, noise, notes."""
+    lines = [f"# {key}: {value}" for key, value in (("robot", data.robot), ("end_frame", data.end_frame)) if value]
+    if data.anchor is not None:
+        lines.append(f"# anchor_mm: {_mm(data.anchor)}")
+    if data.tool is not None:
+        lines.append(f"# tool_mm: {_mm(data.tool)}")
+    if data.kind == "cable":
+        lines.append(f"# length_offset_mm: {data.length_offset * 1e3:.6f}")
+    if data.noise is not None:
+        lines.append(f"# noise_mm: {data.noise * 1e3:.6f}")
+    return lines + [f"# {k}: {v}" for k, v in data.notes.items()]
+
+
+def header(n_joints: int, kind: str, with_pose: bool = False) -> str:
+    """The column line of a set of ``kind`` (``cable``, ``position`` or ``poses``)."""
+    joints = [f"q{i}_deg" for i in range(1, n_joints + 1)]
+    if kind == "position":
+        return ",".join(["pose", "point_id", *joints, "x_mm", "y_mm", "z_mm"])
+    return ",".join((["pose"] if with_pose else []) + joints + (["length_mm"] if kind == "cable" else []))
+
+
+def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[int] = ()) -> str:
+    """One data row: labels, angles [rad] written in degrees (9 decimals), values [m]
+    written in mm (6 decimals: 1 nm, far below any sensor's resolution)."""
+    return ",".join([str(int(v)) for v in labels] + [f"{v:.9f}" for v in np.rad2deg(q)]
+                    + [f"{v * 1e3:.6f}" for v in values])
+
+
+def write_measurements(path: str | Path, data: MeasurementSet) -> None:
+    """Write a measurement set, metadata first; a position set gets ``pose`` and
+    ``point_id`` columns."""
+    lines = metadata_lines(data) + [header(data.q.shape[1], data.kind)]
+    values = np.asarray(data.values, dtype=float).reshape(len(data), -1)
+    for k in range(len(data)):
+        labels: tuple[int, ...] = ()
+        if data.kind == "position":
+            pose = data.pose_ids[k] if data.pose_ids is not None else k + 1
+            point = data.point_ids[k] if data.point_ids is not None else 1
+            labels = (int(pose), int(point))
+        lines.append(row(data.q[k], values[k], labels))
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def write_poses(
+    path: str | Path, q: np.ndarray, *, robot: str | None = None, end_frame: str | None = None,
+    notes: dict[str, str] | None = None,
+) -> None:
+    """Write a pose list: ``pose,q1_deg,...`` with poses numbered from 1.
+
+    Args:
+        q: Joint angles, shape (n_poses, n_joints), [rad].
+    """
+    lines = [f"# {k}: {v}" for k, v in (("robot", robot), ("end_frame", end_frame)) if v]
+    lines += [f"# {k}: {v}" for k, v in (notes or {}).items()]
+    lines.append(header(q.shape[1], "poses", with_pose=True))
+    lines += [row(qk, labels=(k,)) for k, qk in enumerate(q, start=1)]
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")

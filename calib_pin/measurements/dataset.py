@@ -1,0 +1,93 @@
+"""A measurement set in memory: joint angles and what the sensor read at each."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..exceptions import CalibPinError
+
+
+@dataclass
+class MeasurementSet:
+    """The rows of one session.
+
+    Attributes:
+        q: Joint angles, shape (n_rows, n_joints), [rad].
+        values: What the sensor read, [m]: shape (n_rows,) for drawstring readings,
+            (n_rows, 3) for positions in the measuring device's frame.
+        kind: The sensor kind the values are of (``cable`` or ``position``; see
+            :data:`calib_pin.sensors.SENSORS`); ``poses`` for a pose list without values.
+        anchor: Drawstring: P0 in the base frame, shape (3,), [m], or None.
+        tool: Drawstring: the tool point in the end frame, shape (3,), [m], or None.
+        length_offset: Drawstring: zero offset, [m] (0 if not given).
+        noise: Sensor noise (1 sigma), [m], or None if not given.
+        robot: Robot named in the file, or None.
+        end_frame: End frame named in the file, or None.
+        lines: 1-based file line of each row, shape (n_rows,).
+        source: File the set was read from ("" if built in memory).
+        notes: Other metadata, key to text.
+        pose_ids: The ``pose`` column's labels, shape (n_rows,), or None without one.
+        point_ids: The ``point_id`` column's labels (which marker a row measured),
+            shape (n_rows,), or None.
+    """
+
+    q: np.ndarray
+    values: np.ndarray
+    kind: str = "cable"
+    anchor: np.ndarray | None = None
+    tool: np.ndarray | None = None
+    length_offset: float = 0.0
+    noise: float | None = None
+    robot: str | None = None
+    end_frame: str | None = None
+    lines: np.ndarray | None = None
+    source: str = ""
+    notes: dict[str, str] = field(default_factory=dict)
+    pose_ids: np.ndarray | None = None
+    point_ids: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """Drawstring readings, shape (n_rows,), [m].
+
+        Raises:
+            CalibPinError: the set holds no drawstring readings.
+        """
+        if self.kind != "cable":
+            raise CalibPinError(f"{self.source or 'the set'} holds {self.kind} data, not drawstring readings")
+        return self.values
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Marker positions, shape (n_rows, 3), [m], device frame.
+
+        Raises:
+            CalibPinError: the set holds no positions.
+        """
+        if self.kind != "position":
+            raise CalibPinError(f"{self.source or 'the set'} holds {self.kind} data, not positions")
+        return self.values
+
+    @property
+    def groups(self) -> np.ndarray:
+        """Each row's pose label: rows of one pose go to the same side of a split
+        (one group a row when the file has no ``pose`` column)."""
+        return self.pose_ids if self.pose_ids is not None else np.arange(len(self))
+
+    def describe_rows(self) -> str:
+        """``120 poses`` or ``108 rows at 36 poses``."""
+        if self.pose_ids is not None and len(np.unique(self.pose_ids)) != len(self):
+            return f"{len(self)} rows at {len(np.unique(self.pose_ids))} poses"
+        return f"{len(self)} poses"
+
+    def subset(self, rows: np.ndarray) -> MeasurementSet:
+        """The same set restricted to some rows."""
+        def pick(a):
+            return (None if a is None else a[rows])
+        return replace(self, q=self.q[rows], values=self.values[rows], lines=pick(self.lines),
+                       pose_ids=pick(self.pose_ids), point_ids=pick(self.point_ids))

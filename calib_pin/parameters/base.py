@@ -1,0 +1,41 @@
+"""What every parameter model provides: named deviations -> placement perturbations.
+
+A parameter model turns a deviation vector ``x`` (SI units: [m] and [rad]) into the
+``n_joints + 1`` rigid transforms that :class:`calib_pin.robot.kinematics.Kinematics`
+multiplies onto the nominal joint placements and the end frame's placement, and gives the
+derivative of those transforms as right-multiplied twists. Every model therefore shares
+the same forward kinematics and the same Pinocchio regressor.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+import pinocchio as pin
+
+
+class ParameterModel(Protocol):
+    """What every parameter model provides.
+
+    Attributes:
+        name: The model's name on the command line (``dh``, ``hayati``, ``placement``).
+        names: Parameter names, shape (n_params,), e.g. ``a_2``, ``theta_6``.
+        units: SI unit of each parameter, ``m`` or ``rad``.
+        scale: Typical size of each deviation in SI units, shape (n_params,): the
+            prior standard deviation of the Kalman filters and the column scaling of
+            the searches.
+    """
+
+    name: str
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    scale: np.ndarray
+
+    def deltas(self, x: np.ndarray) -> list[pin.SE3]:
+        """Transforms right-multiplied onto each joint placement, then the end frame."""
+        ...
+
+    def delta_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Derivative of :meth:`deltas` as right twists, shape (6 (n_joints + 1), n_params)."""
+        ...

@@ -1,0 +1,261 @@
+"""The calibration pipeline: a robot and a measurement set in, a calibrated robot out.
+
+:func:`prepare` loads the robot, its parameter model and the data; the resulting
+:class:`CalibrationSetup` splits the rows, builds the sensor's problem on the training
+rows only (nothing is ever fitted on a test row) and runs any estimator
+(:meth:`CalibrationSetup.run`); :func:`calibrate` does both.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .estimators import DEFAULT_METHOD, get_method, run_estimator
+from .exceptions import CalibPinError, DataError
+from .measurements import MeasurementSet, read_measurements
+from .metrics import Metrics, split_rows
+from .parameters import ParameterModel, default_model, parameter_model
+from .problem import CalibrationProblem
+from .result import CalibrationResult
+from .robot import Chain, RobotDescription, load_chain, resolve_robot
+from .sensors import SENSORS, sensor_for
+
+#: Sensor noise assumed when neither the data (``# noise_mm``) nor the caller give it.
+DEFAULT_NOISE_MM = 0.05
+
+
+def check_estimate(estimate: Any) -> tuple[str, ...]:
+    """The sensor unknowns named in ``estimate`` (names, blanks dropped).
+
+    Raises:
+        CalibPinError: a name no sensor can estimate.
+    """
+    valid = tuple(dict.fromkeys(e for s in SENSORS.values() for e in s.estimable))
+    names = tuple(e.strip() for e in (estimate or ()) if e.strip())
+    for e in names:
+        if e not in valid:
+            raise CalibPinError(f"cannot estimate '{e}' (valid: {', '.join(valid)})")
+    return names
+
+
+def check_fraction(test_fraction: float) -> float:
+    """The share of rows held out, in [0, 1).
+
+    Raises:
+        CalibPinError: outside [0, 1).
+    """
+    if not 0.0 <= test_fraction < 1.0:
+        raise CalibPinError(f"test fraction must be in [0, 1), got {test_fraction:g}")
+    return test_fraction
+
+
+@dataclass
+class CalibrationSetup:
+    """A robot, a measurement set and a sensor, ready to be calibrated by any method.
+
+    Attributes:
+        chain: The robot chain.
+        params: Parameter model of the robot's deviations (``params.name``: dh, ...).
+        data: The measurement set.
+        noise: Sensor noise (1 sigma) the Kalman filters assume, [m].
+        options: Sensor options (``anchor_mm``, ``tool_mm``, ``length_offset_mm``,
+            ``estimate``) as the caller gave them.
+    """
+
+    chain: Chain
+    params: ParameterModel
+    data: MeasurementSet
+    noise: float
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def problem_on(self, fit_rows: np.ndarray) -> CalibrationProblem:
+        """Every row of the data, with the sensor's starting geometry fitted on ``fit_rows``."""
+        return sensor_for(self.data.kind).problem_for(self.chain, self.params, self.data, fit_rows, self.options)
+
+    @cached_property
+    def problem(self) -> CalibrationProblem:
+        """Every row, the sensor's starting geometry fitted on all of them (for an
+        analysis of the whole set; :meth:`run` fits on the training rows only)."""
+        return self.problem_on(np.arange(len(self.data)))
+
+    def split(self, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+        """Seeded train/test rows, whole poses to each side.
+
+        Raises:
+            CalibPinError: bad fraction.
+        """
+        check_fraction(test_fraction)
+        groups = self.data.groups
+        poses = np.unique(groups)
+        train_poses, _ = split_rows(len(poses), test_fraction, seed)
+        in_train = np.isin(groups, poses[train_poses])
+        train, test = np.flatnonzero(in_train), np.flatnonzero(~in_train)
+        return train, test
+
+    def run(self, method: str = DEFAULT_METHOD, *, seed: int = 0, test_fraction: float = 0.2,
+            loss: str = "linear", test_data: MeasurementSet | None = None) -> CalibrationResult:
+        """Estimate with ``method`` (and ``loss``) on the training rows and score both splits.
+
+        With ``test_data`` (a separate session) every row of ``data`` trains and the test
+        metrics come from ``test_data`` (see :mod:`calib_pin.validation`).
+        """
+        spec = get_method(method)
+        spec.check(loss, self.data.kind)
+        warnings: list[str] = []
+        if test_data is None:
+            train, test = self.split(test_fraction, seed)
+            if test_fraction > 0 and not len(test):
+                warnings.append(f"test fraction {test_fraction:g} holds out no pose of {len(self.data)}: "
+                                "no test metrics")
+        else:
+            train, test = np.arange(len(self.data)), np.zeros(0, dtype=int)
+        problem = self.problem_on(train)
+        training = problem.subset(train)
+        if training.n_values < problem.n_params:
+            raise DataError(self.data.source, f"{len(train)} training rows give {training.n_values} values, "
+                            f"fewer than the {problem.n_params} unknowns to estimate")
+        x0 = np.zeros(problem.n_params)
+        estimate = run_estimator(method, training, x0, seed=seed, noise=self.noise, loss=loss)
+        metrics = {}
+        for split, rows in (("train", train), ("test", test)):
+            if len(rows):
+                part = problem.subset(rows)
+                metrics[split] = {"before": Metrics.of(part.row_errors(part.residual(x0))),
+                                  "after": Metrics.of(part.row_errors(estimate.residual(part)))}
+        result = CalibrationResult(
+            chain=self.chain, params=self.params, method=method, x=estimate.x, estimate=estimate,
+            problem=problem, data=self.data, train=train, test=test, metrics=metrics, seed=seed,
+            noise=self.noise, loss=loss, warnings=tuple(warnings))
+        return result if test_data is None else score_session(result, test_data)
+
+
+def score_session(result: CalibrationResult, session: MeasurementSet) -> CalibrationResult:
+    """``result`` with its ``test`` metrics taken from a separate validation session.
+
+    Nothing is fitted on the session: a point the calibration never saw (a new marker) is
+    located from its first row with the model being scored, and the session's other rows
+    are predicted (see :meth:`calib_pin.sensors.base.MeasurementModel.session_errors`).
+    """
+    model = result.problem.model
+    before = model.session_errors(None, session)
+    after = model.session_errors(result.x, session, result.estimate.correction)
+    metrics = {**result.metrics, "test": {"before": Metrics.of(before), "after": Metrics.of(after)}}
+    return dataclasses.replace(result, metrics=metrics, test_source=session.source)
+
+
+def _load_robot(robot: str | RobotDescription, data: str | Path | MeasurementSet | None,
+                end_frame: str | None) -> Chain:
+    description = robot if isinstance(robot, RobotDescription) else resolve_robot(robot)
+    if end_frame is None and description.end_frame is None and data is not None:
+        # No tool0 in the URDF: the data file may name the end frame.
+        end_frame = (data if isinstance(data, MeasurementSet) else read_measurements(data)).end_frame
+    return load_chain(description, end_frame)
+
+
+def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_label: str = "",
+              end_frame: str | None = None) -> tuple[Chain, MeasurementSet]:
+    """The measurement set for ``chain`` (its shipped default when ``data`` is None), and
+    the chain again for the set's own ``end_frame`` when the caller named none."""
+    if data is None:
+        data = chain.description.default_data
+        if data is None or not Path(data).is_file():
+            raise CalibPinError(f"robot '{chain.name}' has no default measurement set: pass --data")
+    if isinstance(data, MeasurementSet):
+        return chain, data
+    loaded = read_measurements(data, chain, robot_label=robot_label)
+    if end_frame is None and loaded.end_frame and loaded.end_frame != chain.end_frame:
+        chain = load_chain(chain.description, loaded.end_frame)
+        loaded = read_measurements(loaded.source, chain, robot_label=robot_label)
+    return chain, loaded
+
+
+def prepare(
+    robot: str | RobotDescription,
+    data: str | Path | MeasurementSet | None = None,
+    *,
+    end_frame: str | None = None,
+    anchor_mm: Any = None,
+    tool_mm: Any = None,
+    length_offset_mm: float | None = None,
+    noise_mm: float | None = None,
+    parameters: str | None = None,
+    estimate: tuple[str, ...] = (),
+) -> CalibrationSetup:
+    """Load a robot and a measurement set for calibration (arguments as :func:`calibrate`).
+
+    Raises:
+        CalibPinError: any bad input (robot, file, option), with a one-line message.
+    """
+    estimate = check_estimate(estimate)
+    chain = _load_robot(robot, data, end_frame)
+    parameter_model(chain, parameters)  # a robot that cannot be calibrated says so first
+    chain, data = load_data(chain, data, str(robot), end_frame)
+    if noise_mm is not None and not noise_mm > 0:
+        raise CalibPinError(f"noise_mm must be positive, got {noise_mm:g}")
+    noise = noise_mm * 1e-3 if noise_mm is not None else (data.noise or DEFAULT_NOISE_MM * 1e-3)
+    options = {"anchor_mm": anchor_mm, "tool_mm": tool_mm, "length_offset_mm": length_offset_mm, "estimate": estimate}
+    setup = CalibrationSetup(chain, parameter_model(chain, parameters or default_model(chain)), data, noise, options)
+    setup.problem_on(np.arange(len(data)))  # refuse options the sensor does not take, now
+    return setup
+
+
+def calibrate(
+    robot: str | RobotDescription,
+    data: str | Path | MeasurementSet | None = None,
+    *,
+    method: str = DEFAULT_METHOD,
+    seed: int = 0,
+    test_fraction: float = 0.2,
+    test_data: str | Path | MeasurementSet | None = None,
+    end_frame: str | None = None,
+    anchor_mm: Any = None,
+    tool_mm: Any = None,
+    length_offset_mm: float | None = None,
+    noise_mm: float | None = None,
+    loss: str = "linear",
+    parameters: str | None = None,
+    estimate: tuple[str, ...] = (),
+) -> CalibrationResult:
+    """Calibrate a robot's kinematic deviations from drawstring readings or positions.
+
+    Args:
+        robot: Robot name or URDF path (``irb120``).
+        data: Measurement CSV or set (cable readings or marker positions); None uses
+            the robot's shipped default set.
+        method: Estimator name (see ``calib_pin.ESTIMATORS``; default ``ekf-qibas``).
+        seed: Seed of the train/test split and of the estimator.
+        test_fraction: Share of poses held out for the test metrics.
+        test_data: A separate validation session: train on all of ``data``, test on it.
+        end_frame: End frame; default the file's ``end_frame`` or the robot's.
+        anchor_mm, tool_mm: Override the file's sensor point (base frame) and tool
+            point (end frame), 3 numbers each, [mm].
+        length_offset_mm: Override the file's sensor zero offset, [mm].
+        noise_mm: Sensor noise (1 sigma) [mm] for the Kalman filters; default the
+            file's ``noise_mm`` or 0.05.
+        loss: ``linear``, or a robust loss (``huber``, ``soft_l1``, ``cauchy``).
+        parameters: Parameter model: ``dh`` (default with a DH table), ``hayati`` or
+            ``placement`` (default without one; any URDF).
+        estimate: Drawstring geometry to estimate with the robot: ``anchor``,
+            ``offset`` (positions always estimate the device frame and markers).
+
+    Raises:
+        CalibPinError: any bad input (robot, file, option), with a one-line message.
+    """
+    get_method(method).check(loss)
+    check_fraction(test_fraction)
+    setup = prepare(robot, data, end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
+                    length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters,
+                    estimate=estimate)
+    validation = None
+    if test_data is not None:
+        _, validation = load_data(setup.chain, test_data, str(robot), setup.chain.end_frame)
+        if validation.kind != setup.data.kind:
+            raise DataError(validation.source, f"holds {validation.kind} data, the calibration set "
+                            f"{setup.data.kind} data")
+    return setup.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)

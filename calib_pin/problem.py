@@ -1,0 +1,145 @@
+"""The calibration problem: measured rows and the model that predicts them.
+
+:class:`CalibrationProblem` is the one residual function and the one identification
+Jacobian every estimator, the identifiability analysis and the uncertainty use. An
+estimator sees it only through :class:`LeastSquares` (residual, Jacobian, scale and the
+row blocks), so it can be tested on any small least-squares problem.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Protocol
+
+import numpy as np
+
+from .sensors.base import MeasurementModel
+
+
+class LeastSquares(Protocol):
+    """What an estimator needs of a problem (SciPy's ``least_squares`` shape).
+
+    Attributes:
+        scale: Typical size of each unknown, shape (n_params,), SI units.
+        values_per_row: Residual entries one row (a Kalman update's block) holds.
+        n_rows, n_values, n_params: Sizes.
+    """
+
+    @property
+    def scale(self) -> np.ndarray: ...
+
+    @property
+    def values_per_row(self) -> int: ...
+
+    @property
+    def n_rows(self) -> int: ...
+
+    @property
+    def n_values(self) -> int: ...
+
+    @property
+    def n_params(self) -> int: ...
+
+    def residual(self, x: np.ndarray) -> np.ndarray:
+        """Predicted minus measured values, shape (n_values,)."""
+        ...
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Derivative of :meth:`residual`, shape (n_values, n_params)."""
+        ...
+
+    def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:
+        """One row's residual (values_per_row,) and Jacobian (values_per_row, n_params)."""
+        ...
+
+    def cost(self, x: np.ndarray) -> float:
+        """Mean squared residual."""
+        ...
+
+    def subset(self, rows: np.ndarray | slice) -> LeastSquares: ...
+
+    def rows_of(self, values: np.ndarray) -> np.ndarray: ...
+
+
+@dataclass
+class CalibrationProblem:
+    """Measured data and the model that predicts it.
+
+    Attributes:
+        model: The sensor's measurement model (:mod:`calib_pin.sensors`).
+        q: Joint angles of the rows, shape (n_rows, n_joints), [rad].
+        readings: Measured values, shape (n_rows,) or (n_rows, values_per_row), [m].
+        points: Each row's index of the measured point, for sensors that measure
+            several (marker positions); else None.
+    """
+
+    model: MeasurementModel
+    q: np.ndarray
+    readings: np.ndarray
+    points: np.ndarray | None = None
+
+    @property
+    def scale(self) -> np.ndarray:
+        return self.model.scale
+
+    @property
+    def values_per_row(self) -> int:
+        return self.model.values_per_row
+
+    @property
+    def n_params(self) -> int:
+        return self.model.n_params
+
+    @property
+    def n_rows(self) -> int:
+        """Data rows."""
+        return len(self.readings)
+
+    n_poses = n_rows
+
+    @property
+    def n_values(self) -> int:
+        """Length of the residual: rows times values per row."""
+        return int(np.size(self.readings))
+
+    def subset(self, rows: np.ndarray | slice) -> CalibrationProblem:
+        """The same problem restricted to some rows (row indices)."""
+        points = None if self.points is None else self.points[rows]
+        return replace(self, q=self.q[rows], readings=self.readings[rows], points=points)
+
+    def predict(self, x: np.ndarray | None) -> np.ndarray:
+        """Predicted values, shaped like ``readings``, [m]."""
+        return self.model.predict(x, self.q, self.points)
+
+    def predict_with_jacobian(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted values flattened, shape (n_values,), and their Jacobian (n_values, n_params)."""
+        values, jac = self.model.predict_with_jacobian(x, self.q, self.points)
+        return values.reshape(-1), jac.reshape(self.n_values, -1)
+
+    def residual(self, x: np.ndarray | None) -> np.ndarray:
+        """Predicted minus measured values, flattened, shape (n_values,), [m]."""
+        return (self.predict(x) - self.readings).reshape(-1)
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Derivative of :meth:`residual`, shape (n_values, n_params)."""
+        return self.predict_with_jacobian(x)[1]
+
+    def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:
+        """Row ``row``'s residual (values_per_row,) [m] and Jacobian (values_per_row, n_params)."""
+        part = self.subset(slice(row, row + 1))
+        values, jac = part.predict_with_jacobian(x)
+        return values - part.readings.reshape(-1), jac
+
+    def row_errors(self, residual: np.ndarray) -> np.ndarray:
+        """Size of each row's error, shape (n_rows,), [m]: |reading error| for one value
+        per row, the Euclidean error for a position."""
+        return np.linalg.norm(np.asarray(residual).reshape(self.n_rows, -1), axis=1)
+
+    def rows_of(self, values: np.ndarray) -> np.ndarray:
+        """Rows that hold the given residual entries (indices into the residual)."""
+        return np.unique(np.asarray(values, dtype=int) // self.values_per_row)
+
+    def cost(self, x: np.ndarray) -> float:
+        """Mean squared residual (paper eq. 6), [m^2]."""
+        r = self.residual(x)
+        return float(r @ r) / len(r)

@@ -1,0 +1,185 @@
+"""A calibrated robot: the estimate, its scores and what can be derived from it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from .estimators.base import EstimateResult
+from .exceptions import CalibPinError
+from .export.urdf import write_calibrated_urdf
+from .measurements import MeasurementSet
+from .metrics import Metrics
+from .parameters import ParameterModel
+from .problem import CalibrationProblem
+from .robot import Chain
+from .units import for_humans
+
+if TYPE_CHECKING:
+    from .identifiability import Identifiability
+    from .uncertainty import Uncertainty
+
+#: No exported deviation may exceed these (a real arm's errors are a few mm and tenths
+#: of a degree); a larger one means the data could not determine it.
+SANITY_M = 20e-3
+SANITY_RAD = np.deg2rad(5.0)
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """A calibrated robot.
+
+    Attributes:
+        chain: The nominal robot chain.
+        params: Parameter model of the robot's deviations (``params.name``).
+        method: Estimator name.
+        x: Estimated unknowns, shape (n_params,), SI units ([m], [rad]): the robot's
+            deviations, then any sensor unknowns (``problem.model.names``).
+        estimate: The estimator's own result (history, iterations, time).
+        problem: All rows of the data with the measurement model, its starting sensor
+            geometry fitted on the training rows only.
+        data: The measurement set.
+        train, test: Data-row indices (0-based) of the two splits.
+        metrics: ``metrics[split][stage]`` for split in (train, test) and stage in
+            (before, after): per-row errors in [mm] (``problem.model.error_name``).
+            ``test`` is absent when no rows were held out.
+        seed: Seed of the split and the estimator.
+        noise: Sensor noise (1 sigma) the Kalman filters assumed, [m].
+        loss: ``linear`` or the robust loss used.
+        warnings: What a person must know about this result (one line each).
+        test_source: The separate validation session scored as ``test``, if any.
+    """
+
+    chain: Chain
+    params: ParameterModel
+    method: str
+    x: np.ndarray
+    estimate: EstimateResult
+    problem: CalibrationProblem
+    data: MeasurementSet
+    train: np.ndarray
+    test: np.ndarray
+    metrics: dict[str, dict[str, Metrics]]
+    seed: int
+    noise: float
+    loss: str = "linear"
+    warnings: tuple[str, ...] = ()
+    test_source: str = ""
+
+    @property
+    def model_name(self) -> str:
+        """The parameter model's name (``dh``, ``hayati``, ``placement``)."""
+        return self.params.name
+
+    @property
+    def sensor(self) -> Any:
+        """The sensor geometry after calibration (estimated parts updated)."""
+        return self.problem.model.geometry_at(self.x)
+
+    @property
+    def outlier_rows(self) -> list[int]:
+        """Data rows (0-based) the robust estimate judged outliers."""
+        return [int(self.train[i]) for i in self.estimate.outliers]
+
+    @property
+    def deltas(self) -> list[pin.SE3]:
+        return self.params.deltas(self.problem.model.robot(self.x))
+
+    @property
+    def model(self) -> pin.Model:
+        """Pinocchio model of the whole corrected robot (a new model on each call).
+
+        For ``rbf``, which estimates no kinematic parameters, the nominal model.
+        """
+        return self.chain.perturbed_model(self.deltas)
+
+    @property
+    def deviations(self) -> dict[str, float]:
+        """Estimated robot deviations by name with unit: ``a_2_mm``, ``theta_6_deg``."""
+        return for_humans(self.problem.model.robot(self.x), self.params.names, self.params.units)
+
+    @property
+    def sensor_corrections(self) -> dict[str, float]:
+        """Estimated corrections of the sensor's geometry by name with unit
+        (``anchor_x_mm``, ``device_rz_deg``, ``marker1_y_mm``); empty if none."""
+        model = self.problem.model
+        return for_humans(model.sensor_part(self.x), model.names[model.n_robot :], model.units[model.n_robot :])
+
+    @property
+    def kinematic(self) -> bool:
+        """True when the method estimated kinematic parameters (all but ``rbf``)."""
+        return self.estimate.kinematic
+
+    def predict(self, q: np.ndarray, point_ids: Any = None) -> np.ndarray:
+        """What the calibration predicts at joint angles q (n_rows, n_joints) [rad]:
+        readings (n_rows,) [m], or positions (n_rows, 3) [m] in the device frame of the
+        markers labelled ``point_ids`` (the file's ``point_id`` of each row).
+
+        Raises:
+            CalibPinError: a label that is not a marker of this calibration.
+        """
+        q = np.atleast_2d(q)
+        labels = None if point_ids is None else np.broadcast_to(np.asarray(point_ids), (len(q),))
+        points = self.problem.model.point_index(self.data, labels)
+        return self.estimate.predict(self.problem.model, q, points)
+
+    def sanity_error(self) -> str | None:
+        """Why the estimate may not be exported (a deviation, robot or sensor, beyond
+        SANITY_M / SANITY_RAD, naming the first), or None."""
+        model = self.problem.model
+        for value, name, unit in zip(self.x, model.names, model.units, strict=True):
+            bound = SANITY_M if unit == "m" else SANITY_RAD
+            if abs(value) > bound:
+                shown, bound_shown, unit_shown = ((value * 1e3, bound * 1e3, "mm") if unit == "m"
+                                                  else (np.rad2deg(value), np.rad2deg(bound), "deg"))
+                return (f"{name} = {shown:+.3g} {unit_shown} is beyond the sanity bound {bound_shown:g} "
+                        f"{unit_shown}: the data cannot support it (a parameter the poses barely see, see "
+                        "--analyze; a wrong anchor_mm/tool_mm or unit; or outliers, see --loss); no URDF written")
+        return None
+
+    def check_sanity(self) -> None:
+        """Raises CalibPinError when :meth:`sanity_error` finds a runaway deviation."""
+        error = self.sanity_error()
+        if error:
+            raise CalibPinError(error)
+
+    def to_urdf(self, path: str | Path) -> Path:
+        """Write the corrected URDF (only joint origins differ from the input).
+
+        Raises:
+            CalibPinError: the method yields no kinematic parameters (``rbf``), or a
+                deviation is beyond the sanity bound.
+        """
+        if not self.kinematic:
+            raise CalibPinError(
+                f"method '{self.method}' learns a correction of the readings, not kinematic "
+                "parameters: there is no corrected URDF to write")
+        self.check_sanity()
+        return write_calibrated_urdf(self.chain, self.deltas, path)
+
+    @cached_property
+    def uncertainty(self) -> Uncertainty | None:
+        """Standard errors and end-frame position uncertainty (:mod:`calib_pin.uncertainty`); None for rbf."""
+        if not self.kinematic:
+            return None
+        from .uncertainty import estimate_uncertainty
+
+        return estimate_uncertainty(self.problem.subset(self.train), self.x, seed=self.seed)
+
+    @cached_property
+    def identifiability(self) -> Identifiability:
+        """What the training poses can identify (:func:`calib_pin.identifiability.analyze` at zero)."""
+        from .identifiability import analyze
+
+        return analyze(self.problem.subset(self.train))
+
+    def report(self) -> dict:
+        """JSON-ready summary (see :func:`calib_pin.report.build_report`)."""
+        from .report import build_report
+
+        return build_report(self)

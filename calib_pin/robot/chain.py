@@ -1,0 +1,208 @@
+"""The robot as a Pinocchio model: the serial chain from the base to an end frame.
+
+A :class:`Chain` is the nominal model read from a URDF and reduced to the joints between
+the root and the end frame; :func:`load_chain` builds it. The one forward-kinematics path
+that evaluates it under a perturbation is :class:`calib_pin.robot.kinematics.Kinematics`.
+
+Units: joint angles in [rad] (prismatic joints [m]), positions in [m], base frame.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import RobotError
+from .description import RobotDescription, resolve_robot
+
+
+def _load_urdf_model(description: RobotDescription) -> pin.Model:
+    try:
+        return pin.buildModelFromUrdf(str(description.urdf))
+    except (RuntimeError, ValueError) as e:
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise RobotError(f"{description.urdf}: Pinocchio cannot read this URDF: {first}") from e
+
+
+def _body_frames(model: pin.Model) -> list[str]:
+    return [f.name for f in model.frames if f.type == pin.FrameType.BODY]
+
+
+@dataclass
+class Chain:
+    """Nominal serial chain from the URDF root to an end frame.
+
+    Attributes:
+        description: Where the robot came from.
+        end_frame: Name of the end frame (e.g. ``tool0``).
+        full_model: Pinocchio model of the whole URDF.
+        model: ``full_model`` reduced to the chain's joints (others locked at zero).
+        frame_id: Id of ``end_frame`` in ``model``.
+        joint_names: Names of the chain's joints, base to end; shape (n,).
+        lower, upper: Joint limits of the chain, shape (n,), in [rad] (or [m] for a
+            prismatic joint); +-inf for a continuous joint.
+    """
+
+    description: RobotDescription
+    end_frame: str
+    full_model: pin.Model
+    model: pin.Model
+    frame_id: int
+    joint_names: tuple[str, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    _continuous: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0, bool))
+
+    @property
+    def n_joints(self) -> int:
+        """Number of moving joints between base and end frame."""
+        return len(self.joint_names)
+
+    @property
+    def name(self) -> str:
+        return self.description.name
+
+    @property
+    def joint_kinds(self) -> tuple[str, ...]:
+        """Pinocchio joint kind of each chain joint (``JointModelRY``, ...)."""
+        return tuple(self.model.joints[j].shortname() for j in range(1, self.model.njoints))
+
+    def configuration(self, q: np.ndarray) -> np.ndarray:
+        """Pinocchio configuration vectors for joint positions.
+
+        Args:
+            q: Joint positions, shape (n_poses, n_joints) or (n_joints,), [rad] or [m].
+
+        Returns:
+            Configurations, shape (n_poses, model.nq) (or (model.nq,)); a continuous
+            joint's angle becomes its (cos, sin) pair.
+        """
+        q = np.asarray(q, dtype=float)
+        if not self._continuous.any():
+            return q
+        cols = []
+        for j in range(self.n_joints):
+            if self._continuous[j]:
+                cols += [np.cos(q[..., j]), np.sin(q[..., j])]
+            else:
+                cols.append(q[..., j])
+        return np.stack(cols, axis=-1)
+
+    def perturbed_model(self, deltas: Sequence[pin.SE3], full: bool = True) -> pin.Model:
+        """A new Pinocchio model with perturbed joint placements and end frame.
+
+        Args:
+            deltas: ``n_joints + 1`` rigid transforms: one right-multiplied onto each
+                chain joint's nominal placement, then one onto the end frame's.
+            full: Perturb the whole URDF's model (True) or the reduced chain (False).
+        """
+        source = self.full_model if full else self.model
+        out = source.copy()
+        for name, delta in zip(self.joint_names, deltas[:-1], strict=True):
+            j = out.getJointId(name)
+            out.jointPlacements[j] = source.jointPlacements[j] * delta
+        # The end frame's correction moves the whole tool chain rigidly, as in the URDF
+        # export: every frame from the first fixed joint after the last moving joint on.
+        end = source.frames[source.getFrameId(self.end_frame)].placement
+        moved = end * deltas[-1] * end.inverse()
+        for fid in tool_frames(source, source.getFrameId(self.end_frame)):
+            frame = out.frames[fid]
+            frame.placement = moved * source.frames[fid].placement
+            out.frames[fid] = frame
+        return out
+
+
+def tool_frames(model: pin.Model, end_id: int) -> list[int]:
+    """Frames that move with the end frame when its placement is corrected.
+
+    These are the first fixed joint after the last moving joint on the way to the end
+    frame, and every frame below it; just the end frame if no fixed joint lies between.
+    """
+    path, f = [], end_id
+    while model.frames[f].type not in (pin.FrameType.JOINT, pin.FrameType.OP_FRAME) and f != 0:
+        path.append(f)
+        f = model.frames[f].parentFrame
+    fixed = [f for f in reversed(path) if model.frames[f].type == pin.FrameType.FIXED_JOINT]
+    if not fixed:
+        return [end_id]
+    root, out = fixed[0], []
+    for fid in range(len(model.frames)):
+        g = fid
+        while g != root and g != 0 and model.frames[g].type != pin.FrameType.JOINT:
+            g = model.frames[g].parentFrame
+        if g == root:
+            out.append(fid)
+    return out
+
+
+def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> Chain:
+    """Load a robot and reduce it to the chain from its root to ``end_frame``.
+
+    Args:
+        robot: Robot name or URDF path (see :func:`calib_pin.robots.resolve_robot`), or
+            a resolved description.
+        end_frame: End frame name; default the description's (``tool0`` where it exists).
+
+    Raises:
+        RobotError: unknown robot, unreadable URDF, missing frame, or a chain joint
+            with more than one degree of freedom.
+    """
+    description = robot if isinstance(robot, RobotDescription) else resolve_robot(robot)
+    full = _load_urdf_model(description)
+    end = end_frame or description.end_frame
+    if end is None:
+        raise RobotError(
+            f"robot '{description.name}' has no frame 'tool0': choose the end frame with "
+            f"--end-frame (body frames: {', '.join(_body_frames(full)[-8:])})"
+        )
+    if not full.existFrame(end):
+        raise RobotError(
+            f"robot '{description.name}' has no frame '{end}' "
+            f"(body frames: {', '.join(_body_frames(full)[-8:])})"
+        )
+    chain_ids = []
+    j = full.frames[full.getFrameId(end)].parentJoint
+    while j > 0:
+        chain_ids.append(j)
+        j = full.parents[j]
+    chain_ids.reverse()
+    if not chain_ids:
+        raise RobotError(f"frame '{end}' of robot '{description.name}' is on the fixed base")
+    for j in chain_ids:
+        if full.joints[j].nv != 1:
+            raise RobotError(
+                f"joint '{full.names[j]}' of robot '{description.name}' has "
+                f"{full.joints[j].nv} degrees of freedom; calib-pin calibrates chains of "
+                "revolute and prismatic joints"
+            )
+    locked = [j for j in range(1, full.njoints) if j not in chain_ids]
+    model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full.copy()
+    continuous, lower, upper = _limits(model)
+    return Chain(
+        description=description,
+        end_frame=end,
+        full_model=full,
+        model=model,
+        frame_id=model.getFrameId(end),
+        joint_names=tuple(model.names[1:]),
+        lower=lower,
+        upper=upper,
+        _continuous=continuous,
+    )
+
+
+def _limits(model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each joint of a chain model: continuous or not, and its limits ([rad] or [m];
+    +-inf for a continuous joint)."""
+    n = model.njoints - 1
+    continuous = np.array([model.joints[j].nq == 2 for j in range(1, model.njoints)])
+    lower, upper = np.full(n, -np.inf), np.full(n, np.inf)
+    for k in range(n):
+        if not continuous[k]:
+            iq = model.joints[k + 1].idx_q
+            lower[k] = model.lowerPositionLimit[iq]
+            upper[k] = model.upperPositionLimit[iq]
+    return continuous, lower, upper

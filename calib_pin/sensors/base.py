@@ -1,0 +1,182 @@
+"""The measurement-model interface every sensor implements.
+
+A measurement model predicts what a sensor reads at joint angles q for an unknown vector
+x: the robot's deviations (a parameter model's, :mod:`calib_pin.parameters`) followed by
+the sensor's own unknowns. It gives the analytic derivative of that prediction (the
+identification Jacobian H of the paper's eq. 5, projected on what the sensor sees), built
+from the one FK path (:class:`calib_pin.robot.kinematics.Kinematics`).
+
+Everything the pipeline, the CLI and the reports need to know about a sensor is asked of
+its model: nothing outside :mod:`calib_pin.sensors` and the CSV reader asks "is it a cable
+or positions?". A new sensor is a subclass registered in :data:`calib_pin.sensors.SENSORS`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from ..robot.chain import Chain
+from ..robot.kinematics import Kinematics
+
+if TYPE_CHECKING:
+    from ..measurements import MeasurementSet
+    from ..parameters import ParameterModel
+    from ..problem import CalibrationProblem
+
+
+def chosen(estimate: tuple[str, ...], valid: tuple[str, ...], sensor: str) -> tuple[str, ...]:
+    """The sensor unknowns to estimate, in ``valid``'s order.
+
+    Raises:
+        ValueError: a name this sensor has no such unknown for.
+    """
+    unknown = set(estimate) - set(valid)
+    if unknown:
+        raise ValueError(f"{sensor} cannot estimate {sorted(unknown)[0]!r} (valid: {', '.join(valid)})")
+    return tuple(e for e in valid if e in estimate)
+
+
+class MeasurementModel(ABC):
+    """A sensor's predictions for the robot's deviations followed by the sensor's unknowns.
+
+    Attributes:
+        chain, params: The robot chain and its parameter model.
+        names, units, scale: Of every entry of x (robot deviations first, then the
+            sensor's), shape (n_params,): the scale is the typical size in SI units.
+        kind: The measurement-set kind this sensor reads (``MeasurementSet.kind``).
+        values_per_row: Numbers one data row holds (1 reading, 3 coordinates).
+        error_name: What a row's error is, for people ("reading error").
+    """
+
+    kind: ClassVar[str]
+    values_per_row: ClassVar[int] = 1
+    error_name: ClassVar[str] = "error"
+    #: The sensor's geometry type (with ``to_dict``/``from_dict``).
+    geometry_type: ClassVar[Any]
+    #: Names ``--estimate`` accepts for this sensor (empty: fixed by the sensor).
+    estimable: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, chain: Chain, params: ParameterModel, extra: list[tuple[str, str, float]]) -> None:
+        self.chain = chain
+        self.params = params
+        self._kin = Kinematics(chain)
+        self.n_robot = len(params.names)
+        self.names = tuple(params.names) + tuple(e[0] for e in extra)
+        self.units = tuple(params.units) + tuple(e[1] for e in extra)
+        self.scale = np.concatenate([params.scale, [e[2] for e in extra]])
+
+    # --- what each sensor implements ---------------------------------------------------
+
+    @classmethod
+    @abstractmethod
+    def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
+                    fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
+        """The calibration problem of every row of ``data`` with this sensor.
+
+        Args:
+            fit_rows: Rows whose values may be used to fix starting values of the sensor's
+                geometry (the training rows: nothing is ever fitted on test rows).
+            options: The caller's sensor options (``anchor_mm``, ``tool_mm``,
+                ``length_offset_mm``, ``estimate``); one this sensor does not take is refused.
+
+        Raises:
+            CalibPinError: a missing or refused option, naming it.
+        """
+
+    @abstractmethod
+    def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """Predicted values at joint angles q (n_rows, n_joints) [rad], shape (n_rows,) or
+        (n_rows, values_per_row), [m]; x None: the nominal robot and sensor. ``points``: each
+        row's index of the point measured, for sensors that measure several."""
+
+    @abstractmethod
+    def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
+                              points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted values (as :meth:`predict`) and their derivative with respect to x,
+        shape (n_rows, [values_per_row,] n_params), [m per unit of each parameter]."""
+
+    @abstractmethod
+    def geometry_at(self, x: np.ndarray | None) -> Any:
+        """The sensor's geometry x implies (the starting geometry plus the estimated
+        corrections); x None: the starting geometry."""
+
+    @abstractmethod
+    def geometry_report(self, x: np.ndarray | None) -> dict:
+        """The geometry at x for report.json, in mm and degrees."""
+
+    @abstractmethod
+    def describe(self) -> str:
+        """One phrase for people: the sensor and what of it is known or estimated."""
+
+    def point_index(self, data: MeasurementSet, labels: np.ndarray | None) -> np.ndarray | None:
+        """Indices of the measured points for rows labelled ``labels`` (a file's
+        ``point_id``); None for a sensor that measures one point."""
+        return None
+
+    def grid_points(self, n_poses: int) -> tuple[np.ndarray, np.ndarray | None]:
+        """For scoring on fresh poses: row repetition and point indices that measure every
+        point once per pose (the rows are pose-major)."""
+        return np.arange(n_poses), None
+
+    def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
+                       correction: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
+        """Each row's error [m] predicting a separate session at x (None: nominal), with
+        an optional learnt ``correction`` of the values; rows of points this model does
+        not know are refused (a sensor that can locate new points overrides this)."""
+        points = self.point_index(data, data.point_ids)
+        predicted = self.predict(x, data.q, points)
+        if correction is not None:
+            predicted = predicted + correction(data.q).reshape(predicted.shape)
+        return np.linalg.norm((predicted - data.values).reshape(len(data), -1), axis=1)
+
+    # --- shared -----------------------------------------------------------------------
+
+    @property
+    def n_params(self) -> int:
+        return len(self.names)
+
+    def robot(self, x: np.ndarray) -> np.ndarray:
+        """The robot's deviations within x, shape (n_robot,)."""
+        return np.asarray(x, dtype=float)[: self.n_robot]
+
+    def sensor_part(self, x: np.ndarray | None) -> np.ndarray:
+        """The sensor's unknowns within x, shape (n_params - n_robot,)."""
+        if x is None:
+            return np.zeros(self.n_params - self.n_robot)
+        return np.asarray(x, dtype=float)[self.n_robot :]
+
+    def set_robot(self, x: np.ndarray | None) -> None:
+        """Put the robot's deviations of x (None: nominal) on the FK path."""
+        self._kin.set_perturbation(None if x is None else self.params.deltas(self.robot(x)))
+
+    def points_at(self, x: np.ndarray | None, q: np.ndarray, point: np.ndarray) -> np.ndarray:
+        """Base-frame positions [m] of end-frame points (3,) or (n_rows, 3) at q, for x."""
+        self.set_robot(x)
+        return self._kin.points(q, point)[0]
+
+    def point_jacobian(self, x: np.ndarray, q: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A point fixed in the end frame and its derivative with respect to x.
+
+        Returns:
+            positions: shape (n_rows, 3), [m], base frame.
+            jacobian: shape (n_rows, 3, n_params); zero in the sensor's columns.
+        """
+        points, _, jac = self.points_with_jacobians(x, q, point)
+        return points, jac
+
+    def points_with_jacobians(self, x: np.ndarray, q: np.ndarray,
+                              point: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`point_jacobian` plus the end-frame rotations, shape (n_rows, 3, 3)
+        (the derivative of each position with respect to the point itself)."""
+        xr = self.robot(x)
+        self._kin.set_perturbation(self.params.deltas(xr))
+        points, d_place = self._kin.points(q, point, jacobian=True)
+        assert d_place is not None
+        jac = np.zeros((len(points), 3, self.n_params))
+        jac[:, :, : self.n_robot] = d_place @ self.params.delta_jacobian(xr)
+        k = 6 * self.chain.n_joints  # the end frame's linear columns are its rotation
+        return points, d_place[:, :, k : k + 3], jac

@@ -1,0 +1,145 @@
+"""The drawstring (cable) sensor: predicted readings and their identification Jacobian.
+
+A drawstring sensor whose body sits at a fixed point P0 of the base frame reads the
+distance to a tool point p on the end effector, plus a zero offset (paper eq. 6-7):
+
+    reading(q) = || p(q, x) - P0 || + length_offset.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..exceptions import CalibPinError, DataError
+from ..robot.chain import Chain
+from .base import MeasurementModel, chosen
+
+if TYPE_CHECKING:
+    from ..measurements import MeasurementSet
+    from ..parameters import ParameterModel
+    from ..problem import CalibrationProblem
+
+#: Sensor quantities a cable model can estimate with the robot's parameters.
+CABLE_EXTRAS = ("anchor", "offset")
+
+
+@dataclass(frozen=True)
+class Drawstring:
+    """Geometry of a drawstring sensor.
+
+    Attributes:
+        anchor: P0, the sensor's fixed point, shape (3,), [m], base frame.
+        tool: The tool point where the cable hooks on, shape (3,), [m], end frame.
+        length_offset: Zero offset added to the distance, [m].
+    """
+
+    anchor: np.ndarray
+    tool: np.ndarray
+    length_offset: float = 0.0
+
+    def to_dict(self) -> dict:
+        """In mm, the measurement file's metadata names."""
+        return {"anchor_mm": (self.anchor * 1e3).tolist(), "tool_mm": (self.tool * 1e3).tolist(),
+                "length_offset_mm": self.length_offset * 1e3}
+
+    @classmethod
+    def from_dict(cls, doc: Mapping[str, Any]) -> Drawstring:
+        """Inverse of :meth:`to_dict`."""
+        return cls(np.array(doc["anchor_mm"], dtype=float) * 1e-3, np.array(doc["tool_mm"], dtype=float) * 1e-3,
+                   float(doc["length_offset_mm"]) * 1e-3)
+
+
+def _vector_mm(value: Any, name: str) -> np.ndarray:
+    v = np.asarray(value, dtype=float).reshape(-1)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise CalibPinError(f"{name} needs 3 finite numbers (x, y, z in mm)")
+    return v * 1e-3
+
+
+class CableModel(MeasurementModel):
+    """Drawstring readings of a chain whose deviations follow a parameter model.
+
+    With ``estimate`` the sensor's anchor P0 (``anchor_x/y/z`` [m], base frame, typical
+    error 2 mm) and its zero offset (``offset`` [m], 1 mm) join x after the robot's
+    deviations, as corrections to ``sensor``'s values.
+    """
+
+    kind = "cable"
+    values_per_row = 1
+    geometry_type = Drawstring
+    error_name = "reading error"
+    estimable = CABLE_EXTRAS
+
+    def __init__(self, chain: Chain, params: ParameterModel, sensor: Drawstring, estimate: tuple[str, ...] = ()) -> None:
+        self.estimate = chosen(estimate, CABLE_EXTRAS, "a drawstring")
+        extra = [(f"anchor_{a}", "m", 2e-3) for a in "xyz"] if "anchor" in estimate else []
+        extra += [("offset", "m", 1e-3)] if "offset" in estimate else []
+        super().__init__(chain, params, extra)
+        self.sensor = sensor
+
+    @classmethod
+    def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
+                    fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
+        from ..problem import CalibrationProblem
+
+        get = options.get
+        anchor = _vector_mm(get("anchor_mm"), "anchor_mm") if get("anchor_mm") is not None else data.anchor
+        tool = _vector_mm(get("tool_mm"), "tool_mm") if get("tool_mm") is not None else data.tool
+        if anchor is None:
+            raise DataError(data.source, "no sensor point: add '# anchor_mm: x, y, z' or pass --anchor-mm", None, "anchor_mm")
+        if tool is None:
+            raise DataError(data.source, "no tool point: add '# tool_mm: x, y, z' or pass --tool-mm", None, "tool_mm")
+        given = get("length_offset_mm")
+        offset = data.length_offset if given is None else float(given) * 1e-3
+        model = cls(chain, params, Drawstring(anchor, tool, offset), tuple(get("estimate") or ()))
+        return CalibrationProblem(model, data.q, data.values)
+
+    def geometry_at(self, x: np.ndarray | None) -> Drawstring:
+        """The sensor geometry x implies (``sensor`` plus the estimated corrections)."""
+        if x is None or not self.estimate:
+            return self.sensor
+        extra = self.sensor_part(x)
+        anchor, offset = self.sensor.anchor, self.sensor.length_offset
+        if "anchor" in self.estimate:
+            anchor, extra = anchor + extra[:3], extra[3:]
+        if "offset" in self.estimate:
+            offset = offset + extra[0]
+        return Drawstring(anchor=anchor, tool=self.sensor.tool, length_offset=offset)
+
+    def geometry_report(self, x: np.ndarray | None) -> dict:
+        return self.geometry_at(x).to_dict()
+
+    def describe(self) -> str:
+        known = [p for p in CABLE_EXTRAS if p not in self.estimate]
+        text = "drawstring sensor, " + (f"{' and '.join(known)} known" if known else "nothing known")
+        return text + (f", {' and '.join(self.estimate)} estimated" if self.estimate else "")
+
+    def tool_positions(self, x: np.ndarray | None, q: np.ndarray) -> np.ndarray:
+        """Tool point in the base frame, shape (n_rows, 3), [m]; x None: nominal."""
+        return self.points_at(x, q, self.sensor.tool)
+
+    def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """Predicted readings, shape (n_rows,), [m], for joint angles q (n_rows, n) [rad]."""
+        sensor = self.geometry_at(x)
+        return np.linalg.norm(self.tool_positions(x, q) - sensor.anchor, axis=1) + sensor.length_offset
+
+    def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
+                              points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted readings (n_rows,) [m] and their derivative (n_rows, n_params)."""
+        sensor = self.geometry_at(x)
+        tips, d_tips = self.point_jacobian(x, q, self.sensor.tool)
+        cable = tips - sensor.anchor
+        length = np.linalg.norm(cable, axis=1)
+        direction = cable / length[:, None]
+        jac = np.einsum("ni,nij->nj", direction, d_tips)
+        col = self.n_robot
+        if "anchor" in self.estimate:
+            jac[:, col : col + 3] = -direction
+            col += 3
+        if "offset" in self.estimate:
+            jac[:, col] = 1.0
+        return length + sensor.length_offset, jac

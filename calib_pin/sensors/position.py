@@ -1,0 +1,272 @@
+"""Position measurements (laser tracker, CMM): the second sensor type.
+
+A measuring device with its own frame D records the position of marker points fixed
+on the end effector. Marker k sits at m_k in the end frame; at joint angles q the
+device reads
+
+    p_D = T_DB p_B(q, x, m_k),
+
+with T_DB the (unknown) pose of the robot base in the device frame. Both T_DB and the
+markers are estimated with the robot's deviations: x holds the robot's deviations,
+then a right twist of T_DB (``device_x/y/z`` [m], ``device_rx/ry/rz`` [rad]), then a
+correction of each marker (``marker<id>_x/y/z`` [m]), all around the starting values
+:func:`fit_device` finds with the nominal robot.
+
+Some of these directions overlap: the device frame with the first joint's deviations,
+the markers with the last joint's. The estimators work on the identifiable directions
+only (:mod:`calib_pin.subspace`), so the overlap is harmless, and ``--analyze`` lists it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+from scipy.optimize import least_squares
+
+from ..exceptions import CalibPinError, DataError
+from ..robot.chain import Chain
+from .base import MeasurementModel, chosen
+
+if TYPE_CHECKING:
+    from ..measurements import MeasurementSet
+    from ..parameters import ParameterModel
+    from ..problem import CalibrationProblem
+
+#: What a position model can estimate with the robot's deviations.
+POSITION_EXTRAS = ("device", "markers")
+
+
+@dataclass(frozen=True)
+class PositionDevice:
+    """Geometry of a position-measuring set-up.
+
+    Attributes:
+        frame: T_DB, maps base-frame points to device-frame points (pin.SE3, [m]).
+        markers: Marker points in the end frame, shape (n_markers, 3), [m].
+        labels: The data's ``point_id`` of each marker, shape (n_markers,).
+    """
+
+    frame: pin.SE3
+    markers: np.ndarray
+    labels: tuple[int, ...]
+
+    def to_dict(self) -> dict:
+        """In mm and degrees."""
+        return {
+            "device_frame": {
+                "translation_mm": (self.frame.translation * 1e3).tolist(),
+                "rpy_deg": np.rad2deg(pin.rpy.matrixToRpy(self.frame.rotation)).tolist(),
+                "meaning": "p_device = R p_base + t",
+            },
+            "markers_mm": {str(label): (m * 1e3).tolist() for label, m in zip(self.labels, self.markers, strict=True)},
+        }
+
+    @classmethod
+    def from_dict(cls, doc: Mapping[str, Any]) -> PositionDevice:
+        """Inverse of :meth:`to_dict`."""
+        frame = doc["device_frame"]
+        rot = pin.rpy.rpyToMatrix(*np.deg2rad(np.asarray(frame["rpy_deg"], dtype=float)))
+        labels = tuple(int(k) for k in doc["markers_mm"])
+        markers = np.array([doc["markers_mm"][str(k)] for k in labels], dtype=float).reshape(-1, 3) * 1e-3
+        return cls(pin.SE3(rot, np.asarray(frame["translation_mm"], dtype=float) * 1e-3), markers, labels)
+
+
+class PositionModel(MeasurementModel):
+    """Device-frame positions of markers on a chain whose deviations follow a parameter model."""
+
+    kind = "position"
+    values_per_row = 3
+    geometry_type = PositionDevice
+    error_name = "Euclidean position error in the device frame"
+
+    def __init__(self, chain: Chain, params: ParameterModel, device: PositionDevice,
+                 estimate: tuple[str, ...] = POSITION_EXTRAS) -> None:
+        self.estimate = chosen(estimate, POSITION_EXTRAS, "a position device")
+        extra = []
+        if "device" in estimate:
+            extra += [(f"device_{a}", "m", 2e-3) for a in "xyz"] + [(f"device_r{a}", "rad", 2e-3) for a in "xyz"]
+        if "markers" in estimate:
+            extra += [(f"marker{label}_{a}", "m", 1e-3) for label in device.labels for a in "xyz"]
+        super().__init__(chain, params, extra)
+        self.device = device
+
+    @classmethod
+    def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
+                    fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
+        """The device frame and markers start from their best fit with the nominal robot
+        on ``fit_rows`` only; every marker must appear there."""
+        from ..problem import CalibrationProblem
+
+        for name, flag in (("anchor_mm", "--anchor-mm"), ("tool_mm", "--tool-mm"),
+                           ("length_offset_mm", "--length-offset-mm")):
+            if options.get(name) is not None:
+                raise CalibPinError(f"{flag} is for drawstring data; {data.source} holds positions")
+        if options.get("estimate"):
+            raise CalibPinError(
+                f"--estimate {','.join(options['estimate'])} is for drawstring data; with positions "
+                f"({data.source}) the device frame and the marker points are always estimated")
+        assert data.point_ids is not None
+        labels = tuple(int(v) for v in np.unique(data.point_ids))
+        points = np.searchsorted(labels, data.point_ids)
+        fit_rows = np.asarray(fit_rows, dtype=int)
+        missing = sorted(set(labels) - {int(v) for v in data.point_ids[fit_rows]})
+        if missing:
+            raise DataError(data.source, f"point_id {missing[0]} is only in held-out rows: nothing locates it", None, "point_id")
+        device = fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels)
+        return CalibrationProblem(cls(chain, params, device), data.q, data.values, points)
+
+    def point_index(self, data: MeasurementSet, labels: np.ndarray | None) -> np.ndarray | None:
+        """Marker indices of the file's ``point_id`` labels.
+
+        Raises:
+            DataError: a label this calibration has no marker for.
+        """
+        if labels is None:
+            labels = np.full(len(data), self.device.labels[0]) if len(self.device.labels) == 1 else None
+        if labels is None:
+            raise CalibPinError("positions of several markers need each row's point_id")
+        known = {label: k for k, label in enumerate(self.device.labels)}
+        unknown = sorted({int(v) for v in labels} - set(known))
+        if unknown:
+            raise DataError(data.source, f"point_id {unknown[0]} is not a marker of this calibration "
+                            f"(markers: {', '.join(map(str, self.device.labels))})", None, "point_id")
+        return np.array([known[int(v)] for v in labels], dtype=int)
+
+    def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
+                       correction: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
+        """Position errors [m] of a separate session. A marker this calibration never saw
+        is located from its first row (that row's configuration and measured position
+        give the point in the end frame through the model at x and its device frame); its
+        other rows are scored, that first row is not."""
+        assert data.point_ids is not None
+        device = self.geometry_at(x)
+        errors = []
+        for label in np.unique(data.point_ids):
+            rows = np.flatnonzero(data.point_ids == label)
+            if int(label) in device.labels:
+                point = device.markers[device.labels.index(int(label))]
+            else:
+                point = self.locate(x, data.q[rows[0]], data.values[rows[0]])
+                rows = rows[1:]
+            base = self.points_at(x, data.q[rows], point)
+            predicted = base @ device.frame.rotation.T + device.frame.translation
+            errors.append(np.linalg.norm(predicted - data.values[rows], axis=1))
+        return np.concatenate(errors) if errors else np.zeros(0)
+
+    def locate(self, x: np.ndarray | None, q: np.ndarray, position: np.ndarray) -> np.ndarray:
+        """The end-frame point [m] that the model at x puts at device-frame ``position``
+        [m] at joint angles q (one row)."""
+        device = self.geometry_at(x)
+        base = device.frame.actInv(np.asarray(position, dtype=float))
+        self.set_robot(x)
+        origin = self._kin.points(np.atleast_2d(q), np.zeros(3))[0][0]
+        # Row i: the end frame's axis i in the base frame, so this matrix is R^T.
+        axes = self._kin.points(np.repeat(np.atleast_2d(q), 3, axis=0), np.eye(3))[0] - origin
+        return axes @ (base - origin)
+
+    def grid_points(self, n_poses: int) -> tuple[np.ndarray, np.ndarray | None]:
+        k = len(self.device.labels)
+        return np.repeat(np.arange(n_poses), k), np.tile(np.arange(k), n_poses)
+
+    def geometry_report(self, x: np.ndarray | None) -> dict:
+        return self.geometry_at(x).to_dict()
+
+    def describe(self) -> str:
+        return "positions of markers, device frame and marker points estimated"
+
+    def geometry_at(self, x: np.ndarray | None) -> PositionDevice:
+        """The device frame and markers x implies."""
+        if x is None or not self.estimate:
+            return self.device
+        extra = self.sensor_part(x)
+        frame, markers = self.device.frame, self.device.markers
+        if "device" in self.estimate:
+            frame, extra = frame * pin.exp6(extra[:6]), extra[6:]
+        if "markers" in self.estimate:
+            markers = markers + extra.reshape(-1, 3)
+        return PositionDevice(frame, markers, self.device.labels)
+
+    def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """Device-frame positions, shape (n_rows, 3), [m]; points: each row's marker index."""
+        device = self.geometry_at(x)
+        base = self.points_at(x, q, device.markers[_index(points, len(q))])
+        return base @ device.frame.rotation.T + device.frame.translation
+
+    def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
+                              points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Device-frame positions (n_rows, 3) [m] and their derivative (n_rows, 3, n_params)."""
+        device = self.geometry_at(x)
+        markers = _index(points, len(q))
+        points, end_rot, jac = self.points_with_jacobians(x, q, device.markers[markers])
+        rot = device.frame.rotation
+        jac = rot @ jac  # the sensor's columns are still zero
+        col = self.n_robot
+        if "device" in self.estimate:
+            twist = np.asarray(x, dtype=float)[col : col + 6]
+            lever = np.zeros((len(points), 3, 6))
+            lever[:, :, :3] = np.eye(3)
+            # T_DB = T0 exp6(twist): a right twist (v, w) of it moves the image of a
+            # base point p by R_DB (v + w x p); exp6's right Jacobian maps d twist to it.
+            lever[:, :, 3:] = -np.cross(points[:, :, None], np.eye(3)[None], axis=1)
+            jac[:, :, col : col + 6] = rot @ (lever @ pin.Jexp6(pin.Motion(twist)))
+            col += 6
+        if "markers" in self.estimate:
+            # Row n's position moves with its own marker's three columns by R_DB R_end.
+            cols = col + 3 * np.asarray(markers)[:, None] + np.arange(3)
+            jac[np.arange(len(points))[:, None, None], np.arange(3)[None, :, None], cols[:, None, :]] = rot @ end_rot
+        return points @ rot.T + device.frame.translation, jac
+
+
+def _index(points: np.ndarray | None, n_rows: int) -> np.ndarray:
+    """Each row's marker index; rows of a one-marker set may leave it out."""
+    return np.zeros(n_rows, dtype=int) if points is None else np.asarray(points, dtype=int)
+
+
+def _kabsch(source: np.ndarray, target: np.ndarray) -> pin.SE3:
+    """Rigid transform T minimising sum |T source - target|^2 (shapes (n, 3))."""
+    cs, ct = source.mean(axis=0), target.mean(axis=0)
+    u, _, vt = np.linalg.svd((source - cs).T @ (target - ct))
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    return pin.SE3(rot, ct - rot @ cs)
+
+
+def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: np.ndarray,
+               markers: np.ndarray, labels: tuple[int, ...]) -> PositionDevice:
+    """Best-fit device frame and marker points for the nominal robot.
+
+    Alternates a rigid (Kabsch) fit of the frame with a linear fit of the markers, then
+    polishes both together with scipy's least squares.
+
+    Args:
+        q: Joint angles, shape (n_poses, n_joints), [rad].
+        positions: Measured positions, shape (n_poses, 3), [m], device frame.
+        markers: Each row's marker index into ``labels``, shape (n_poses,).
+    """
+    n_markers = len(labels)
+    model = PositionModel(chain, params, PositionDevice(pin.SE3.Identity(), np.zeros((n_markers, 3)), labels))
+    origin, end_rot, _ = model.points_with_jacobians(np.zeros(model.n_params), q, np.zeros(3))
+    points = np.zeros((n_markers, 3))
+    for _ in range(30):
+        base = origin + np.einsum("nij,nj->ni", end_rot, points[markers])
+        frame = _kabsch(base, positions)
+        in_base = (positions - frame.translation) @ frame.rotation
+        local = np.einsum("nji,nj->ni", end_rot, in_base - origin)
+        points = np.array([local[markers == k].mean(axis=0) for k in range(n_markers)])
+    device = PositionDevice(frame, points, labels)
+    model = PositionModel(chain, params, device)
+    zero = np.zeros(model.n_robot)
+
+    def residual(e: np.ndarray) -> np.ndarray:
+        return (model.predict(np.concatenate([zero, e]), q, markers) - positions).reshape(-1)
+
+    def jacobian(e: np.ndarray) -> np.ndarray:
+        jac = model.predict_with_jacobian(np.concatenate([zero, e]), q, markers)[1]
+        return jac[:, :, model.n_robot :].reshape(3 * len(q), -1)
+
+    fit = least_squares(residual, np.zeros(model.n_params - model.n_robot), jac=jacobian, method="lm")
+    return model.geometry_at(np.concatenate([zero, fit.x]))

@@ -1,0 +1,285 @@
+"""Simulated sessions with known true deviations: drawstring readings or positions.
+
+The simulator draws true kinematic deviations, random poses within the joint limits,
+and what the sensor would read on the true robot plus noise. The truth
+(:class:`Truth`) is kept so every estimate can be checked against it.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from .exceptions import CalibPinError, DataError
+from .measurements import MeasurementSet
+from .parameters import ParameterModel
+from .robot import Chain
+from .sensors import CableModel, Drawstring, MeasurementModel, PositionDevice, PositionModel, sensor_for
+from .units import for_humans, from_humans
+
+#: Default sensor geometry of simulated sessions: the sensor body on the floor in
+#: front of the robot, the cable hooked on the tool axis 50 mm out of the flange.
+DEFAULT_ANCHOR_MM = (600.0, 200.0, -100.0)
+DEFAULT_TOOL_MM = (0.0, 0.0, 50.0)
+
+#: Kinds of reading noise the simulator draws (see :func:`reading_noise`).
+NOISE_KINDS = ("gauss", "student", "outliers", "student-outliers")
+#: Degrees of freedom of the heavy-tailed Student-t noise.
+STUDENT_DOF = 3
+#: Share of rows with a gross error, and the range of its size [mm], for ``outliers``.
+OUTLIER_FRACTION = 0.05
+OUTLIER_MM = (1.0, 3.0)
+
+
+def reading_noise(
+    kind: str, n: int, noise_mm: float, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """Reading noise of ``n`` poses, [m], and the rows given a gross error.
+
+    Kinds:
+        ``gauss``: normal, standard deviation ``noise_mm``.
+        ``student``: Student-t with 3 degrees of freedom (heavy tails), scaled to the
+            same standard deviation ``noise_mm``.
+        ``outliers``: normal as ``gauss``, plus on 5 % of the rows (at least one) a
+            gross error of 1 to 3 mm with random sign, as a snagged or sagging cable
+            would give.
+        ``student-outliers``: Student-t as ``student``, plus the gross errors of
+            ``outliers``.
+
+    Raises:
+        CalibPinError: unknown kind.
+    """
+    sigma = noise_mm * 1e-3
+    outliers = np.zeros(n, dtype=bool)
+    if kind not in NOISE_KINDS:
+        raise CalibPinError(f"unknown noise kind '{kind}' (valid: {', '.join(NOISE_KINDS)})")
+    if kind.startswith("student"):
+        dof = STUDENT_DOF
+        noise = rng.standard_t(dof, size=n) * sigma * np.sqrt((dof - 2) / dof)
+    else:
+        noise = rng.normal(scale=sigma, size=n)
+    if kind.endswith("outliers"):
+        rows = rng.choice(n, size=max(1, int(round(OUTLIER_FRACTION * n))), replace=False)
+        outliers[rows] = True
+        size = rng.uniform(*OUTLIER_MM, size=len(rows)) * 1e-3
+        noise[rows] += size * rng.choice([-1.0, 1.0], size=len(rows))
+    return noise, outliers
+
+
+@dataclass
+class Truth:
+    """What the simulator knows.
+
+    Attributes:
+        x: True robot deviations, shape (n_params,), SI units.
+        names: Parameter names.
+        units: SI unit of each parameter.
+        sensor: True sensor geometry (a :class:`~calib_pin.sensors.Drawstring` or a
+            :class:`~calib_pin.sensors.PositionDevice`).
+        kind: The data kind (``cable``, ``position``).
+        noise: Noise of the values (1 sigma), [m].
+        seed: Seed of the draw.
+        noise_kind: ``gauss``, ``student`` or ``outliers`` (see :func:`reading_noise`).
+        outliers: Data rows (0-based) given a gross error.
+    """
+
+    x: np.ndarray
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    sensor: Any
+    kind: str
+    noise: float
+    seed: int
+    noise_kind: str = "gauss"
+    outliers: tuple[int, ...] = ()
+
+    def model(self, chain: Chain, params: ParameterModel) -> MeasurementModel:
+        """The true sensor's measurement model (nothing of the sensor estimated)."""
+        return sensor_for(self.kind)(chain, params, self.sensor, estimate=())  # type: ignore[call-arg]
+
+    def to_json(self, path: str | Path) -> None:
+        """Write the truth with deviations in mm and deg."""
+        doc = {
+            "seed": self.seed,
+            "data_kind": self.kind,
+            "noise_mm": self.noise * 1e3,
+            "noise_kind": self.noise_kind,
+            "outlier_rows": list(self.outliers),
+            **self.sensor.to_dict(),
+            "deviations": for_humans(self.x, self.names, self.units),
+        }
+        Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+
+    @classmethod
+    def from_json(cls, path: str | Path, params: ParameterModel) -> Truth:
+        """Read a truth file written by :meth:`to_json` for the parameter model ``params``.
+
+        Raises:
+            DataError: unreadable file, or deviations that do not match ``params``.
+        """
+        try:
+            doc = json.loads(Path(path).read_text())
+            kind = doc.get("data_kind", "cable")
+            x = from_humans(doc["deviations"], params.names, params.units)
+            sensor = sensor_for(kind).geometry_type.from_dict(doc)
+            return cls(x, tuple(params.names), tuple(params.units), sensor, kind,
+                       float(doc["noise_mm"]) * 1e-3, int(doc["seed"]),
+                       doc.get("noise_kind", "gauss"), tuple(doc.get("outlier_rows", ())))
+        except OSError as e:
+            raise DataError(str(path), f"cannot read: {e.strerror or e}") from None
+        except (ValueError, KeyError, TypeError) as e:
+            raise DataError(str(path), f"not a calib-pin truth file ({type(e).__name__}: {e})") from None
+
+
+def random_poses(
+    chain: Chain, n: int, rng: np.random.Generator, margin: float = np.deg2rad(5.0)
+) -> np.ndarray:
+    """Uniform random joint angles within the limits less a margin, shape (n, n_joints) [rad].
+
+    A continuous joint (no limits) is drawn in [-pi, pi].
+    """
+    lo = np.where(np.isfinite(chain.lower), chain.lower + margin, -np.pi)
+    hi = np.where(np.isfinite(chain.upper), chain.upper - margin, np.pi)
+    return rng.uniform(lo, hi, size=(n, chain.n_joints))
+
+
+def _poses_above_base(chain: Chain, cable: CableModel, n_poses: int, rng: np.random.Generator) -> np.ndarray:
+    """Random poses within the limits with the tool point above the mounting plane."""
+    poses = np.empty((0, chain.n_joints))
+    for _ in range(50):
+        batch = random_poses(chain, 2 * n_poses, rng)
+        above = cable.tool_positions(None, batch)[:, 2] > 0.0
+        poses = np.vstack([poses, batch[above]])
+        if len(poses) >= n_poses:
+            break
+    else:
+        raise CalibPinError(
+            f"robot '{chain.name}': only {len(poses)} of {100 * n_poses} random poses put the "
+            "tool point above the base's mounting plane (z > 0); check the tool point"
+        )
+    return poses[:n_poses]
+
+
+def _true_deviations(params: ParameterModel, rng: np.random.Generator, nominal_rmse_mm: float,
+                     gap: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """Deviations drawn normal with the model's typical sizes, scaled so that the
+    nominal model's errors ``gap(x)`` [m] have RMSE ``nominal_rmse_mm`` (0: all zero)."""
+    x = rng.normal(size=len(params.names)) * params.scale
+    if nominal_rmse_mm <= 0:
+        return np.zeros_like(x)
+    return x * (nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap(x) ** 2)))
+
+
+def simulate(
+    chain: Chain,
+    params: ParameterModel,
+    n_poses: int,
+    seed: int,
+    noise_mm: float = 0.05,
+    nominal_rmse_mm: float = 2.0,
+    anchor_mm: tuple[float, float, float] = DEFAULT_ANCHOR_MM,
+    tool_mm: tuple[float, float, float] = DEFAULT_TOOL_MM,
+    length_offset_mm: float = 0.0,
+    noise_kind: str = "gauss",
+    poses: np.ndarray | None = None,
+) -> tuple[MeasurementSet, Truth]:
+    """Simulate a drawstring session.
+
+    True deviations are drawn normal with the parameter model's typical sizes, then
+    scaled so that the nominal model's reading error on the drawn poses has RMSE
+    ``nominal_rmse_mm`` (the paper's Table I "Before": 2.09 mm). Poses are uniform
+    within the joint limits less 5 deg, keeping only those with the tool point above
+    the base's mounting plane (z > 0).
+
+    Args:
+        chain, params: The robot and how its deviations are parametrised.
+        n_poses: Number of poses.
+        seed: Seed of every random draw.
+        noise_mm: Reading noise, 1 sigma, [mm].
+        nominal_rmse_mm: Reading error of the nominal model, [mm]; 0 keeps the robot
+            nominal.
+        anchor_mm, tool_mm: Sensor point (base frame) and tool point (end frame), [mm].
+        length_offset_mm: Sensor zero offset, [mm].
+        noise_kind: ``gauss``, ``student`` or ``outliers`` (see :func:`reading_noise`).
+        poses: Joint angles to use, shape (n_poses, n_joints) [rad], instead of random
+            ones (``n_poses`` is then ignored).
+    """
+    if noise_kind not in NOISE_KINDS:
+        raise CalibPinError(f"unknown noise kind '{noise_kind}' (valid: {', '.join(NOISE_KINDS)})")
+    rng = np.random.default_rng(seed)
+    sensor = Drawstring(np.array(anchor_mm) * 1e-3, np.array(tool_mm) * 1e-3, length_offset_mm * 1e-3)
+    cable = CableModel(chain, params, sensor)
+    if poses is None:
+        poses = _poses_above_base(chain, cable, n_poses, rng)
+    else:
+        poses = np.atleast_2d(np.asarray(poses, dtype=float))
+        n_poses = len(poses)
+    nominal = cable.predict(np.zeros(len(params.names)), poses)
+    x = _true_deviations(params, rng, nominal_rmse_mm,
+                         lambda x: np.abs(cable.predict(x, poses) - nominal))
+    noise, outliers = reading_noise(noise_kind, n_poses, noise_mm, rng)
+    readings = cable.predict(x, poses) + noise
+    data = MeasurementSet(
+        q=poses, values=readings, kind="cable", anchor=sensor.anchor, tool=sensor.tool,
+        length_offset=sensor.length_offset, robot=chain.name, end_frame=chain.end_frame,
+        notes={"source": f"calib-pin simulator, seed {seed}, noise {noise_mm:g} mm ({noise_kind})"},
+    )
+    truth = Truth(
+        x, tuple(params.names), tuple(params.units), sensor, "cable", noise_mm * 1e-3, seed,
+        noise_kind, tuple(int(i) for i in np.flatnonzero(outliers)),
+    )
+    return data, truth
+
+
+#: Default marker points of simulated position sets, end frame, [mm].
+DEFAULT_MARKERS_MM = ((60.0, 0.0, 40.0), (-30.0, 52.0, 40.0), (-30.0, -52.0, 40.0))
+
+
+def simulate_positions(
+    chain: Chain,
+    params: ParameterModel,
+    n_poses: int,
+    seed: int,
+    noise_mm: float = 0.05,
+    nominal_rmse_mm: float = 2.0,
+    markers_mm=DEFAULT_MARKERS_MM,
+    device: pin.SE3 | None = None,
+) -> tuple[MeasurementSet, Truth]:
+    """Simulate a position session: every marker measured at each pose by a device.
+
+    True deviations are drawn like :func:`simulate`'s, scaled so the nominal model's
+    position error (Euclidean, over all rows) has RMSE ``nominal_rmse_mm``. Each
+    coordinate gets Gaussian noise ``noise_mm`` (1 sigma). ``device`` is T_DB (default:
+    the device 2 m in front of the robot, turned 150 deg about z).
+
+    Returns:
+        The set (rows: pose-major, markers labelled 1..k) and the truth (deviations and
+        device geometry).
+    """
+    rng = np.random.default_rng(seed)
+    if device is None:
+        device = pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4]))
+    markers = np.asarray(markers_mm, dtype=float) * 1e-3
+    labels = tuple(range(1, len(markers) + 1))
+    truth_device = PositionDevice(device, markers, labels)
+    model = PositionModel(chain, params, truth_device, estimate=())
+    q = np.repeat(random_poses(chain, n_poses, rng), len(markers), axis=0)
+    index = np.tile(np.arange(len(markers)), n_poses)
+    nominal = model.predict(None, q, index)
+    x = _true_deviations(params, rng, nominal_rmse_mm,
+                         lambda x: np.linalg.norm(model.predict(x, q, index) - nominal, axis=1))
+    positions = model.predict(x, q, index) + rng.normal(size=q.shape[:1] + (3,)) * noise_mm * 1e-3
+    data = MeasurementSet(
+        q=q, values=positions, kind="position", robot=chain.name, end_frame=chain.end_frame,
+        notes={"source": f"calib-pin position simulator, seed {seed}, noise {noise_mm:g} mm per axis"},
+        pose_ids=np.repeat(np.arange(1, n_poses + 1), len(markers)),
+        point_ids=np.array(labels)[index], noise=noise_mm * 1e-3,
+    )
+    truth = Truth(x, tuple(params.names), tuple(params.units), truth_device, "position", noise_mm * 1e-3, seed)
+    return data, truth

@@ -1,0 +1,232 @@
+"""Collecting a measurement set from a simulated indicator: complete, killed, resumed, faulty."""
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import calib_pin as cp
+from calib_pin.hardware.session import open_session, read_pose_list
+from calib_pin.cli.collect import collect_main
+from calib_pin.cli.poses import make_poses_main
+from calib_pin.hardware.reader import SensorProfile
+from calib_pin.sensors import CableModel
+from calib_pin.hardware.fake_indicator import FakeIndicator
+
+ROOT = Path(__file__).resolve().parent.parent
+N = 20
+CHAIN = cp.load_chain("irb120")
+FAST = ["--auto", "0", "--interval", "0", "--samples", "3", "--timeout", "0.2"]
+MODBUS = ["--protocol", "modbus", "--baud", "9600", "--slave", "1", "--function", "3",
+          "--register", "0", "--words", "2", "--signed", "--scale-mm", "0.001"]
+
+
+@pytest.fixture(scope="module")
+def poses(tmp_path_factory, chain, params, session):
+    """A 20-pose list and the readings the true robot of the seeded session gives there [mm]."""
+    path = tmp_path_factory.mktemp("poses") / "poses.csv"
+    assert make_poses_main(["irb120", "--n", str(N), "--seed", "4", "--out", str(path)]) == 0
+    q = read_pose_list(path, chain).q
+    _, truth = session
+    values = CableModel(chain, params, truth.sensor).predict(truth.x, q) * 1e3
+    return path, values
+
+
+def _collect(fake, poses_path, out, *extra):
+    return collect_main(["irb120", "--poses", str(poses_path), "--port", fake.path, "--out", str(out),
+                         *MODBUS, *FAST, *extra])
+
+
+def _start_collect_script(fake, poses_path, out, rows):
+    """Start scripts/collect.py as a process and return (command, process) once the
+    output holds ``rows`` rows."""
+    command = [sys.executable, str(ROOT / "scripts" / "collect.py"), "irb120", "--poses", str(poses_path),
+               "--port", fake.path, "--out", str(out), *MODBUS,
+               "--auto", "0.05", "--interval", "0", "--samples", "3", "--timeout", "0.2"]
+    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (out.exists() and len(_rows(out)[0]) >= rows):
+        time.sleep(0.02)
+    return command, proc
+
+
+def _rows(out):
+    data = cp.read_measurements(out, CHAIN, allow_empty=True)
+    return data.pose_ids.tolist(), data.lengths * 1e3
+
+
+def test_make_poses_within_limits_with_margin(chain, poses):
+    path, _ = poses
+    q = read_pose_list(path, chain).q
+    margin = np.deg2rad(5.0)
+    assert q.shape == (N, 6)
+    assert np.all(q >= chain.lower + margin - 1e-9) and np.all(q <= chain.upper - margin + 1e-9)
+
+
+def test_full_collection_matches_the_simulated_values(poses, tmp_path, capsys):
+    """20 poses: every row holds the value the indicator served at that pose (to its 1 um counts)."""
+    path, values = poses
+    out = tmp_path / "s.csv"
+    with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
+        assert _collect(fake, path, out, "--anchor-mm", "600,200,-100", "--tool-mm", "0,0,50") == 0
+    ids, lengths = _rows(out)
+    assert ids == list(range(1, N + 1))
+    np.testing.assert_allclose(lengths, values, atol=0.0006)
+    text = capsys.readouterr().out
+    assert f"pose {N} ({N} of {N}):" in text and "spread 0.000 mm" in text
+    assert "# anchor_mm: 600, 200, -100" in out.read_text()
+
+
+def test_ascii_collection(poses, tmp_path):
+    path, values = poses
+    out = tmp_path / "s.csv"
+    with FakeIndicator("ascii", values_mm=values, follow=out, period_s=0.005) as fake:
+        acceptance = [a if a != "modbus" else "ascii" for a in MODBUS]  # the same flags, ascii
+        code = collect_main(["irb120", "--poses", str(path), "--port", fake.path, "--out", str(out),
+                             *acceptance, *FAST])
+    assert code == 0
+    ids, lengths = _rows(out)
+    assert ids == list(range(1, N + 1))
+    np.testing.assert_allclose(lengths, values, atol=0.0006)
+
+
+def test_kill_and_resume_loses_and_duplicates_nothing(poses, tmp_path):
+    """SIGKILL in the middle of a run, then the same command again: all 20 poses, once each."""
+    path, values = poses
+    out = tmp_path / "s.csv"
+    with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
+        command, proc = _start_collect_script(fake, path, out, rows=6)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        ids_after_kill = _rows(out)[0]
+        assert 6 <= len(ids_after_kill) < N
+        resumed = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"resuming {out}: {len(ids_after_kill)} of {N} poses done" in resumed.stdout
+    ids, lengths = _rows(out)
+    assert ids == list(range(1, N + 1))
+    np.testing.assert_allclose(lengths, values, atol=0.0006)
+
+
+def test_ctrl_c_keeps_rows_and_says_how_to_resume(poses, tmp_path):
+    path, values = poses
+    out = tmp_path / "s.csv"
+    with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
+        _, proc = _start_collect_script(fake, path, out, rows=3)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130 and "Traceback" not in err
+    assert "stopped by Ctrl-C: every completed row is saved; run the same command to resume" in err
+    ids, lengths = _rows(out)
+    assert 3 <= len(ids) < N and ids == list(range(1, len(ids) + 1))
+    np.testing.assert_allclose(lengths, values[: len(ids)], atol=0.0006)
+
+
+def test_incomplete_last_line_is_dropped_on_resume(poses, tmp_path, capsys):
+    path, values = poses
+    out = tmp_path / "s.csv"
+    with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
+        assert _collect(fake, path, out) == 0
+        text = out.read_text().splitlines(keepends=True)
+        out.write_text("".join(text[:-3]) + text[-3][:17])  # two rows lost, one cut mid-write
+        assert _collect(fake, path, out) == 0
+    assert "dropped an incomplete last line" in capsys.readouterr().out
+    ids, lengths = _rows(out)
+    assert ids == list(range(1, N + 1))
+    np.testing.assert_allclose(lengths, values, atol=0.0006)
+
+
+def test_sensor_fault_stops_without_a_bad_row(poses, tmp_path, capsys):
+    """A fault that outlives its retries: exit 3, a clear message, no row for that pose;
+    the same command then resumes."""
+    path, values = poses
+    out = tmp_path / "s.csv"
+    with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
+        fake.inject("crc", 50)
+        assert _collect(fake, path, out, "--retries", "2") == 3
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "error: sensor: bad answer from slave 1" in err[0]
+        assert "0 of 20 poses are saved" in err[0]
+        assert _rows(out)[0] == []
+        fake._faults.clear()
+        assert _collect(fake, path, out) == 0
+    assert _rows(out)[0] == list(range(1, N + 1))
+
+
+def test_unplugged_adapter_mid_session(poses, tmp_path, capsys, monkeypatch):
+    """The adapter vanishes after 4 poses: exit 3, a clear message, the 4 rows intact."""
+    import calib_pin.hardware.session as cli
+
+    path, values = poses
+    out = tmp_path / "s.csv"
+    with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
+        def unplug_after_four(text):
+            if "(4 of" in text:
+                fake.inject("disconnect")
+
+        original = cli.collect
+        monkeypatch.setattr(cli, "collect", lambda s, r, w: original(s, r, w, report=unplug_after_four))
+        assert _collect(fake, path, out) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "adapter unplugged" in err[0] and "4 of 20 poses are saved" in err[0]
+    ids, lengths = _rows(out)
+    assert ids == [1, 2, 3, 4]
+    np.testing.assert_allclose(lengths, values[:4], atol=0.0006)
+
+
+def test_resume_refuses_another_pose_list(poses, tmp_path, chain):
+    path, values = poses
+    out = tmp_path / "s.csv"
+    with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
+        assert _collect(fake, path, out) == 0
+    other = tmp_path / "other.csv"
+    assert make_poses_main(["irb120", "--n", "20", "--seed", "5", "--out", str(other)]) == 0
+    with pytest.raises(cp.DataError, match="pose 1 has other joint angles than in"):
+        open_session(out, read_pose_list(other, chain), chain, SensorProfile())
+
+
+def test_probe_prints_values(capsys):
+    with FakeIndicator("modbus", 432.1) as fake:
+        fake.inject("silence")
+        code = collect_main(["--probe", "--port", fake.path, *MODBUS, "--count", "3", "--timeout", "0.1",
+                             "--retries", "0"])
+    out = capsys.readouterr().out
+    assert code == 0 and "1: fault: no answer" in out and "2: 432.100 mm" in out and "3: 432.100 mm" in out
+
+
+def test_profile_saved_then_used(tmp_path, capsys):
+    profile = tmp_path / "sensor.json"
+    with FakeIndicator("modbus", 432.1) as fake:
+        assert collect_main(["--probe", "--port", fake.path, *MODBUS, "--count", "1",
+                             "--save-profile", str(profile)]) == 0
+        assert collect_main(["--probe", "--port", fake.path, "--profile", str(profile), "--count", "1"]) == 0
+    assert capsys.readouterr().out.count("1: 432.100 mm") == 2
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["irb120", "--port", "/dev/null"], "collect needs --poses, --out"),
+        (["--port", "/dev/nonexistent-tty", "--probe"], "cannot open /dev/nonexistent-tty"),
+        (["--port", "x", "--probe", "--profile", "missing.json"], "missing.json: cannot read sensor profile"),
+        (["--port", "x", "--probe", "--slave", "300"], "sensor setting slave = 300: must be 1 to 247"),
+        (["irb120", "--port", "x", "--poses", "nope.csv", "--out", "o.csv"], "nope.csv: no such file"),
+    ],
+)
+def test_bad_input_one_line_exit_2(args, message, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    try:
+        code = collect_main(args)
+    except SystemExit as stop:
+        code = stop.code
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and message in err[0]
+
+
+def test_make_poses_bad_margin(capsys, tmp_path):
+    assert make_poses_main(["irb120", "--n", "5", "--margin-deg", "200", "--out", str(tmp_path / "p.csv")]) == 2
+    assert "leaves no range for joint_" in capsys.readouterr().err

@@ -1,0 +1,92 @@
+"""The Pinocchio chain: URDF matches the DH table, perturbations rebuild from nominal."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import calib_pin as cp
+from calib_pin.simulation import random_poses
+from calib_pin.parameters import dh_transforms
+
+
+def test_irb120_chain(chain):
+    """The IRB120 chain has joint_1..joint_6, tool0 at the wrist, ROS-I limits in rad."""
+    assert chain.joint_names == tuple(f"joint_{i}" for i in range(1, 7))
+    assert np.allclose(np.rad2deg(chain.upper), [165, 110, 70, 160, 120, 400])
+    assert np.allclose(np.rad2deg(chain.lower), [-165, -110, -110, -160, -120, -400])
+    data = chain.model.createData()
+    pin.framesForwardKinematics(chain.model, data, np.zeros(6))
+    tool0 = data.oMf[chain.frame_id]
+    assert np.allclose(tool0.translation, [0.374, 0.0, 0.630], atol=1e-12)
+    assert np.allclose(tool0.rotation[:, 2], [1, 0, 0], atol=1e-12)  # z out of the flange, along +x
+
+
+def test_urdf_fk_equals_dh_chain(chain):
+    """tool0 of the URDF equals DH frame 6 of the published table at random poses."""
+    rng = np.random.default_rng(0)
+    data = chain.model.createData()
+    for q in random_poses(chain, 20, rng):
+        pin.framesForwardKinematics(chain.model, data, q)
+        dh6 = dh_transforms(chain.description.dh, q)[-1]
+        assert np.allclose(data.oMf[chain.frame_id].homogeneous, dh6.homogeneous, atol=1e-12)
+
+
+def test_zero_perturbation_reproduces_urdf(chain, params):
+    """Zero deviation gives the URDF's FK to 1e-12 m."""
+    q = random_poses(chain, 50, np.random.default_rng(1))
+    kin = cp.Kinematics(chain)
+    kin.set_perturbation(params.deltas(np.zeros(params.n_params)))
+    ours, _ = kin.points(q, np.zeros(3))
+    data = chain.model.createData()
+    for k, qk in enumerate(q):
+        pin.framesForwardKinematics(chain.model, data, qk)
+        assert np.linalg.norm(ours[k] - data.oMf[chain.frame_id].translation) < 1e-12
+
+
+def test_perturbation_is_rebuilt_not_accumulated(chain, params):
+    """Setting the same perturbation twice, or after another, gives the same FK."""
+    q = random_poses(chain, 5, np.random.default_rng(2))
+    x = np.random.default_rng(3).normal(size=params.n_params) * params.scale
+    kin = cp.Kinematics(chain)
+    kin.set_perturbation(params.deltas(x))
+    first, _ = kin.points(q, np.zeros(3))
+    kin.set_perturbation(params.deltas(-x))
+    kin.set_perturbation(params.deltas(x))
+    again, _ = kin.points(q, np.zeros(3))
+    kin.set_perturbation(None)
+    nominal, _ = kin.points(q, np.zeros(3))
+    assert np.array_equal(first, again)
+    assert np.abs(first - nominal).max() > 1e-4
+
+
+def test_perturbed_model_matches_kinematics(chain, params):
+    """The standalone corrected pin.Model and the working FK path agree."""
+    x = np.random.default_rng(4).normal(size=params.n_params) * params.scale
+    q = random_poses(chain, 5, np.random.default_rng(5))
+    kin = cp.Kinematics(chain)
+    kin.set_perturbation(params.deltas(x))
+    ours, _ = kin.points(q, np.zeros(3))
+    model = chain.perturbed_model(params.deltas(x))
+    data = model.createData()
+    fid = model.getFrameId("tool0")
+    for k, qk in enumerate(q):
+        pin.framesForwardKinematics(model, data, qk)
+        assert np.allclose(data.oMf[fid].translation, ours[k], atol=1e-12)
+
+
+@pytest.mark.parametrize("robot, end, n", [("ur5", None, 6), ("panda", "panda_hand", 7)])
+def test_other_robots_load_and_run_fk(robot, end, n):
+    """example-robot-data arms load, reduce to their chain and run FK."""
+    chain = cp.load_chain(robot, end)
+    assert chain.n_joints == n
+    q = random_poses(chain, 3, np.random.default_rng(0))
+    points, _ = cp.Kinematics(chain).points(q, np.zeros(3))
+    assert points.shape == (3, 3) and np.all(np.isfinite(points))
+
+
+def test_missing_end_frame_is_named():
+    """A robot without tool0 asks for --end-frame and lists frames."""
+    with pytest.raises(cp.RobotError, match="no frame 'tool0'.*--end-frame.*panda_hand"):
+        cp.load_chain("panda")
+    with pytest.raises(cp.RobotError, match="no frame 'nosuch'"):
+        cp.load_chain("irb120", "nosuch")
