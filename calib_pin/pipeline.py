@@ -169,6 +169,9 @@ def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_labe
     if isinstance(data, MeasurementSet):
         return chain, data
     loaded = read_measurements(data, chain, robot_label=robot_label)
+    if end_frame is not None and loaded.end_frame and loaded.end_frame != end_frame:
+        raise DataError(loaded.source, f"was measured at end frame '{loaded.end_frame}', not '{end_frame}': leave "
+                        "--end-frame out, or change the file's '# end_frame:' if it is wrong", None, "end_frame")
     if end_frame is None and loaded.end_frame and loaded.end_frame != chain.end_frame:
         chain = load_chain(chain.description, loaded.end_frame)
         loaded = read_measurements(loaded.source, chain, robot_label=robot_label)

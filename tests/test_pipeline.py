@@ -1,0 +1,101 @@
+"""The pipeline: nothing fitted on test rows, validation on a separate session, labels."""
+
+from __future__ import annotations
+
+import dataclasses
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import calib_pin as cp
+from calib_pin.measurements import write_measurements
+
+ROBOTS = Path(__file__).resolve().parent.parent / "robots"
+WU2015 = ROBOTS / "irb120_wu2015.csv"
+
+
+def _with_test_rows_moved(data: cp.MeasurementSet, test: np.ndarray) -> cp.MeasurementSet:
+    values = data.values.copy()
+    values[test] += 5e-3  # 5 mm on every held-out value
+    return dataclasses.replace(data, values=values)
+
+
+@pytest.mark.parametrize("source", ["default", "positions"])
+def test_no_estimate_depends_on_a_test_row(source):
+    """Moving every held-out value by 5 mm changes neither the estimate (robot and sensor
+    geometry, device frame and markers included) nor the training metrics."""
+    data = cp.read_measurements(ROBOTS / "irb120_default.csv" if source == "default" else WU2015,
+                                cp.load_chain("irb120"))
+    setup = cp.prepare("irb120", data)
+    _, test = setup.split(0.2, 3)
+    first = setup.run("lm", seed=3)
+    moved = cp.prepare("irb120", _with_test_rows_moved(data, test)).run("lm", seed=3)
+    np.testing.assert_array_equal(first.x, moved.x)
+    assert first.metrics["train"] == moved.metrics["train"]
+    assert first.metrics["test"]["before"] != moved.metrics["test"]["before"]
+
+
+def test_separate_validation_session_of_readings(tmp_path, session):
+    """--test-data: every row of the calibration set trains; the test metrics are those of
+    the other session's rows predicted by the calibrated model."""
+    data, _ = session
+    cal, val = data.subset(np.arange(90)), data.subset(np.arange(90, 120))
+    write_measurements(tmp_path / "cal.csv", cal)
+    write_measurements(tmp_path / "val.csv", val)
+    result = cp.calibrate("irb120", tmp_path / "cal.csv", method="lm", test_data=tmp_path / "val.csv")
+    assert len(result.train) == 90 and result.test_source.endswith("val.csv")
+    errors = np.abs(result.predict(val.q) - val.values) * 1e3
+    assert result.metrics["test"]["after"].rmse_mm == pytest.approx(np.sqrt(np.mean(errors**2)), rel=1e-5)  # the file rounds to 1 nm
+    assert result.metrics["test"]["after"].rmse_mm < 0.1 < 1.0 < result.metrics["test"]["before"].rmse_mm
+
+
+def test_validation_marker_never_seen_is_located_from_its_first_row(chain, params, tmp_path):
+    """A marker only the validation session has is located from its first row through the
+    calibrated model and device frame; its other rows are predicted to the noise level."""
+    markers = ((60.0, 0.0, 40.0), (-30.0, 52.0, 40.0), (-30.0, -52.0, 40.0), (0.0, 80.0, 20.0))
+    data, _ = cp.simulate_positions(chain, params, 50, seed=4, noise_mm=0.02, markers_mm=markers)
+    cal = data.subset(np.flatnonzero((data.point_ids < 4) & (data.pose_ids <= 36)))
+    val = data.subset(np.flatnonzero((data.point_ids == 4) & (data.pose_ids > 36)))
+    write_measurements(tmp_path / "cal.csv", cal)
+    write_measurements(tmp_path / "val.csv", val)
+    result = cp.calibrate("irb120", tmp_path / "cal.csv", method="lm", test_data=tmp_path / "val.csv")
+    after, before = result.metrics["test"]["after"], result.metrics["test"]["before"]
+    assert after.mean_mm < 0.1 < 1.0 < before.mean_mm
+
+
+def test_predict_takes_the_files_point_labels(chain, params):
+    """result.predict(q, point_ids) uses the file's point_id labels; an unknown one is refused."""
+    data, truth = cp.simulate_positions(chain, params, 30, seed=2, noise_mm=0.0)
+    shifted = dataclasses.replace(data, point_ids=data.point_ids + 10)  # labels 11, 12, 13
+    result = cp.calibrate("irb120", shifted, method="lm")
+    q = data.q[:3]
+    expected = truth.model(chain, params).predict(truth.x, q, np.arange(3))
+    np.testing.assert_allclose(result.predict(q, [11, 12, 13]), expected, atol=1e-6)
+    with pytest.raises(cp.DataError, match="point_id 2 is not a marker of this calibration"):
+        result.predict(q, [2, 2, 2])
+
+
+def test_robot_line_may_name_the_urdf_path(tmp_path):
+    """'# robot:' may be the URDF path given to the command, not only the robot's name."""
+    urdf = str(ROBOTS / "irb120.urdf")
+    text = (ROBOTS / "irb120_default.csv").read_text().replace("# robot: irb120", f"# robot: {urdf}")
+    (tmp_path / "s.csv").write_text(text)
+    result = cp.calibrate(urdf, tmp_path / "s.csv", method="lm")
+    assert result.metrics["test"]["after"].rmse_mm < 0.1
+
+
+def test_a_test_fraction_that_holds_out_nothing_says_so():
+    """--test-fraction 0.001 rounds to no test pose: a warning, no test metrics."""
+    result = cp.calibrate("irb120", method="lm", test_fraction=0.001)
+    assert "test" not in result.metrics and "holds out no pose" in result.warnings[0]
+
+
+def test_import_pulls_in_no_optional_dependency():
+    """import calib_pin (and its pipeline) loads neither serial, minimalmodbus nor matplotlib."""
+    code = ("import sys, calib_pin; calib_pin.calibrate; calib_pin.CableModel; "
+            "print([m for m in ('serial', 'minimalmodbus', 'matplotlib') if m in sys.modules])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
