@@ -22,6 +22,7 @@ direction; the blind directions stay at x0.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -83,7 +84,7 @@ class Subspace:
         """The kept singular values, shape (rank,)."""
         return self.singular_values[: self.rank]
 
-    @property
+    @cached_property
     def basis(self) -> np.ndarray:
         """Columns mapping whitened z to changes of x, shape (n_params, rank): D V_r S_r^-1."""
         return (self.scale[:, None] * self.vt.T) / self.kept
