@@ -323,7 +323,7 @@ def compare(
         truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() else None
         for i in range(trials):
             out.append(_trial(setup, truth, methods, seed + i, test_fraction))
-        what = f"{len(setup.data)} poses from {Path(setup.data.source).name}"
+        what = f"{setup.data.describe_rows()} from {Path(setup.data.source).name}"
         what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
     else:
         chain = load_chain(robot)

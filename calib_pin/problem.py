@@ -9,11 +9,12 @@ row blocks), so it can be tested on any small least-squares problem.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from .sensors.base import MeasurementModel
+if TYPE_CHECKING:
+    from .sensors.base import MeasurementModel
 
 
 class LeastSquares(Protocol):

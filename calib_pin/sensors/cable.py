@@ -15,13 +15,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..exceptions import CalibPinError, DataError
+from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from .base import MeasurementModel, chosen
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
-    from ..problem import CalibrationProblem
 
 #: Sensor quantities a cable model can estimate with the robot's parameters.
 CABLE_EXTRAS = ("anchor", "offset")
@@ -84,8 +84,6 @@ class CableModel(MeasurementModel):
     @classmethod
     def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
                     fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
-        from ..problem import CalibrationProblem
-
         get = options.get
         anchor = _vector_mm(get("anchor_mm"), "anchor_mm") if get("anchor_mm") is not None else data.anchor
         tool = _vector_mm(get("tool_mm"), "tool_mm") if get("tool_mm") is not None else data.tool

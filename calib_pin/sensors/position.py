@@ -28,13 +28,13 @@ import pinocchio as pin
 from scipy.optimize import least_squares
 
 from ..exceptions import CalibPinError, DataError
+from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from .base import MeasurementModel, chosen
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
-    from ..problem import CalibrationProblem
 
 #: What a position model can estimate with the robot's deviations.
 POSITION_EXTRAS = ("device", "markers")
@@ -99,8 +99,6 @@ class PositionModel(MeasurementModel):
                     fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
         """The device frame and markers start from their best fit with the nominal robot
         on ``fit_rows`` only; every marker must appear there."""
-        from ..problem import CalibrationProblem
-
         for name, flag in (("anchor_mm", "--anchor-mm"), ("tool_mm", "--tool-mm"),
                            ("length_offset_mm", "--length-offset-mm")):
             if options.get(name) is not None:
