@@ -15,7 +15,7 @@ import numpy as np
 
 from .identifiability import analyze
 from .problem import CalibrationProblem
-from .sensors import CableModel
+from .sensors.base import MeasurementModel
 from .simulation import random_poses
 from .subspace import Subspace
 
@@ -45,18 +45,45 @@ class Plan:
     target: float
 
 
-def _tool_above_base(model: CableModel, q: np.ndarray) -> np.ndarray:
-    return q[model.tool_positions(None, q)[:, 2] > 0.0]
+def _above_base(model: MeasurementModel, q: np.ndarray) -> np.ndarray:
+    """The poses that put the sensor's reference point above the mounting plane (z > 0)."""
+    return q[model.points_at(None, q, model.reference_point)[:, 2] > 0.0]
+
+
+def _rows(model: MeasurementModel, q: np.ndarray) -> np.ndarray:
+    """Scaled identification rows of each pose, shape (n_poses, rows per pose, n_params):
+    every point the sensor measures, every value of each."""
+    rows, points = model.grid_points(len(q))
+    jac = model.predict_with_jacobian(np.zeros(model.n_params), q[rows], points)[1] * model.scale
+    return jac.reshape(len(q), -1, model.n_params)
+
+
+def _greedy(z: np.ndarray, n: int) -> list[int]:
+    """D-optimal greedy choice of n poses from per-pose blocks z (n_poses, k, r): each
+    step adds the pose with the largest log det gain (a rank-k update of the inverse)."""
+    inverse = np.eye(z.shape[2]) / (RIDGE * np.max(np.sum(z**2, axis=(1, 2))))
+    chosen: list[int] = []
+    available = np.ones(len(z), dtype=bool)
+    for _ in range(n):
+        inner = np.eye(z.shape[1]) + np.einsum("nij,jk,nlk->nil", z, inverse, z)
+        gain = np.linalg.slogdet(inner)[1]
+        gain[~available] = -np.inf
+        k = int(np.argmax(gain))
+        chosen.append(k)
+        available[k] = False
+        v = inverse @ z[k].T
+        inverse -= v @ np.linalg.solve(np.eye(z.shape[1]) + z[k] @ v, v.T)
+    return chosen
 
 
 def plan_poses(
-    model: CableModel, n: int, candidates: int = 5000, *, seed: int = 0,
+    model: MeasurementModel, n: int, candidates: int = 5000, *, seed: int = 0,
     margin: float = np.deg2rad(5.0), target: float | None = None,
 ) -> Plan:
     """Pick ``n`` of ``candidates`` random poses that maximise O1 for ``model``'s sensor.
 
     Args:
-        model: The cable model (robot, parameter model, sensor geometry).
+        model: The measurement model (robot, parameter model, sensor geometry).
         n: Poses to choose.
         candidates: Random poses to choose from.
         seed: Seed of the candidates.
@@ -65,28 +92,17 @@ def plan_poses(
             mean of the singular values; default: that of n random poses).
     """
     rng = np.random.default_rng(seed)
-    pool = _tool_above_base(model, random_poses(model.chain, candidates, rng, margin=margin))
+    pool = _above_base(model, random_poses(model.chain, candidates, rng, margin=margin))
     if len(pool) < n:
         raise ValueError(f"only {len(pool)} of {candidates} candidates put the tool point above the base; ask for more")
-    zero = np.zeros(model.n_params)
-    jacobian = model.predict_with_jacobian(zero, pool)[1]
-    basis = Subspace.of(jacobian, model.scale).vt.T
-    z = (jacobian * model.scale) @ basis  # candidates in the identifiable directions
-    inverse = np.eye(basis.shape[1]) / (RIDGE * np.max(np.sum(z**2, axis=1)))
-    chosen: list[int] = []
-    available = np.ones(len(pool), dtype=bool)
-    for _ in range(n):
-        gain = np.einsum("ij,jk,ik->i", z, inverse, z)
-        gain[~available] = -np.inf
-        k = int(np.argmax(gain))
-        chosen.append(k)
-        available[k] = False
-        v = inverse @ z[k]
-        inverse -= np.outer(v, v) / (1.0 + z[k] @ v)
-    q = pool[chosen]
+    blocks = _rows(model, pool)
+    basis = Subspace.of(blocks.reshape(-1, model.n_params), np.ones(model.n_params)).vt.T
+    q = pool[_greedy(blocks @ basis, n)]  # candidates in the identifiable directions
 
     def indices(qs: np.ndarray) -> tuple[float, float, float]:
-        result = analyze(CalibrationProblem(model, qs, np.zeros(len(qs))))
+        rows, points = model.grid_points(len(qs))
+        predicted = model.predict(None, qs[rows], points)  # the readings do not matter here, only the Jacobian
+        result = analyze(CalibrationProblem(model, qs[rows], predicted, points))
         return result.o1, result.o3, result.o1 * np.sqrt(len(qs))
 
     o1, o3, _ = indices(q)

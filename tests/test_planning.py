@@ -45,3 +45,13 @@ def test_plan_poses_command(tmp_path, capsys, chain):
     poses = cp.read_measurements(out, chain, readings=False)
     assert len(poses) == 30 and poses.pose_ids.tolist() == list(range(1, 31))
     assert plan_poses_main(["irb120", "--n", "50", "--candidates", "10", "--out", str(out)]) == 2
+
+
+def test_planning_works_for_any_sensor(chain, params):
+    """The planner asks only the measurement-model interface: for markers seen by a
+    tracker it picks poses with more information than random ones too."""
+    import pinocchio as pin
+
+    device = cp.PositionDevice(pin.SE3.Identity(), np.array([[0.06, 0, 0.04], [-0.03, 0.05, 0.04]]), (1, 2))
+    plan = plan_poses(cp.PositionModel(chain, params, device), 12, candidates=300, seed=1)
+    assert plan.q.shape == (12, 6) and plan.o1 > plan.random_o1

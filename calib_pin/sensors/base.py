@@ -112,6 +112,12 @@ class MeasurementModel(ABC):
     def describe(self) -> str:
         """One phrase for people: the sensor and what of it is known or estimated."""
 
+    @property
+    def reference_point(self) -> np.ndarray:
+        """A point of the end frame the sensor measures, shape (3,), [m] (the planner keeps
+        it above the mounting plane)."""
+        return np.zeros(3)
+
     def point_index(self, data: MeasurementSet, labels: np.ndarray | None) -> np.ndarray | None:
         """Indices of the measured points for rows labelled ``labels`` (a file's
         ``point_id``); None for a sensor that measures one point."""

@@ -116,6 +116,10 @@ class CableModel(MeasurementModel):
         text = "drawstring sensor, " + (f"{' and '.join(known)} known" if known else "nothing known")
         return text + (f", {' and '.join(self.estimate)} estimated" if self.estimate else "")
 
+    @property
+    def reference_point(self) -> np.ndarray:
+        return self.sensor.tool
+
     def tool_positions(self, x: np.ndarray | None, q: np.ndarray) -> np.ndarray:
         """Tool point in the base frame, shape (n_rows, 3), [m]; x None: nominal."""
         return self.points_at(x, q, self.sensor.tool)

@@ -166,6 +166,10 @@ class PositionModel(MeasurementModel):
         axes = self._kin.points(np.repeat(np.atleast_2d(q), 3, axis=0), np.eye(3))[0] - origin
         return axes @ (base - origin)
 
+    @property
+    def reference_point(self) -> np.ndarray:
+        return self.device.markers.mean(axis=0)
+
     def grid_points(self, n_poses: int) -> tuple[np.ndarray, np.ndarray | None]:
         k = len(self.device.labels)
         return np.repeat(np.arange(n_poses), k), np.tile(np.arange(k), n_poses)
