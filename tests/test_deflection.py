@@ -10,6 +10,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from calib_pin.estimators import run_estimator
+from calib_pin.exceptions import CalibPinError, RobotError
+from calib_pin.problem import CalibrationProblem
+from calib_pin.robot import Kinematics, load_chain
 from calib_pin.robot.deflection import (
     CablePull,
     ComplianceSpec,
@@ -19,10 +23,6 @@ from calib_pin.robot.deflection import (
     fixed_point_angles,
     stiffness,
 )
-from calib_pin.estimators import run_estimator
-from calib_pin.exceptions import CalibPinError, RobotError
-from calib_pin.problem import CalibrationProblem
-from calib_pin.robot import Kinematics, load_chain
 from calib_pin.sensors.cable import CableModel, Drawstring
 from calib_pin.sensors.position import PositionModel, fit_device
 from calib_pin.simulation import random_poses, simulate, simulate_positions

@@ -98,6 +98,35 @@ class ComplianceSpec:
     payload: Payload | None = None
     cable_tension_n: float = 0.0
 
+    def to_dict(self) -> dict:
+        """JSON-ready, in kg, mm and N."""
+        payload = None if self.payload is None else {
+            "mass_kg": self.payload.mass_kg, "com_mm": (np.asarray(self.payload.com_m) * 1e3).tolist()}
+        return {"joints": list(self.joints), "payload": payload, "cable_tension_n": self.cable_tension_n}
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> ComplianceSpec:
+        """Inverse of :meth:`to_dict`."""
+        p = doc.get("payload")
+        payload = None if p is None else Payload(float(p["mass_kg"]), np.asarray(p["com_mm"], dtype=float) * 1e-3)
+        return cls(tuple(doc["joints"]), payload, float(doc.get("cable_tension_n", 0.0)))
+
+
+def compliance_report(spec: ComplianceSpec, compliance: np.ndarray) -> dict:
+    """The compliances [rad/Nm] and stiffnesses [Nm/rad] of the joints of ``spec``, its
+    loads, and that the URDF does not hold them (for report.json)."""
+    c = np.asarray(compliance, dtype=float)
+    return {
+        **spec.to_dict(),
+        "compliance_rad_per_Nm": dict(zip(spec.joints, c.tolist(), strict=True)),
+        "stiffness_Nm_per_rad": dict(zip(spec.joints, stiffness(c).tolist(), strict=True)),
+        "model": "q_link = q - c tau(q): static joint torques tau from gravity on the URDF's inertias, "
+                 "payload and cable pull, evaluated at the commanded q",
+        "in_urdf": False,
+        "note": "the calibrated URDF holds the geometry only; joint deflection is not in it "
+                "(the calibration JSON beside it holds the compliances)",
+    }
+
 
 def has_inertial_data(chain: Chain) -> bool:
     """True when any body of the chain's model carries mass."""
@@ -250,3 +279,43 @@ def stiffness(compliance: Sequence[float]) -> np.ndarray:
     c = np.asarray(compliance, dtype=float)
     with np.errstate(divide="ignore"):
         return np.where(c > 0, 1.0 / np.where(c > 0, c, 1.0), np.inf)
+
+
+def compliance_spec(chain: Chain, joints: str | Sequence[str] | None, payload_kg: float | None = None,
+                    payload_com_mm: Sequence[float] | None = None,
+                    cable_tension_n: float | None = None) -> ComplianceSpec | None:
+    """The user's compliance options as a spec (None when no joint is compliant).
+
+    Args:
+        joints: Compliant joint names (a sequence or comma-separated text), ``all`` for
+            every moving chain joint, or None/empty for none.
+        payload_kg: Payload mass [kg]; payload_com_mm: its centre of mass in the end
+            frame, 3 numbers [mm] (default the end frame's origin).
+        cable_tension_n: Drawstring tension [N].
+
+    Raises:
+        CalibPinError: loads without compliant joints, a negative or non-finite value,
+            an unknown joint, or a URDF without inertial data.
+    """
+    names = tuple(j.strip() for j in (joints.split(",") if isinstance(joints, str) else joints or ()) if j.strip())
+    if names == ("all",):
+        names = tuple(chain.joint_names)
+    loads = {"payload_kg": payload_kg, "payload_com_mm": payload_com_mm, "cable_tension_n": cable_tension_n}
+    given = [k for k, v in loads.items() if v is not None]
+    if not names:
+        if given:
+            raise CalibPinError(f"{given[0]} needs compliant joints (compliance=joint_2,joint_3 or all)")
+        return None
+    for key in ("payload_kg", "cable_tension_n"):
+        value = loads[key]
+        if value is not None and not (np.isfinite(value) and value >= 0):  # type: ignore[arg-type]
+            raise CalibPinError(f"{key} must be a finite number >= 0, got {value}")
+    payload = None
+    if payload_kg or payload_com_mm is not None:
+        com = np.zeros(3) if payload_com_mm is None else np.asarray(payload_com_mm, dtype=float).reshape(-1)
+        if com.shape != (3,) or not np.all(np.isfinite(com)):
+            raise CalibPinError("payload_com_mm needs 3 finite numbers (x, y, z in mm, end frame)")
+        payload = Payload(float(payload_kg or 0.0), com * 1e-3)
+    spec = ComplianceSpec(names, payload, float(cable_tension_n or 0.0))
+    Deflection(chain, spec, (np.zeros(3), np.ones(3)))  # refuse a bad joint or a massless URDF now
+    return spec
