@@ -274,7 +274,7 @@ def fixed_point_angles(deflection: Deflection, q: np.ndarray, c: np.ndarray,
     return q_eff
 
 
-def stiffness(compliance: Sequence[float]) -> np.ndarray:
+def stiffness(compliance: Sequence[float] | np.ndarray) -> np.ndarray:
     """Stiffness [Nm/rad] of each compliance [rad/Nm] (inf where the compliance is <= 0)."""
     c = np.asarray(compliance, dtype=float)
     with np.errstate(divide="ignore"):
@@ -306,9 +306,8 @@ def compliance_spec(chain: Chain, joints: str | Sequence[str] | None, payload_kg
         if given:
             raise CalibPinError(f"{given[0]} needs compliant joints (compliance=joint_2,joint_3 or all)")
         return None
-    for key in ("payload_kg", "cable_tension_n"):
-        value = loads[key]
-        if value is not None and not (np.isfinite(value) and value >= 0):  # type: ignore[arg-type]
+    for key, value in (("payload_kg", payload_kg), ("cable_tension_n", cable_tension_n)):
+        if value is not None and not (np.isfinite(value) and value >= 0):
             raise CalibPinError(f"{key} must be a finite number >= 0, got {value}")
     payload = None
     if payload_kg or payload_com_mm is not None:
