@@ -243,7 +243,7 @@ def fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Cal
     model = truth.model(setup.chain, setup.params)
     rows, points = model.grid_points(len(poses))
     q = poses[rows]
-    true_values = model.predict(truth.x, q, points)
+    true_values = model.predict(truth.x_model, q, points)
     return lambda predict: float(np.sqrt(np.mean((predict(q, points) - true_values) ** 2)) * 1e3)
 
 
