@@ -17,6 +17,7 @@ import csv
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -242,7 +243,7 @@ def fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Cal
     model = truth.model(setup.chain, setup.params)
     rows, points = model.grid_points(len(poses))
     q = poses[rows]
-    true_values = model.predict(truth.x, q, points)
+    true_values = model.predict(truth.x_model, q, points)
     return lambda predict: float(np.sqrt(np.mean((predict(q, points) - true_values) ** 2)) * 1e3)
 
 
@@ -289,6 +290,10 @@ def compare(
     simulate_noise: str | None = None,
     noise_mm: float = 0.05,
     poses: int = 120,
+    compliance: str | tuple[str, ...] | None = None,
+    payload_kg: float | None = None,
+    payload_com_mm: Any = None,
+    cable_tension_n: float | None = None,
 ) -> Comparison:
     """Run estimators side by side.
 
@@ -304,6 +309,8 @@ def compare(
         test_fraction: Share of rows held out (the paper's 0.2).
         simulate_noise: ``gauss``, ``student`` or ``outliers``: run on simulated sets of
             ``poses`` poses with that noise of size ``noise_mm`` [mm] (1 sigma).
+        compliance, payload_kg, payload_com_mm, cable_tension_n: Joint compliances to
+            estimate with the geometry, and their loads (as :func:`calib_pin.calibrate`).
 
     Raises:
         CalibPinError: bad method, robot, data or settings.
@@ -314,8 +321,10 @@ def compare(
     if trials < 1:
         raise CalibPinError(f"trials must be at least 1, got {trials}")
     out = []
+    soft = {"compliance": compliance, "payload_kg": payload_kg, "payload_com_mm": payload_com_mm,
+            "cable_tension_n": cable_tension_n}
     if simulate_noise is None:
-        setup = prepare(robot, data)
+        setup = prepare(robot, data, **soft)
         for m in methods:
             get_method(m).check(kind=setup.data.kind)
         truth_file = Path(setup.data.source).with_name(
@@ -325,13 +334,20 @@ def compare(
             out.append(_trial(setup, truth, methods, seed + i, test_fraction))
         what = f"{setup.data.describe_rows()} from {Path(setup.data.source).name}"
         what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
+        what += _compliance_words(setup)
     else:
         chain = load_chain(robot)
         params = parameter_model(chain)
         for i in range(trials):
             sim, truth = simulate(chain, params, poses, seed + i, noise_mm=noise_mm, noise_kind=simulate_noise)
-            setup = prepare(robot, sim)
+            setup = prepare(robot, sim, **soft)
             out.append(_trial(setup, truth, methods, seed + i, test_fraction))
         what = (f"simulated sets of {poses} poses, {simulate_noise} noise {noise_mm:g} mm, "
-                f"seed(s) {seed}..{seed + trials - 1}")
+                f"seed(s) {seed}..{seed + trials - 1}") + _compliance_words(setup)
     return Comparison(robot=robot, methods=methods, trials=out, data=what)
+
+
+def _compliance_words(setup: CalibrationSetup) -> str:
+    """What the comparison estimates beyond geometry, in words (empty for geometry only)."""
+    spec = setup.options.get("compliance")
+    return f"; with the compliance of {', '.join(spec.joints)}" if spec is not None else ""

@@ -110,7 +110,7 @@ def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list
         for i, v in enumerate(row):
             if abs(v) > tol:
                 size = v * scale[i] * 1e3
-                unit = "mm" if units[i] == "m" else "mrad"
+                unit = {"m": "mm", "rad/Nm": "mrad/Nm"}.get(units[i], "mrad")
                 terms.append(f"{names[i]} {size:+.2g} {unit}")
         out.append(" with ".join(terms))
     return out

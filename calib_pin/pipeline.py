@@ -24,6 +24,7 @@ from .parameters import ParameterModel, default_model, parameter_model
 from .problem import CalibrationProblem
 from .result import CalibrationResult
 from .robot import Chain, RobotDescription, load_chain, resolve_robot
+from .robot.deflection import compliance_spec
 from .sensors import SENSORS, sensor_for
 
 #: Sensor noise assumed when neither the data (``# noise_mm``) nor the caller give it.
@@ -65,7 +66,8 @@ class CalibrationSetup:
         data: The measurement set.
         noise: Sensor noise (1 sigma) the Kalman filters assume, [m].
         options: Sensor options (``anchor_mm``, ``tool_mm``, ``length_offset_mm``,
-            ``estimate``) as the caller gave them.
+            ``estimate``) as the caller gave them, and ``compliance`` (a
+            :class:`~calib_pin.robot.deflection.ComplianceSpec` or None).
     """
 
     chain: Chain
@@ -189,6 +191,10 @@ def prepare(
     noise_mm: float | None = None,
     parameters: str | None = None,
     estimate: tuple[str, ...] = (),
+    compliance: str | tuple[str, ...] | None = None,
+    payload_kg: float | None = None,
+    payload_com_mm: Any = None,
+    cable_tension_n: float | None = None,
 ) -> CalibrationSetup:
     """Load a robot and a measurement set for calibration (arguments as :func:`calibrate`).
 
@@ -202,7 +208,9 @@ def prepare(
     if noise_mm is not None and not noise_mm > 0:
         raise CalibPinError(f"noise_mm must be positive, got {noise_mm:g}")
     noise = noise_mm * 1e-3 if noise_mm is not None else (data.noise or DEFAULT_NOISE_MM * 1e-3)
-    options = {"anchor_mm": anchor_mm, "tool_mm": tool_mm, "length_offset_mm": length_offset_mm, "estimate": estimate}
+    soft = compliance_spec(chain, compliance, payload_kg, payload_com_mm, cable_tension_n)
+    options = {"anchor_mm": anchor_mm, "tool_mm": tool_mm, "length_offset_mm": length_offset_mm, "estimate": estimate,
+               "compliance": soft}
     setup = CalibrationSetup(chain, parameter_model(chain, parameters or default_model(chain)), data, noise, options)
     setup.problem_on(np.arange(len(data)))  # refuse options the sensor does not take, now
     return setup
@@ -224,6 +232,10 @@ def calibrate(
     loss: str = "linear",
     parameters: str | None = None,
     estimate: tuple[str, ...] = (),
+    compliance: str | tuple[str, ...] | None = None,
+    payload_kg: float | None = None,
+    payload_com_mm: Any = None,
+    cable_tension_n: float | None = None,
 ) -> CalibrationResult:
     """Calibrate a robot's kinematic deviations from drawstring readings or positions.
 
@@ -246,6 +258,12 @@ def calibrate(
             ``placement`` (default without one; any URDF).
         estimate: Drawstring geometry to estimate with the robot: ``anchor``,
             ``offset`` (positions always estimate the device frame and markers).
+        compliance: Joints whose compliance [rad/Nm] is estimated with the geometry
+            (``("joint_2", "joint_3")``, ``"joint_2,joint_3"`` or ``"all"``); see
+            :mod:`calib_pin.robot.deflection`. Needs the URDF's inertial data.
+        payload_kg, payload_com_mm: A payload's mass [kg] and centre of mass in the end
+            frame [mm] (with ``compliance``).
+        cable_tension_n: The drawstring's pull [N] (with ``compliance``, cable data).
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
@@ -254,7 +272,8 @@ def calibrate(
     check_fraction(test_fraction)
     setup = prepare(robot, data, end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
                     length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters,
-                    estimate=estimate)
+                    estimate=estimate, compliance=compliance, payload_kg=payload_kg,
+                    payload_com_mm=payload_com_mm, cable_tension_n=cable_tension_n)
     validation = None
     if test_data is not None:
         _, validation = load_data(setup.chain, test_data, str(robot), setup.chain.end_frame)

@@ -65,6 +65,11 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "split": {"train": result.train.tolist(), "test": result.test.tolist()},
         "warnings": list(result.warnings),
     }
+    spec = result.problem.model.compliance_spec
+    if spec is not None:
+        from .robot.deflection import compliance_report
+
+        report["compliance"] = compliance_report(spec, result.problem.model.compliance(result.x))
     return _finite(report)
 
 

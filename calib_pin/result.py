@@ -108,7 +108,15 @@ class CalibrationResult:
         """Estimated corrections of the sensor's geometry by name with unit
         (``anchor_x_mm``, ``device_rz_deg``, ``marker1_y_mm``); empty if none."""
         model = self.problem.model
-        return for_humans(model.sensor_part(self.x), model.names[model.n_robot :], model.units[model.n_robot :])
+        n = model.sensor_start
+        return for_humans(model.sensor_part(self.x), model.names[n:], model.units[n:])
+
+    @property
+    def compliances(self) -> dict[str, float]:
+        """Estimated joint compliances (``compliance_joint_2_urad_per_Nm``); empty if none."""
+        model = self.problem.model
+        n, m = model.n_robot, model.sensor_start
+        return for_humans(model.compliance(self.x), model.names[n:m], model.units[n:m])
 
     @property
     def kinematic(self) -> bool:
@@ -133,6 +141,8 @@ class CalibrationResult:
         SANITY_M / SANITY_RAD, naming the first), or None."""
         model = self.problem.model
         for value, name, unit in zip(self.x, model.names, model.units, strict=True):
+            if unit not in ("m", "rad"):
+                continue  # compliances: see report.json's compliance section
             bound = SANITY_M if unit == "m" else SANITY_RAD
             if abs(value) > bound:
                 shown, bound_shown, unit_shown = ((value * 1e3, bound * 1e3, "mm") if unit == "m"

@@ -20,6 +20,7 @@ from .exceptions import CalibPinError, DataError
 from .measurements import MeasurementSet
 from .parameters import ParameterModel
 from .robot import Chain
+from .robot.deflection import ComplianceSpec
 from .sensors import CableModel, Drawstring, MeasurementModel, PositionDevice, PositionModel, sensor_for
 from .units import for_humans, from_humans
 
@@ -87,6 +88,8 @@ class Truth:
         seed: Seed of the draw.
         noise_kind: ``gauss``, ``student`` or ``outliers`` (see :func:`reading_noise`).
         outliers: Data rows (0-based) given a gross error.
+        compliance: Compliant joints and loads of the true arm, or None (rigid).
+        compliance_values: Their true compliances, shape (n_compliant,), [rad/Nm].
     """
 
     x: np.ndarray
@@ -98,10 +101,19 @@ class Truth:
     seed: int
     noise_kind: str = "gauss"
     outliers: tuple[int, ...] = ()
+    compliance: ComplianceSpec | None = None
+    compliance_values: np.ndarray | None = None
 
     def model(self, chain: Chain, params: ParameterModel) -> MeasurementModel:
-        """The true sensor's measurement model (nothing of the sensor estimated)."""
-        return sensor_for(self.kind)(chain, params, self.sensor, estimate=())  # type: ignore[call-arg]
+        """The true sensor's measurement model (nothing of the sensor estimated; the true
+        arm's compliant joints, if any): evaluate it at :attr:`x_model`."""
+        return sensor_for(self.kind)(chain, params, self.sensor, estimate=(),  # type: ignore[call-arg]
+                                     compliance=self.compliance)
+
+    @property
+    def x_model(self) -> np.ndarray:
+        """The true unknowns of :meth:`model`: deviations, then compliances [rad/Nm]."""
+        return np.concatenate([self.x, self.compliance_values if self.compliance_values is not None else []])
 
     def to_json(self, path: str | Path) -> None:
         """Write the truth with deviations in mm and deg."""
@@ -114,6 +126,9 @@ class Truth:
             **self.sensor.to_dict(),
             "deviations": for_humans(self.x, self.names, self.units),
         }
+        if self.compliance is not None and self.compliance_values is not None:
+            doc["compliance"] = {**self.compliance.to_dict(),
+                                 "compliance_rad_per_Nm": np.asarray(self.compliance_values).tolist()}
         Path(path).write_text(json.dumps(doc, indent=2) + "\n")
 
     @classmethod
@@ -128,9 +143,12 @@ class Truth:
             kind = doc.get("data_kind", "cable")
             x = from_humans(doc["deviations"], params.names, params.units)
             sensor = sensor_for(kind).geometry_type.from_dict(doc)
+            soft = doc.get("compliance")
+            spec = ComplianceSpec.from_dict(soft) if soft else None
+            values = np.asarray(soft["compliance_rad_per_Nm"], dtype=float) if soft else None
             return cls(x, tuple(params.names), tuple(params.units), sensor, kind,
                        float(doc["noise_mm"]) * 1e-3, int(doc["seed"]),
-                       doc.get("noise_kind", "gauss"), tuple(doc.get("outlier_rows", ())))
+                       doc.get("noise_kind", "gauss"), tuple(doc.get("outlier_rows", ())), spec, values)
         except OSError as e:
             raise DataError(str(path), f"cannot read: {e.strerror or e}") from None
         except (ValueError, KeyError, TypeError) as e:
@@ -188,6 +206,8 @@ def simulate(
     length_offset_mm: float = 0.0,
     noise_kind: str = "gauss",
     poses: np.ndarray | None = None,
+    compliance: ComplianceSpec | None = None,
+    true_compliance: Any = None,
 ) -> tuple[MeasurementSet, Truth]:
     """Simulate a drawstring session.
 
@@ -209,6 +229,8 @@ def simulate(
         noise_kind: ``gauss``, ``student`` or ``outliers`` (see :func:`reading_noise`).
         poses: Joint angles to use, shape (n_poses, n_joints) [rad], instead of random
             ones (``n_poses`` is then ignored).
+        compliance, true_compliance: The true arm's compliant joints and loads, and their
+            compliances [rad/Nm] (:mod:`calib_pin.robot.deflection`); None: a rigid arm.
     """
     if noise_kind not in NOISE_KINDS:
         raise CalibPinError(f"unknown noise kind '{noise_kind}' (valid: {', '.join(NOISE_KINDS)})")
@@ -224,7 +246,9 @@ def simulate(
     x = _true_deviations(params, rng, nominal_rmse_mm,
                          lambda x: np.abs(cable.predict(x, poses) - nominal))
     noise, outliers = reading_noise(noise_kind, n_poses, noise_mm, rng)
-    readings = cable.predict(x, poses) + noise
+    soft = _true_compliance(compliance, true_compliance)
+    true_model = CableModel(chain, params, sensor, compliance=compliance)
+    readings = true_model.predict(np.concatenate([x, soft]), poses) + noise
     data = MeasurementSet(
         q=poses, values=readings, kind="cable", anchor=sensor.anchor, tool=sensor.tool,
         length_offset=sensor.length_offset, robot=chain.name, end_frame=chain.end_frame,
@@ -232,9 +256,25 @@ def simulate(
     )
     truth = Truth(
         x, tuple(params.names), tuple(params.units), sensor, "cable", noise_mm * 1e-3, seed,
-        noise_kind, tuple(int(i) for i in np.flatnonzero(outliers)),
+        noise_kind, tuple(int(i) for i in np.flatnonzero(outliers)), compliance, soft if compliance else None,
     )
     return data, truth
+
+
+def _true_compliance(spec: ComplianceSpec | None, values: Any) -> np.ndarray:
+    """The true compliances [rad/Nm] of ``spec``'s joints (empty for a rigid arm).
+
+    Raises:
+        CalibPinError: values without joints, a count that does not match, or a negative value.
+    """
+    if spec is None:
+        if values is not None and len(values):
+            raise CalibPinError("true compliances need compliant joints")
+        return np.zeros(0)
+    c = np.asarray(values if values is not None else [], dtype=float).reshape(-1)
+    if c.shape != (len(spec.joints),) or not np.all(np.isfinite(c) & (c >= 0)):
+        raise CalibPinError(f"give {len(spec.joints)} true compliance(s) >= 0 for {', '.join(spec.joints)}")
+    return c
 
 
 #: Default marker points of simulated position sets, end frame, [mm].
@@ -250,6 +290,8 @@ def simulate_positions(
     nominal_rmse_mm: float = 2.0,
     markers_mm=DEFAULT_MARKERS_MM,
     device: pin.SE3 | None = None,
+    compliance: ComplianceSpec | None = None,
+    true_compliance: Any = None,
 ) -> tuple[MeasurementSet, Truth]:
     """Simulate a position session: every marker measured at each pose by a device.
 
@@ -274,12 +316,15 @@ def simulate_positions(
     nominal = model.predict(None, q, index)
     x = _true_deviations(params, rng, nominal_rmse_mm,
                          lambda x: np.linalg.norm(model.predict(x, q, index) - nominal, axis=1))
-    positions = model.predict(x, q, index) + rng.normal(size=q.shape[:1] + (3,)) * noise_mm * 1e-3
+    soft = _true_compliance(compliance, true_compliance)
+    true_model = PositionModel(chain, params, truth_device, estimate=(), compliance=compliance)
+    positions = true_model.predict(np.concatenate([x, soft]), q, index) + rng.normal(size=q.shape[:1] + (3,)) * noise_mm * 1e-3
     data = MeasurementSet(
         q=q, values=positions, kind="position", robot=chain.name, end_frame=chain.end_frame,
         notes={"source": f"calib-pin position simulator, seed {seed}, noise {noise_mm:g} mm per axis"},
         pose_ids=np.repeat(np.arange(1, n_poses + 1), len(markers)),
         point_ids=np.array(labels)[index], noise=noise_mm * 1e-3,
     )
-    truth = Truth(x, tuple(params.names), tuple(params.units), truth_device, "position", noise_mm * 1e-3, seed)
+    truth = Truth(x, tuple(params.names), tuple(params.units), truth_device, "position", noise_mm * 1e-3, seed,
+                  compliance=compliance, compliance_values=soft if compliance else None)
     return data, truth

@@ -21,6 +21,7 @@ import numpy as np
 from .problem import CalibrationProblem
 from .simulation import random_poses
 from .subspace import RCOND, Subspace
+from .units import human_unit
 
 #: z of the two-sided 95 % normal interval.
 Z95 = 1.959964
@@ -53,7 +54,7 @@ class Uncertainty:
         """JSON-ready: per parameter value, standard error and 95 % interval in mm/deg."""
         out = {}
         for name, unit, value, std in zip(self.names, self.units, self.x, self.std, strict=True):
-            f, suffix = (1e3, "mm") if unit == "m" else (np.rad2deg(1.0), "deg")
+            f, suffix = human_unit(unit)
             v, s = value * f, std * f
             out[f"{name}_{suffix}"] = {"value": v, "std": s, "ci95": [v - Z95 * s, v + Z95 * s]}
         return {

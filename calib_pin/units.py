@@ -1,4 +1,5 @@
-"""SI values for people: millimetres and degrees, with the unit in the name."""
+"""SI values for people: millimetres, degrees and microradians per newton-metre, with the
+unit in the name."""
 
 from __future__ import annotations
 
@@ -6,15 +7,22 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
+#: SI unit -> (factor to the human unit, suffix of the key).
+HUMAN_UNITS = {"m": (1e3, "mm"), "rad": (float(np.rad2deg(1.0)), "deg"), "rad/Nm": (1e6, "urad_per_Nm")}
+
+
+def human_unit(unit: str) -> tuple[float, str]:
+    """Factor and key suffix of an SI unit (``m`` -> 1e3, ``mm``; ``rad/Nm`` -> 1e6, ``urad_per_Nm``)."""
+    return HUMAN_UNITS.get(unit, HUMAN_UNITS["rad"])
+
 
 def for_humans(x: Iterable[float], names: Iterable[str], units: Iterable[str]) -> dict[str, float]:
-    """Values keyed by name with their unit: ``a_2_mm`` for [m], ``theta_6_deg`` for [rad]."""
+    """Values keyed by name with their unit: ``a_2_mm`` for [m], ``theta_6_deg`` for [rad],
+    ``compliance_joint_2_urad_per_Nm`` for [rad/Nm]."""
     out = {}
     for value, name, unit in zip(x, names, units, strict=True):
-        if unit == "m":
-            out[f"{name}_mm"] = float(value * 1e3)
-        else:
-            out[f"{name}_deg"] = float(np.rad2deg(value))
+        factor, suffix = human_unit(unit)
+        out[f"{name}_{suffix}"] = float(value * factor)
     return out
 
 
@@ -24,5 +32,8 @@ def from_humans(values: Mapping[str, float], names: Iterable[str], units: Iterab
     Raises:
         KeyError: a name missing from ``values``.
     """
-    return np.array([values[f"{n}_mm"] * 1e-3 if u == "m" else np.deg2rad(values[f"{n}_deg"])
-                     for n, u in zip(names, units, strict=True)])
+    out = []
+    for name, unit in zip(names, units, strict=True):
+        factor, suffix = human_unit(unit)
+        out.append(values[f"{name}_{suffix}"] / factor)
+    return np.array(out)

@@ -11,7 +11,18 @@ from typing import Any
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..metrics import Metrics
 from ..parameters import MODELS
-from .common import OneLineParser, add_robot_arguments, estimate_names, fail, finite, fraction, positive_float, run
+from .common import (
+    OneLineParser,
+    add_compliance_arguments,
+    add_robot_arguments,
+    compliance_options,
+    estimate_names,
+    fail,
+    finite,
+    fraction,
+    positive_float,
+    run,
+)
 from .outputs import Outputs
 
 
@@ -36,6 +47,7 @@ def calibrate_parser() -> argparse.ArgumentParser:
                    "axes), placement (6D offset per joint, any URDF; default without a DH table)")
     p.add_argument("--estimate", type=estimate_names, default=(),
                    help="drawstring geometry to estimate with the robot: anchor, offset or anchor,offset")
+    add_compliance_arguments(p)
     p.add_argument("--analyze", action="store_true",
                    help="only print the identifiability report of the data's poses, estimate nothing")
     return p
@@ -50,7 +62,7 @@ def calibrate_main(argv: Sequence[str] | None = None) -> int:
 def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
     return {"end_frame": args.end_frame, "anchor_mm": args.anchor_mm, "tool_mm": args.tool_mm,
             "length_offset_mm": args.length_offset_mm, "noise_mm": args.noise_mm, "parameters": args.model,
-            "estimate": args.estimate}
+            "estimate": args.estimate, **compliance_options(args)}
 
 
 def _analyze(args: argparse.Namespace) -> int:
@@ -112,6 +124,11 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
+    soft = report.get("compliance")
+    if soft:
+        cells = ", ".join(f"{j} {c * 1e6:.1f} urad/Nm (stiffness {k:.3g} Nm/rad)" for (j, c), k
+                          in zip(soft["compliance_rad_per_Nm"].items(), soft["stiffness_Nm_per_rad"].values(), strict=True))
+        print(f"joint compliance: {cells}; deflection is not in the URDF")
     est = result.estimate
     print(f"estimation: {est.time_s:.3f} s, {est.iterations} iterations ({est.message})")
     u = report["uncertainty"]

@@ -167,3 +167,19 @@ def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_de
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed, a whole number >= 0 (default 0)")
     p.add_argument("--anchor-mm", type=xyz_mm, help=f"sensor point P0 in the base frame, 'x,y,z' mm ({anchor_default})")
     p.add_argument("--tool-mm", type=xyz_mm, help=f"cable tool point in the end frame, 'x,y,z' mm ({tool_default})")
+
+
+def add_compliance_arguments(p: argparse.ArgumentParser, what: str = "estimate") -> None:
+    """Joint compliance and its loads (see :mod:`calib_pin.robot.deflection`)."""
+    p.add_argument("--compliance", metavar="JOINTS",
+                   help=f"{what} the compliance [rad/Nm] of these joints under gravity (and payload, cable pull): "
+                   "joint names comma-separated (joint_2,joint_3) or all; needs the URDF's inertial data")
+    p.add_argument("--payload-kg", type=non_negative(float, 1e4), help="payload mass carried by the end frame, kg")
+    p.add_argument("--payload-com-mm", type=xyz_mm, help="payload centre of mass in the end frame, 'x,y,z' mm (default 0,0,0)")
+    p.add_argument("--cable-tension-n", type=non_negative(float, 1e4), help="the drawstring's pull on the tool point, N")
+
+
+def compliance_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The compliance arguments as keyword arguments of ``prepare``/``calibrate``."""
+    return {"compliance": args.compliance, "payload_kg": args.payload_kg,
+            "payload_com_mm": args.payload_com_mm, "cable_tension_n": args.cable_tension_n}

@@ -9,7 +9,18 @@ from pathlib import Path
 
 from ..estimators import ESTIMATORS
 from ..simulation import NOISE_KINDS
-from .common import OneLineParser, count, fail, fraction, methods, non_negative, positive_float, run
+from .common import (
+    OneLineParser,
+    add_compliance_arguments,
+    compliance_options,
+    count,
+    fail,
+    fraction,
+    methods,
+    non_negative,
+    positive_float,
+    run,
+)
 
 #: Most trials one comparison may run.
 MAX_TRIALS = 100_000
@@ -35,6 +46,7 @@ def compare_parser() -> argparse.ArgumentParser:
     p.add_argument("--noise-mm", type=positive_float(100.0), default=0.05,
                    help="noise of simulated sets, 1 sigma, mm (default 0.05)")
     p.add_argument("--poses", type=count(100_000), default=120, help="poses of simulated sets (default 120)")
+    add_compliance_arguments(p)
     return p
 
 
@@ -54,7 +66,7 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     result = compare(
         args.robot, args.data, methods=args.methods, trials=args.trials, seed=args.seed,
         test_fraction=args.test_fraction, simulate_noise=args.simulate,
-        noise_mm=args.noise_mm, poses=args.poses,
+        noise_mm=args.noise_mm, poses=args.poses, **compliance_options(args),
     )
     out = Path(args.out)
     print(result.format_table())

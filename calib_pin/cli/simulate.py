@@ -6,9 +6,20 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from ..parameters import MODELS
 from ..simulation import NOISE_KINDS
-from .common import OneLineParser, add_robot_arguments, count, finite, non_negative, positive_float, run
+from .common import (
+    OneLineParser,
+    add_compliance_arguments,
+    add_robot_arguments,
+    count,
+    finite,
+    non_negative,
+    positive_float,
+    run,
+)
 from .outputs import Outputs
 
 #: Most poses one simulated set may hold (a larger one would not fit in memory here).
@@ -33,8 +44,22 @@ def simulate_parser() -> argparse.ArgumentParser:
     p.add_argument("--poses-file", help="simulate at the poses of this pose list (make_poses.py) instead of random ones")
     p.add_argument("--model", choices=MODELS,
                    help="parameter model of the true deviations (default dh with a DH table, else placement)")
+    add_compliance_arguments(p, "simulate")
+    p.add_argument("--true-compliance-urad-per-nm", type=_values,
+                   help="true compliance of each --compliance joint, comma-separated, urad/Nm (e.g. 25,40)")
     p.add_argument("--out", required=True, help="output CSV")
     return p
+
+
+def _values(text: str) -> tuple[float, ...]:
+    """Comma-separated non-negative numbers."""
+    try:
+        values = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        values = ()
+    if not values or not all(0 <= v < 1e9 for v in values):
+        raise argparse.ArgumentTypeError(f"expected non-negative numbers 'a,b', got '{text[:40]}'")
+    return values
 
 
 def simulate_main(argv: Sequence[str] | None = None) -> int:
@@ -48,6 +73,7 @@ def _simulate(args: argparse.Namespace) -> int:
     from ..measurements import write_measurements
     from ..parameters import parameter_model
     from ..robot import load_chain
+    from ..robot.deflection import compliance_spec
     from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate
 
     out = Path(args.out)
@@ -58,10 +84,13 @@ def _simulate(args: argparse.Namespace) -> int:
     params = parameter_model(chain, args.model)
     kind = {"dh": "DH", "hayati": "Hayati", "placement": "joint-placement"}[params.name]
     poses = read_pose_list(args.poses_file, chain).q if args.poses_file else None
+    spec = compliance_spec(chain, args.compliance, args.payload_kg, args.payload_com_mm, args.cable_tension_n)
+    true_c = None if args.true_compliance_urad_per_nm is None else np.array(args.true_compliance_urad_per_nm) * 1e-6
     data, truth = simulate(
         chain, params, args.poses, args.seed, noise_mm=args.noise_mm, nominal_rmse_mm=args.nominal_rmse_mm,
         anchor_mm=args.anchor_mm or DEFAULT_ANCHOR_MM, tool_mm=args.tool_mm or DEFAULT_TOOL_MM,
         length_offset_mm=args.length_offset_mm, noise_kind=args.noise_kind, poses=poses,
+        compliance=spec, true_compliance=true_c,
     )
     outputs = Outputs(out.parent)
     outputs.add(out, lambda tmp: write_measurements(tmp, data))

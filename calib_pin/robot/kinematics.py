@@ -61,7 +61,7 @@ class Kinematics:
         model.frames[self._fid] = frame
 
     def points(
-        self, q: np.ndarray, point: np.ndarray, jacobian: bool = False
+        self, q: np.ndarray, point: np.ndarray, jacobian: bool = False, joints: bool = False
     ) -> tuple[np.ndarray, np.ndarray | None]:
         """Base-frame positions of a point fixed in the end frame, at many poses.
 
@@ -71,6 +71,8 @@ class Kinematics:
                 shape (n_poses, 3).
             jacobian: Also return the derivative with respect to the placement
                 perturbation (from Pinocchio's frame kinematic regressor).
+            joints: With ``jacobian``, append the derivative with respect to the joint
+                positions (n_joints columns, [m/rad], Pinocchio's frame Jacobian).
 
         Returns:
             positions: shape (n_poses, 3), [m], base frame.
@@ -79,6 +81,7 @@ class Kinematics:
                 [m], [rad]) of each joint placement, then of the end frame placement.
                 The end frame's three linear columns are its rotation matrix, which is
                 also the derivative of the position with respect to the point.
+                With ``joints``, n_joints more columns: d position / d q.
         """
         model, data, fid = self._model, self._data, self._fid
         configs = self.chain.configuration(np.atleast_2d(q))
@@ -92,15 +95,22 @@ class Kinematics:
             return positions, None
         rot = np.empty((n, 3, 3))
         trans = np.empty((n, 3))
-        reg = np.empty((n, 6, 6 * self.chain.n_joints))
+        n_place = 6 * self.chain.n_joints
+        reg = np.empty((n, 6, n_place + (self.chain.n_joints if joints else 0)))
         for k in range(n):
-            pin.forwardKinematics(model, data, configs[k])
+            if joints:  # forward kinematics and the joint Jacobians in one pass
+                pin.computeJointJacobians(model, data, configs[k])
+            else:
+                pin.forwardKinematics(model, data, configs[k])
             placement = pin.updateFramePlacement(model, data, fid)
             rot[k] = placement.rotation
             trans[k] = placement.translation
-            reg[k] = pin.computeFrameKinematicRegressor(model, data, fid, pin.LOCAL)
+            reg[k, :, :n_place] = pin.computeFrameKinematicRegressor(model, data, fid, pin.LOCAL)
+            if joints:
+                reg[k, :, n_place:] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
         # Local twist (v, w) of the end frame moves the point by R (v - [point]x w).
-        local = np.concatenate([reg, np.broadcast_to(np.eye(6), (n, 6, 6))], axis=2)
+        eye = np.broadcast_to(np.eye(6), (n, 6, 6))
+        local = np.concatenate([reg[:, :, :n_place], eye, reg[:, :, n_place:]], axis=2)
         lever = np.zeros((n, 3, 6))
         lever[:, :, :3] = np.eye(3)
         lever[:, :, 3:] = -np.cross(point[:, :, None], np.eye(3)[None], axis=1)

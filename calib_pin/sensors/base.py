@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from ..robot.chain import Chain
+from ..robot.deflection import ComplianceSpec, Deflection
 from ..robot.kinematics import Kinematics
 
 if TYPE_CHECKING:
@@ -41,12 +42,20 @@ def chosen(estimate: tuple[str, ...], valid: tuple[str, ...], sensor: str) -> tu
 
 
 class MeasurementModel(ABC):
-    """A sensor's predictions for the robot's deviations followed by the sensor's unknowns.
+    """A sensor's predictions for the robot's deviations, the joint compliances (if any)
+    and the sensor's unknowns, in that order in one vector x.
+
+    With a compliance spec (:mod:`calib_pin.robot.deflection`) every forward kinematics
+    runs at the deflected joint angles q_eff = q - c tau(q), and x holds
+    ``compliance_<joint>`` [rad/Nm] between the robot's deviations and the sensor's unknowns.
 
     Attributes:
         chain, params: The robot chain and its parameter model.
         names, units, scale: Of every entry of x (robot deviations first, then the
-            sensor's), shape (n_params,): the scale is the typical size in SI units.
+            compliances, then the sensor's), shape (n_params,): the scale is the typical
+            size in SI units.
+        n_robot: Number of robot deviations; ``sensor_start``: index of the first sensor unknown.
+        deflection: The compliance model, or None.
         kind: The measurement-set kind this sensor reads (``MeasurementSet.kind``).
         values_per_row: Numbers one data row holds (1 reading, 3 coordinates).
         error_name: What a row's error is, for people ("reading error").
@@ -60,14 +69,20 @@ class MeasurementModel(ABC):
     #: Names ``--estimate`` accepts for this sensor (empty: fixed by the sensor).
     estimable: ClassVar[tuple[str, ...]] = ()
 
-    def __init__(self, chain: Chain, params: ParameterModel, extra: list[tuple[str, str, float]]) -> None:
+    def __init__(self, chain: Chain, params: ParameterModel, extra: list[tuple[str, str, float]],
+                 compliance: ComplianceSpec | None = None,
+                 cable: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.chain = chain
         self.params = params
         self._kin = Kinematics(chain)
         self.n_robot = len(params.names)
-        self.names = tuple(params.names) + tuple(e[0] for e in extra)
-        self.units = tuple(params.units) + tuple(e[1] for e in extra)
-        self.scale = np.concatenate([params.scale, [e[2] for e in extra]])
+        self.compliance_spec = compliance
+        self.deflection = None if compliance is None else Deflection(chain, compliance, cable)
+        soft = self.deflection
+        self.sensor_start = self.n_robot + (soft.n if soft else 0)
+        self.names = tuple(params.names) + (soft.names if soft else ()) + tuple(e[0] for e in extra)
+        self.units = tuple(params.units) + (soft.units if soft else ()) + tuple(e[1] for e in extra)
+        self.scale = np.concatenate([params.scale, soft.scale if soft else [], [e[2] for e in extra]])
 
     # --- what each sensor implements ---------------------------------------------------
 
@@ -150,10 +165,22 @@ class MeasurementModel(ABC):
         return np.asarray(x, dtype=float)[: self.n_robot]
 
     def sensor_part(self, x: np.ndarray | None) -> np.ndarray:
-        """The sensor's unknowns within x, shape (n_params - n_robot,)."""
+        """The sensor's unknowns within x, shape (n_params - sensor_start,)."""
         if x is None:
-            return np.zeros(self.n_params - self.n_robot)
-        return np.asarray(x, dtype=float)[self.n_robot :]
+            return np.zeros(self.n_params - self.sensor_start)
+        return np.asarray(x, dtype=float)[self.sensor_start :]
+
+    def compliance(self, x: np.ndarray | None) -> np.ndarray:
+        """The joint compliances within x, shape (n_compliance,), [rad/Nm]; x None: zero."""
+        if x is None:
+            return np.zeros(self.sensor_start - self.n_robot)
+        return np.asarray(x, dtype=float)[self.n_robot : self.sensor_start]
+
+    def joint_angles(self, x: np.ndarray | None, q: np.ndarray) -> np.ndarray:
+        """The arm's joint angles, deflected by x's compliances (none: q itself), [rad]."""
+        if self.deflection is None or x is None:
+            return q
+        return self.deflection.joint_angles(q, self.compliance(x))[0]
 
     def set_robot(self, x: np.ndarray | None) -> None:
         """Put the robot's deviations of x (None: nominal) on the FK path."""
@@ -162,7 +189,7 @@ class MeasurementModel(ABC):
     def points_at(self, x: np.ndarray | None, q: np.ndarray, point: np.ndarray) -> np.ndarray:
         """Base-frame positions [m] of end-frame points (3,) or (n_rows, 3) at q, for x."""
         self.set_robot(x)
-        return self._kin.points(q, point)[0]
+        return self._kin.points(self.joint_angles(x, q), point)[0]
 
     def point_jacobian(self, x: np.ndarray, q: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """A point fixed in the end frame and its derivative with respect to x.
@@ -180,9 +207,17 @@ class MeasurementModel(ABC):
         (the derivative of each position with respect to the point itself)."""
         xr = self.robot(x)
         self._kin.set_perturbation(self.params.deltas(xr))
-        points, d_place = self._kin.points(q, point, jacobian=True)
+        soft = self.deflection
+        if soft is None:
+            points, d_place = self._kin.points(q, point, jacobian=True)
+        else:  # geometry at the deflected angles; d q_eff / d c_i = -tau_i(q)
+            q_eff, minus_tau = soft.joint_angles(q, self.compliance(x))
+            points, d_place = self._kin.points(q_eff, point, jacobian=True, joints=True)
         assert d_place is not None
-        jac = np.zeros((len(points), 3, self.n_params))
-        jac[:, :, : self.n_robot] = d_place @ self.params.delta_jacobian(xr)
         k = 6 * self.chain.n_joints  # the end frame's linear columns are its rotation
+        jac = np.zeros((len(points), 3, self.n_params))
+        jac[:, :, : self.n_robot] = d_place[:, :, : k + 6] @ self.params.delta_jacobian(xr)
+        if soft is not None:
+            d_joint = d_place[:, :, k + 6 + soft.columns]
+            jac[:, :, self.n_robot : self.sensor_start] = d_joint * minus_tau[:, None, :]
         return points, d_place[:, :, k : k + 3], jac

@@ -17,6 +17,7 @@ import numpy as np
 from ..exceptions import CalibPinError, DataError
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
+from ..robot.deflection import ComplianceSpec
 from .base import MeasurementModel, chosen
 
 if TYPE_CHECKING:
@@ -74,11 +75,13 @@ class CableModel(MeasurementModel):
     error_name = "reading error"
     estimable = CABLE_EXTRAS
 
-    def __init__(self, chain: Chain, params: ParameterModel, sensor: Drawstring, estimate: tuple[str, ...] = ()) -> None:
+    def __init__(self, chain: Chain, params: ParameterModel, sensor: Drawstring, estimate: tuple[str, ...] = (),
+                 compliance: ComplianceSpec | None = None) -> None:
         self.estimate = chosen(estimate, CABLE_EXTRAS, "a drawstring")
         extra = [(f"anchor_{a}", "m", 2e-3) for a in "xyz"] if "anchor" in estimate else []
         extra += [("offset", "m", 1e-3)] if "offset" in estimate else []
-        super().__init__(chain, params, extra)
+        # The cable pulls from the given tool point towards the given anchor (not a correction of it).
+        super().__init__(chain, params, extra, compliance, cable=(sensor.tool, sensor.anchor))
         self.sensor = sensor
 
     @classmethod
@@ -93,7 +96,8 @@ class CableModel(MeasurementModel):
             raise DataError(data.source, "no tool point: add '# tool_mm: x, y, z' or pass --tool-mm", None, "tool_mm")
         given = get("length_offset_mm")
         offset = data.length_offset if given is None else float(given) * 1e-3
-        model = cls(chain, params, Drawstring(anchor, tool, offset), tuple(get("estimate") or ()))
+        model = cls(chain, params, Drawstring(anchor, tool, offset), tuple(get("estimate") or ()),
+                    get("compliance"))
         return CalibrationProblem(model, data.q, data.values)
 
     def geometry_at(self, x: np.ndarray | None) -> Drawstring:
@@ -138,7 +142,7 @@ class CableModel(MeasurementModel):
         length = np.linalg.norm(cable, axis=1)
         direction = cable / length[:, None]
         jac = np.einsum("ni,nij->nj", direction, d_tips)
-        col = self.n_robot
+        col = self.sensor_start
         if "anchor" in self.estimate:
             jac[:, col : col + 3] = -direction
             col += 3

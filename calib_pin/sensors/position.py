@@ -30,6 +30,7 @@ from scipy.optimize import least_squares
 from ..exceptions import CalibPinError, DataError
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
+from ..robot.deflection import ComplianceSpec
 from .base import MeasurementModel, chosen
 
 if TYPE_CHECKING:
@@ -84,14 +85,14 @@ class PositionModel(MeasurementModel):
     error_name = "Euclidean position error in the device frame"
 
     def __init__(self, chain: Chain, params: ParameterModel, device: PositionDevice,
-                 estimate: tuple[str, ...] = POSITION_EXTRAS) -> None:
+                 estimate: tuple[str, ...] = POSITION_EXTRAS, compliance: ComplianceSpec | None = None) -> None:
         self.estimate = chosen(estimate, POSITION_EXTRAS, "a position device")
         extra = []
         if "device" in estimate:
             extra += [(f"device_{a}", "m", 2e-3) for a in "xyz"] + [(f"device_r{a}", "rad", 2e-3) for a in "xyz"]
         if "markers" in estimate:
             extra += [(f"marker{label}_{a}", "m", 1e-3) for label in device.labels for a in "xyz"]
-        super().__init__(chain, params, extra)
+        super().__init__(chain, params, extra, compliance)
         self.device = device
 
     @classmethod
@@ -115,7 +116,8 @@ class PositionModel(MeasurementModel):
         if missing:
             raise DataError(data.source, f"point_id {missing[0]} is only in held-out rows: nothing locates it", None, "point_id")
         device = fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels)
-        return CalibrationProblem(cls(chain, params, device), data.q, data.values, points)
+        model = cls(chain, params, device, compliance=options.get("compliance"))
+        return CalibrationProblem(model, data.q, data.values, points)
 
     def point_index(self, data: MeasurementSet, labels: np.ndarray | None) -> np.ndarray | None:
         """Marker indices of the file's ``point_id`` labels.
@@ -160,10 +162,11 @@ class PositionModel(MeasurementModel):
         [m] at joint angles q (one row)."""
         device = self.geometry_at(x)
         base = device.frame.actInv(np.asarray(position, dtype=float))
+        q = self.joint_angles(x, np.atleast_2d(q))
         self.set_robot(x)
-        origin = self._kin.points(np.atleast_2d(q), np.zeros(3))[0][0]
+        origin = self._kin.points(q, np.zeros(3))[0][0]
         # Row i: the end frame's axis i in the base frame, so this matrix is R^T.
-        axes = self._kin.points(np.repeat(np.atleast_2d(q), 3, axis=0), np.eye(3))[0] - origin
+        axes = self._kin.points(np.repeat(q, 3, axis=0), np.eye(3))[0] - origin
         return axes @ (base - origin)
 
     @property
@@ -206,7 +209,7 @@ class PositionModel(MeasurementModel):
         points, end_rot, jac = self.points_with_jacobians(x, q, device.markers[markers])
         rot = device.frame.rotation
         jac = rot @ jac  # the sensor's columns are still zero
-        col = self.n_robot
+        col = self.sensor_start
         if "device" in self.estimate:
             twist = np.asarray(x, dtype=float)[col : col + 6]
             lever = np.zeros((len(points), 3, 6))
