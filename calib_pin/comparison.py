@@ -16,17 +16,19 @@ from __future__ import annotations
 import csv
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
+from .batch import parallel_map
 from .estimators import ESTIMATORS, PAPER_LABELS, get_method, run_estimator
 from .exceptions import CalibPinError
 from .metrics import Metrics
-from .parameters import parameter_model
+from .parameters import ParameterModel, parameter_model
 from .pipeline import CalibrationSetup, prepare
 from .problem import CalibrationProblem
-from .robot import load_chain
+from .robot import Chain, load_chain
 from .simulation import Truth, random_poses, simulate
 
 #: Table I of the paper: test RMSE, "Std" (mean absolute residual) and Max, [mm].
@@ -278,6 +280,13 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
     )
 
 
+def _simulated_trial(robot: str, chain: Chain, params: ParameterModel, methods: list[str], test_fraction: float,
+                     poses: int, noise_mm: float, noise_kind: str, seed: int) -> Trial:
+    """One trial on a fresh simulated set of seed ``seed`` (a picklable unit of work)."""
+    sim, truth = simulate(chain, params, poses, seed, noise_mm=noise_mm, noise_kind=noise_kind)
+    return _trial(prepare(robot, sim), truth, methods, seed, test_fraction)
+
+
 def compare(
     robot: str,
     data: str | Path | None = None,
@@ -289,6 +298,8 @@ def compare(
     simulate_noise: str | None = None,
     noise_mm: float = 0.05,
     poses: int = 120,
+    jobs: int = 1,
+    scheduler: str | None = None,
 ) -> Comparison:
     """Run estimators side by side.
 
@@ -304,6 +315,9 @@ def compare(
         test_fraction: Share of rows held out (the paper's 0.2).
         simulate_noise: ``gauss``, ``student`` or ``outliers``: run on simulated sets of
             ``poses`` poses with that noise of size ``noise_mm`` [mm] (1 sigma).
+        jobs, scheduler: Run the trials in ``jobs`` local processes, or on the Dask
+            cluster at ``scheduler`` (see :func:`calib_pin.batch.parallel_map`); the
+            results do not depend on it (each trial is seeded), only the time does.
 
     Raises:
         CalibPinError: bad method, robot, data or settings.
@@ -313,7 +327,6 @@ def compare(
         get_method(m)
     if trials < 1:
         raise CalibPinError(f"trials must be at least 1, got {trials}")
-    out = []
     if simulate_noise is None:
         setup = prepare(robot, data)
         for m in methods:
@@ -321,17 +334,15 @@ def compare(
         truth_file = Path(setup.data.source).with_name(
             Path(setup.data.source).name.removesuffix(".csv") + ".truth.json")
         truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() else None
-        for i in range(trials):
-            out.append(_trial(setup, truth, methods, seed + i, test_fraction))
+        one = partial(_trial, setup, truth, methods, test_fraction=test_fraction)
+        out = parallel_map(one, range(seed, seed + trials), jobs, scheduler)
         what = f"{len(setup.data)} poses from {Path(setup.data.source).name}"
         what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
     else:
         chain = load_chain(robot)
         params = parameter_model(chain)
-        for i in range(trials):
-            sim, truth = simulate(chain, params, poses, seed + i, noise_mm=noise_mm, noise_kind=simulate_noise)
-            setup = prepare(robot, sim)
-            out.append(_trial(setup, truth, methods, seed + i, test_fraction))
+        one = partial(_simulated_trial, robot, chain, params, methods, test_fraction, poses, noise_mm, simulate_noise)
+        out = parallel_map(one, range(seed, seed + trials), jobs, scheduler)
         what = (f"simulated sets of {poses} poses, {simulate_noise} noise {noise_mm:g} mm, "
                 f"seed(s) {seed}..{seed + trials - 1}")
     return Comparison(robot=robot, methods=methods, trials=out, data=what)
