@@ -25,10 +25,31 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
 }
 
 
+#: BLAS threads of every command. calib-pin's matrices are small (at most a few
+#: hundred thousand rows by ~50 columns): one thread costs little at the largest sizes,
+#: and on a loaded machine a multithreaded BLAS spins and turns a millisecond SVD into
+#: half a second in some processes. Library callers keep their own setting.
+BLAS_THREADS = 1
+
+
+def limit_blas_threads(threads: int = BLAS_THREADS) -> None:
+    """Limit the BLAS and OpenMP pools of this process to ``threads`` (threadpoolctl)."""
+    import numpy  # noqa: F401 - threadpoolctl limits the libraries already loaded
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=threads)
+
+
 def command(name: str) -> Callable[[Sequence[str] | None], int]:
-    """The main function of subcommand ``name``."""
+    """The main function of subcommand ``name``, run with :data:`BLAS_THREADS` BLAS threads."""
     module, function, _ = COMMANDS[name]
-    return getattr(importlib.import_module(f"{__name__}.{module}"), function)
+    main = getattr(importlib.import_module(f"{__name__}.{module}"), function)
+
+    def limited(argv: Sequence[str] | None = None) -> int:
+        limit_blas_threads()
+        return main(argv)
+
+    return limited
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -46,4 +67,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     return command(argv[0])(argv[1:])
 
 
-__all__ = ["COMMANDS", "command", "main"]
+__all__ = ["BLAS_THREADS", "COMMANDS", "command", "limit_blas_threads", "main"]
