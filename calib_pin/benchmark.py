@@ -82,3 +82,81 @@ def format_timings(rows: list[Timing]) -> str:
         ratios = ", ".join(f"{m} {t / medians['lm']:.1f}x" for m, t in medians.items() if m != "lm")
         lines.append(f"median time relative to LM: {ratios}")
     return "\n".join(lines)
+
+
+#: Poses of the scaling table (80 % train).
+SCALING_SIZES = (100, 1000, 10_000)
+#: Methods of the scaling table.
+SCALING_METHODS = ("lm", "ekf", "ekf-qibas", "qibas")
+
+
+def _training_problem(poses: int, seed: int):
+    chain = load_chain("irb120")
+    data, _ = simulate(chain, parameter_model(chain), poses, seed=seed, noise_mm=0.05)
+    train, _ = split_rows(len(data), 0.2, seed)
+    return prepare("irb120", data).problem_on(train).subset(train)
+
+
+def scaling(methods: tuple[str, ...] = SCALING_METHODS, sizes: tuple[int, ...] = SCALING_SIZES,
+            seed: int = 0) -> list[tuple[int, str, float, float]]:
+    """(poses, method, time [s], peak Python memory [MiB]) of one run each; the time from
+    a plain run, the memory from a second run under tracemalloc."""
+    rows = []
+    for poses in sizes:
+        problem = _training_problem(poses, seed)
+        x0 = np.zeros(problem.n_params)
+        for name in methods:
+            time_s = run_estimator(name, problem, x0, seed=seed, history=False).time_s
+            tracemalloc.start()
+            run_estimator(name, problem, x0, seed=seed, history=False)
+            peak = tracemalloc.get_traced_memory()[1] / 2**20
+            tracemalloc.stop()
+            rows.append((poses, name, time_s, peak))
+    return rows
+
+
+def format_scaling(rows: list[tuple[int, str, float, float]]) -> str:
+    """The scaling table: seconds (peak MiB) per method and size, and the time per pose."""
+    sizes = sorted({r[0] for r in rows})
+    methods = list(dict.fromkeys(r[1] for r in rows))
+    cell = {(r[0], r[1]): r for r in rows}
+    lines = [f"{'poses':>7s}" + "".join(f"{m + ' s (MiB)':>22s}" for m in methods)]
+    for n in sizes:
+        lines.append(f"{n:7d}" + "".join(f"{cell[n, m][2]:12.3f} ({cell[n, m][3]:6.1f})" for m in methods))
+    lines.append(f"{'ms/pose':>7s}" + "".join(f"{cell[sizes[-1], m][2] / (0.8 * sizes[-1]) * 1e3:22.3f}" for m in methods))
+    return "\n".join(lines)
+
+
+def floor(poses: int = 120, seed: int = 0, repeats: int = 50) -> dict[str, float]:
+    """Medians [ms] over the training poses: one residual, one Jacobian, and the Pinocchio
+    floor (FK; FK + computeFrameKinematicRegressor, in a Python loop)."""
+    import time
+
+    import pinocchio as pin
+
+    problem = _training_problem(poses, seed)
+    x = np.zeros(problem.n_params)
+    model = problem.model.chain.model
+    data, fid = model.createData(), problem.model.chain.frame_id
+    configs = problem.model.chain.configuration(problem.q)
+
+    def fk() -> None:
+        for q in configs:
+            pin.forwardKinematics(model, data, q)
+            pin.updateFramePlacement(model, data, fid)
+
+    def fk_regressor() -> None:
+        for q in configs:
+            pin.forwardKinematics(model, data, q)
+            pin.computeFrameKinematicRegressor(model, data, fid, pin.LOCAL)
+
+    out = {}
+    for name, fn in (("residual", lambda: problem.residual(x)), ("jacobian", lambda: problem.jacobian(x)),
+                     ("floor FK", fk), ("floor FK+regressor", fk_regressor)):
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - start)
+        out[name] = statistics.median(times) * 1e3
+    return out

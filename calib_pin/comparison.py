@@ -16,18 +16,20 @@ from __future__ import annotations
 import csv
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .batch import parallel_map
 from .estimators import ESTIMATORS, PAPER_LABELS, get_method, run_estimator
 from .exceptions import CalibPinError
 from .metrics import Metrics
-from .parameters import parameter_model
+from .parameters import ParameterModel, parameter_model
 from .pipeline import CalibrationSetup, prepare
 from .problem import CalibrationProblem
-from .robot import load_chain
+from .robot import Chain, load_chain
 from .simulation import Truth, random_poses, simulate
 
 #: Table I of the paper: test RMSE, "Std" (mean absolute residual) and Max, [mm].
@@ -279,6 +281,13 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
     )
 
 
+def _simulated_trial(robot: str, chain: Chain, params: ParameterModel, methods: list[str], test_fraction: float,
+                     poses: int, noise_mm: float, noise_kind: str, soft: dict[str, Any], seed: int) -> Trial:
+    """One trial on a fresh simulated set of seed ``seed`` (a picklable unit of work)."""
+    sim, truth = simulate(chain, params, poses, seed, noise_mm=noise_mm, noise_kind=noise_kind)
+    return _trial(prepare(robot, sim, **soft), truth, methods, seed, test_fraction)
+
+
 def compare(
     robot: str,
     data: str | Path | None = None,
@@ -294,6 +303,8 @@ def compare(
     payload_kg: float | None = None,
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
+    jobs: int = 1,
+    scheduler: str | None = None,
 ) -> Comparison:
     """Run estimators side by side.
 
@@ -311,6 +322,9 @@ def compare(
             ``poses`` poses with that noise of size ``noise_mm`` [mm] (1 sigma).
         compliance, payload_kg, payload_com_mm, cable_tension_n: Joint compliances to
             estimate with the geometry, and their loads (as :func:`calib_pin.calibrate`).
+        jobs, scheduler: Run the trials in ``jobs`` local processes, or on the Dask
+            cluster at ``scheduler`` (see :func:`calib_pin.batch.parallel_map`); the
+            results do not depend on it (each trial is seeded), only the time does.
 
     Raises:
         CalibPinError: bad method, robot, data or settings.
@@ -320,7 +334,6 @@ def compare(
         get_method(m)
     if trials < 1:
         raise CalibPinError(f"trials must be at least 1, got {trials}")
-    out = []
     soft = {"compliance": compliance, "payload_kg": payload_kg, "payload_com_mm": payload_com_mm,
             "cable_tension_n": cable_tension_n}
     if simulate_noise is None:
@@ -330,24 +343,24 @@ def compare(
         truth_file = Path(setup.data.source).with_name(
             Path(setup.data.source).name.removesuffix(".csv") + ".truth.json")
         truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() else None
-        for i in range(trials):
-            out.append(_trial(setup, truth, methods, seed + i, test_fraction))
+        one = partial(_trial, setup, truth, methods, test_fraction=test_fraction)
+        out = parallel_map(one, range(seed, seed + trials), jobs, scheduler)
         what = f"{setup.data.describe_rows()} from {Path(setup.data.source).name}"
         what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
-        what += _compliance_words(setup)
+        what += _compliance_words(compliance)
     else:
         chain = load_chain(robot)
         params = parameter_model(chain)
-        for i in range(trials):
-            sim, truth = simulate(chain, params, poses, seed + i, noise_mm=noise_mm, noise_kind=simulate_noise)
-            setup = prepare(robot, sim, **soft)
-            out.append(_trial(setup, truth, methods, seed + i, test_fraction))
+        one = partial(_simulated_trial, robot, chain, params, methods, test_fraction, poses, noise_mm,
+                      simulate_noise, soft)
+        out = parallel_map(one, range(seed, seed + trials), jobs, scheduler)
         what = (f"simulated sets of {poses} poses, {simulate_noise} noise {noise_mm:g} mm, "
-                f"seed(s) {seed}..{seed + trials - 1}") + _compliance_words(setup)
+                f"seed(s) {seed}..{seed + trials - 1}") + _compliance_words(compliance)
     return Comparison(robot=robot, methods=methods, trials=out, data=what)
 
 
-def _compliance_words(setup: CalibrationSetup) -> str:
+def _compliance_words(compliance: str | tuple[str, ...] | None) -> str:
     """What the comparison estimates beyond geometry, in words (empty for geometry only)."""
-    spec = setup.options.get("compliance")
-    return f"; with the compliance of {', '.join(spec.joints)}" if spec is not None else ""
+    if not compliance:
+        return ""
+    return f"; with the compliance of {compliance if isinstance(compliance, str) else ', '.join(compliance)}"

@@ -1,6 +1,6 @@
 """The ``calib-pin`` command: one entry point, a subcommand for every command.
 
-``calib-pin calibrate|simulate|compare|analyze|collect|make-poses|plan-poses|fake-indicator|benchmark ...``;
+``calib-pin calibrate|simulate|compare|analyze|collect|make-poses|plan-poses|fake-indicator|benchmark|batch ...``;
 the ``scripts/*.py`` wrappers call the same functions. Each command's module is imported
 only when it runs, so starting is quick.
 """
@@ -21,13 +21,35 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "plan-poses": ("poses", "plan_poses_main", "choose D-optimal poses"),
     "fake-indicator": ("fake_indicator", "fake_indicator_main", "serve a simulated indicator on a pty"),
     "benchmark": ("benchmark", "benchmark_main", "time the estimators"),
+    "batch": ("batch", "batch_main", "calibrate many measurement sets, in processes or on a Dask cluster"),
 }
 
 
+#: BLAS threads of every command. calib-pin's matrices are small (at most a few
+#: hundred thousand rows by ~50 columns): one thread costs little at the largest sizes,
+#: and on a loaded machine a multithreaded BLAS spins and turns a millisecond SVD into
+#: half a second in some processes. Library callers keep their own setting.
+BLAS_THREADS = 1
+
+
+def limit_blas_threads(threads: int = BLAS_THREADS) -> None:
+    """Limit the BLAS and OpenMP pools of this process to ``threads`` (threadpoolctl)."""
+    import numpy  # noqa: F401 - threadpoolctl limits the libraries already loaded
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=threads)
+
+
 def command(name: str) -> Callable[[Sequence[str] | None], int]:
-    """The main function of subcommand ``name``."""
+    """The main function of subcommand ``name``, run with :data:`BLAS_THREADS` BLAS threads."""
     module, function, _ = COMMANDS[name]
-    return getattr(importlib.import_module(f"{__name__}.{module}"), function)
+    main = getattr(importlib.import_module(f"{__name__}.{module}"), function)
+
+    def limited(argv: Sequence[str] | None = None) -> int:
+        limit_blas_threads()
+        return main(argv)
+
+    return limited
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -45,4 +67,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     return command(argv[0])(argv[1:])
 
 
-__all__ = ["COMMANDS", "command", "main"]
+__all__ = ["BLAS_THREADS", "COMMANDS", "command", "limit_blas_threads", "main"]

@@ -17,6 +17,9 @@ def benchmark_parser() -> argparse.ArgumentParser:
     p.add_argument("--methods", type=methods, default=list(ESTIMATORS), help="comma-separated methods (all)")
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed (0)")
     p.add_argument("--poses", type=count(100_000), default=120, help="poses of the simulated set, 80 %% train (120)")
+    p.add_argument("--scaling", action="store_true",
+                   help="also print the scaling table: lm, ekf, ekf-qibas, qibas at 100, 1 000, 10 000 poses (minutes)")
+    p.add_argument("--against", choices=["figaroh"], help="also compare with FIGAROH when it is installed")
     return p
 
 
@@ -28,11 +31,28 @@ def benchmark_main(argv: Sequence[str] | None = None) -> int:
 
 def _benchmark(args: argparse.Namespace) -> int:
     from .. import __version__
-    from ..benchmark import benchmark, format_timings
+    from ..benchmark import benchmark, floor, format_scaling, format_timings, scaling
+    from . import BLAS_THREADS
 
     what, rows = benchmark(args.methods, args.repeats, args.seed, args.poses)
     print(f"calib-pin {__version__} benchmark: {what}")
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"Python {platform.python_version()}")
+          f"Python {platform.python_version()}; BLAS limited to {BLAS_THREADS} thread by threadpoolctl "
+          "(calib_pin.cli.limit_blas_threads, every command)")
     print(format_timings(rows))
+    cost = floor(args.poses, args.seed)
+    print(f"one evaluation over {round(0.8 * args.poses)} poses [ms]: " +
+          ", ".join(f"{k} {v:.3f}" for k, v in cost.items()) +
+          f"; residual {cost['residual'] / cost['floor FK']:.1f}x FK, "
+          f"Jacobian {cost['jacobian'] / cost['floor FK+regressor']:.1f}x FK+regressor")
+    print("goals: EKF-QIBAS at 96 poses < 30 ms; 10 000 poses < 5 s; cost and memory linear in the poses")
+    if args.scaling:
+        print(format_scaling(scaling(seed=args.seed)))
+    if args.against == "figaroh":
+        try:
+            import figaroh  # noqa: F401
+        except ImportError:
+            print("against figaroh: skipped, figaroh is not installed (pip install figaroh; not a dependency)")
+        else:
+            print("against figaroh: figaroh imports, but the comparison harness is not part of this version")
     return 0

@@ -47,6 +47,9 @@ def compare_parser() -> argparse.ArgumentParser:
                    help="noise of simulated sets, 1 sigma, mm (default 0.05)")
     p.add_argument("--poses", type=count(100_000), default=120, help="poses of simulated sets (default 120)")
     add_compliance_arguments(p)
+    p.add_argument("--jobs", type=count(1024), default=1, help="run the trials in N local processes (default 1)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the trials on this Dask scheduler (tcp://host:8786) instead")
     return p
 
 
@@ -66,7 +69,8 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     result = compare(
         args.robot, args.data, methods=args.methods, trials=args.trials, seed=args.seed,
         test_fraction=args.test_fraction, simulate_noise=args.simulate,
-        noise_mm=args.noise_mm, poses=args.poses, **compliance_options(args),
+        noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
+        **compliance_options(args),
     )
     out = Path(args.out)
     print(result.format_table())

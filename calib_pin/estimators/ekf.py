@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter
 
 from ..problem import LeastSquares
 from ..subspace import Subspace
@@ -57,6 +56,8 @@ class EKF:
     ) -> EstimateResult:
         track = Tracker(problem, callback)
         space = track.whitened(x0)
+        from filterpy.kalman import ExtendedKalmanFilter  # here: filterpy pulls scipy.stats (0.5 s)
+
         kf = ExtendedKalmanFilter(dim_x=space.dim, dim_z=problem.values_per_row)
         kf.x = np.zeros((space.dim, 1))
         kf.P, kf.Q, kf.R = filter_moments(problem, space, self.prior, self.process, noise)

@@ -9,12 +9,6 @@ from ..exceptions import RobotError
 from ..robot.chain import Chain
 from ..robot.description import DHTable
 
-_LIN_X = pin.Motion(np.array([1.0, 0, 0]), np.zeros(3))
-_LIN_Z = pin.Motion(np.array([0, 0, 1.0]), np.zeros(3))
-_ANG_X = pin.Motion(np.zeros(3), np.array([1.0, 0, 0]))
-_ANG_Y = pin.Motion(np.zeros(3), np.array([0, 1.0, 0]))
-_ANG_Z = pin.Motion(np.zeros(3), np.array([0, 0, 1.0]))
-
 
 def _rz(angle: float) -> pin.SE3:
     c, s = np.cos(angle), np.sin(angle)
@@ -24,11 +18,6 @@ def _rz(angle: float) -> pin.SE3:
 def _rx(angle: float) -> pin.SE3:
     c, s = np.cos(angle), np.sin(angle)
     return pin.SE3(np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]), np.zeros(3))
-
-
-def _ry(angle: float) -> pin.SE3:
-    c, s = np.cos(angle), np.sin(angle)
-    return pin.SE3(np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]), np.zeros(3))
 
 
 def _link(d: float, a: float, alpha: float) -> pin.SE3:
@@ -105,6 +94,7 @@ class DHModel:
         )
         self._c, self._end = self._fit_frames()
         self._check_against_urdf()
+        self._precompute()
 
     @property
     def n_params(self) -> int:
@@ -154,62 +144,116 @@ class DHModel:
         x = np.asarray(x, dtype=float).reshape(-1, 4)
         return x[:, 0], x[:, 1], x[:, 2], x[:, 3]
 
-    def _links(self, x: np.ndarray) -> list[tuple[pin.SE3, pin.SE3]]:
-        """Per row i, (nominal S_i, S_i at x); S_i = Tz(d) Tx(a) Rx(alpha) [Ry(beta)]."""
+    def _precompute(self) -> None:
+        """Constant 4x4 factors of :meth:`deltas`, so that delta k = pre_k S(x)_k post(x)_k."""
+        t, n = self.table, self.table.n_joints
+        c = np.array([ci.homogeneous for ci in self._c])
+        end = self._end.homogeneous
+        w0 = _rz_matrices(t.theta_offset) @ c
+        s0 = _link_matrices(t.d, t.a, t.alpha, np.zeros(n))
+        pre = np.empty((n + 1, 4, 4))
+        pre[0] = _inverse(w0[0])
+        pre[1:n] = _inverse(s0[:-1] @ w0[1:])
+        pre[n] = _inverse(s0[-1] @ end)
+        self._pre, self._c_matrices, self._end_matrix = pre, c, end
+        self._hayati = np.isin(np.arange(n), self.hayati_rows)
+
+    def _link_x(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """S_i(x) for every row, shape (n, 4, 4), and the joint rotations Rz(theta_offset + Δθ) C_i."""
         t = self.table
-        da, dd, dal, _ = self._split(x)
-        out = []
-        for i in range(t.n_joints):
-            s0 = _link(t.d[i], t.a[i], t.alpha[i])
-            if i in self.hayati_rows:
-                s = _link(t.d[i], t.a[i] + da[i], t.alpha[i] + dal[i]) * _ry(dd[i])
-            else:
-                s = _link(t.d[i] + dd[i], t.a[i] + da[i], t.alpha[i] + dal[i])
-            out.append((s0, s))
-        return out
+        da, dd, dal, dth = self._split(x)
+        links = _link_matrices(t.d + np.where(self._hayati, 0.0, dd), t.a + da, t.alpha + dal,
+                               np.where(self._hayati, dd, 0.0))
+        return links, _rz_matrices(t.theta_offset + dth) @ self._c_matrices
 
     def deltas(self, x: np.ndarray) -> list[pin.SE3]:
         """Placement perturbations for deviations x, shape (4 n,), [m, m, rad, rad]
         (a Hayati row's second entry is beta [rad])."""
-        t = self.table
-        dth = self._split(x)[3]
-        links = self._links(x)
-        out = []
-        for i in range(t.n_joints):
-            w0 = _rz(t.theta_offset[i]) * self._c[i]
-            w = _rz(t.theta_offset[i] + dth[i]) * self._c[i]
-            if i == 0:
-                out.append(w0.actInv(w))
-            else:
-                s0, s = links[i - 1]
-                out.append(w0.actInv(s0.actInv(s * w)))
-        s0, s = links[-1]
-        out.append(self._end.actInv(s0.actInv(s * self._end)))
-        return out
+        n = self.table.n_joints
+        links, w = self._link_x(x)
+        mid = np.empty((n + 1, 4, 4))
+        mid[0] = w[0]
+        mid[1:n] = links[:-1] @ w[1:]
+        mid[n] = links[-1] @ self._end_matrix
+        out = self._pre @ mid
+        return [pin.SE3(m[:3, :3], m[:3, 3]) for m in out]
 
     def delta_jacobian(self, x: np.ndarray) -> np.ndarray:
         """Right-twist derivative of :meth:`deltas`, shape (6 (n + 1), 4 n)."""
-        t = self.table
-        n = t.n_joints
-        da, dd, dal, dth = self._split(x)
-        jac = np.zeros((6 * (n + 1), 4 * n))
-        for i in range(n):
-            # theta_i rotates about z in front of C_i: block of joint i.
-            jac[6 * i : 6 * i + 6, 4 * i + 3] = self._c[i].actInv(_ANG_Z).vector
-            # (d_i, a_i, alpha_i) sit in S_i: block of joint i+1, or of the end frame.
-            after = _rz(t.theta_offset[i + 1] + dth[i + 1]) * self._c[i + 1] if i + 1 < n else self._end
-            a, alpha = t.a[i] + da[i], t.alpha[i] + dal[i]
-            xa = _rx(alpha)
-            xa.translation = np.array([a, 0.0, 0.0])
-            twists = {
-                0: _rx(alpha).actInv(_LIN_X),  # a_i
-                1: xa.actInv(_LIN_Z),  # d_i
-                2: _ANG_X,  # alpha_i
-            }
-            if i in self.hayati_rows:  # S_i ends with Ry(beta_i), which replaces d_i
-                tail = _ry(dd[i])
-                twists = {col: tail.actInv(tw) for col, tw in twists.items() if col != 1}
-                twists[1] = _ANG_Y
-            for col, twist in twists.items():
-                jac[6 * (i + 1) : 6 * (i + 2), 4 * i + col] = after.actInv(twist).vector
-        return jac
+        t, n = self.table, self.table.n_joints
+        _, dd, dal, dth = self._split(x)
+        alpha = t.alpha + dal  # the a and d twists do not depend on a_i or d_i
+        beta = np.where(self._hayati, dd, 0.0)
+        ca, sa = np.cos(alpha), np.sin(alpha)
+        # Twists in S_i's end frame, per row: columns a, d (or beta), alpha as (v, w).
+        tw = np.zeros((n, 3, 6))
+        tw[:, 0, 0] = 1.0  # a_i: Rx(alpha)^T x = x
+        tw[:, 1, 1], tw[:, 1, 2] = sa, ca  # d_i: Rx(alpha)^T z
+        tw[:, 2, 3] = 1.0  # alpha_i: about x
+        ry = _ry_matrices(beta)  # Ry(beta)^-1 moves them behind a Hayati row's tilt
+        tw = (tw.reshape(n, 6, 3) @ ry).reshape(n, 3, 6)  # v R = (R^T v)^T per 3-vector
+        tw[self._hayati, 1] = (0.0, 0.0, 0.0, 0.0, 1.0, 0.0)  # beta_i: about y
+        after = np.empty((n, 4, 4))
+        after[:-1] = _rz_matrices(t.theta_offset[1:] + dth[1:]) @ self._c_matrices[1:]
+        after[-1] = self._end_matrix
+        jac = np.zeros((n + 1, 6, n, 4))
+        rows = np.arange(n)
+        jac[rows + 1, :, rows, :3] = _act_inv(after, tw).transpose(0, 2, 1)
+        z = np.zeros((n, 6))
+        z[:, 5] = 1.0
+        jac[rows, :, rows, 3] = _act_inv(self._c_matrices, z[:, None])[:, 0]
+        return jac.reshape(6 * (n + 1), 4 * n)
+
+
+def _rz_matrices(angle: np.ndarray) -> np.ndarray:
+    """Rz(angle) as 4x4 transforms, shape (n, 4, 4)."""
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.zeros((len(c), 4, 4))
+    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = c, -s, s, c
+    out[:, 2, 2] = out[:, 3, 3] = 1.0
+    return out
+
+
+def _ry_matrices(angle: np.ndarray) -> np.ndarray:
+    """Ry(angle) rotations, shape (n, 3, 3)."""
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.zeros((len(c), 3, 3))
+    out[:, 0, 0], out[:, 0, 2], out[:, 2, 0], out[:, 2, 2] = c, s, -s, c
+    out[:, 1, 1] = 1.0
+    return out
+
+
+def _link_matrices(d: np.ndarray, a: np.ndarray, alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """Tz(d) Tx(a) Rx(alpha) Ry(beta) as 4x4 transforms, shape (n, 4, 4)."""
+    c, s = np.cos(alpha), np.sin(alpha)
+    cb, sb = np.cos(beta), np.sin(beta)
+    out = np.zeros((len(c), 4, 4))
+    out[:, 0, 0], out[:, 0, 2], out[:, 0, 3] = cb, sb, a
+    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = s * sb, c, -s * cb
+    out[:, 2, 0], out[:, 2, 1], out[:, 2, 2], out[:, 2, 3] = -c * sb, s, c * cb, d
+    out[:, 3, 3] = 1.0
+    return out
+
+
+def _inverse(m: np.ndarray) -> np.ndarray:
+    """Inverse of rigid 4x4 transforms (..., 4, 4)."""
+    out = np.zeros_like(m)
+    rt = np.swapaxes(m[..., :3, :3], -1, -2)
+    out[..., :3, :3] = rt
+    out[..., :3, 3] = -(rt @ m[..., :3, 3, None])[..., 0]
+    out[..., 3, 3] = 1.0
+    return out
+
+
+def _act_inv(m: np.ndarray, twist: np.ndarray) -> np.ndarray:
+    """M^-1 acting on twists (v, w): (R^T (v - p x w), R^T w); shapes (n, 4, 4) and
+    (n, k, 6) -> (n, k, 6)."""
+    rt = np.swapaxes(m[:, :3, :3], 1, 2)
+    p = m[:, None, :3, 3]
+    v, w = twist[..., :3], twist[..., 3:]
+    p_x_w = np.stack([p[..., 1] * w[..., 2] - p[..., 2] * w[..., 1], p[..., 2] * w[..., 0] - p[..., 0] * w[..., 2],
+                      p[..., 0] * w[..., 1] - p[..., 1] * w[..., 0]], axis=-1)
+    out = np.empty(twist.shape)
+    out[..., :3] = (v - p_x_w) @ np.swapaxes(rt, 1, 2)
+    out[..., 3:] = w @ np.swapaxes(rt, 1, 2)
+    return out

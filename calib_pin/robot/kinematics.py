@@ -93,25 +93,45 @@ class Kinematics:
                 pin.forwardKinematics(model, data, configs[k])
                 positions[k] = pin.updateFramePlacement(model, data, fid).act(point[k])
             return positions, None
-        rot = np.empty((n, 3, 3))
-        trans = np.empty((n, 3))
         n_place = 6 * self.chain.n_joints
+        frames = np.empty((n, 4, 4))
         reg = np.empty((n, 6, n_place + (self.chain.n_joints if joints else 0)))
+        placement = data.oMf[fid]  # a live view: the regressor call updates it
         for k in range(n):
             if joints:  # forward kinematics and the joint Jacobians in one pass
                 pin.computeJointJacobians(model, data, configs[k])
             else:
                 pin.forwardKinematics(model, data, configs[k])
-            placement = pin.updateFramePlacement(model, data, fid)
-            rot[k] = placement.rotation
-            trans[k] = placement.translation
             reg[k, :, :n_place] = pin.computeFrameKinematicRegressor(model, data, fid, pin.LOCAL)
+            frames[k] = placement.homogeneous
             if joints:
                 reg[k, :, n_place:] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
-        # Local twist (v, w) of the end frame moves the point by R (v - [point]x w).
-        eye = np.broadcast_to(np.eye(6), (n, 6, 6))
-        local = np.concatenate([reg[:, :, :n_place], eye, reg[:, :, n_place:]], axis=2)
-        lever = np.zeros((n, 3, 6))
-        lever[:, :, :3] = np.eye(3)
-        lever[:, :, 3:] = -np.cross(point[:, :, None], np.eye(3)[None], axis=1)
-        return trans + np.einsum("nij,nj->ni", rot, point), rot @ (lever @ local)
+        return self._lever(frames, reg, point, n_place)
+
+    @staticmethod
+    def _lever(frames: np.ndarray, reg: np.ndarray, point: np.ndarray,
+               n_place: int) -> tuple[np.ndarray, np.ndarray]:
+        """Positions of ``point`` and their derivative from the end frames (n, 4, 4) and
+        local end-frame twists per column (n, 6, m): the placement regressor's first
+        ``n_place`` columns, then any joint columns. A local twist (v, w) of the end
+        frame moves the point by R (v + w x point); the end frame's own six columns go
+        between the two groups."""
+        n, m = len(frames), reg.shape[2]
+        rot, trans = frames[:, :3, :3], frames[:, :3, 3]
+        v, w = reg[:, :3], reg[:, 3:]
+        px, py, pz = (point[:, i, None] for i in range(3))
+        moved = np.empty((n, 3, m))
+        moved[:, 0] = v[:, 0] + w[:, 1] * pz - w[:, 2] * py
+        moved[:, 1] = v[:, 1] + w[:, 2] * px - w[:, 0] * pz
+        moved[:, 2] = v[:, 2] + w[:, 0] * py - w[:, 1] * px
+        minus_skew = np.zeros((n, 3, 3))  # -[point]x: w -> w x point
+        minus_skew[:, 0, 1], minus_skew[:, 0, 2] = point[:, 2], -point[:, 1]
+        minus_skew[:, 1, 0], minus_skew[:, 1, 2] = -point[:, 2], point[:, 0]
+        minus_skew[:, 2, 0], minus_skew[:, 2, 1] = point[:, 1], -point[:, 0]
+        rotated = rot @ moved
+        d_positions = np.empty((n, 3, m + 6))
+        d_positions[:, :, :n_place] = rotated[:, :, :n_place]
+        d_positions[:, :, n_place : n_place + 3] = rot
+        d_positions[:, :, n_place + 3 : n_place + 6] = rot @ minus_skew
+        d_positions[:, :, n_place + 6 :] = rotated[:, :, n_place:]
+        return trans + (rot @ point[:, :, None])[:, :, 0], d_positions

@@ -25,7 +25,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import least_squares
 
 from ..exceptions import CalibPinError, DataError
 from ..problem import CalibrationProblem
@@ -272,6 +271,8 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
     def jacobian(e: np.ndarray) -> np.ndarray:
         jac = model.predict_with_jacobian(np.concatenate([zero, e]), q, markers)[1]
         return jac[:, :, model.n_robot :].reshape(3 * len(q), -1)
+
+    from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
 
     fit = least_squares(residual, np.zeros(model.n_params - model.n_robot), jac=jacobian, method="lm")
     return model.geometry_at(np.concatenate([zero, fit.x]))

@@ -1,0 +1,71 @@
+"""``batch``: one calibration per measurement set, here (``--jobs``) or on a Dask cluster.
+
+Exit status 0 when every set calibrated, 2 on bad options or when any set failed (each
+failed set's one-line error is in ``summary.csv`` and on stderr).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..estimators import ESTIMATORS
+from ..parameters import MODELS
+from .common import BAD_INPUT_EXIT, OneLineParser, count, fraction, non_negative, run
+
+
+def batch_parser() -> argparse.ArgumentParser:
+    p = OneLineParser(
+        prog="calib-pin batch",
+        description="Calibrate many measurement sets, here (--jobs) or on a Dask cluster "
+        "(--scheduler): per set OUT/<set>/report.json and the corrected URDF, plus "
+        "OUT/summary.csv with one row per set.",
+    )
+    p.add_argument("sessions", nargs="+", metavar="SESSION", help="measurement set CSVs (file stems must differ)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--robot", help="robot name or URDF path (default: each file's '# robot:' line)")
+    p.add_argument("--method", default="lm", choices=ESTIMATORS, metavar="METHOD",
+                   help=f"estimator: {', '.join(ESTIMATORS)} (default lm)")
+    p.add_argument("--seed", type=non_negative(int), default=0, help="seed of every set's split and estimator (default 0)")
+    p.add_argument("--test-fraction", type=fraction, default=0.2, help="held-out share (default 0.2)")
+    p.add_argument("--model", choices=MODELS, help="parameter model (default dh with a DH table, else placement)")
+    p.add_argument("--loss", default="linear", help="linear (default), huber, soft_l1 or cauchy")
+    p.add_argument("--jobs", type=count(1024), default=1, help="local worker processes (default 1)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on this Dask scheduler (tcp://host:8786) instead of local processes")
+    return p
+
+
+def batch_main(argv: Sequence[str] | None = None) -> int:
+    """``calib-pin batch SESSIONS... --out DIR [--method M] [--jobs N] [--scheduler ADDRESS]``."""
+    args = batch_parser().parse_args(argv)
+    return run(lambda: _batch(args))
+
+
+def _batch(args: argparse.Namespace) -> int:
+    from ..batch import BatchTask, run_batch
+    from ..estimators import get_method
+
+    get_method(args.method).check(args.loss)  # a bad --loss fails once, not once per set
+    options = {"test_fraction": args.test_fraction, "loss": args.loss, "parameters": args.model}
+    tasks = [BatchTask(args.robot, str(s), args.method, args.seed, options) for s in args.sessions]
+    where = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} local process(es)"
+    print(f"{len(tasks)} set(s), method {args.method}, seed {args.seed}, on {where}")
+    outcomes = run_batch(tasks, out=args.out, jobs=args.jobs, scheduler=args.scheduler)
+    width = max(len(o.name) for o in outcomes)
+    for o in outcomes:
+        if o.status == "ok":
+            r = o.row
+            print(f"{o.name:{width}s}  ok      test RMSE {r.get('test_rmse_before_mm', '-')} -> "
+                  f"{r.get('test_rmse_after_mm', '-')} mm, {r['time_s']} s")
+        else:
+            print(f"{o.name:{width}s}  failed  {o.error}")
+    print(f"wrote {Path(args.out) / 'summary.csv'}")
+    failed = [o for o in outcomes if o.status != "ok"]
+    if failed:
+        print(f"error: {len(failed)} of {len(outcomes)} set(s) failed, first {failed[0].name}: "
+              f"{failed[0].error}", file=sys.stderr)
+        return BAD_INPUT_EXIT
+    return 0
