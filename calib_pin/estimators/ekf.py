@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from filterpy.kalman import ExtendedKalmanFilter  # imported with this module: only when the method is asked for
 
 from ..problem import LeastSquares
 from ..subspace import Subspace
@@ -56,7 +57,6 @@ class EKF:
     ) -> EstimateResult:
         track = Tracker(problem, callback)
         space = track.whitened(x0)
-        from filterpy.kalman import ExtendedKalmanFilter  # here: filterpy pulls scipy.stats (0.5 s)
 
         kf = ExtendedKalmanFilter(dim_x=space.dim, dim_z=problem.values_per_row)
         kf.x = np.zeros((space.dim, 1))

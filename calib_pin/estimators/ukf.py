@@ -5,6 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from filterpy.kalman import (  # imported with this module: only when the method is asked for
+    MerweScaledSigmaPoints,
+    UnscentedKalmanFilter,
+)
 
 from ..problem import LeastSquares
 from .base import Callback, EstimateResult, Tracker
@@ -51,7 +55,6 @@ class UKF:
         track = Tracker(problem, callback)
         space = track.whitened(x0)
         n = space.dim
-        from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter  # filterpy pulls scipy.stats
 
         points = MerweScaledSigmaPoints(n, alpha=self.alpha, beta=self.beta, kappa=self.kappa,
                                         sqrt_method=_symmetric_sqrt)
