@@ -107,6 +107,11 @@ class DHModel:
         self._check_against_urdf()
 
     @property
+    def end_transform(self) -> pin.SE3:
+        """The fixed transform from DH frame n to the end frame (nominal) [m, rad]."""
+        return self._end
+
+    @property
     def n_params(self) -> int:
         return len(self.names)
 
