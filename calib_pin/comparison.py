@@ -17,6 +17,7 @@ import csv
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -26,6 +27,7 @@ from .metrics import Metrics
 from .parameters import parameter_model
 from .pipeline import CalibrationSetup, prepare
 from .problem import CalibrationProblem
+from .progress import progress_bar
 from .robot import load_chain
 from .simulation import Truth, random_poses, simulate
 
@@ -247,7 +249,7 @@ def fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Cal
 
 
 def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], seed: int,
-           test_fraction: float) -> Trial:
+           test_fraction: float, tick: Callable[[], Any] = lambda: None) -> Trial:
     train, test = setup.split(test_fraction, seed)
     if not len(test):
         raise CalibPinError("a comparison needs held-out rows: use a test fraction above 0")
@@ -270,6 +272,7 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
             history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
             test_residual_mm=residual * 1e3,
         )
+        tick()
     before = test_problem.row_errors(test_problem.residual(x0))
     return Trial(
         seed=seed, source=setup.data.source or "simulated", before=Metrics.of(before),
@@ -313,6 +316,15 @@ def compare(
         get_method(m)
     if trials < 1:
         raise CalibPinError(f"trials must be at least 1, got {trials}")
+    with progress_bar(trials * len(methods), "trials x methods") as bar:
+        out, what = _trials(robot, data, methods, trials, seed, test_fraction, simulate_noise, noise_mm, poses,
+                            tick=bar.update if bar is not None else lambda: None)
+    return Comparison(robot=robot, methods=methods, trials=out, data=what)
+
+
+def _trials(robot: str, data: str | Path | None, methods: list[str], trials: int, seed: int, test_fraction: float,
+            simulate_noise: str | None, noise_mm: float, poses: int, tick: Callable[[], Any]) -> tuple[list[Trial], str]:
+    """The trials of :func:`compare` and what they ran on; ``tick`` after each method run."""
     out = []
     if simulate_noise is None:
         setup = prepare(robot, data)
@@ -322,7 +334,7 @@ def compare(
             Path(setup.data.source).name.removesuffix(".csv") + ".truth.json")
         truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() else None
         for i in range(trials):
-            out.append(_trial(setup, truth, methods, seed + i, test_fraction))
+            out.append(_trial(setup, truth, methods, seed + i, test_fraction, tick))
         what = f"{len(setup.data)} poses from {Path(setup.data.source).name}"
         what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
     else:
@@ -331,7 +343,7 @@ def compare(
         for i in range(trials):
             sim, truth = simulate(chain, params, poses, seed + i, noise_mm=noise_mm, noise_kind=simulate_noise)
             setup = prepare(robot, sim)
-            out.append(_trial(setup, truth, methods, seed + i, test_fraction))
+            out.append(_trial(setup, truth, methods, seed + i, test_fraction, tick))
         what = (f"simulated sets of {poses} poses, {simulate_noise} noise {noise_mm:g} mm, "
                 f"seed(s) {seed}..{seed + trials - 1}")
-    return Comparison(robot=robot, methods=methods, trials=out, data=what)
+    return out, what

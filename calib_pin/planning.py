@@ -15,6 +15,7 @@ import numpy as np
 
 from .identifiability import analyze
 from .problem import CalibrationProblem
+from .progress import progress
 from .sensors import CableModel
 from .simulation import random_poses
 from .subspace import Subspace
@@ -75,7 +76,7 @@ def plan_poses(
     inverse = np.eye(basis.shape[1]) / (RIDGE * np.max(np.sum(z**2, axis=1)))
     chosen: list[int] = []
     available = np.ones(len(pool), dtype=bool)
-    for _ in range(n):
+    for _ in progress(range(n), desc="choosing poses"):
         gain = np.einsum("ij,jk,ik->i", z, inverse, z)
         gain[~available] = -np.inf
         k = int(np.argmax(gain))

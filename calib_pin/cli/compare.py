@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..estimators import ESTIMATORS
+from ..progress import quiet_progress
 from ..simulation import NOISE_KINDS
 from .common import OneLineParser, count, fail, fraction, methods, non_negative, positive_float, run
 
@@ -35,6 +36,7 @@ def compare_parser() -> argparse.ArgumentParser:
     p.add_argument("--noise-mm", type=positive_float(100.0), default=0.05,
                    help="noise of simulated sets, 1 sigma, mm (default 0.05)")
     p.add_argument("--poses", type=count(100_000), default=120, help="poses of simulated sets (default 120)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
     return p
 
 
@@ -44,7 +46,8 @@ def compare_main(argv: Sequence[str] | None = None) -> int:
     args = compare_parser().parse_args(argv)
     if args.simulate and args.data:
         return fail("give either --data or --simulate, not both")
-    return run(lambda: _compare(args, argv))
+    with quiet_progress(args.quiet):
+        return run(lambda: _compare(args, argv))
 
 
 def _compare(args: argparse.Namespace, argv: list[str]) -> int:
