@@ -222,3 +222,35 @@ def write_html_report(report: dict[str, Any], path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(page, encoding="utf-8")
     return path
+
+
+def write_figures(report: dict[str, Any], folder: str | Path) -> list[Path]:
+    """Write the report's figures as PNG files (for a README), drawn from the report dict.
+
+    Args:
+        report: :func:`calib_pin.report.build_report`'s dict, e.g. a loaded report.json.
+        folder: Where ``residuals.png``, ``deviations.png``, ``spectrum.png``,
+            ``convergence.png``, ``workspace.png`` (kinematic methods) and ``sensor.png`` go.
+
+    Raises:
+        CalibPinError: matplotlib is not installed.
+    """
+    fig = _fig()
+    drawn = {"residuals": fig.residuals(report), "spectrum": fig.spectrum(report),
+             "convergence": fig.convergence(report)}
+    if report.get("uncertainty"):
+        drawn["deviations"] = fig.deviations(report, deviation_rows(report))
+    if report.get("workspace_uncertainty"):
+        drawn["workspace"] = fig.workspace(report)
+    if "device_frame" in report:
+        drawn["sensor"] = fig.sensor(report, pin.rpy.rpyToMatrix(*np.deg2rad(report["device_frame"]["rpy_deg"])))
+    else:
+        drawn["sensor"] = fig.sensor(report)
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, data in drawn.items():
+        path = out / f"{name}.png"
+        path.write_bytes(data)
+        paths.append(path)
+    return paths

@@ -119,9 +119,11 @@ def workspace(r: dict) -> bytes:
     order = np.argsort(sigma)
     fig = Figure(figsize=(12, 4.4), layout="constrained")
     top, side, hist = fig.subplots(1, 3, width_ratios=[1, 1, 0.8])
-    vmax = float(sigma.max()) if len(sigma) else 1.0
+    # The colour scale spans the sigmas' own range, so the spread over the workspace shows.
+    vmin, vmax = (float(sigma.min()), float(sigma.max())) if len(sigma) else (0.0, 1.0)
+    vmax = max(vmax, vmin * (1 + 1e-9) + 1e-12)  # a non-empty range when every sigma is equal
     for ax, (i, j), title in ((top, (0, 1), "top view"), (side, (0, 2), "side view")):
-        art = ax.scatter(p[order, i], p[order, j], c=sigma[order], cmap="viridis", vmin=0.0, vmax=vmax, s=12)
+        art = ax.scatter(p[order, i], p[order, j], c=sigma[order], cmap="viridis", vmin=vmin, vmax=vmax, s=12)
         ax.plot([0], [0], "k+", ms=12)
         ax.set_xlabel(f"{'xyz'[i]} [mm] (base frame)")
         ax.set_ylabel(f"{'xyz'[j]} [mm]")
@@ -193,9 +195,14 @@ def sensor(r: dict, device_rotation: np.ndarray | None = None) -> bytes:
         tool.plot(m[0], m[1], "o", color="tab:orange")
         tool.annotate(f"{label} (z {m[2]:.1f})", (m[0], m[1]), textcoords="offset points", xytext=(5, 5), fontsize=8)
     tool.plot([0], [0], "k+", ms=12)
+    tool.annotate("end frame origin", (0, 0), textcoords="offset points", xytext=(6, -12), fontsize=8)
+    # At least +-50 mm around the origin: a point at (0, 0) alone would get a micrometre-wide axis.
+    reach = max(50.0, 1.3 * max(float(np.abs(m[:2]).max()) for m in points.values()))
+    tool.set_xlim(-reach, reach)
+    tool.set_ylim(-reach, reach)
     tool.set_xlabel("x [mm] (end frame)")
     tool.set_ylabel("y [mm] (end frame)")
-    tool.set_aspect("equal", adjustable="datalim")
+    tool.set_aspect("equal", adjustable="box")
     tool.grid(True, alpha=0.3)
     tool.set_title("points on the end frame" if device_rotation is not None else "hook on the end frame", fontsize=10)
     return png(fig)

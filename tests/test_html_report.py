@@ -121,3 +121,14 @@ def test_browser_displays_every_figure(rendered, tmp_path):
     subprocess.run([CHROMIUM, *flags, f"--screenshot={shot}", url], check=True, capture_output=True, timeout=120)
     raw = Path(shot).read_bytes()
     assert raw[:8] == b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", raw[16:24]) == (1200, 4000)
+
+
+def test_write_figures_for_the_readme(rendered, tmp_path):
+    from calib_pin.html_report import write_figures
+
+    _, r, _, _ = rendered
+    paths = write_figures(r, tmp_path / "figs")
+    assert sorted(p.name for p in paths) == sorted(
+        ["residuals.png", "spectrum.png", "convergence.png", "deviations.png", "workspace.png", "sensor.png"])
+    for p in paths:
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
