@@ -29,6 +29,7 @@ from .metrics import Metrics
 from .parameters import ParameterModel, parameter_model
 from .pipeline import CalibrationSetup, prepare
 from .problem import CalibrationProblem
+from .progress import progress_bar
 from .robot import Chain, load_chain
 from .simulation import Truth, random_poses, simulate
 
@@ -250,7 +251,7 @@ def fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Cal
 
 
 def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], seed: int,
-           test_fraction: float) -> Trial:
+           test_fraction: float, tick: Callable[[], Any] | None = None) -> Trial:
     train, test = setup.split(test_fraction, seed)
     if not len(test):
         raise CalibPinError("a comparison needs held-out rows: use a test fraction above 0")
@@ -273,6 +274,8 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
             history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
             test_residual_mm=residual * 1e3,
         )
+        if tick is not None:
+            tick()
     before = test_problem.row_errors(test_problem.residual(x0))
     return Trial(
         seed=seed, source=setup.data.source or "simulated", before=Metrics.of(before),
@@ -282,10 +285,11 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
 
 
 def _simulated_trial(robot: str, chain: Chain, params: ParameterModel, methods: list[str], test_fraction: float,
-                     poses: int, noise_mm: float, noise_kind: str, soft: dict[str, Any], seed: int) -> Trial:
+                     poses: int, noise_mm: float, noise_kind: str, soft: dict[str, Any], seed: int,
+                     tick: Callable[[], Any] | None = None) -> Trial:
     """One trial on a fresh simulated set of seed ``seed`` (a picklable unit of work)."""
     sim, truth = simulate(chain, params, poses, seed, noise_mm=noise_mm, noise_kind=noise_kind)
-    return _trial(prepare(robot, sim, **soft), truth, methods, seed, test_fraction)
+    return _trial(prepare(robot, sim, **soft), truth, methods, seed, test_fraction, tick)
 
 
 def compare(
@@ -336,6 +340,19 @@ def compare(
         raise CalibPinError(f"trials must be at least 1, got {trials}")
     soft = {"compliance": compliance, "payload_kg": payload_kg, "payload_com_mm": payload_com_mm,
             "cable_tension_n": cable_tension_n}
+    with progress_bar(trials * len(methods), "trials x methods") as bar:
+        local = jobs == 1 and scheduler is None  # a bar follows only the trials run here
+        tick = bar.update if bar is not None and local else None
+        out, what = _trials(robot, data, methods, trials, seed, test_fraction, simulate_noise, noise_mm, poses,
+                            soft, (jobs, scheduler), tick)
+    return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(compliance))
+
+
+def _trials(robot: str, data: str | Path | None, methods: list[str], trials: int, seed: int, test_fraction: float,
+            simulate_noise: str | None, noise_mm: float, poses: int, soft: dict[str, Any],
+            where: tuple[int, str | None], tick: Callable[[], Any] | None) -> tuple[list[Trial], str]:
+    """The trials of :func:`compare` (in ``where`` = (jobs, scheduler)) and what they ran on."""
+    seeds = range(seed, seed + trials)
     if simulate_noise is None:
         setup = prepare(robot, data, **soft)
         for m in methods:
@@ -343,20 +360,16 @@ def compare(
         truth_file = Path(setup.data.source).with_name(
             Path(setup.data.source).name.removesuffix(".csv") + ".truth.json")
         truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() else None
-        one = partial(_trial, setup, truth, methods, test_fraction=test_fraction)
-        out = parallel_map(one, range(seed, seed + trials), jobs, scheduler)
+        one = partial(_trial, setup, truth, methods, test_fraction=test_fraction, tick=tick)
         what = f"{setup.data.describe_rows()} from {Path(setup.data.source).name}"
         what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
-        what += _compliance_words(compliance)
-    else:
-        chain = load_chain(robot)
-        params = parameter_model(chain)
-        one = partial(_simulated_trial, robot, chain, params, methods, test_fraction, poses, noise_mm,
-                      simulate_noise, soft)
-        out = parallel_map(one, range(seed, seed + trials), jobs, scheduler)
-        what = (f"simulated sets of {poses} poses, {simulate_noise} noise {noise_mm:g} mm, "
-                f"seed(s) {seed}..{seed + trials - 1}") + _compliance_words(compliance)
-    return Comparison(robot=robot, methods=methods, trials=out, data=what)
+        return parallel_map(one, seeds, *where), what
+    chain = load_chain(robot)
+    params = parameter_model(chain)
+    one = partial(_simulated_trial, robot, chain, params, methods, test_fraction, poses, noise_mm, simulate_noise,
+                  soft, tick=tick)
+    what = f"simulated sets of {poses} poses, {simulate_noise} noise {noise_mm:g} mm, seed(s) {seed}..{seed + trials - 1}"
+    return parallel_map(one, seeds, *where), what
 
 
 def _compliance_words(compliance: str | tuple[str, ...] | None) -> str:

@@ -274,10 +274,13 @@ def calibrate(
                     length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters,
                     estimate=estimate, compliance=compliance, payload_kg=payload_kg,
                     payload_com_mm=payload_com_mm, cable_tension_n=cable_tension_n)
-    validation = None
-    if test_data is not None:
-        _, validation = load_data(setup.chain, test_data, str(robot), setup.chain.end_frame)
-        if validation.kind != setup.data.kind:
-            raise DataError(validation.source, f"holds {validation.kind} data, the calibration set "
-                            f"{setup.data.kind} data")
+    validation = None if test_data is None else _validation(setup, test_data, str(robot))
     return setup.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)
+
+
+def _validation(setup: CalibrationSetup, test_data: str | Path | MeasurementSet, robot_label: str) -> MeasurementSet:
+    """A separate validation session for ``setup``'s robot, of the same kind of data."""
+    _, validation = load_data(setup.chain, test_data, robot_label, setup.chain.end_frame)
+    if validation.kind != setup.data.kind:
+        raise DataError(validation.source, f"holds {validation.kind} data, the calibration set {setup.data.kind} data")
+    return validation

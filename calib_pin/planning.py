@@ -15,6 +15,7 @@ import numpy as np
 
 from .identifiability import analyze
 from .problem import CalibrationProblem
+from .progress import progress
 from .sensors.base import MeasurementModel
 from .simulation import random_poses
 from .subspace import Subspace
@@ -64,7 +65,7 @@ def _greedy(z: np.ndarray, n: int) -> list[int]:
     inverse = np.eye(z.shape[2]) / (RIDGE * np.max(np.sum(z**2, axis=(1, 2))))
     chosen: list[int] = []
     available = np.ones(len(z), dtype=bool)
-    for _ in range(n):
+    for _ in progress(range(n), desc="choosing poses"):
         inner = np.eye(z.shape[1]) + np.einsum("nij,jk,nlk->nil", z, inverse, z)
         gain = np.linalg.slogdet(inner)[1]
         gain[~available] = -np.inf

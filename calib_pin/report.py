@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .subspace import RCOND
+
 if TYPE_CHECKING:
     from .result import CalibrationResult
 
@@ -35,10 +37,49 @@ def _outliers(result: CalibrationResult) -> dict[str, Any]:
     return {"outlier_rows": rows, "outlier_lines": [int(lines[r]) for r in rows] if lines is not None else []}
 
 
+def _residuals(result: CalibrationResult) -> dict[str, Any]:
+    """Per data row error before and after [mm], computed as the metrics are (so their
+    RMSE is the report's): 0-based ``rows``, ``split`` train/test, ``outlier``."""
+    problem, x0 = result.problem, np.zeros(result.problem.n_params)
+    rows: list[int] = []
+    split: list[str] = []
+    before: list[float] = []
+    after: list[float] = []
+    for name, part_rows in (("train", result.train), ("test", result.test)):
+        if len(part_rows):
+            part = problem.subset(part_rows)
+            rows += [int(r) for r in part_rows]
+            split += [name] * len(part_rows)
+            before += (part.row_errors(part.residual(x0)) * 1e3).tolist()
+            after += (part.row_errors(result.estimate.residual(part)) * 1e3).tolist()
+    outliers = set(result.outlier_rows)
+    return {"rows": rows, "split": split, "outlier": [r in outliers for r in rows],
+            "before_mm": before, "after_mm": after, "meaning": problem.model.error_name}
+
+
+def _spectrum(result: CalibrationResult) -> dict[str, Any]:
+    """Singular values of the scaled training Jacobian and the rank cut (RCOND x largest)."""
+    ident = result.identifiability
+    s = np.asarray(ident.singular_values, dtype=float)
+    return {"singular_values": s.tolist(), "rcond": RCOND, "cut": RCOND * float(s[0]) if len(s) else 0.0,
+            "rank": int(ident.rank)}
+
+
+def _workspace(result: CalibrationResult) -> dict[str, Any] | None:
+    """End-frame origin [mm] and its predicted 1-sigma position uncertainty [mm] at each
+    random workspace pose of the uncertainty analysis; None without kinematic parameters."""
+    unc = result.uncertainty
+    if unc is None:
+        return None
+    return {"points_mm": (unc.workspace_points * 1e3).tolist(), "sigma_mm": (unc.flange_sigma * 1e3).tolist()}
+
+
 def build_report(result: CalibrationResult) -> dict[str, Any]:
     """JSON-ready summary of a calibration: what was calibrated with what, the metrics
     before and after [mm], the estimate's run, the deviations with their uncertainty, the
-    identifiability, the sensor geometry, the split and any warnings."""
+    identifiability, the sensor geometry, the split and any warnings; and the arrays the
+    HTML report draws: ``residuals`` (per data row), ``identifiability_spectrum`` and
+    ``workspace_uncertainty`` (per random workspace pose)."""
     kinematic = result.kinematic
     uncertainty = result.uncertainty
     report: dict[str, Any] = {
@@ -64,6 +105,9 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         **_outliers(result),
         "split": {"train": result.train.tolist(), "test": result.test.tolist()},
         "warnings": list(result.warnings),
+        "residuals": _residuals(result),
+        "identifiability_spectrum": _spectrum(result),
+        "workspace_uncertainty": _workspace(result),
     }
     spec = result.problem.model.compliance_spec
     if spec is not None:

@@ -237,11 +237,8 @@ def simulate(
     rng = np.random.default_rng(seed)
     sensor = Drawstring(np.array(anchor_mm) * 1e-3, np.array(tool_mm) * 1e-3, length_offset_mm * 1e-3)
     cable = CableModel(chain, params, sensor)
-    if poses is None:
-        poses = _poses_above_base(chain, cable, n_poses, rng)
-    else:
-        poses = np.atleast_2d(np.asarray(poses, dtype=float))
-        n_poses = len(poses)
+    poses = _poses_above_base(chain, cable, n_poses, rng) if poses is None else np.atleast_2d(np.asarray(poses, float))
+    n_poses = len(poses)
     nominal = cable.predict(np.zeros(len(params.names)), poses)
     x = _true_deviations(params, rng, nominal_rmse_mm,
                          lambda x: np.abs(cable.predict(x, poses) - nominal))

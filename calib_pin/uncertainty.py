@@ -14,7 +14,7 @@ P the derivative of the end frame's origin with respect to x.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,6 +39,10 @@ class Uncertainty:
         flange_rms, flange_max: 1-sigma position uncertainty of the end frame's origin,
             RMS and max over ``poses`` random workspace poses, [m].
         poses: Number of workspace poses.
+        workspace_points: The end frame's origin at each workspace pose, shape
+            (poses, 3), [m], base frame (calibrated robot).
+        flange_sigma: 1-sigma position uncertainty at each of those poses, shape
+            (poses,), [m] (``flange_rms`` and ``flange_max`` summarise it).
     """
 
     names: tuple[str, ...]
@@ -49,6 +53,8 @@ class Uncertainty:
     flange_rms: float
     flange_max: float
     poses: int
+    workspace_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
+    flange_sigma: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
 
     def as_dict(self) -> dict:
         """JSON-ready: per parameter value, standard error and 95 % interval in mm/deg."""
@@ -76,11 +82,12 @@ def estimate_uncertainty(
     noise = float(np.sqrt(residual @ residual / dof))
     cov = space.covariance(noise)
     q = random_poses(problem.model.chain, poses, np.random.default_rng(seed))
-    _, d_points = problem.model.point_jacobian(x, q, np.zeros(3))
+    points, d_points = problem.model.point_jacobian(x, q, np.zeros(3))
     per_pose = np.einsum("nip,pk,nik->n", d_points, cov, d_points)
     flange = np.sqrt(np.clip(per_pose, 0.0, None))
     return Uncertainty(
         names=tuple(model.names), units=tuple(model.units), x=np.asarray(x, dtype=float),
         std=np.sqrt(np.clip(np.diag(cov), 0.0, None)), noise=noise,
         flange_rms=float(np.sqrt(np.mean(flange**2))), flange_max=float(flange.max()), poses=poses,
+        workspace_points=np.asarray(points).reshape(-1, 3), flange_sigma=flange,
     )

@@ -1,9 +1,18 @@
-"""``calibrate``: a measurement set in, report.json and the corrected URDF out."""
+"""``calibrate``: a measurement set in; report.json, report.html and the corrected robot out.
+
+The corrected robot goes out in the formats ``--export`` names (default ``urdf``):
+``urdf`` (the input URDF with corrected joint origins), ``yaml`` (the corrected joint
+origins for a xacro's ``xacro.load_yaml``; for ``ur*`` robots also ur_description's
+``default_kinematics.yaml`` layout) and ``dh`` (the corrected DH table, dh and hayati
+models). report.html is drawn from the report dict alone; without matplotlib (the
+``plots`` extra) a warning line on stderr says so and the run goes on without it.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -24,6 +33,20 @@ from .common import (
     run,
 )
 from .outputs import Outputs
+
+#: Export format -> what it writes.
+EXPORTS = {"urdf": "corrected URDF", "yaml": "corrected joint origins for xacro (and ur_description's layout)",
+           "dh": "corrected DH table (dh, hayati models)"}
+
+
+def export_formats(text: str) -> tuple[str, ...]:
+    """Comma-separated export formats (``urdf,yaml,dh``)."""
+    names = tuple(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+    unknown = [n for n in names if n not in EXPORTS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(
+            f"unknown export format '{unknown[0] if unknown else text}' (valid: {', '.join(EXPORTS)}, comma-separated)")
+    return names
 
 
 def calibrate_parser() -> argparse.ArgumentParser:
@@ -48,6 +71,11 @@ def calibrate_parser() -> argparse.ArgumentParser:
     p.add_argument("--estimate", type=estimate_names, default=(),
                    help="drawstring geometry to estimate with the robot: anchor, offset or anchor,offset")
     add_compliance_arguments(p)
+    p.add_argument("--export", type=export_formats, default=("urdf",),
+                   help="formats of the corrected robot, comma-separated: urdf (default), yaml (joint origins for "
+                   "xacro.load_yaml; ur_description's default_kinematics.yaml too for ur* robots), dh (DH table TOML, "
+                   "dh and hayati models)")
+    p.add_argument("--no-html", action="store_true", help="do not write DIR/report.html")
     p.add_argument("--analyze", action="store_true",
                    help="only print the identifiability report of the data's poses, estimate nothing")
     return p
@@ -87,28 +115,100 @@ def table(metrics: dict[str, dict[str, Metrics]]) -> str:
     return "\n".join(lines)
 
 
+def _check_dh_export(args: argparse.Namespace) -> None:
+    """Refuse ``--export dh`` for the placement model before any work is done."""
+    if "dh" not in args.export:
+        return
+    from ..exceptions import CalibPinError
+    from ..robot.description import resolve_robot
+
+    model = args.model or ("dh" if resolve_robot(args.robot).dh is not None else "placement")
+    if model == "placement":
+        raise CalibPinError("the placement model has no DH table: --export dh needs --model dh or hayati "
+                            "and a robot with a DH table (urdf and yaml work for every model)")
+
+
+def _add_exports(out: Outputs, result: Any, formats: Sequence[str], notes: list[str]) -> dict[str, str]:
+    """Queue the corrected robot in each format; returns format -> file name."""
+    import numpy as np
+    import pinocchio as pin
+
+    from ..export import write_dh_table, write_joint_origins_yaml, write_ur_kinematics_yaml
+
+    name, folder = result.chain.name, out.folder
+    files = {"urdf": folder / f"{name}_calibrated.urdf", "yaml": folder / f"{name}_joint_origins.yaml",
+             "dh": folder / f"{name}_dh.toml"}
+    writers = {"urdf": lambda tmp: result.to_urdf(tmp),
+               "yaml": lambda tmp: write_joint_origins_yaml(result.chain, result.deltas, tmp),
+               "dh": lambda tmp: write_dh_table(result.params, result.problem.model.robot(result.x), tmp)}
+    for fmt in formats:
+        out.add(files[fmt], writers[fmt])
+    written = {fmt: str(files[fmt]) for fmt in formats}
+    if "yaml" in formats and name.startswith("ur"):
+        path = folder / f"{name}_default_kinematics.yaml"
+
+        def ur_yaml(tmp: Path) -> None:
+            rest = write_ur_kinematics_yaml(result.chain, result.deltas, tmp)
+            if np.linalg.norm(pin.log6(rest).vector) > 1e-9:
+                notes.append(f"{path.name}: part of the tool0 correction does not fit ur_description's layout; "
+                             "its header gives it as a tool offset")
+
+        out.add(path, ur_yaml)
+        written["ur_kinematics"] = str(path)
+    return written
+
+
+def _add_html(out: Outputs, report: dict[str, Any], no_html: bool) -> bool:
+    """Queue report.html unless ``--no-html``; without matplotlib warn on stderr and skip it."""
+    if no_html:
+        return False
+    from ..exceptions import CalibPinError
+    from ..optional import require
+
+    try:
+        require("matplotlib")
+    except CalibPinError as e:
+        print(f"warning: no report.html: {e} (--no-html silences this)", file=sys.stderr)
+        return False
+    from ..html_report import write_html_report
+
+    out.add(out.folder / "report.html", lambda tmp: write_html_report(report, tmp))
+    return True
+
+
+#: Every file a calibrate run may write, by name pattern (a stale one is removed).
+_STALE = ("{name}_calibrated.urdf", "{name}_joint_origins.yaml", "{name}_default_kinematics.yaml", "{name}_dh.toml",
+          "report.html")
+
+
 def _calibrate(args: argparse.Namespace) -> int:
     from ..pipeline import calibrate
 
+    _check_dh_export(args)
     result = calibrate(args.robot, args.data, method=args.method, seed=args.seed,
                        test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
                        **_setup_options(args))
     out = Outputs(Path(args.out))
     report = result.report()
-    urdf_path = out.folder / f"{result.chain.name}_calibrated.urdf"
     refused = result.sanity_error() if result.kinematic else None
-    report["urdf"] = str(urdf_path) if result.kinematic and not refused else None
+    notes: list[str] = []
+    exports = _add_exports(out, result, args.export, notes) if result.kinematic and not refused else {}
+    report["urdf"] = exports.get("urdf")
+    report["exports"] = exports
     report["urdf_refused"] = refused or (None if result.kinematic else
                                          f"{result.method} learns a correction of the readings, not kinematic parameters")
-    if report["urdf"]:
-        out.add(urdf_path, lambda tmp: result.to_urdf(tmp))
+    _add_html(out, report, args.no_html)
     out.add(out.folder / "report.json", lambda tmp: tmp.write_text(json.dumps(report, indent=2, allow_nan=False) + "\n"))
-    written = out.commit()  # all together or none; a stale URDF of an earlier run is removed
-    if not report["urdf"] and urdf_path.exists():
-        urdf_path.unlink()
+    written = out.commit()  # all together or none
+    for stale in _STALE:  # no earlier run's file beside this run's report
+        path = out.folder / stale.format(name=result.chain.name)
+        if path not in written and path.exists():
+            path.unlink()
     if refused:
         return fail(f"{refused} (report: {out.folder / 'report.json'})")
     _summary(result, report)
+    for note in notes:
+        print(f"note: {note}")
     for path in written:
         print(f"wrote {path}")
     return 0

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..progress import quiet_progress
 from .common import SENSOR_FAULT_EXIT, OneLineParser, fail, non_negative, run, xyz_mm
 
 if TYPE_CHECKING:
@@ -92,6 +93,7 @@ def collect_parser() -> argparse.ArgumentParser:
     p.add_argument("--anchor-mm", type=xyz_mm, help="sensor point P0 in the base frame, x,y,z mm (written to the file)")
     p.add_argument("--tool-mm", type=xyz_mm, help="hook point in the end frame, x,y,z mm (written to the file)")
     _add_sensor_arguments(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
     return p
 
 
@@ -103,8 +105,9 @@ def collect_main(argv: Sequence[str] | None = None) -> int:
         if missing:
             return fail(f"collect needs {', '.join('--' + m if m != 'robot' else 'ROBOT' for m in missing)}"
                         " (or --probe)")
-    return run(lambda: _probe(args) if args.probe else _collect(args),
-               interrupted="stopped by Ctrl-C: every completed row is saved; run the same command to resume")
+    with quiet_progress(args.quiet):
+        return run(lambda: _probe(args) if args.probe else _collect(args),
+                   interrupted="stopped by Ctrl-C: every completed row is saved; run the same command to resume")
 
 
 def _probe(args: argparse.Namespace) -> int:

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..estimators import ESTIMATORS
+from ..progress import quiet_progress
 from ..simulation import NOISE_KINDS
 from .common import (
     OneLineParser,
@@ -50,6 +51,7 @@ def compare_parser() -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=count(1024), default=1, help="run the trials in N local processes (default 1)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the trials on this Dask scheduler (tcp://host:8786) instead")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
     return p
 
 
@@ -59,7 +61,8 @@ def compare_main(argv: Sequence[str] | None = None) -> int:
     args = compare_parser().parse_args(argv)
     if args.simulate and args.data:
         return fail("give either --data or --simulate, not both")
-    return run(lambda: _compare(args, argv))
+    with quiet_progress(args.quiet):
+        return run(lambda: _compare(args, argv))
 
 
 def _compare(args: argparse.Namespace, argv: list[str]) -> int:

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..exceptions import CalibPinError
 from ..parameters import MODELS
+from ..progress import quiet_progress
 from .common import OneLineParser, count, estimate_names, fail, non_negative, run, xyz_mm
 
 #: Most poses or candidates a pose command draws (more would not fit in memory here).
@@ -74,10 +75,12 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--estimate", type=estimate_names, default=(),
                    help="sensor geometry that will be estimated too: anchor, offset or anchor,offset")
     p.add_argument("--out", required=True, help="pose list CSV")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
     args = p.parse_args(argv)
     if args.candidates < args.n:
         return fail(f"--candidates ({args.candidates}) must be at least --n ({args.n})")
-    return run(lambda: _plan_poses(args))
+    with quiet_progress(args.quiet):
+        return run(lambda: _plan_poses(args))
 
 
 def _plan_poses(args: argparse.Namespace) -> int:

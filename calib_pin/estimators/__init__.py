@@ -19,6 +19,7 @@ import numpy as np
 
 from ..exceptions import EstimatorError
 from ..problem import LeastSquares
+from ..progress import progress_bar
 from .base import EstimateResult, History
 
 #: Robust losses (scipy.optimize.least_squares names); "linear" is plain least squares.
@@ -128,12 +129,21 @@ def run_estimator(
     loss: str = "linear", history: bool = True,
 ) -> EstimateResult:
     """Run the estimator ``name`` (with ``loss``), recording its convergence history
-    (unless ``history`` is False) and its wall time ``time_s``."""
+    (unless ``history`` is False) and its wall time ``time_s``. PSO and DE show a bar
+    over their generations on a terminal (:mod:`calib_pin.progress`)."""
     estimator = get_estimator(name, loss)
     recorder = History() if history else None
-    start = time.perf_counter()
-    result = estimator(problem, x0, seed=seed, noise=noise, callback=recorder)
-    elapsed = time.perf_counter() - start
+    generations = getattr(estimator, "max_iter", 0) if getattr(estimator, "reports_generations", False) else 0
+    with progress_bar(generations + 1, f"{name} generations", quiet=not generations) as bar:
+        def callback(rmse_m: float, evaluations: float) -> None:
+            bar.update()  # type: ignore[union-attr]
+            if recorder is not None:
+                recorder(rmse_m, evaluations)
+
+        start = time.perf_counter()
+        result = estimator(problem, x0, seed=seed, noise=noise,
+                           callback=recorder if bar is None else callback)
+        elapsed = time.perf_counter() - start
     if recorder is None:
         return dataclasses.replace(result, time_s=elapsed)
     return dataclasses.replace(result, time_s=elapsed, history=tuple(recorder.history),

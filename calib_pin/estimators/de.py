@@ -33,6 +33,8 @@ class DE:
     tol: float = 1e-2
     bound: float = 1.0
     minimises_cost: ClassVar[bool] = True  # see :class:`.robust.Robust`
+    #: Records once at the start, then once per generation: a progress bar of max_iter.
+    reports_generations: ClassVar[bool] = True
 
     def __call__(
         self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,

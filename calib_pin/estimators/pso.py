@@ -38,6 +38,8 @@ class PSO:
     rtol: float = 1e-3
     window: int = 30
     minimises_cost: ClassVar[bool] = True  # see :class:`.robust.Robust`
+    #: Records once at the start, then once per generation: a progress bar of max_iter.
+    reports_generations: ClassVar[bool] = True
 
     def __call__(
         self, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,

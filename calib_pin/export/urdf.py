@@ -21,7 +21,8 @@ from ..exceptions import RobotError
 from ..robot.chain import Chain
 
 
-def _origin(joint: etree._Element) -> pin.SE3:
+def origin_of(joint: etree._Element) -> pin.SE3:
+    """A URDF ``<joint>``'s ``<origin>`` as a placement ([m], rpy [rad]; identity when absent)."""
     element = joint.find("origin")
     xyz = np.zeros(3)
     rpy = np.zeros(3)
@@ -46,7 +47,12 @@ def _numbers(values: np.ndarray) -> str:
     return " ".join(repr(float(v)) if abs(v) > 1e-15 else "0" for v in values)
 
 
-def _tool_chain(joints: dict[str, etree._Element], chain: Chain) -> list[etree._Element]:
+def top_level_joints(root: etree._Element) -> dict[str, etree._Element]:
+    """The ``<joint>`` elements directly under a URDF's ``<robot>``, by name."""
+    return {j.get("name"): j for j in root.iter("joint") if j.getparent() is root}
+
+
+def tool_chain(joints: dict[str, etree._Element], chain: Chain) -> list[etree._Element]:
     """Fixed joints from the last moving joint's link down to the end frame's link."""
     by_child = {j.find("child").get("link"): j for j in joints.values()}
     end = chain.end_frame
@@ -60,6 +66,38 @@ def _tool_chain(joints: dict[str, etree._Element], chain: Chain) -> list[etree._
         path.append(joint)
         link = joint.find("parent").get("link")
     return path[::-1]
+
+
+def corrected_origins(
+    joints: dict[str, etree._Element], chain: Chain, deltas: Sequence[pin.SE3]
+) -> dict[str, pin.SE3]:
+    """Corrected ``<origin>`` of each chain joint and of the tool chain's first fixed joint.
+
+    Args:
+        joints: The URDF's joints by name (:func:`top_level_joints`).
+        chain: The nominal chain.
+        deltas: ``n_joints + 1`` transforms from a parameter model.
+
+    Returns:
+        Joint name -> origin relative to its parent link, base to end.
+
+    Raises:
+        RobotError: the end frame has a deviation but no fixed joint to carry it.
+    """
+    out = {name: origin_of(joints[name]) * delta for name, delta in zip(chain.joint_names, deltas[:-1], strict=True)}
+    tool = tool_chain(joints, chain)
+    end_delta = deltas[-1]
+    if tool:
+        rest = pin.SE3.Identity()
+        for joint in tool[1:]:
+            rest = rest * origin_of(joint)
+        out[tool[0].get("name")] = origin_of(tool[0]) * rest * end_delta * rest.inverse()
+    elif np.linalg.norm(pin.log6(end_delta).vector) > 1e-15:
+        raise RobotError(
+            f"'{chain.end_frame}' is the link of joint '{chain.joint_names[-1]}': add a "
+            "fixed tool frame to the URDF so the end frame's correction can be written"
+        )
+    return out
 
 
 def write_calibrated_urdf(
@@ -78,21 +116,9 @@ def write_calibrated_urdf(
     """
     tree = etree.parse(str(chain.description.urdf), etree.XMLParser(remove_blank_text=False))
     root = tree.getroot()
-    joints = {j.get("name"): j for j in root.iter("joint") if j.getparent() is root}
-    for name, delta in zip(chain.joint_names, deltas[:-1], strict=True):
-        _set_origin(joints[name], _origin(joints[name]) * delta)
-    tool = _tool_chain(joints, chain)
-    end_delta = deltas[-1]
-    if tool:
-        rest = pin.SE3.Identity()
-        for joint in tool[1:]:
-            rest = rest * _origin(joint)
-        _set_origin(tool[0], _origin(tool[0]) * rest * end_delta * rest.inverse())
-    elif np.linalg.norm(pin.log6(end_delta).vector) > 1e-15:
-        raise RobotError(
-            f"'{chain.end_frame}' is the link of joint '{chain.joint_names[-1]}': add a "
-            "fixed tool frame to the URDF so the end frame's correction can be written"
-        )
+    joints = top_level_joints(root)
+    for name, placement in corrected_origins(joints, chain, deltas).items():
+        _set_origin(joints[name], placement)
     if robot_name:
         root.set("name", robot_name)
     path = Path(path)

@@ -11,9 +11,10 @@ pose of the pose list not yet in the file.
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ import numpy as np
 from ..exceptions import DataError
 from ..measurements import MeasurementSet, read_measurements
 from ..measurements.csv_writer import header, row
+from ..progress import progress_bar
 from ..robot.chain import Chain
 from .reader import Reader, SensorProfile, StableReading, read_stable
 
@@ -161,6 +163,18 @@ def append_row(session: Session, k: int, reading: StableReading) -> str:
     return line
 
 
+@contextlib.contextmanager
+def _bar_aside(bar: Any) -> Iterator[None]:
+    """Clear the progress bar (if any) while other lines are written, then redraw it."""
+    if bar is not None:
+        bar.clear()
+    try:
+        yield
+    finally:
+        if bar is not None:
+            bar.refresh()
+
+
 def collect(
     session: Session, reader: Reader, wait: Callable[[int, int, np.ndarray], bool],
     report: Callable[[str], None] = print,
@@ -183,17 +197,20 @@ def collect(
     n = len(session.poses)
     written = 0
     assert session.poses.pose_ids is not None
-    for k in list(session.remaining):
-        pid = int(session.poses.pose_ids[k])
-        if not wait(pid, k + 1, np.rad2deg(session.poses.q[k])):
-            break
-        reader.flush()
-        reading = read_stable(reader)
-        append_row(session, k, reading)
-        session.remaining.remove(k)
-        written += 1
-        report(
-            f"pose {pid} ({session.done} of {n}): {reading.mean_mm:.3f} mm, spread "
-            f"{reading.spread_mm:.3f} mm over {reading.samples} samples ({reading.reads} read)"
-        )
+    with progress_bar(len(session.remaining), "poses") as bar:
+        for k in list(session.remaining):
+            pid = int(session.poses.pose_ids[k])
+            with _bar_aside(bar):  # the prompt and the lines go to a clear line, the bar below
+                if not wait(pid, k + 1, np.rad2deg(session.poses.q[k])):
+                    break
+            reader.flush()
+            reading = read_stable(reader)
+            append_row(session, k, reading)
+            session.remaining.remove(k)
+            written += 1
+            with _bar_aside(bar):
+                report(f"pose {pid} ({session.done} of {n}): {reading.mean_mm:.3f} mm, spread "
+                       f"{reading.spread_mm:.3f} mm over {reading.samples} samples ({reading.reads} read)")
+            if bar is not None:
+                bar.update()
     return written

@@ -97,6 +97,11 @@ class DHModel:
         self._precompute()
 
     @property
+    def end_transform(self) -> pin.SE3:
+        """The fixed transform from DH frame n to the end frame (nominal) [m, rad]."""
+        return self._end
+
+    @property
     def n_params(self) -> int:
         return len(self.names)
 

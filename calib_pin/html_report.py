@@ -1,0 +1,256 @@
+"""A calibration report a person reads in a browser: one self-contained HTML file.
+
+One source: every number and figure comes from the report dict
+(:func:`calib_pin.report.build_report`, what report.json holds, including the per-row
+errors, the identifiability spectrum and the per-pose workspace uncertainty), so the
+HTML and the JSON cannot disagree. Figures are PNGs embedded as base64 (no network,
+opens from disk), drawn with matplotlib (the ``plots`` extra).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from .optional import require
+
+
+def _fig() -> ModuleType:
+    """The figure module (matplotlib, the ``plots`` extra).
+
+    Raises:
+        CalibPinError: matplotlib is not installed (the message names the pip command).
+    """
+    require("matplotlib")
+    from . import report_figures
+
+    return report_figures
+
+
+def fmt(value: float) -> str:
+    """How the report prints a number (4 significant digits)."""
+    return f"{value:.4g}"
+
+
+def deviation_rows(r: dict) -> list[dict]:
+    """Robot deviations with 95 % interval and identifiability status, from the report.
+
+    Status: ``blind`` (the readings do not depend on it), ``combination`` (identifiable
+    only together with others), ``identifiable``.
+    """
+    params = (r.get("uncertainty") or {}).get("parameters", {})
+    ident = r["identifiability"]
+    blind = set(ident["unidentifiable"])
+    in_combination = {term.strip().split(" ")[0] for c in ident["combinations"] for term in c.split(" with ")}
+    out = []
+    for key in r["deviations"]:
+        name, unit = key.rsplit("_", 1)
+        p = params[key]
+        status = "blind" if name in blind else "combination" if name in in_combination else "identifiable"
+        out.append({"key": key, "name": name, "unit": unit, "value": p["value"], "std": p["std"],
+                    "low": p["ci95"][0], "high": p["ci95"][1], "status": status})
+    return out
+
+
+def _img(data: bytes, alt: str) -> str:
+    encoded = base64.b64encode(data).decode("ascii")
+    return f'<img class="fig" alt="{html.escape(alt)}" src="data:image/png;base64,{encoded}">'
+
+
+def _table(header: list[str], rows: list[list[str]], cls: str = "") -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in row) + "</tr>" for row in rows)
+    return f'<table class="{cls}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def _summary(r: dict) -> str:
+    rows = []
+    for split in ("train", "test"):
+        if split in r:
+            for stage in ("before", "after"):
+                m = r[split][stage]
+                rows.append([split, stage, fmt(m["rmse_mm"]), fmt(m["mean_mm"]), fmt(m["max_mm"])])
+    n_train, n_test = len(r["split"]["train"]), len(r["split"]["test"])
+    facts = [
+        ("robot", f"{r['robot']} (end frame {r['end_frame']})"),
+        ("data set", f"{r['data']} ({r['data_kind']}; {n_train} train, {n_test} test rows, seed {r['seed']})"),
+        ("parameter model", r["model"]),
+        ("method", f"{r['method']} (loss {r['loss']})"),
+        ("time", f"{fmt(r['time_s'])} s"),
+        ("iterations", f"{r['iterations']} ({fmt(r['evaluations'])} evaluations; {r['stop_reason']})"),
+        ("sensor noise assumed", f"{fmt(r['noise_mm'])} mm"),
+    ]
+    if r.get("uncertainty"):
+        u = r["uncertainty"]
+        f = u["flange_position_1sigma_mm"]
+        facts.append(("predicted end-frame accuracy (1 sigma)",
+                      (f"RMS {fmt(f['rms'])} mm, max {fmt(f['max'])} mm over {f['poses']} workspace poses; "
+                      f"noise estimate {fmt(u['noise_estimate_mm'])} mm")))
+    dl = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in facts)
+    kind = r["error"]
+    return (f'<div class="row"><div><table class="facts">{dl}</table></div>'
+            f'<div class="fit"><h3>Errors [mm] ({kind})</h3>'
+            + _table(["split", "stage", "RMSE", "mean", "max"], rows, "num") + "</div></div>")
+
+
+def _deviation_section(r: dict, rows: list[dict]) -> str:
+    if not r.get("uncertainty"):
+        return f"<p>Method {html.escape(r['method'])} estimates no kinematic parameters.</p>"
+    label = {"blind": "blind: not estimated (stays 0)", "combination": "only in a combination",
+             "identifiable": "identifiable"}
+    body = [[html.escape(d["name"]), d["unit"], fmt(d["value"]),
+             "&mdash;" if d["status"] == "blind" else fmt(d["std"]),
+             "&mdash;" if d["status"] == "blind" else f"[{fmt(d['low'])}, {fmt(d['high'])}]",
+             f'<span class="{d["status"]}">{label[d["status"]]}</span>'] for d in rows]
+    params = r["uncertainty"]["parameters"]
+    sensor = [[html.escape(k.rsplit("_", 1)[0]), k.rsplit("_", 1)[1], fmt(params[k]["value"]), fmt(params[k]["std"]),
+               f"[{fmt(params[k]['ci95'][0])}, {fmt(params[k]['ci95'][1])}]"] for k in r["sensor_corrections"]]
+    ident = r["identifiability"]
+    combos = "".join(f"<li>{html.escape(c)}</li>" for c in ident["combinations"]) or "<li>none</li>"
+    out = (_img(_fig().deviations(r, rows), "deviations with 95 % intervals")
+           + '<div class="row"><div class="fit">'
+           + _table(["parameter", "unit", "value", "std", "95 % interval", "status"], body, "num")
+           + f"</div><div><p>Identifiable: {ident['rank']} of {ident['unknowns']} directions (condition "
+           f"{fmt(ident['condition'])}). Not identifiable: {html.escape(', '.join(ident['unidentifiable']) or 'none')}."
+           f"</p><p>Identifiable only in combination (moving these together changes no reading; "
+           f"the estimate leaves them at zero):</p><ul>{combos}</ul>")
+    side = ""
+    if r.get("compliances"):
+        comp = [[html.escape(k), fmt(v["value"]), fmt(v["std"]), f"[{fmt(v['ci95'][0])}, {fmt(v['ci95'][1])}]"]
+                for k, v in r["compliances"].items()]
+        side += "<h3>Joint compliances</h3>" + _table(["compliance", "value", "std", "95 % interval"], comp, "num")
+    if sensor:
+        side += "<h3>Sensor geometry estimated with the robot</h3>" + _table(
+            ["unknown", "unit", "value", "std", "95 % interval"], sensor, "num")
+    return out + side + "</div></div>"
+
+
+def _sensor_section(r: dict) -> str:
+    if "device_frame" in r:
+        frame = r["device_frame"]
+        rotation = pin.rpy.rpyToMatrix(*np.deg2rad(frame["rpy_deg"]))
+        text = (f"<p>Device frame ({html.escape(frame['meaning'])}): t = "
+                f"[{', '.join(fmt(v) for v in frame['translation_mm'])}] mm, rpy = "
+                f"[{', '.join(fmt(v) for v in frame['rpy_deg'])}] deg. Markers on the end frame [mm]: "
+                + "; ".join(f"{html.escape(k)} [{', '.join(fmt(v) for v in m)}]" for k, m in r["markers_mm"].items())
+                + ".</p>")
+        return _img(_fig().sensor(r, rotation), "device frame and markers") + text
+    return (_img(_fig().sensor(r), "cable anchor and hook")
+            + f"<p>Cable anchor [{', '.join(fmt(v) for v in r['anchor_mm'])}] mm (base frame), hook "
+            f"[{', '.join(fmt(v) for v in r['tool_mm'])}] mm (end frame), length offset "
+            f"{fmt(r['length_offset_mm'])} mm.</p>")
+
+
+CSS = """body{font-family:system-ui,sans-serif;max-width:1240px;margin:1.5em auto;padding:0 1em;color:#222}
+.row{display:flex;gap:2em;flex-wrap:wrap;align-items:flex-start}.row>div{flex:1 1 0;min-width:280px}.row>div.fit{flex:0 0 auto}
+h1{font-size:1.5em;margin-bottom:.2em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:1.6em}
+table{border-collapse:collapse;margin:.6em 0}td,th{border:1px solid #ccc;padding:.25em .6em;font-size:.9em}
+table.num td{white-space:nowrap;text-align:right;font-variant-numeric:tabular-nums}
+table.facts th{text-align:left;background:#f4f4f4}
+img.fig{max-width:100%;display:block;margin:.6em 0;border:1px solid #eee}
+.blind{color:#888}.combination{color:#7b3fa0}.identifiable{color:#1f5fa0}
+.verdict{font-size:1.15em;background:#eef6ee;border-left:5px solid #3a3;padding:.5em .8em}
+.verdict.worse{background:#fbeeee;border-color:#c33}nav a{margin-right:1em}"""
+
+_MARK_IMAGES = """<script>window.addEventListener('load',function(){var i=document.images,n=0;
+for(var k=0;k<i.length;k++){if(i[k].complete&&i[k].naturalWidth>0){n++;}}
+document.body.setAttribute('data-images-ok',n+'/'+i.length);});</script>"""
+
+
+def _verdict(r: dict) -> str:
+    split = "test" if "test" in r else "train"
+    b, a = r[split]["before"]["rmse_mm"], r[split]["after"]["rmse_mm"]
+    cls = "verdict worse" if a > b else "verdict"
+    return (f'<p class="{cls}">{split} RMSE {fmt(b)} mm before, {fmt(a)} mm after calibration '
+            f"({r['data_kind']} data).</p>")
+
+
+def render_html(r: dict) -> str:
+    """The report page of a report dict (:func:`calib_pin.report.build_report`).
+
+    Raises:
+        CalibPinError: matplotlib is not installed.
+    """
+    dev_rows = deviation_rows(r) if r.get("uncertainty") else []
+    sections = [
+        ("summary", "Summary", _verdict(r) + _summary(r)),
+        ("residuals", "Error per data row", _img(_fig().residuals(r), "error per data row")
+         + "<p>Blue: training rows, orange: held-out test rows; red rings: outliers of the robust loss "
+         f"(data rows {html.escape(', '.join(str(v) for v in r['outlier_rows']) or 'none')}).</p>"),
+        ("deviations", "Deviations and identifiability", _deviation_section(r, dev_rows)),
+    ]
+    spectrum = (_img(_fig().spectrum(r), "singular values")
+                + f"<p>Rank {r['identifiability_spectrum']['rank']}: singular values below the dashed cut "
+                "are blind directions; the estimators do not move along them.</p>")
+    convergence = _img(_fig().convergence(r), "convergence") + (
+        f"<p>{r['iterations']} iterations, {fmt(r['evaluations'])} evaluations, {fmt(r['time_s'])} s.</p>")
+    sections.append(("spectrum", "Identifiability spectrum | Convergence",
+                     f'<div class="row"><div>{spectrum}</div><div>{convergence}</div></div>'))
+    if r.get("workspace_uncertainty"):
+        f = r["uncertainty"]["flange_position_1sigma_mm"]
+        sections.append(("workspace", "Accuracy over the workspace", _img(_fig().workspace(r), "workspace uncertainty")
+                         + f"<p>Predicted 1-sigma position uncertainty of the end frame at {f['poses']} random "
+                         f"poses: RMS {fmt(f['rms'])} mm, max {fmt(f['max'])} mm.</p>"))
+    sections.append(("sensor", "Sensor", _sensor_section(r)))
+    nav = "".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
+    body = "".join(f'<section id="{key}"><h2>{html.escape(title)}</h2>{content}</section>'
+                   for key, title, content in sections)
+    title = f"Calibration report: {r['robot']}, {r['method']}"
+    return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
+            f"<style>{CSS}</style></head><body><h1>{html.escape(title)}</h1><nav>{nav}</nav>{body}"
+            f"{_MARK_IMAGES}</body></html>\n")
+
+
+def write_html_report(report: dict[str, Any], path: str | Path) -> Path:
+    """Write the self-contained HTML report of a report dict (``DIR/report.html``).
+
+    Args:
+        report: :func:`calib_pin.report.build_report`'s dict (what report.json holds).
+        path: Output file.
+
+    Raises:
+        CalibPinError: matplotlib is not installed.
+    """
+    page = render_html(report)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(page, encoding="utf-8")
+    return path
+
+
+def write_figures(report: dict[str, Any], folder: str | Path) -> list[Path]:
+    """Write the report's figures as PNG files (for a README), drawn from the report dict.
+
+    Args:
+        report: :func:`calib_pin.report.build_report`'s dict, e.g. a loaded report.json.
+        folder: Where ``residuals.png``, ``deviations.png``, ``spectrum.png``,
+            ``convergence.png``, ``workspace.png`` (kinematic methods) and ``sensor.png`` go.
+
+    Raises:
+        CalibPinError: matplotlib is not installed.
+    """
+    fig = _fig()
+    drawn = {"residuals": fig.residuals(report), "spectrum": fig.spectrum(report),
+             "convergence": fig.convergence(report)}
+    if report.get("uncertainty"):
+        drawn["deviations"] = fig.deviations(report, deviation_rows(report))
+    if report.get("workspace_uncertainty"):
+        drawn["workspace"] = fig.workspace(report)
+    if "device_frame" in report:
+        drawn["sensor"] = fig.sensor(report, pin.rpy.rpyToMatrix(*np.deg2rad(report["device_frame"]["rpy_deg"])))
+    else:
+        drawn["sensor"] = fig.sensor(report)
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, data in drawn.items():
+        path = out / f"{name}.png"
+        path.write_bytes(data)
+        paths.append(path)
+    return paths

@@ -1,0 +1,208 @@
+"""Figures of the calibration report, drawn from the report dict alone.
+
+Every function takes the report dict (:func:`calib_pin.report.build_report`, what
+report.json holds) and returns a PNG as bytes. Drawn with
+matplotlib's object API on the Agg canvas (no pyplot, no screen). Units as the keys
+say: [mm] and [deg].
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+TRAIN, TEST, BAD = "tab:blue", "tab:orange", "tab:red"
+
+
+def png(fig: Figure) -> bytes:
+    """The figure as PNG bytes (no metadata, so no URLs inside)."""
+    FigureCanvasAgg(fig)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
+    return buffer.getvalue()
+
+
+def residuals(r: dict) -> bytes:
+    """Per data row |error| before and after (train/test, outliers ringed) and their spread."""
+    res = r["residuals"]
+    rows = np.asarray(res["rows"])
+    before, after = np.asarray(res["before_mm"]), np.asarray(res["after_mm"])
+    test = np.asarray(res["split"]) == "test"
+    outlier = np.asarray(res["outlier"], dtype=bool)
+    fig = Figure(figsize=(12, 4.2), layout="constrained")
+    per_row, spread = fig.subplots(1, 2, width_ratios=[3, 1])
+    for mask, colour, label in ((~test, TRAIN, "train"), (test, TEST, "test")):
+        per_row.scatter(rows[mask], before[mask], s=14, marker="^", facecolors="none",
+                        edgecolors=colour, alpha=0.6, label=f"{label}, before")
+        per_row.scatter(rows[mask], after[mask], s=16, color=colour, label=f"{label}, after")
+    if outlier.any():
+        per_row.scatter(rows[outlier], after[outlier], s=90, facecolors="none", edgecolors=BAD,
+                        linewidths=1.5, label="outlier (robust loss)")
+    per_row.set_yscale("log")
+    per_row.set_xlabel("data row (0-based)")
+    per_row.set_ylabel(f"{res['meaning']} [mm] (log)")
+    per_row.grid(True, which="both", alpha=0.3)
+    per_row.legend(fontsize=8, ncol=3, loc="lower left")
+    per_row.set_title("error per data row: triangles before, dots after calibration", fontsize=10)
+    groups = [("train\nbefore", before[~test]), ("train\nafter", after[~test]),
+              ("test\nbefore", before[test]), ("test\nafter", after[test])]
+    groups = [(name, values) for name, values in groups if len(values)]
+    box = spread.boxplot([v for _, v in groups], tick_labels=[n for n, _ in groups], whis=(5, 95),
+                         widths=0.6, patch_artist=True, flierprops={"markersize": 3, "alpha": 0.5})
+    for patch, (name, _) in zip(box["boxes"], groups, strict=True):
+        patch.set_facecolor(TRAIN if name.startswith("train") else TEST)
+        patch.set_alpha(0.35 if "before" in name else 0.8)
+    spread.set_yscale("log")
+    spread.set_title("distribution (box: quartiles,\nwhiskers: 5-95 %)", fontsize=10)
+    spread.grid(True, axis="y", which="both", alpha=0.3)
+    return png(fig)
+
+
+def deviations(r: dict, rows: list[dict]) -> bytes:
+    """Each robot deviation with its 95 % interval, lengths and angles side by side.
+
+    Args:
+        rows: :func:`calib_pin.html_report.deviation_rows` (robot parameters only).
+    """
+    groups = [[row for row in rows if row["unit"] == unit] for unit in ("mm", "deg")]
+    groups = [g for g in groups if g]
+    height = max(2.5, 0.22 * max(len(g) for g in groups) + 1.2)
+    fig = Figure(figsize=(12, height), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(1, len(groups)))
+    for ax, group in zip(axes, groups, strict=True):
+        y = np.arange(len(group))[::-1]
+        for yi, row in zip(y, group, strict=True):
+            if row["status"] == "blind":
+                ax.plot([row["value"]], [yi], "s", mfc="white", mec="grey", ms=7)
+                continue
+            colour = "tab:purple" if row["status"] == "combination" else "tab:blue"
+            ax.errorbar([row["value"]], [yi], xerr=[[row["value"] - row["low"]], [row["high"] - row["value"]]],
+                        fmt="o", color=colour, ms=4, capsize=3)
+        ax.axvline(0.0, color="black", linewidth=0.8)
+        ax.set_yticks(y, [row["name"] for row in group], fontsize=8)
+        ax.set_xlabel(f"deviation [{group[0]['unit']}], bar = 95 % interval")
+        ax.grid(True, axis="x", alpha=0.3)
+    fig.suptitle("estimated deviations: blue identifiable, purple only in a combination, "
+                 "white square blind (not estimated, stays 0)", fontsize=10)
+    return png(fig)
+
+
+def spectrum(r: dict) -> bytes:
+    """Singular values of the scaled identification Jacobian, the rank cut marked."""
+    spec = r["identifiability_spectrum"]
+    s = np.asarray(spec["singular_values"])
+    kept = s > spec["cut"]
+    fig = Figure(figsize=(6, 3.6), layout="constrained")
+    ax = fig.add_subplot()
+    index = np.arange(1, len(s) + 1)
+    floor = max(spec["cut"] * 1e-3, s[s > 0].min() if (s > 0).any() else 1e-16)
+    shown = np.maximum(s, floor)
+    ax.semilogy(index[kept], shown[kept], "o", color="tab:blue", label=f"identifiable ({kept.sum()})")
+    ax.semilogy(index[~kept], shown[~kept], "x", color=BAD, label=f"blind ({(~kept).sum()}; drawn at the floor)")
+    ax.axhline(spec["cut"], color="grey", linestyle="--", label=f"cut {spec['rcond']:g} x largest")
+    ax.set_xlabel("direction (sorted)")
+    ax.set_ylabel("singular value [m per typical deviation]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("identifiability spectrum (training poses)", fontsize=10)
+    return png(fig)
+
+
+def workspace(r: dict) -> bytes:
+    """Predicted 1-sigma end-frame position uncertainty over workspace poses, two views."""
+    ws = r["workspace_uncertainty"]
+    p = np.asarray(ws["points_mm"])
+    sigma = np.asarray(ws["sigma_mm"])
+    order = np.argsort(sigma)
+    fig = Figure(figsize=(12, 4.4), layout="constrained")
+    top, side, hist = fig.subplots(1, 3, width_ratios=[1, 1, 0.8])
+    # The colour scale spans the sigmas' own range, so the spread over the workspace shows.
+    vmin, vmax = (float(sigma.min()), float(sigma.max())) if len(sigma) else (0.0, 1.0)
+    vmax = max(vmax, vmin * (1 + 1e-9) + 1e-12)  # a non-empty range when every sigma is equal
+    for ax, (i, j), title in ((top, (0, 1), "top view"), (side, (0, 2), "side view")):
+        art = ax.scatter(p[order, i], p[order, j], c=sigma[order], cmap="viridis", vmin=vmin, vmax=vmax, s=12)
+        ax.plot([0], [0], "k+", ms=12)
+        ax.set_xlabel(f"{'xyz'[i]} [mm] (base frame)")
+        ax.set_ylabel(f"{'xyz'[j]} [mm]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, alpha=0.3)
+    fig.colorbar(art, ax=side, label="1-sigma position uncertainty [mm]")
+    hist.hist(sigma, bins=30, color="tab:green")
+    hist.set_xlabel("1-sigma position uncertainty [mm]")
+    hist.set_ylabel("poses")
+    hist.set_title(f"{len(sigma)} random poses", fontsize=10)
+    return png(fig)
+
+
+def convergence(r: dict) -> bytes:
+    """Training RMSE per iteration of the estimator."""
+    h = np.asarray(r["train_rmse_history_mm"])
+    fig = Figure(figsize=(6, 3.6), layout="constrained")
+    ax = fig.add_subplot()
+    ax.semilogy(np.arange(len(h)), h, "o-", color="tab:blue", ms=4)
+    ax.set_xlabel("iteration")
+    ax.set_ylabel("training RMSE per residual value [mm]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.set_title(f"convergence ({r['method']}, {r['iterations']} iterations)", fontsize=10)
+    return png(fig)
+
+
+def _axes_arrows(ax, origin, rotation, i, j, length, label):
+    for k, colour in enumerate(("tab:red", "tab:green", "tab:blue")):
+        tip = origin + length * rotation[:, k]
+        ax.annotate("", xy=(tip[i], tip[j]), xytext=(origin[i], origin[j]),
+                    arrowprops={"arrowstyle": "->", "color": colour, "lw": 1.5})
+    ax.annotate(label, (origin[i], origin[j]), textcoords="offset points", xytext=(6, -12), fontsize=8)
+
+
+def sensor(r: dict, device_rotation: np.ndarray | None = None) -> bytes:
+    """The sensor's geometry: device frame and markers (positions) or anchor (cable).
+
+    Args:
+        device_rotation: Rotation matrix of the device frame (from the report's rpy),
+            or None for a cable sensor.
+    """
+    ws = np.asarray(r["workspace_uncertainty"]["points_mm"]) if r.get("workspace_uncertainty") else np.zeros((0, 3))
+    fig = Figure(figsize=(12, 4.4), layout="constrained")
+    top, side, tool = fig.subplots(1, 3)
+    size = float(np.abs(ws).max()) * 0.25 if len(ws) else 150.0
+    for ax, (i, j) in ((top, (0, 1)), (side, (0, 2))):
+        ax.scatter(ws[:, i], ws[:, j], s=4, color="lightgrey", label="workspace poses")
+        _axes_arrows(ax, np.zeros(3), np.eye(3), i, j, size, "robot base")
+        if device_rotation is not None:
+            frame = r["device_frame"]
+            rotation = device_rotation
+            origin = -rotation.T @ np.asarray(frame["translation_mm"])  # device origin in base
+            ax.plot(origin[i], origin[j], "s", color="black", label="device origin")
+            _axes_arrows(ax, origin, rotation.T, i, j, size, "device")
+        else:
+            anchor = np.asarray(r["anchor_mm"])
+            ax.plot(anchor[i], anchor[j], "D", color="tab:purple", label="cable anchor")
+        ax.set_xlabel(f"{'xyz'[i]} [mm] (base frame)")
+        ax.set_ylabel(f"{'xyz'[j]} [mm]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="best")
+    top.set_title("top view (arrows: x red, y green, z blue)", fontsize=10)
+    side.set_title("side view", fontsize=10)
+    points = ({label: np.asarray(m) for label, m in r["markers_mm"].items()} if device_rotation is not None
+              else {"hook": np.asarray(r["tool_mm"])})
+    for label, m in points.items():
+        tool.plot(m[0], m[1], "o", color="tab:orange")
+        tool.annotate(f"{label} (z {m[2]:.1f})", (m[0], m[1]), textcoords="offset points", xytext=(5, 5), fontsize=8)
+    tool.plot([0], [0], "k+", ms=12)
+    tool.annotate("end frame origin", (0, 0), textcoords="offset points", xytext=(6, -12), fontsize=8)
+    # At least +-50 mm around the origin: a point at (0, 0) alone would get a micrometre-wide axis.
+    reach = max(50.0, 1.3 * max(float(np.abs(m[:2]).max()) for m in points.values()))
+    tool.set_xlim(-reach, reach)
+    tool.set_ylim(-reach, reach)
+    tool.set_xlabel("x [mm] (end frame)")
+    tool.set_ylabel("y [mm] (end frame)")
+    tool.set_aspect("equal", adjustable="box")
+    tool.grid(True, alpha=0.3)
+    tool.set_title("points on the end frame" if device_rotation is not None else "hook on the end frame", fontsize=10)
+    return png(fig)

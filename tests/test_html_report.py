@@ -1,0 +1,134 @@
+"""The HTML report: self-contained, every number from the report dict, figures displayed."""
+
+import base64
+import re
+import shutil
+import struct
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import calib_pin
+from calib_pin.html_report import deviation_rows, fmt, write_html_report
+from calib_pin.metrics import Metrics
+from calib_pin.robot.description import ROBOTS_DIR
+
+IMG = re.compile(r'<img [^>]*src="data:image/png;base64,([A-Za-z0-9+/=]+)"')
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def _render(tmp_path_factory, data: str):
+    result = calib_pin.calibrate("irb120", ROBOTS_DIR / data, method="lm")
+    report = result.report()
+    path = write_html_report(report, tmp_path_factory.mktemp("report") / "report.html")
+    return result, report, path, path.read_text(encoding="utf-8")
+
+
+@pytest.fixture(scope="module", params=["irb120_default.csv", "irb120_wu2015.csv"], ids=["cable", "position"])
+def rendered(request, tmp_path_factory):
+    return _render(tmp_path_factory, request.param)
+
+
+def test_summary_numbers_come_from_the_report(rendered):
+    _, r, _, page = rendered
+    for split in ("train", "test"):
+        for stage in ("before", "after"):
+            for key in ("rmse_mm", "mean_mm", "max_mm"):
+                assert f"<td>{fmt(r[split][stage][key])}</td>" in page
+    for text in (r["robot"], r["method"], r["model"], str(r["data"]), f"{fmt(r['time_s'])} s",
+                 f"{r['iterations']} ({fmt(r['evaluations'])} evaluations"):
+        assert text in page
+    f = r["uncertainty"]["flange_position_1sigma_mm"]
+    assert f"RMS {fmt(f['rms'])} mm, max {fmt(f['max'])} mm" in page
+
+
+def test_every_deviation_with_its_interval(rendered):
+    _, r, _, page = rendered
+    rows = deviation_rows(r)
+    assert [row["key"] for row in rows] == list(r["deviations"])
+    for row in rows:
+        p = r["uncertainty"]["parameters"][row["key"]]
+        assert f"<td>{fmt(p['value'])}</td>" in page
+        if row["status"] != "blind":
+            assert f"[{fmt(p['ci95'][0])}, {fmt(p['ci95'][1])}]" in page
+    for combination in r["identifiability"]["combinations"]:
+        assert f"<li>{combination}</li>" in page
+    for key in r["sensor_corrections"]:
+        assert f"<td>{fmt(r['uncertainty']['parameters'][key]['value'])}</td>" in page
+
+
+def test_arrays_agree_with_the_report_metrics(rendered):
+    """One source: the per-row errors give exactly the report's metrics and the workspace
+    sigmas exactly its flange RMS and max."""
+    _result, r, _, _ = rendered
+    res = r["residuals"]
+    split = np.asarray(res["split"])
+    assert sorted(res["rows"]) == sorted([*r["split"]["train"], *r["split"]["test"]])
+    for name in ("train", "test"):
+        for stage in ("before", "after"):
+            m = Metrics.of(np.asarray(res[f"{stage}_mm"])[split == name] * 1e-3).as_dict()
+            for key, value in m.items():
+                assert value == pytest.approx(r[name][stage][key], rel=1e-12)
+    sigma = np.asarray(r["workspace_uncertainty"]["sigma_mm"])
+    flange = r["uncertainty"]["flange_position_1sigma_mm"]
+    assert np.sqrt(np.mean(sigma**2)) == pytest.approx(flange["rms"], rel=1e-12)
+    assert sigma.max() == pytest.approx(flange["max"], rel=1e-12)
+    spec = r["identifiability_spectrum"]
+    assert int(np.sum(np.asarray(spec["singular_values"]) > spec["cut"])) == r["identifiability"]["rank"]
+    assert len(r["workspace_uncertainty"]["points_mm"]) == flange["poses"]
+
+
+def test_self_contained_with_valid_pngs(rendered):
+    _, r, _, page = rendered
+    images = IMG.findall(page)
+    assert len(images) == page.count("<img ") == 6
+    for data in images:
+        raw = base64.b64decode(data, validate=True)
+        assert raw[:8] == b"\x89PNG\r\n\x1a\n" and raw[12:16] == b"IHDR"
+        width, height = struct.unpack(">II", raw[16:24])
+        assert width > 300 and height > 200
+    text = IMG.sub("", page)
+    assert not re.search(r"https?://", text)
+    assert "<link" not in text and "src=" not in text  # no stylesheet, script or image to fetch
+    kind = "device frame" if "device_frame" in r else "Cable anchor"
+    assert kind in page
+
+
+def test_outlier_rows_are_marked(tmp_path):
+    result = calib_pin.calibrate("irb120", ROBOTS_DIR / "irb120_default.csv", method="lm", loss="cauchy")
+    report = result.report()
+    res = report["residuals"]
+    marked = [row for row, bad in zip(res["rows"], res["outlier"], strict=True) if bad]
+    assert marked == sorted(result.outlier_rows) and marked
+    page = write_html_report(report, tmp_path / "r.html").read_text()
+    listed = ", ".join(str(v) for v in result.outlier_rows) or "none"
+    assert f"(data rows {listed})" in page
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="no chromium installed (Debian package 'chromium')")
+def test_browser_displays_every_figure(rendered, tmp_path):
+    _, _, path, page = rendered
+    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+             "--disable-background-networking", "--disable-component-update", "--disable-sync",
+             f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1200,4000"]
+    url = path.resolve().as_uri()
+    dom = subprocess.run([CHROMIUM, *flags, "--dump-dom", url], check=True, capture_output=True, text=True, timeout=120).stdout
+    n = page.count("<img ")
+    assert f'data-images-ok="{n}/{n}"' in dom  # set on load: every image decoded (naturalWidth > 0)
+    shot = tmp_path / "shot.png"
+    subprocess.run([CHROMIUM, *flags, f"--screenshot={shot}", url], check=True, capture_output=True, timeout=120)
+    raw = Path(shot).read_bytes()
+    assert raw[:8] == b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", raw[16:24]) == (1200, 4000)
+
+
+def test_write_figures_for_the_readme(rendered, tmp_path):
+    from calib_pin.html_report import write_figures
+
+    _, r, _, _ = rendered
+    paths = write_figures(r, tmp_path / "figs")
+    assert sorted(p.name for p in paths) == sorted(
+        ["residuals.png", "spectrum.png", "convergence.png", "deviations.png", "workspace.png", "sensor.png"])
+    for p in paths:
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
