@@ -240,17 +240,14 @@ def simulate(
     poses = _poses_above_base(chain, cable, n_poses, rng) if poses is None else np.atleast_2d(np.asarray(poses, float))
     n_poses = len(poses)
     nominal = cable.predict(np.zeros(len(params.names)), poses)
-    x = _true_deviations(params, rng, nominal_rmse_mm,
-                         lambda x: np.abs(cable.predict(x, poses) - nominal))
+    x = _true_deviations(params, rng, nominal_rmse_mm, lambda x: np.abs(cable.predict(x, poses) - nominal))
     noise, outliers = reading_noise(noise_kind, n_poses, noise_mm, rng)
     soft = _true_compliance(compliance, true_compliance)
     true_model = CableModel(chain, params, sensor, compliance=compliance)
     readings = true_model.predict(np.concatenate([x, soft]), poses) + noise
-    data = MeasurementSet(
-        q=poses, values=readings, kind="cable", anchor=sensor.anchor, tool=sensor.tool,
-        length_offset=sensor.length_offset, robot=chain.name, end_frame=chain.end_frame,
-        notes={"source": f"calib-pin simulator, seed {seed}, noise {noise_mm:g} mm ({noise_kind})"},
-    )
+    data = MeasurementSet(q=poses, values=readings, kind="cable", anchor=sensor.anchor, tool=sensor.tool,
+                          length_offset=sensor.length_offset, robot=chain.name, end_frame=chain.end_frame,
+                          notes={"source": f"calib-pin simulator, seed {seed}, noise {noise_mm:g} mm ({noise_kind})"})
     truth = Truth(
         x, tuple(params.names), tuple(params.units), sensor, "cable", noise_mm * 1e-3, seed,
         noise_kind, tuple(int(i) for i in np.flatnonzero(outliers)), compliance, soft if compliance else None,
