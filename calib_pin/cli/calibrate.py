@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..calibration_file import calibration_path, write_calibration
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..metrics import Metrics
 from ..parameters import MODELS
@@ -102,6 +103,7 @@ def _calibrate(args: argparse.Namespace) -> int:
                                          f"{result.method} learns a correction of the readings, not kinematic parameters")
     if report["urdf"]:
         out.add(urdf_path, lambda tmp: result.to_urdf(tmp))
+        out.add(calibration_path(out.folder, result.chain.name), lambda tmp: write_calibration(result, tmp))
     out.add(out.folder / "report.json", lambda tmp: tmp.write_text(json.dumps(report, indent=2, allow_nan=False) + "\n"))
     written = out.commit()  # all together or none; a stale URDF of an earlier run is removed
     if not report["urdf"] and urdf_path.exists():
