@@ -114,7 +114,12 @@ def write_calibration(result: CalibrationResult, path: str | Path) -> Path:
     return path
 
 
-def _find(path: Path) -> Path:
+def find_calibration(path: Path) -> Path:
+    """The calibration file ``path``, or the one ``*_calibration.json`` of folder ``path``.
+
+    Raises:
+        CalibPinError: no such file, or not exactly one in the folder.
+    """
     if path.is_dir():
         found = sorted(path.glob("*_calibration.json"))
         if len(found) != 1:
@@ -176,7 +181,7 @@ def load_calibration(path: str | Path, robot: str | None = None, *, cable: bool 
         CalibPinError: a missing or unreadable file, another robot, or a URDF that is
             not the one calibrated.
     """
-    source = _find(Path(path))
+    source = find_calibration(Path(path))
     try:
         doc = json.loads(source.read_text(encoding="utf-8"))
         if doc.get("format") != FORMAT:
