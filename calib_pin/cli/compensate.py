@@ -80,10 +80,10 @@ def _summary(robot: CalibratedRobot, q_nominal: np.ndarray, result: Compensation
     real = robot.forward(q_nominal)
     nominal = robot.nominal(q_nominal)
     off = np.array([np.linalg.norm(r.translation - n.translation) for r, n in zip(real, nominal, strict=True)]) * 1e3
-    change = np.rad2deg(np.abs(result.q - q_nominal)).max(axis=1) * 1e3
+    change = np.rad2deg(np.abs(result.q - q_nominal)).max(axis=1)
     print(f"{robot.chain.name}: {len(q_nominal)} targets compensated in {result.iterations} iterations "
           f"({'geometry and deflection of ' + ', '.join(robot.deflection.spec.joints) if robot.deflection else 'geometry'})")
     print(f"uncompensated, the calibrated arm misses the nominal end frame by {off.mean():.3f} mm mean, {off.max():.3f} mm max")
-    print(f"joint corrections: {change.mean():.1f} mdeg mean, {change.max():.1f} mdeg max")
+    print(f"largest joint correction per target: {change.mean():.4f} deg mean, {change.max():.4f} deg max")
     print(f"remaining: position {result.position_error_m.max() * 1e6:.2g} um max, "
           f"orientation {result.orientation_error_rad.max() * 1e6:.2g} urad max")
