@@ -22,6 +22,7 @@ except PackageNotFoundError:  # a source tree that was not installed
 _API = {
     "calibrate": "pipeline", "prepare": "pipeline", "CalibrationSetup": "pipeline",
     "CalibrationResult": "result",
+    "load_calibration": "calibration_file", "CalibratedRobot": "compensation",
     "compare": "comparison", "Comparison": "comparison",
     "analyze": "identifiability",
     "CalibrationProblem": "problem",
@@ -42,6 +43,7 @@ __all__ = [
     "CalibrationProblem",
     "CalibrationResult",
     "CalibrationSetup",
+    "CalibratedRobot",
     "Chain",
     "Comparison",
     "DHModel",
@@ -61,6 +63,7 @@ __all__ = [
     "analyze",
     "calibrate",
     "compare",
+    "load_calibration",
     "load_chain",
     "parameter_model",
     "prepare",
@@ -86,7 +89,9 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:
+    from .calibration_file import load_calibration
     from .comparison import Comparison, compare
+    from .compensation import CalibratedRobot
     from .estimators import ESTIMATORS, EstimateResult, run_estimator
     from .exceptions import CalibPinError, DataError, EstimatorError, RobotError
     from .identifiability import analyze

@@ -1,6 +1,6 @@
 """The ``calib-pin`` command: one entry point, a subcommand for every command.
 
-``calib-pin calibrate|simulate|compare|analyze|collect|make-poses|plan-poses|fake-indicator|benchmark|batch ...``;
+``calib-pin calibrate|simulate|compare|collect|make-poses|plan-poses|fake-indicator|compensate|benchmark|batch ...``;
 the ``scripts/*.py`` wrappers call the same functions. Each command's module is imported
 only when it runs, so starting is quick.
 """
@@ -20,6 +20,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "make-poses": ("poses", "make_poses_main", "write random poses within the joint limits"),
     "plan-poses": ("poses", "plan_poses_main", "choose D-optimal poses"),
     "fake-indicator": ("fake_indicator", "fake_indicator_main", "serve a simulated indicator on a pty"),
+    "compensate": ("compensate", "compensate_main", "correct a program's joint targets with a calibration"),
     "benchmark": ("benchmark", "benchmark_main", "time the estimators"),
     "batch": ("batch", "batch_main", "calibrate many measurement sets, in processes or on a Dask cluster"),
 }

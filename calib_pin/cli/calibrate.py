@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..calibration_file import calibration_path, write_calibration
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..metrics import Metrics
 from ..parameters import MODELS
@@ -177,8 +178,8 @@ def _add_html(out: Outputs, report: dict[str, Any], no_html: bool) -> bool:
 
 
 #: Every file a calibrate run may write, by name pattern (a stale one is removed).
-_STALE = ("{name}_calibrated.urdf", "{name}_joint_origins.yaml", "{name}_default_kinematics.yaml", "{name}_dh.toml",
-          "report.html")
+_STALE = ("{name}_calibrated.urdf", "{name}_calibration.json", "{name}_joint_origins.yaml",
+          "{name}_default_kinematics.yaml", "{name}_dh.toml", "report.html")
 
 
 def _calibrate(args: argparse.Namespace) -> int:
@@ -197,6 +198,8 @@ def _calibrate(args: argparse.Namespace) -> int:
     report["exports"] = exports
     report["urdf_refused"] = refused or (None if result.kinematic else
                                          f"{result.method} learns a correction of the readings, not kinematic parameters")
+    if report["urdf"]:  # the calibration file goes with the URDF: geometry, compliance, sensor, versions
+        out.add(calibration_path(out.folder, result.chain.name), lambda tmp: write_calibration(result, tmp))
     _add_html(out, report, args.no_html)
     out.add(out.folder / "report.json", lambda tmp: tmp.write_text(json.dumps(report, indent=2, allow_nan=False) + "\n"))
     written = out.commit()  # all together or none

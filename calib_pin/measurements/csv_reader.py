@@ -41,6 +41,8 @@ from ..exceptions import DataError
 from ..robot.chain import Chain
 from .dataset import MeasurementSet
 
+#: Columns a compensated pose list carries beside the joints (calib-pin compensate); read past.
+ANNOTATIONS = ("position_error_mm", "orientation_error_urad")
 _JOINT = re.compile(r"^q(\d+)_(deg|rad|mm|m)$")
 _LENGTH = re.compile(r"^length_(mm|m)$")
 _COORD = re.compile(r"^([xyz])_(mm|m)$")
@@ -195,6 +197,8 @@ def _columns(header: list[str], path: Path, line: int) -> _Columns:
             if m.group(1) in cols.coords:
                 raise DataError(str(path), f"two {m.group(1)} columns (mm and m): keep one", line, name)
             cols.coords[m.group(1)] = (col, m.group(2))
+        elif name in ANNOTATIONS:
+            continue  # what calib-pin compensate adds to the joint targets; not data
         elif name == "pose":
             cols.pose = col
         elif name == "point_id":

@@ -76,3 +76,22 @@ def write_poses(
     lines.append(header(q.shape[1], "poses", with_pose=True))
     lines += [row(qk, labels=(k,)) for k, qk in enumerate(q, start=1)]
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def write_compensated(
+    path: str | Path, q: np.ndarray, pose_ids: np.ndarray, position_error_m: np.ndarray,
+    orientation_error_rad: np.ndarray, notes: dict[str, str],
+) -> None:
+    """Write compensated joint targets: ``pose,q1_deg,...`` as a pose list, then each
+    row's remaining end-frame error (``position_error_mm``, ``orientation_error_urad``;
+    the reader reads past them).
+
+    Args:
+        q: Joint commands, shape (n_poses, n_joints), [rad].
+        position_error_m, orientation_error_rad: Remaining errors, shape (n_poses,).
+    """
+    lines = [f"# {k}: {v}" for k, v in notes.items()]
+    lines.append(header(q.shape[1], "poses", with_pose=True) + ",position_error_mm,orientation_error_urad")
+    lines += [row(qk, labels=(int(pose),)) + f",{e_p * 1e3:.6f},{e_r * 1e6:.4f}"
+              for qk, pose, e_p, e_r in zip(q, pose_ids, position_error_m, orientation_error_rad, strict=True)]
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")

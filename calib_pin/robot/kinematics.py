@@ -60,6 +60,35 @@ class Kinematics:
             frame.placement = self._frame_nominal * deltas[-1]
         model.frames[self._fid] = frame
 
+    def frames(self, q: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """The end frame's placement at many poses, and its frame Jacobian.
+
+        Args:
+            q: Joint positions, shape (n_poses, n_joints), [rad].
+            jacobian: Also return Pinocchio's frame Jacobian (``pin.LOCAL``).
+
+        Returns:
+            rotations: shape (n_poses, 3, 3), base frame.
+            translations: shape (n_poses, 3), [m], base frame.
+            jacobians: shape (n_poses, 6, n_joints) or None: the end frame's local twist
+                (linear [m], angular [rad]) per unit of each joint.
+        """
+        model, data, fid = self._model, self._data, self._fid
+        configs = self.chain.configuration(np.atleast_2d(q))
+        n = len(configs)
+        rot, trans = np.empty((n, 3, 3)), np.empty((n, 3))
+        jac = np.empty((n, 6, self.chain.n_joints)) if jacobian else None
+        for k in range(n):
+            if jac is not None:
+                pin.computeJointJacobians(model, data, configs[k])
+            else:
+                pin.forwardKinematics(model, data, configs[k])
+            placement = pin.updateFramePlacement(model, data, fid)
+            rot[k], trans[k] = placement.rotation, placement.translation
+            if jac is not None:
+                jac[k] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
+        return rot, trans, jac
+
     def points(
         self, q: np.ndarray, point: np.ndarray, jacobian: bool = False, joints: bool = False
     ) -> tuple[np.ndarray, np.ndarray | None]:

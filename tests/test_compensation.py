@@ -1,0 +1,140 @@
+"""Compensation: commands that put the calibrated (deflecting) arm's end frame on the
+nominal targets, checked against a simulated true arm; its failures; the CLI."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import calib_pin as cp
+from calib_pin.calibration_file import calibration_path, write_calibration
+from calib_pin.cli import command
+from calib_pin.compensation import CalibratedRobot
+from calib_pin.hardware.session import read_pose_list
+from calib_pin.measurements import write_measurements
+from calib_pin.measurements.csv_writer import write_poses
+from calib_pin.robot.deflection import ComplianceSpec
+from calib_pin.simulation import random_poses
+
+SPEC = ComplianceSpec(("joint_2", "joint_3"))
+TRUE_C = np.array([2.5e-5, 4e-5])
+
+
+def _regular_targets(chain, n: int, seed: int) -> np.ndarray:
+    """Random targets away from the IRB120's wrist (q5 = 0) and elbow (q3 = -77 deg)
+    singularities, where small end-frame corrections need small joint corrections."""
+    q = random_poses(chain, 8 * n, np.random.default_rng(seed))
+    deg = np.rad2deg(q)
+    return q[(np.abs(deg[:, 4]) > 20) & ((deg[:, 2] < -100) | (deg[:, 2] > -55))][:n]
+
+
+@pytest.fixture(scope="module")
+def calibrated(chain, params, tmp_path_factory):
+    """A drawstring set (anchor and tool known) from a true arm with compliant joints 2, 3,
+    calibrated by LM with compliance, written and read back."""
+    data, truth = cp.simulate(chain, params, 150, seed=9, compliance=SPEC, true_compliance=TRUE_C)
+    result = cp.calibrate("irb120", data, method="lm", compliance=SPEC.joints, test_fraction=0)
+    folder = tmp_path_factory.mktemp("calibration")
+    write_calibration(result, calibration_path(folder, "irb120"))
+    return cp.load_calibration(folder), truth, folder
+
+
+def _pose_error(a: pin.SE3, b: pin.SE3) -> tuple[float, float]:
+    return float(np.linalg.norm(a.translation - b.translation)), float(np.linalg.norm(pin.log3(a.rotation.T @ b.rotation)))
+
+
+def test_compensated_true_arm_reaches_nominal_targets(calibrated, chain, params):
+    """The calibrated arm at the commands is on the nominal targets to 1 um / 1 urad; the
+    TRUE arm there misses them only by the calibration's own error (tens of um), against
+    about 3 mm without compensation."""
+    robot, truth, _ = calibrated
+    q = _regular_targets(chain, 40, 1)
+    q_c = robot.compensate(q)
+    assert q_c.shape == q.shape and np.abs(q_c - q).max() > 1e-4
+    for real, target in zip(robot.forward(q_c), robot.nominal(q), strict=True):
+        position, orientation = _pose_error(real, target)
+        assert position < 1e-6 and orientation < 1e-6
+    true_arm = CalibratedRobot(chain, params, truth.x, SPEC, TRUE_C)
+    tool = truth.sensor.tool  # what the drawstring saw: the tool point
+
+    def tool_at(arm, commands):
+        return np.array([f.act(tool) for f in arm.forward(commands)])
+
+    target = np.array([f.act(tool) for f in robot.nominal(q)])
+    compensated = np.linalg.norm(tool_at(true_arm, q_c) - target, axis=1)
+    uncompensated = np.linalg.norm(tool_at(true_arm, q) - target, axis=1)
+    model_error = np.linalg.norm(tool_at(true_arm, q_c) - tool_at(robot, q_c), axis=1)
+    assert np.abs(compensated - model_error).max() < 1e-6  # within what the calibration allows
+    assert compensated.max() < 0.15e-3 and uncompensated.mean() > 2e-3
+    assert compensated.mean() < 0.05 * uncompensated.mean()
+
+
+def test_deflection_is_compensated(chain, params):
+    """A rigid-geometry arm that only sags: the commands lift it back onto the targets,
+    and leaving the deflection out of the model would leave the sag."""
+    arm = CalibratedRobot(chain, params, np.zeros(len(params.names)), SPEC, np.array([6.6e-5, 2.9e-4]))
+    q = _regular_targets(chain, 20, 2)
+    q_c = arm.compensate(q)
+    sag = [_pose_error(a, b)[0] for a, b in zip(arm.forward(q), arm.nominal(q), strict=True)]
+    left = [_pose_error(a, b)[0] for a, b in zip(arm.forward(q_c), arm.nominal(q), strict=True)]
+    assert max(sag) > 5e-4 and max(left) < 1e-6
+    assert np.allclose(arm.compensate(q[0]), q_c[0], atol=1e-9)  # one target: shape (n_joints,)
+
+
+def test_joint_limit_and_unreachable_targets(chain, params):
+    x = np.zeros(len(params.names))
+    x[params.names.index("theta_1")] = 0.01  # the real joint 1 sits 10 mrad off
+    arm = CalibratedRobot(chain, params, x)
+    q = _regular_targets(chain, 1, 3)[0]
+    shift = arm.compensate(q)[0] - q[0]
+    assert abs(abs(shift) - 0.01) < 1e-6
+    q[0] = chain.upper[0] if shift > 0 else chain.lower[0]
+    with pytest.raises(cp.CalibPinError, match="target 1: needs joint_1 at .* beyond its limit"):
+        arm.compensate(q)
+    x = np.zeros(len(params.names))
+    x[params.names.index("a_2")] = -0.005  # 5 mm shorter upper arm: no longer reaches stretched poses
+    short = CalibratedRobot(chain, params, x)
+    stretched = np.deg2rad([[0.0, 30.0, -77.0, 0.0, 40.0, 0.0], [0.0, 0.0, 0.0, 0.0, 40.0, 0.0]])
+    result = short.solve(stretched)
+    assert result.problems[0].startswith("no convergence") and result.problems[1] == ""
+    with pytest.raises(cp.CalibPinError, match="target 1: no convergence"):
+        short.compensate(stretched)
+
+
+def test_cli(calibrated, chain, tmp_path, capsys):
+    robot, _, folder = calibrated
+    q = _regular_targets(chain, 6, 4)
+    program = tmp_path / "program.csv"
+    write_poses(program, q, robot="irb120")
+    out = tmp_path / "corrected.csv"
+    compensate = command("compensate")
+    assert compensate(["irb120", "--calibration", str(folder), "--targets", str(program), "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "6 targets compensated" in text and "remaining: position" in text
+    corrected = read_pose_list(out, chain)  # the same columns: a pose list again
+    assert np.abs(corrected.q - robot.compensate(q)).max() < 1e-9
+    assert corrected.notes.get("compensated", "").startswith("irb120_calibration.json")
+    header = [line for line in out.read_text().splitlines() if line.startswith("pose")][0]
+    assert header.endswith("q6_deg,position_error_mm,orientation_error_urad")
+    # a measurement set works as a program too (its angle columns)
+    write_measurements(tmp_path / "set.csv", cp.simulate(chain, cp.parameter_model(chain), 0, seed=1, poses=q)[0])
+    assert compensate(["irb120", "--calibration", str(folder), "--targets", str(tmp_path / "set.csv"),
+                       "--out", str(tmp_path / "c2.csv")]) == 0
+    assert np.allclose(read_pose_list(tmp_path / "c2.csv", chain).q, corrected.q, atol=1e-12)
+    capsys.readouterr()
+    q_limit = q.copy()
+    q_limit[2, 0] = chain.upper[0] if robot.compensate(q[2])[0] > q[2, 0] else chain.lower[0]
+    write_poses(program, q_limit, robot="irb120")
+    for argv, message in (
+        (["irb120", "--calibration", str(tmp_path / "none"), "--targets", str(program)], "no such calibration file"),
+        (["ur5", "--calibration", str(folder), "--targets", str(program)], "not 'ur5'"),
+        (["irb120", "--calibration", str(folder), "--targets", str(program)], r"csv:5: pose 3: needs joint_1 at"),
+    ):
+        assert compensate([*argv, "--out", str(tmp_path / "bad.csv")]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1
+        assert re.search(message, err), err
+    assert not (tmp_path / "bad.csv").exists()
