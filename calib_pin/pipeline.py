@@ -9,6 +9,7 @@ rows only (nothing is ever fitted on a test row) and runs any estimator
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -221,6 +222,7 @@ def calibrate(
     loss: str = "linear",
     parameters: str | None = None,
     estimate: tuple[str, ...] = (),
+    progress: Callable[[CalibrationSetup], object] | None = None,
 ) -> CalibrationResult:
     """Calibrate a robot's kinematic deviations from drawstring readings or positions.
 
@@ -243,6 +245,7 @@ def calibrate(
             ``placement`` (default without one; any URDF).
         estimate: Drawstring geometry to estimate with the robot: ``anchor``,
             ``offset`` (positions always estimate the device frame and markers).
+        progress: Called with the prepared setup before the estimation starts.
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
@@ -258,4 +261,6 @@ def calibrate(
         if validation.kind != setup.data.kind:
             raise DataError(validation.source, f"holds {validation.kind} data, the calibration set "
                             f"{setup.data.kind} data")
+    if progress is not None:
+        progress(setup)
     return setup.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)

@@ -6,6 +6,7 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..exceptions import CalibPinError
 from ..parameters import MODELS
 from ..simulation import NOISE_KINDS
 from .common import OneLineParser, add_robot_arguments, count, finite, non_negative, positive_float, run
@@ -63,6 +64,9 @@ def _simulate(args: argparse.Namespace) -> int:
         anchor_mm=args.anchor_mm or DEFAULT_ANCHOR_MM, tool_mm=args.tool_mm or DEFAULT_TOOL_MM,
         length_offset_mm=args.length_offset_mm, noise_kind=args.noise_kind, poses=poses,
     )
+    if not (data.lengths > 0).all():
+        raise CalibPinError(f"a simulated length is {data.lengths.min() * 1e3:.3f} mm, not positive: "
+                            "--length-offset-mm or the sensor geometry is wrong")
     outputs = Outputs(out.parent)
     outputs.add(out, lambda tmp: write_measurements(tmp, data))
     outputs.add(truth_path, lambda tmp: truth.to_json(tmp))
