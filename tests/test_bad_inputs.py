@@ -54,6 +54,8 @@ def urdf(old: str, new: str, count: int = 1) -> str:
 LIMIT1 = 'lower="-2.879793265790644" upper="2.879793265790644"'
 POSES = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n1,0,0,0,0,0,0\n2,10,10,10,10,10,10\n"
 IDENTICAL = csv(*[ROWS[0]] * 120)
+SESSION = ("# robot: irb120\n# end_frame: tool0\n# anchor_mm: 600, 200, -100\n"
+           "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,length_mm\n1,0,0,0,0,0,0,1000.5\n")
 CAL = "calibrate"
 SIM = "simulate"
 CMP = "compare"
@@ -126,6 +128,7 @@ CASES: list[tuple[str, list[str], dict[str, str | bytes], int, str]] = [
     (CAL, ["irb120", "--data", "same.csv", "--method", "lm"], {"same.csv": IDENTICAL}, 2, "identify only 1 of 24"),
     (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(*ROWS[:40], head=HEAD + ",q1_rad")}, 2, "q1_rad"),
     (CAL, ["irb120", "--data", "w.csv", "--analyze"], {"w.csv": "pose,x_mm\n1,2\n"}, 2, "w.csv"),
+    (CAL, ["r.urdf", "--analyze"], {"r.urdf": urdf('<axis xyz="0 1 0"/>', '<axis xyz="0 0 0"/>')}, 2, "'joint_2' has a zero axis"),
     (CAL, ["irb120", "--data", "d.csv", "--out", "f", "--method", "lm"], {"d.csv": data(), "f": "a file"}, 2, "f"),
     # --- simulate
     (SIM, ["irb120"], {}, 2, "--out"),
@@ -191,6 +194,9 @@ CASES: list[tuple[str, list[str], dict[str, str | bytes], int, str]] = [
     (COL, COLLECT, {"p.csv": POSES, "o.csv": b"\x89PNG\r\n\x1a\n\x00\x00"}, 2, "o.csv"),
     (COL, COLLECT, {"p.csv": POSES, "o.csv": data()}, 2, "o.csv"),
     (COL, COLLECT, {"p.csv": POSES, "o.csv": '{"urdf": null}'}, 2, "o.csv"),
+    (COL, [*COLLECT, "--anchor-mm", "1,2,3"], {"p.csv": POSES, "o.csv": SESSION}, 2, "was collected with anchor_mm 600"),
+    (COL, [*COLLECT, "--tool-mm", "0,0,70"], {"p.csv": POSES, "o.csv": SESSION}, 2, "was collected with tool_mm none"),
+    (COL, COLLECT, {"p.csv": POSES, "o.csv": SESSION.replace("\n1,0,", "\n9,0,")}, 2, "pose 9 is not in p.csv"),
     (COL, [*COLLECT, "--baud", "fast"], {"p.csv": POSES}, 2, "--baud"),
     (COL, [*COLLECT, "--samples", "0"], {"p.csv": POSES}, 2, "samples"),
     (COL, [*COLLECT, "--max-mm", "-1"], {"p.csv": POSES}, 2, "max_mm"),
@@ -257,7 +263,8 @@ def test_bad_input_gives_one_line(name, argv, files, status, fragment, tmp_path,
 
 def _other_robot_session() -> str:
     """A drawstring session of another robot, its last row cut short (no final newline)."""
-    return csv(*ROWS[:5], meta=("# robot: ur5", *META[1:]), head="pose," + HEAD).replace("\n-", "\n1,-").rstrip("\n")
+    rows = (f"{k},{r}" for k, r in enumerate(ROWS[:5], 1))
+    return csv(*rows, meta=("# robot: ur5", *META[1:]), head="pose," + HEAD).rstrip("\n")
 
 
 WRONG_OUT: dict[str, str | bytes | None] = {
