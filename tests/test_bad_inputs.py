@@ -128,7 +128,8 @@ CASES: list[tuple[str, list[str], dict[str, str | bytes], int, str]] = [
     (CAL, ["irb120", "--data", "same.csv", "--method", "lm"], {"same.csv": IDENTICAL}, 2, "identify only 1 of 24"),
     (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(*ROWS[:40], head=HEAD + ",q1_rad")}, 2, "q1_rad"),
     (CAL, ["irb120", "--data", "w.csv", "--analyze"], {"w.csv": "pose,x_mm\n1,2\n"}, 2, "w.csv"),
-    (CAL, ["r.urdf", "--analyze"], {"r.urdf": urdf('<axis xyz="0 1 0"/>', '<axis xyz="0 0 0"/>')}, 2, "'joint_2' has a zero axis"),
+    (CAL, ["r.urdf", "--analyze"],
+     {"r.urdf": urdf('<axis xyz="0 1 0"/>', '<axis xyz="0 0 0"/>')}, 2, "'joint_2' has a zero axis"),
     (CAL, ["irb120", "--data", "d.csv", "--out", "f", "--method", "lm"], {"d.csv": data(), "f": "a file"}, 2, "f"),
     # --- simulate
     (SIM, ["irb120"], {}, 2, "--out"),
