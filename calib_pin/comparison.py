@@ -254,7 +254,8 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
            test_fraction: float, tick: Callable[[], Any] | None = None) -> Trial:
     train, test = setup.split(test_fraction, seed)
     if not len(test):
-        raise CalibPinError("a comparison needs held-out rows: use a test fraction above 0")
+        raise CalibPinError(f"a comparison needs held-out rows: {len(setup.data)} rows at test fraction "
+                            f"{test_fraction:g} hold out none (use more poses or a larger test fraction)")
     problem: CalibrationProblem = setup.problem_on(train)  # nothing fitted on test rows
     train_problem, test_problem = problem.subset(train), problem.subset(test)
     model = problem.model

@@ -9,6 +9,7 @@ rows only (nothing is ever fitted on a test row) and runs any estimator
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -236,6 +237,7 @@ def calibrate(
     payload_kg: float | None = None,
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
+    progress: Callable[[CalibrationSetup], object] | None = None,
 ) -> CalibrationResult:
     """Calibrate a robot's kinematic deviations from drawstring readings or positions.
 
@@ -258,12 +260,10 @@ def calibrate(
             ``placement`` (default without one; any URDF).
         estimate: Drawstring geometry to estimate with the robot: ``anchor``,
             ``offset`` (positions always estimate the device frame and markers).
-        compliance: Joints whose compliance [rad/Nm] is estimated with the geometry
-            (``("joint_2", "joint_3")``, ``"joint_2,joint_3"`` or ``"all"``); see
-            :mod:`calib_pin.robot.deflection`. Needs the URDF's inertial data.
-        payload_kg, payload_com_mm: A payload's mass [kg] and centre of mass in the end
-            frame [mm] (with ``compliance``).
-        cable_tension_n: The drawstring's pull [N] (with ``compliance``, cable data).
+        compliance, payload_kg, payload_com_mm, cable_tension_n: Joints whose compliance
+            [rad/Nm] is estimated with the geometry (``"joint_2,joint_3"``, ``"all"``), a
+            payload [kg] at [mm] in the end frame, the cable's pull [N]: see :func:`prepare`.
+        progress: Called with the prepared setup before the estimation starts.
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
@@ -275,6 +275,8 @@ def calibrate(
                     estimate=estimate, compliance=compliance, payload_kg=payload_kg,
                     payload_com_mm=payload_com_mm, cable_tension_n=cable_tension_n)
     validation = None if test_data is None else _validation(setup, test_data, str(robot))
+    if progress is not None:
+        progress(setup)
     return setup.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)
 
 

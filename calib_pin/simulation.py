@@ -164,6 +164,10 @@ def random_poses(
     """
     lo = np.where(np.isfinite(chain.lower), chain.lower + margin, -np.pi)
     hi = np.where(np.isfinite(chain.upper), chain.upper - margin, np.pi)
+    if np.any(hi < lo):
+        k = int(np.argmax(lo - hi))
+        raise CalibPinError(f"joint '{chain.joint_names[k]}' has no range left inside its limits less a margin "
+                            f"of {np.rad2deg(margin):g} deg")
     return rng.uniform(lo, hi, size=(n, chain.n_joints))
 
 

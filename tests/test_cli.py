@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def test_calibrate_writes_urdf_and_report(tmp_path, capsys):
     """calibrate.py irb120 on the shipped data prints the table and writes both files."""
-    assert calibrate_main(["irb120", "--out", str(tmp_path), "--method", "lm", "--seed", "3"]) == 0
+    assert calibrate_main(["irb120", "--no-html", "--out", str(tmp_path), "--method", "lm", "--seed", "3"]) == 0
     out = capsys.readouterr().out
     assert "train before" in out and "test after" in out and "wrote" in out
     report = json.loads((tmp_path / "report.json").read_text())
@@ -41,7 +41,7 @@ def test_simulate_then_calibrate(tmp_path, capsys):
     csv = tmp_path / "s.csv"
     assert simulate_main(["irb120", "--poses", "60", "--seed", "1", "--out", str(csv)]) == 0
     assert (tmp_path / "s.truth.json").is_file()
-    assert calibrate_main(["irb120", "--data", str(csv), "--out", str(tmp_path / "o"), "--method", "ekf"]) == 0
+    assert calibrate_main(["irb120", "--no-html", "--data", str(csv), "--out", str(tmp_path / "o"), "--method", "ekf"]) == 0
 
 
 def _run(*args, script="calibrate.py"):
@@ -115,7 +115,7 @@ def test_bad_csv_row_one_line(tmp_path):
 
 def test_calibrate_rbf_writes_report_but_no_urdf(tmp_path, capsys):
     """rbf learns no kinematic parameters: the report is written, the URDF is not, and it says so."""
-    assert calibrate_main(["irb120", "--method", "rbf", "--out", str(tmp_path)]) == 0
+    assert calibrate_main(["irb120", "--no-html", "--method", "rbf", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "no URDF written: rbf learns a correction" in out
     report = json.loads((tmp_path / "report.json").read_text())
@@ -172,7 +172,7 @@ def test_runaway_deviation_exit_2_report_kept(tmp_path, capsys):
     csv = tmp_path / "wild.csv"
     assert simulate_main(["irb120", "--poses", "60", "--seed", "1", "--nominal-rmse-mm", "300",
                           "--out", str(csv)]) == 0
-    code = calibrate_main(["irb120", "--data", str(csv), "--method", "lm", "--out", str(tmp_path / "o")])
+    code = calibrate_main(["irb120", "--no-html", "--data", str(csv), "--method", "lm", "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "is beyond the sanity bound" in err[0]
     assert (tmp_path / "o" / "report.json").is_file() and not list((tmp_path / "o").glob("*.urdf"))
@@ -181,7 +181,7 @@ def test_runaway_deviation_exit_2_report_kept(tmp_path, capsys):
 def test_models_and_sensor_unknowns_from_the_command_line(tmp_path, capsys):
     """--model hayati and --estimate anchor,offset reach the report and the analysis."""
     out = tmp_path / "o"
-    assert calibrate_main(["irb120", "--model", "hayati", "--estimate", "anchor,offset", "--method", "lm",
+    assert calibrate_main(["irb120", "--no-html", "--model", "hayati", "--estimate", "anchor,offset", "--method", "lm",
                            "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "hayati model" in text and "sensor geometry estimated: anchor_x_mm" in text
@@ -198,5 +198,5 @@ def test_simulate_with_a_model_then_calibrate_it(tmp_path, capsys):
     csv = tmp_path / "h.csv"
     assert simulate_main(["ur5", "--model", "placement", "--poses", "60", "--out", str(csv)]) == 0
     assert "joint-placement deviations" in capsys.readouterr().out
-    assert calibrate_main(["ur5", "--data", str(csv), "--method", "lm", "--out", str(tmp_path / "o")]) == 0
+    assert calibrate_main(["ur5", "--no-html", "--data", str(csv), "--method", "lm", "--out", str(tmp_path / "o")]) == 0
     assert "placement model" in capsys.readouterr().out

@@ -70,7 +70,7 @@ def test_quiet_progress_silences_every_bar_within():
 def test_pso_generations_bar_on_a_terminal_same_result(monkeypatch):
     import calib_pin
 
-    problem = calib_pin.prepare("irb120").problem
+    problem = calib_pin.prepare("irb120").problem.subset(np.arange(40))
     x0 = np.zeros(problem.n_params)
     plain = run_estimator("pso", problem, x0, seed=1)  # stderr is no terminal under pytest
     tty = _Tty()

@@ -122,10 +122,10 @@ def test_bad_position_files(tmp_path, chain, text, message):
 
 
 def test_cli_calibrates_real_positions_and_refuses_cable_options(tmp_path, capsys):
-    assert calibrate_main(["irb120", "--data", str(WU2015), "--method", "lm", "--out", str(tmp_path)]) == 0
+    assert calibrate_main(["irb120", "--no-html", "--data", str(WU2015), "--method", "lm", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "108 rows at 36 poses" in out and "Euclidean position error" in out
     assert (tmp_path / "irb120_calibrated.urdf").is_file()
-    code = calibrate_main(["irb120", "--data", str(WU2015), "--estimate", "anchor", "--out", str(tmp_path / "x")])
+    code = calibrate_main(["irb120", "--no-html", "--data", str(WU2015), "--estimate", "anchor", "--out", str(tmp_path / "x")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "the device frame and the marker points are always estimated" in err[0]

@@ -62,8 +62,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if argv and argv[0] in ("-h", "--help"):
             print(text)
             return 0
-        unknown = f"unknown command '{argv[0]}'; " if argv else ""
-        print(f"calib-pin: error: {unknown}{text}", file=sys.stderr)
+        what = f"unknown command '{argv[0][:40]}'" if argv else "give a command"
+        print(f"calib-pin: error: {what} (commands: {', '.join(COMMANDS)}; see calib-pin --help)", file=sys.stderr)
         return 2
     return command(argv[0])(argv[1:])
 

@@ -188,10 +188,10 @@ def _calibrate(args: argparse.Namespace) -> int:
     _check_dh_export(args)
     result = calibrate(args.robot, args.data, method=args.method, seed=args.seed,
                        test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
-                       **_setup_options(args))
+                       progress=_announce, **_setup_options(args))
     out = Outputs(Path(args.out))
     report = result.report()
-    refused = result.sanity_error() if result.kinematic else None
+    refused = (_unsupported(report) or result.sanity_error()) if result.kinematic else None
     notes: list[str] = []
     exports = _add_exports(out, result, args.export, notes) if result.kinematic and not refused else {}
     report["urdf"] = exports.get("urdf")
@@ -215,6 +215,28 @@ def _calibrate(args: argparse.Namespace) -> int:
     for path in written:
         print(f"wrote {path}")
     return 0
+
+
+#: Rows from which a calibration is announced on stderr before it starts (it may take minutes).
+LONG_ROWS = 5000
+
+
+def _announce(setup: Any) -> None:
+    if len(setup.data) >= LONG_ROWS:
+        print(f"calibrating {len(setup.data)} rows with {setup.problem.n_params} unknowns; "
+              "this can take minutes (Ctrl-C stops, writing nothing)", file=sys.stderr, flush=True)
+
+
+def _unsupported(report: dict[str, Any]) -> str | None:
+    """Why the training poses cannot support a URDF (their rank is below half the unknowns), or None;
+    the reason is added to ``report["warnings"]``."""
+    ident = report["identifiability"]
+    if 2 * ident["rank"] >= ident["unknowns"]:
+        return None
+    why = (f"the training poses identify only {ident['rank']} of {ident['unknowns']} directions "
+           "(identical or too few distinct poses?): no URDF written; measure more varied poses")
+    report["warnings"].append(why)
+    return why
 
 
 def _summary(result: Any, report: dict[str, Any]) -> None:

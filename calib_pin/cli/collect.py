@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..progress import quiet_progress
-from .common import SENSOR_FAULT_EXIT, OneLineParser, fail, non_negative, run, xyz_mm
+from .common import SENSOR_FAULT_EXIT, OneLineParser, count, fail, non_negative, run, xyz_mm
 
 if TYPE_CHECKING:
     from ..hardware.reader import SensorProfile
@@ -88,7 +88,7 @@ def collect_parser() -> argparse.ArgumentParser:
     p.add_argument("--auto", type=non_negative(float), metavar="SECONDS",
                    help="do not wait for Enter: wait this long at each pose, then read")
     p.add_argument("--probe", action="store_true", help="only read and print a few values")
-    p.add_argument("--count", type=int, default=5, help="values read by --probe (5)")
+    p.add_argument("--count", type=count(10_000), default=5, help="values read by --probe (5)")
     p.add_argument("--end-frame", help="end frame (default tool0)")
     p.add_argument("--anchor-mm", type=xyz_mm, help="sensor point P0 in the base frame, x,y,z mm (written to the file)")
     p.add_argument("--tool-mm", type=xyz_mm, help="hook point in the end frame, x,y,z mm (written to the file)")
@@ -118,7 +118,7 @@ def _probe(args: argparse.Namespace) -> int:
     print(f"probing {args.port}: {profile.describe()}")
     try:
         reader.flush()
-        for i in range(1, max(args.count, 1) + 1):
+        for i in range(1, args.count + 1):
             try:
                 print(f"{i}: {read_with_retries(reader):.3f} mm")
             except SensorFault as e:

@@ -69,6 +69,9 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     from ..comparison import compare
     from ..figures import convergence_figure, residual_figure
 
+    if args.trials >= 10:
+        print(f"comparing {len(args.methods)} methods over {args.trials} trials; this can take long "
+              "(Ctrl-C stops, writing nothing)", file=sys.stderr, flush=True)
     result = compare(
         args.robot, args.data, methods=args.methods, trials=args.trials, seed=args.seed,
         test_fraction=args.test_fraction, simulate_noise=args.simulate,

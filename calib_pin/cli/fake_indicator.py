@@ -39,11 +39,16 @@ def fake_indicator_main(argv: Sequence[str] | None = None) -> int:
             values = (read_measurements(args.values).lengths * 1e3).tolist()
         except CalibPinError as e:
             p.error(str(e))
-    fake = FakeIndicator(
-        args.protocol, args.value_mm, slave=args.slave, register=args.register, words=args.words,
-        signed=not args.unsigned, word_order=args.word_order, scale_mm=args.scale_mm,
-        noise_mm=args.noise_mm, drift_mm_per_s=args.drift_mm_per_s, values_mm=values, follow=args.follow,
-    )
+    if args.fault_every < 0 or (args.fault and not args.fault_every):
+        p.error("--fault needs --fault-every N with N >= 1")
+    try:
+        fake = FakeIndicator(
+            args.protocol, args.value_mm, slave=args.slave, register=args.register, words=args.words,
+            signed=not args.unsigned, word_order=args.word_order, scale_mm=args.scale_mm,
+            noise_mm=args.noise_mm, drift_mm_per_s=args.drift_mm_per_s, values_mm=values, follow=args.follow,
+        )
+    except CalibPinError as e:
+        p.error(str(e))
     print(f"fake {args.protocol} indicator on {fake.path} (Ctrl-C to stop)", flush=True)
     fake.start()
     try:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..exceptions import CalibPinError
 from ..parameters import MODELS
 from ..simulation import NOISE_KINDS
 from .common import (
@@ -92,6 +93,9 @@ def _simulate(args: argparse.Namespace) -> int:
         length_offset_mm=args.length_offset_mm, noise_kind=args.noise_kind, poses=poses,
         compliance=spec, true_compliance=true_c,
     )
+    if not (data.lengths > 0).all():
+        raise CalibPinError(f"a simulated length is {data.lengths.min() * 1e3:.3f} mm, not positive: "
+                            "--length-offset-mm or the sensor geometry is wrong")
     outputs = Outputs(out.parent)
     outputs.add(out, lambda tmp: write_measurements(tmp, data))
     outputs.add(truth_path, lambda tmp: truth.to_json(tmp))

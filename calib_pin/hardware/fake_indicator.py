@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..exceptions import CalibPinError
+
 FAULTS = ("delay", "silence", "crc", "garbled", "exception", "disconnect")
 
 
@@ -46,6 +48,32 @@ def _rows_in(path: Path) -> int:
     except OSError:
         return 0
     return max(len(lines) - 1, 0)
+
+
+def _check_settings(value_mm, values_mm, slave, register, words, signed, scale_mm, zero_mm,
+                    noise_mm, drift_mm_per_s) -> None:
+    """Refuse a setting the server thread could not serve (before it starts, with one line).
+
+    Raises:
+        CalibPinError: naming the first bad setting.
+    """
+    numbers = {"scale_mm": scale_mm, "zero_mm": zero_mm, "noise_mm": noise_mm, "drift_mm_per_s": drift_mm_per_s}
+    for name, value in numbers.items():
+        if not np.isfinite(value):
+            raise CalibPinError(f"fake indicator setting {name} = {value!r}: must be a finite number")
+    if scale_mm == 0 or noise_mm < 0:
+        raise CalibPinError(f"fake indicator setting {'scale_mm' if scale_mm == 0 else 'noise_mm'}: "
+                            "must be non-zero (scale) or non-negative (noise)")
+    for name, value, low, high in (("slave", slave, 1, 247), ("register", register, 0, 65535), ("words", words, 1, 2)):
+        if not low <= value <= high:
+            raise CalibPinError(f"fake indicator setting {name} = {value!r}: must be {low} to {high}")
+    bits = 16 * words
+    low, high = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if signed else (0, (1 << bits) - 1)
+    for value in [value_mm, *(values_mm if values_mm is not None else [])]:
+        counts = (value - zero_mm) / scale_mm if np.isfinite(value) else np.inf
+        if not low <= counts <= high:
+            raise CalibPinError(f"fake indicator value {value:g} mm does not fit in {bits} bits at "
+                                f"{scale_mm:g} mm per count ({'signed' if signed else 'unsigned'})")
 
 
 class FakeIndicator:
@@ -73,6 +101,8 @@ class FakeIndicator:
     ) -> None:
         if protocol not in ("modbus", "ascii"):
             raise ValueError(f"protocol must be modbus or ascii, got {protocol!r}")
+        _check_settings(value_mm, values_mm, slave, register, words, signed, scale_mm, zero_mm,
+                        noise_mm, drift_mm_per_s)
         self.protocol = protocol
         self.value_mm = value_mm
         self.slave, self.register, self.words = slave, register, words

@@ -120,6 +120,11 @@ class SensorProfile:
 
     def check(self) -> SensorProfile:
         """Raise CalibPinError naming the first bad setting; return self."""
+        for f in fields(self):
+            value, kind = getattr(self, f.name), type(getattr(SensorProfile, f.name))
+            if not (isinstance(value, kind) or (kind is float and isinstance(value, int))) or (
+                    kind is not bool and isinstance(value, bool)):
+                raise CalibPinError(f"sensor setting {f.name} = {value!r}: must be a {kind.__name__}")
         problems = [
             (self.protocol in ("modbus", "ascii"), "protocol", "modbus or ascii"),
             (self.baud > 0, "baud", "a positive number"),

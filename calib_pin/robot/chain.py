@@ -9,8 +9,15 @@ Units: joint angles in [rad] (prismatic joints [m]), positions in [m], base fram
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+import os
+import sys
+import tempfile
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO
+from xml.etree import ElementTree
 
 import numpy as np
 import pinocchio as pin
@@ -19,12 +26,53 @@ from ..exceptions import RobotError
 from .description import RobotDescription, resolve_robot
 
 
-def _load_urdf_model(description: RobotDescription) -> pin.Model:
+@contextlib.contextmanager
+def _console_to(sink: IO[bytes]) -> Iterator[None]:
+    """Send what C++ code prints on stderr (file descriptor 2) to ``sink``."""
+    sys.stderr.flush()
+    saved = os.dup(2)
     try:
-        return pin.buildModelFromUrdf(str(description.urdf))
-    except (RuntimeError, ValueError) as e:
-        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        raise RobotError(f"{description.urdf}: Pinocchio cannot read this URDF: {first}") from e
+        os.dup2(sink.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _check_tree(path: Path) -> None:
+    """Refuse a URDF whose links do not form a tree (a link with two parent joints)."""
+    try:
+        root = ElementTree.parse(path).getroot()
+    except (ElementTree.ParseError, OSError):
+        return  # Pinocchio says what is wrong
+    parents: dict[str, str] = {}
+    for joint in root.iter("joint"):
+        child = joint.find("child")
+        link = child.get("link") if child is not None else None
+        if link in parents:
+            raise RobotError(f"{path}: link '{link}' is the child of two joints ('{parents[link]}' and "
+                             f"'{joint.get('name')}'), a kinematic loop: calib-pin needs a tree of joints")
+        if link:
+            parents[link] = str(joint.get("name"))
+
+
+def _load_urdf_model(description: RobotDescription) -> pin.Model:
+    path = Path(description.urdf)
+    try:
+        path.read_bytes()
+    except OSError as e:
+        raise RobotError(f"{path}: cannot read the URDF: {e.strerror or e}") from None
+    _check_tree(path)
+    with tempfile.TemporaryFile() as console:
+        try:
+            with _console_to(console):  # urdfdom prints its own lines: keep their detail for ours
+                return pin.buildModelFromUrdf(str(path))
+        except (RuntimeError, ValueError) as e:
+            console.seek(0)
+            said = [ln.strip() for ln in console.read().decode("utf-8", "replace").splitlines() if ln.strip()]
+            first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            detail = f" ({said[0].removeprefix('Error:').strip()[:200]})" if said else ""
+            raise RobotError(f"{path}: Pinocchio cannot read this URDF: {first}{detail}") from e
 
 
 def _body_frames(model: pin.Model) -> list[str]:
@@ -178,6 +226,7 @@ def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> C
                 f"{full.joints[j].nv} degrees of freedom; calib-pin calibrates chains of "
                 "revolute and prismatic joints"
             )
+    _check_joints(full, chain_ids, description)
     locked = [j for j in range(1, full.njoints) if j not in chain_ids]
     model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full.copy()
     continuous, lower, upper = _limits(model)
@@ -206,3 +255,18 @@ def _limits(model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             lower[k] = model.lowerPositionLimit[iq]
             upper[k] = model.upperPositionLimit[iq]
     return continuous, lower, upper
+
+
+def _check_joints(full: pin.Model, chain_ids: list[int], description: RobotDescription) -> None:
+    """Refuse a chain joint with a zero axis or with limits that leave no range."""
+    data = full.createData()
+    jacobians = pin.computeJointJacobians(full, data, pin.neutral(full))
+    for j in chain_ids:
+        name, joint = full.names[j], full.joints[j]
+        if not np.linalg.norm(jacobians[:, joint.idx_v]) > 0:
+            raise RobotError(f"{description.urdf}: joint '{name}' has a zero axis (it moves nothing)")
+        if joint.nq == 1:
+            lower, upper = full.lowerPositionLimit[joint.idx_q], full.upperPositionLimit[joint.idx_q]
+            if not lower < upper:
+                raise RobotError(f"{description.urdf}: joint '{name}' has limits lower {lower:g} >= upper {upper:g}: "
+                                 "no range to move in")

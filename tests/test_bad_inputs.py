@@ -1,0 +1,308 @@
+"""Bad inputs across every command: one clear line on stderr, the right exit status, no traceback.
+
+Each row of :data:`CASES` is (command, arguments, files to create, expected exit status,
+fragment of the one stderr line). The files are created in a fresh folder that is the
+working directory of the run; ``calib-pin`` is the entry point itself.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from calib_pin.cli import command, main
+
+ROOT = Path(__file__).resolve().parent.parent
+URDF = (ROOT / "robots" / "irb120.urdf").read_text()
+SHIPPED = (ROOT / "robots" / "irb120_default.csv").read_text().splitlines()
+META, HEAD, ROWS = SHIPPED[:6], SHIPPED[6], SHIPPED[7:]
+GOOD_ROW = ROWS[0]
+
+
+def csv(*rows: str, meta: tuple[str, ...] = tuple(META), head: str = HEAD) -> str:
+    """A cable measurement set: the shipped metadata and header, then ``rows``."""
+    return "\n".join([*meta, head, *rows]) + "\n"
+
+
+def data(n: int = 40) -> str:
+    return csv(*ROWS[:n])
+
+
+def bad(column: int, value: str) -> str:
+    """40 good rows, but field ``column`` of the 4th (file line 11) is ``value``."""
+    return data().replace(ROWS[3], swap(ROWS[3], column, value))
+
+
+def anchor(line: str) -> str:
+    """40 good rows under the metadata line ``line`` in place of the anchor."""
+    return csv(*ROWS[:40], meta=(*META[:2], line, *META[3:]))
+
+
+def swap(row: str, column: int, value: str) -> str:
+    """``row`` with field ``column`` (0-based) replaced by ``value``."""
+    fields = row.split(",")
+    fields[column] = value
+    return ",".join(fields)
+
+
+def urdf(old: str, new: str, count: int = 1) -> str:
+    assert old in URDF
+    return URDF.replace(old, new, count)
+
+
+LIMIT1 = 'lower="-2.879793265790644" upper="2.879793265790644"'
+POSES = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n1,0,0,0,0,0,0\n2,10,10,10,10,10,10\n"
+IDENTICAL = csv(*[ROWS[0]] * 120)
+SESSION = ("# robot: irb120\n# end_frame: tool0\n# anchor_mm: 600, 200, -100\n"
+           "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,length_mm\n1,0,0,0,0,0,0,1000.5\n")
+CAL = "calibrate"
+SIM = "simulate"
+CMP = "compare"
+COL = "collect"
+MK = "make-poses"
+PLAN = "plan-poses"
+FAKE = "fake-indicator"
+BENCH = "benchmark"
+ENTRY = "calib-pin"
+PORT = ["--port", "/dev/null/nonexistent"]
+COLLECT = ["irb120", "--poses", "p.csv", "--out", "o.csv", *PORT]
+
+CASES: list[tuple[str, list[str], dict[str, str | bytes], int, str]] = [
+    # --- calibrate: robot and options
+    (CAL, ["nosuchrobot"], {}, 2, "nosuchrobot"),
+    (CAL, ["missing.urdf"], {}, 2, "missing.urdf"),
+    (CAL, ["r.urdf", "--data", "d.csv"], {"r.urdf": "<robot name='x'><link", "d.csv": data()}, 2, "r.urdf"),
+    (CAL, ["r.urdf", "--data", "d.csv"], {"r.urdf": b"\x00\x01\x02binary", "d.csv": data()}, 2, "r.urdf"),
+    (CAL, ["irb120", "--method", "nope"], {}, 2, "nope"),
+    (CAL, ["irb120", "--test-fraction", "1.5"], {}, 2, "--test-fraction"),
+    (CAL, ["irb120", "--noise-mm", "0"], {}, 2, "--noise-mm"),
+    (CAL, ["irb120", "--noise-mm", "1e300"], {}, 2, "--noise-mm"),
+    (CAL, ["irb120", "--noise-mm", "nan"], {}, 2, "--noise-mm"),
+    (CAL, ["irb120", "--anchor-mm", "1,2"], {}, 2, "--anchor-mm"),
+    (CAL, ["irb120", "--anchor-mm", "1e300,0,0"], {}, 2, "--anchor-mm"),
+    (CAL, ["irb120", "--length-offset-mm", "inf"], {}, 2, "--length-offset-mm"),
+    (CAL, ["irb120", "--seed", "-1"], {}, 2, "--seed"),
+    (CAL, ["irb120", "--loss", "wobbly"], {}, 2, "wobbly"),
+    (CAL, ["irb120", "--estimate", "moon"], {}, 2, "moon"),
+    (CAL, ["irb120", "--end-frame", "nowhere"], {}, 2, "nowhere"),
+    (CAL, ["irb120", "--model", "poe"], {}, 2, "--model"),
+    (CAL, ["irb120", "--bogus"], {}, 2, "--bogus"),
+    # --- calibrate: the data file
+    (CAL, ["irb120", "--data", "none.csv"], {}, 2, "none.csv"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": ""}, 2, "d.csv"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bytes(range(256)) * 20}, 2, "d.csv"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bad(2, "1\x002")}, 2, "d.csv:"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bad(2, "1_0")}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bad(6, "nan")}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bad(6, "inf")}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bad(6, "1e300")}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bad(6, "-5")}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bad(1, "1e20")}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bad(1, "abc")}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bad(1, "x" * 200_000)}, 2, "d.csv"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": data().replace(ROWS[3], ROWS[3] + ",7")}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": data().replace(ROWS[3], ROWS[3].rsplit(",", 1)[0])}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": data().replace(ROWS[3], '"1,2",' + ROWS[3])}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": data().replace(ROWS[3], '"' + ROWS[3])}, 2, "d.csv"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], head=HEAD + ",q1_rad")}, 2, "q1_rad"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], head=HEAD.replace("q2_deg", "q1_deg"))}, 2, "q1_deg"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], head=HEAD.replace("q6_deg,", ""))}, 2, "q6"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], head=HEAD + ",length_m")}, 2, "length_m"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], head=HEAD.replace("length_mm", "lenght_mm"))}, 2, "d.csv"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], meta=(*META, "# anchor_mm: 1, 2, 3"))}, 2, "anchor_mm"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": anchor("# anchor_mm: 1e300, 0, 0")}, 2, "anchor_mm"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": anchor("# anchor_mm: 1, 2")}, 2, "anchor_mm"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": anchor("# anchor_mm: nan, 0, 0")}, 2, "anchor_mm"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], meta=("# robot: ur5", *META[1:]))}, 2, "ur5"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40]) + "# tool_mm: 0, 0, 60\n"}, 2, "tool_mm"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:3])}, 2, "d.csv"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv()}, 2, "d.csv"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": bad(1, "400")}, 2, "d.csv:11"),
+    (CAL, ["irb120", "--data", "d.csv", "--test-data", "t.csv"], {"d.csv": data()}, 2, "t.csv"),
+    (CAL, ["irb120", "--data", "d.csv", "--test-data", "t.csv"], {"d.csv": data(), "t.csv": "x\n"}, 2, "t.csv"),
+    (CAL, ["irb120", "--data", "d.csv", "--test-data", "t.csv"],
+     {"d.csv": data(), "t.csv": csv(*ROWS[40:60], meta=("# robot: ur5", *META[1:]))}, 2, "t.csv"),
+    (CAL, ["irb120", "--data", "d.csv", "--test-data", "w.csv"],
+     {"d.csv": data(), "w.csv": (ROOT / "robots" / "irb120_wu2015.csv").read_text()}, 2, "w.csv"),
+    (CAL, ["irb120", "--data", "same.csv", "--method", "lm"], {"same.csv": IDENTICAL}, 2, "identify only 1 of 24"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(*ROWS[:40], head=HEAD + ",q1_rad")}, 2, "q1_rad"),
+    (CAL, ["irb120", "--data", "w.csv", "--analyze"], {"w.csv": "pose,x_mm\n1,2\n"}, 2, "w.csv"),
+    (CAL, ["r.urdf", "--analyze"],
+     {"r.urdf": urdf('<axis xyz="0 1 0"/>', '<axis xyz="0 0 0"/>')}, 2, "'joint_2' has a zero axis"),
+    (CAL, ["irb120", "--data", "d.csv", "--out", "f", "--method", "lm"], {"d.csv": data(), "f": "a file"}, 2, "f"),
+    # --- simulate
+    (SIM, ["irb120"], {}, 2, "--out"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "1e9"], {}, 2, "--poses"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "0"], {}, 2, "--poses"),
+    (SIM, ["irb120", "--out", "s.csv", "--noise-mm", "0"], {}, 2, "--noise-mm"),
+    (SIM, ["irb120", "--out", "s.csv", "--noise-mm", "1e300"], {}, 2, "--noise-mm"),
+    (SIM, ["irb120", "--out", "s.csv", "--noise-kind", "pink"], {}, 2, "--noise-kind"),
+    (SIM, ["irb120", "--out", "s.csv", "--nominal-rmse-mm", "-1"], {}, 2, "--nominal-rmse-mm"),
+    (SIM, ["irb120", "--out", "s.csv", "--length-offset-mm", "1e300"], {}, 2, "--length-offset-mm"),
+    (SIM, ["irb120", "--out", "s.csv", "--length-offset-mm", "-5000"], {}, 2, "not positive"),
+    (SIM, ["irb120", "--out", ""], {}, 2, "--out"),
+    (SIM, ["irb120", "--out", "sub"], {"sub/x": "x"}, 2, "sub"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses-file", "nope.csv"], {}, 2, "nope.csv"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses-file", "p.csv"],
+     {"p.csv": POSES.replace("10,10,10,10", "10,10,999,10")}, 2, "p.csv:3"),
+    (SIM, ["r.urdf", "--out", "s.csv"], {"r.urdf": urdf(LIMIT1, 'lower="1" upper="-1"')}, 2, "'joint_1' has limits"),
+    (SIM, ["r.urdf", "--out", "s.csv"], {"r.urdf": urdf(LIMIT1, 'lower="1" upper="1"')}, 2, "'joint_1' has limits"),
+    (SIM, ["r.urdf", "--out", "s.csv"],
+     {"r.urdf": urdf('<axis xyz="0 0 1"/>', '<axis xyz="0 0 0"/>')}, 2, "'joint_1' has a zero axis"),
+    (SIM, ["r.urdf", "--out", "s.csv"], {"r.urdf": urdf('<joint name="joint_6-flange" type="fixed">',
+                                                       '<joint name="loop" type="fixed"><parent link="link_6"/>'
+                                                       '<child link="link_2"/></joint>'
+                                                       '<joint name="joint_6-flange" type="fixed">')}, 2, "kinematic loop"),
+    (SIM, ["r.urdf", "--out", "s.csv"], {"r.urdf": urdf('type="revolute"', 'type="spinning"')}, 2, "r.urdf"),
+    (SIM, ["r.urdf", "--out", "s.csv"], {"r.urdf": URDF[: len(URDF) // 2]}, 2, "XML_ERROR"),
+    (SIM, ["irb120", "--out", "s.csv", "--model", "x"], {}, 2, "--model"),
+    # --- compare
+    (CMP, ["irb120", "--trials", "0"], {}, 2, "--trials"),
+    (CMP, ["irb120", "--trials", "1e9"], {}, 2, "--trials"),
+    (CMP, ["irb120", "--methods", "lm,zzz"], {}, 2, "zzz"),
+    (CMP, ["irb120", "--methods", ","], {}, 2, "--methods"),
+    (CMP, ["irb120", "--simulate", "gauss", "--data", "d.csv"], {"d.csv": data()}, 2, "--data or --simulate"),
+    (CMP, ["irb120", "--simulate", "gauss", "--poses", "1", "--methods", "lm"], {}, 2, "1 rows at test fraction 0.2"),
+    (CMP, ["irb120", "--data", "d.csv", "--methods", "lm"], {"d.csv": bad(6, "nan")}, 2, "d.csv:11"),
+    (CMP, ["irb120", "--data", "none.csv"], {}, 2, "none.csv"),
+    (CMP, ["irb120", "--noise-mm", "-1"], {}, 2, "--noise-mm"),
+    (CMP, ["irb120", "--test-fraction", "1"], {}, 2, "--test-fraction"),
+    (CMP, ["nosuch"], {}, 2, "nosuch"),
+    # --- make-poses
+    (MK, ["irb120"], {}, 2, "--out"),
+    (MK, ["irb120", "--n", "0", "--out", "p.csv"], {}, 2, "--n"),
+    (MK, ["irb120", "--n", "1e20", "--out", "p.csv"], {}, 2, "--n"),
+    (MK, ["irb120", "--n", "abc", "--out", "p.csv"], {}, 2, "--n"),
+    (MK, ["irb120", "--margin-deg", "200", "--out", "p.csv"], {}, 2, "--margin-deg"),
+    (MK, ["irb120", "--margin-deg", "1e300", "--out", "p.csv"], {}, 2, "--margin-deg"),
+    (MK, ["irb120", "--out", "dir"], {"dir/x": "x"}, 2, "dir"),
+    (MK, ["irb120", "--end-frame", "base_link", "--out", "p.csv"], {}, 2, "base_link"),
+    (MK, ["r.urdf", "--out", "p.csv"], {"r.urdf": urdf(LIMIT1, 'lower="1" upper="-1"')}, 2, "joint_1"),
+    # --- plan-poses
+    (PLAN, ["irb120", "--candidates", "1e7", "--out", "p.csv"], {}, 2, "--candidates"),
+    (PLAN, ["irb120", "--n", "50", "--candidates", "10", "--out", "p.csv"], {}, 2, "--candidates"),
+    (PLAN, ["irb120", "--estimate", "sky", "--out", "p.csv"], {}, 2, "sky"),
+    (PLAN, ["irb120", "--anchor-mm", "a,b,c", "--out", "p.csv"], {}, 2, "--anchor-mm"),
+    (PLAN, ["irb120", "--margin-deg", "500", "--out", "p.csv"], {}, 2, "margin"),
+    (PLAN, ["irb120", "--model", "dh", "--end-frame", "link_1", "--out", "p.csv"], {}, 2, "link_1"),
+    # --- collect
+    (COL, ["irb120", "--poses", "p.csv", "--out", "o.csv"], {"p.csv": POSES}, 2, "--port"),
+    (COL, ["irb120", *PORT], {}, 2, "--poses"),
+    (COL, COLLECT, {}, 2, "p.csv"),
+    (COL, COLLECT, {"p.csv": POSES.replace("\n2,", "\n1,")}, 2, "p.csv:3"),
+    (COL, COLLECT, {"p.csv": POSES.replace("2,10,10", "2,10,1e400")}, 2, "p.csv:3"),
+    (COL, COLLECT, {"p.csv": POSES, "o.csv": b"\x89PNG\r\n\x1a\n\x00\x00"}, 2, "o.csv"),
+    (COL, COLLECT, {"p.csv": POSES, "o.csv": data()}, 2, "o.csv"),
+    (COL, COLLECT, {"p.csv": POSES, "o.csv": '{"urdf": null}'}, 2, "o.csv"),
+    (COL, [*COLLECT, "--anchor-mm", "1,2,3"], {"p.csv": POSES, "o.csv": SESSION}, 2, "was collected with anchor_mm 600"),
+    (COL, [*COLLECT, "--tool-mm", "0,0,70"], {"p.csv": POSES, "o.csv": SESSION}, 2, "was collected with tool_mm none"),
+    (COL, COLLECT, {"p.csv": POSES, "o.csv": SESSION.replace("\n1,0,", "\n9,0,")}, 2, "pose 9 is not in p.csv"),
+    (COL, [*COLLECT, "--baud", "fast"], {"p.csv": POSES}, 2, "--baud"),
+    (COL, [*COLLECT, "--samples", "0"], {"p.csv": POSES}, 2, "samples"),
+    (COL, [*COLLECT, "--max-mm", "-1"], {"p.csv": POSES}, 2, "max_mm"),
+    (COL, [*COLLECT, "--scale-mm", "nan"], {"p.csv": POSES}, 2, "scale_mm"),
+    (COL, [*COLLECT, "--pattern", "("], {"p.csv": POSES}, 2, "pattern"),
+    (COL, [*COLLECT, "--profile", "prof.json"], {"p.csv": POSES, "prof.json": '{"baud": "fast"}'}, 2, "baud"),
+    (COL, [*COLLECT, "--profile", "prof.json"], {"p.csv": POSES, "prof.json": '{"colour": 1}'}, 2, "colour"),
+    (COL, [*COLLECT, "--profile", "prof.json"], {"p.csv": POSES, "prof.json": "{"}, 2, "prof.json"),
+    (COL, [*COLLECT, "--profile", "prof.json"], {"p.csv": POSES, "prof.json": "[1]"}, 2, "prof.json"),
+    (COL, [*COLLECT, "--profile", "none.json"], {"p.csv": POSES}, 2, "none.json"),
+    (COL, [*COLLECT, "--anchor-mm", "1,2,3,4"], {"p.csv": POSES}, 2, "--anchor-mm"),
+    (COL, [*COLLECT, "--auto", "-1"], {"p.csv": POSES}, 2, "--auto"),
+    (COL, ["--probe", *PORT], {}, 2, "/dev/null/nonexistent"),
+    (COL, ["--probe", *PORT, "--protocol", "ascii", "--pattern", "no group"], {}, 2, "pattern"),
+    (COL, ["--probe", *PORT, "--count", "-3"], {}, 2, "--count"),
+    # --- fake-indicator
+    (FAKE, ["--protocol", "smoke"], {}, 2, "--protocol"),
+    (FAKE, ["--words", "3"], {}, 2, "--words"),
+    (FAKE, ["--values", "d.csv"], {"d.csv": data()}, 2, "--follow"),
+    (FAKE, ["--values", "none.csv", "--follow", "o.csv"], {}, 2, "none.csv"),
+    (FAKE, ["--scale-mm", "0"], {}, 2, "scale_mm"),
+    (FAKE, ["--slave", "300"], {}, 2, "slave = 300"),
+    (FAKE, ["--register", "-1"], {}, 2, "register = -1"),
+    (FAKE, ["--words", "1", "--value-mm", "100"], {}, 2, "16 bits"),
+    (FAKE, ["--fault", "crc"], {}, 2, "--fault-every"),
+    (FAKE, ["--value-mm", "1e300"], {}, 2, "does not fit"),
+    (FAKE, ["--noise-mm", "nan"], {}, 2, "--noise-mm"),
+    (FAKE, ["--fault", "fire"], {}, 2, "--fault"),
+    (FAKE, ["--fault-every", "-2", "--fault", "crc"], {}, 2, "--fault-every"),
+    # --- benchmark
+    (BENCH, ["--repeats", "0"], {}, 2, "--repeats"),
+    (BENCH, ["--repeats", "1e9"], {}, 2, "--repeats"),
+    (BENCH, ["--methods", "fast"], {}, 2, "fast"),
+    (BENCH, ["--poses", "-1"], {}, 2, "--poses"),
+    (BENCH, ["--seed", "x"], {}, 2, "--seed"),
+    # --- the entry point
+    (ENTRY, [], {}, 2, "give a command"),
+    (ENTRY, ["frobnicate"], {}, 2, "frobnicate"),
+    (ENTRY, ["calibrate", "--method"], {}, 2, "--method"),
+    (ENTRY, ["simulate", "irb120", "--out", "s.csv", "--poses", "-4"], {}, 2, "--poses"),
+    (ENTRY, ["make-poses"], {}, 2, "robot"),
+]
+
+
+@pytest.mark.parametrize(("name", "argv", "files", "status", "fragment"), CASES,
+                         ids=[f"{c[0]}-{k}" for k, c in enumerate(CASES)])
+def test_bad_input_gives_one_line(name, argv, files, status, fragment, tmp_path, monkeypatch, capfd):
+    monkeypatch.chdir(tmp_path)
+    for path, content in files.items():
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        (Path(path).write_bytes if isinstance(content, bytes) else Path(path).write_text)(content)
+    run = main if name == ENTRY else command(name)
+    try:
+        code = run(argv)
+    except SystemExit as e:
+        code = e.code
+    err = capfd.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert "Traceback" not in err
+    assert code == status, err
+    assert len(lines) == 1, err
+    assert fragment in lines[0], err
+
+
+def _other_robot_session() -> str:
+    """A drawstring session of another robot, its last row cut short (no final newline)."""
+    rows = (f"{k},{r}" for k, r in enumerate(ROWS[:5], 1))
+    return csv(*rows, meta=("# robot: ur5", *META[1:]), head="pose," + HEAD).rstrip("\n")
+
+
+WRONG_OUT: dict[str, str | bytes | None] = {
+    "csv of another robot, no final newline": _other_robot_session(),
+    "csv of another pose list, no final newline": csv(*(f"{k},{r}" for k, r in enumerate(ROWS[:3], 1)),
+                                                      head="pose," + HEAD).rstrip("\n"),
+    "binary file": bytes(range(256)) * 8,
+    "empty file": b"",
+    "a folder": None,
+    "report.json": '{\n  "urdf": "out/irb120_calibrated.urdf",\n  "warnings": []\n}',
+    "URDF": URDF,
+}
+
+
+@pytest.mark.parametrize("kind", WRONG_OUT)
+def test_refused_collect_out_keeps_every_byte(kind, tmp_path, monkeypatch, capfd):
+    """A wrong existing --out is refused with one line and not changed by one byte."""
+    from calib_pin.hardware.fake_indicator import FakeIndicator
+
+    monkeypatch.chdir(tmp_path)
+    Path("p.csv").write_text(POSES)
+    out = Path("o.csv")
+    content = WRONG_OUT[kind]
+    if content is None:
+        out.mkdir()
+        (out / "inside.txt").write_text("kept")
+    else:
+        (out.write_bytes if isinstance(content, bytes) else out.write_text)(content)
+    before = None if content is None else out.read_bytes()
+    with FakeIndicator("modbus", 1000.0) as fake:
+        code = command("collect")(["irb120", "--poses", "p.csv", "--port", fake.path, "--out", str(out),
+                                   "--auto", "0", "--interval", "0", "--samples", "3", "--timeout", "0.2"])
+    err = capfd.readouterr().err
+    assert code == 2, err
+    assert len([line for line in err.splitlines() if line.strip()]) == 1 and "o.csv" in err, err
+    if content is None:
+        assert [p.name for p in out.iterdir()] == ["inside.txt"] and (out / "inside.txt").read_text() == "kept"
+    else:
+        assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o.csv", "p.csv"]
