@@ -27,6 +27,7 @@ from typing import Any, TypeVar
 
 from .exceptions import CalibPinError
 from .optional import require
+from .report import build_report
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -171,7 +172,7 @@ def run_task(task: BatchTask) -> TaskOutcome:
     row: dict[str, Any] = {"set": task.name, "method": task.method, "seed": task.seed}
     try:
         result = calibrate(_robot(task), task.data, method=task.method, seed=task.seed, **task.options)
-        report = result.report()
+        report = build_report(result)
         row["rows"] = len(result.data)
         for split, stages in result.metrics.items():
             for stage, m in stages.items():

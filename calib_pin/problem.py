@@ -9,12 +9,9 @@ row blocks), so it can be tested on any small least-squares problem.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Protocol
+from typing import Any, Protocol
 
 import numpy as np
-
-if TYPE_CHECKING:
-    from .sensors.base import MeasurementModel
 
 
 class LeastSquares(Protocol):
@@ -62,6 +59,21 @@ class LeastSquares(Protocol):
     def rows_of(self, values: np.ndarray) -> np.ndarray: ...
 
 
+class Predictor(Protocol):
+    """What a problem needs of its sensor's measurement model (:class:`calib_pin.sensors.base.MeasurementModel`)."""
+
+    scale: np.ndarray
+    values_per_row: int
+
+    @property
+    def n_params(self) -> int: ...
+
+    def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray: ...
+
+    def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
+                              points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]: ...
+
+
 @dataclass
 class CalibrationProblem:
     """Measured data and the model that predicts it.
@@ -74,7 +86,7 @@ class CalibrationProblem:
             several (marker positions); else None.
     """
 
-    model: MeasurementModel
+    model: Any  # a Predictor: the sensor's MeasurementModel, with all its methods
     q: np.ndarray
     readings: np.ndarray
     points: np.ndarray | None = None

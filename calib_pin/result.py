@@ -187,9 +187,3 @@ class CalibrationResult:
         from .identifiability import analyze
 
         return analyze(self.problem.subset(self.train))
-
-    def report(self) -> dict:
-        """JSON-ready summary (see :func:`calib_pin.report.build_report`)."""
-        from .report import build_report
-
-        return build_report(self)

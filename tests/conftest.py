@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.simulation import random_poses
 from calib_pin.sensors import CableModel
+from calib_pin.simulation import random_poses
 
 
 @pytest.fixture(scope="session")

@@ -13,6 +13,7 @@ import pytest
 from calib_pin.estimators import run_estimator
 from calib_pin.exceptions import CalibPinError, RobotError
 from calib_pin.problem import CalibrationProblem
+from calib_pin.report import build_report
 from calib_pin.robot import Kinematics, load_chain
 from calib_pin.robot.deflection import (
     CablePull,
@@ -219,7 +220,7 @@ def test_calibrate_reports_compliance_and_refuses_bad_options():
     import calib_pin as cp
 
     result = cp.calibrate("irb120", "robots/irb120_wu2015.csv", method="lm", compliance="joint_2,joint_3")
-    soft = result.report()["compliance"]
+    soft = build_report(result)["compliance"]
     assert soft["in_urdf"] is False and set(soft["compliance_rad_per_Nm"]) == set(JOINTS_23)
     c2 = soft["compliance_rad_per_Nm"]["joint_2"]
     assert 1e-6 < c2 < 1e-3 and np.isclose(soft["stiffness_Nm_per_rad"]["joint_2"], 1 / c2)

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.estimators import get_estimator
-from calib_pin.simulation import random_poses
-from calib_pin.estimators import PAPER_LABELS
-from calib_pin.subspace import Subspace
+from calib_pin.estimators import PAPER_LABELS, get_estimator
 from calib_pin.estimators.qibas import parabola_vertex
+from calib_pin.report import build_report
+from calib_pin.simulation import random_poses
+from calib_pin.subspace import Subspace
 
 #: Every registered method; rbf is the one that estimates no kinematic parameters.
 METHODS = list(cp.ESTIMATORS)
@@ -51,7 +51,7 @@ def test_rbf_learns_the_error_but_no_parameters(results, fresh_rmse_mm, tmp_path
     assert m["after"].rmse_mm <= 0.8 * m["before"].rmse_mm
     assert fresh_rmse_mm(result) <= 0.8 * m["before"].rmse_mm
     assert not result.kinematic and not np.any(result.x)
-    assert result.report()["kinematic_parameters"] is False and result.report()["deviations"] == {}
+    assert build_report(result)["kinematic_parameters"] is False and build_report(result)["deviations"] == {}
     with pytest.raises(cp.CalibPinError, match="no corrected URDF"):
         result.to_urdf(tmp_path / "x.urdf")
 
@@ -168,7 +168,7 @@ def test_robust_loss_halves_the_error_with_outliers(chain, params, fresh):
         assert fresh_error(robust) <= 0.5 * fresh_error(plain), loss
         in_train = set(truth.outliers) & set(robust.train.tolist())
         assert in_train <= set(robust.outlier_rows), loss
-        assert robust.report()["loss"] == loss
+        assert build_report(robust)["loss"] == loss
 
 
 def test_loss_only_where_supported():

@@ -4,6 +4,8 @@ import dataclasses
 
 import pytest
 
+from calib_pin.exceptions import CalibPinError
+from calib_pin.hardware.fake_indicator import FakeIndicator, crc16
 from calib_pin.hardware.reader import (
     BadFrame,
     DeviceException,
@@ -16,8 +18,6 @@ from calib_pin.hardware.reader import (
     read_stable,
     read_with_retries,
 )
-from calib_pin.exceptions import CalibPinError
-from calib_pin.hardware.fake_indicator import FakeIndicator, crc16
 
 MODBUS = SensorProfile(protocol="modbus", signed=True, scale_mm=0.001, timeout_s=0.2,
                        interval_s=0.0, retries=2)

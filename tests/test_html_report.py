@@ -13,6 +13,7 @@ import pytest
 import calib_pin
 from calib_pin.html_report import deviation_rows, fmt, write_html_report
 from calib_pin.metrics import Metrics
+from calib_pin.report import build_report
 from calib_pin.robot.description import ROBOTS_DIR
 
 IMG = re.compile(r'<img [^>]*src="data:image/png;base64,([A-Za-z0-9+/=]+)"')
@@ -21,7 +22,7 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 def _render(tmp_path_factory, data: str):
     result = calib_pin.calibrate("irb120", ROBOTS_DIR / data, method="lm")
-    report = result.report()
+    report = build_report(result)
     path = write_html_report(report, tmp_path_factory.mktemp("report") / "report.html")
     return result, report, path, path.read_text(encoding="utf-8")
 
@@ -98,7 +99,7 @@ def test_self_contained_with_valid_pngs(rendered):
 
 def test_outlier_rows_are_marked(tmp_path):
     result = calib_pin.calibrate("irb120", ROBOTS_DIR / "irb120_default.csv", method="lm", loss="cauchy")
-    report = result.report()
+    report = build_report(result)
     res = report["residuals"]
     marked = [row for row, bad in zip(res["rows"], res["outlier"], strict=True) if bad]
     assert marked == sorted(result.outlier_rows) and marked

@@ -1,10 +1,11 @@
 """The drawstring error model and its analytic identification Jacobian."""
 
 import numpy as np
-import pytest
 import pinocchio as pin
+import pytest
 
 import calib_pin as cp
+from calib_pin.report import build_report
 from calib_pin.simulation import random_poses
 
 
@@ -79,7 +80,7 @@ def test_estimating_anchor_and_offset_recovers_a_wrong_sensor_geometry(session, 
     assert fixed > 0.5 and estimated < 0.06
     assert set(result.sensor_corrections) == {"anchor_x_mm", "anchor_y_mm", "anchor_z_mm", "offset_mm"}
     assert abs(result.sensor_corrections["offset_mm"] + 1.0) < 0.1
-    assert result.report()["length_offset_mm"] == pytest.approx(1.0 + result.sensor_corrections["offset_mm"])
+    assert build_report(result)["length_offset_mm"] == pytest.approx(1.0 + result.sensor_corrections["offset_mm"])
 
 
 def test_anchor_analysis_names_its_overlap_with_the_base(session):

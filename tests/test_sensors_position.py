@@ -7,9 +7,9 @@ import pinocchio as pin
 import pytest
 
 import calib_pin as cp
+from calib_pin.cli.calibrate import calibrate_main
 from calib_pin.sensors import fit_device
 from calib_pin.simulation import random_poses
-from calib_pin.cli.calibrate import calibrate_main
 
 ROOT = Path(__file__).resolve().parents[1]
 WU2015 = ROOT / "robots" / "irb120_wu2015.csv"

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.simulation import NOISE_KINDS
 from calib_pin.sensors import CableModel
+from calib_pin.simulation import NOISE_KINDS
 
 
 def test_nominal_error_and_noise(chain, params, session):

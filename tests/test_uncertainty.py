@@ -3,6 +3,7 @@
 import numpy as np
 
 import calib_pin as cp
+from calib_pin.report import build_report
 
 #: Parameters in the blind combinations of the IRB120 drawstring set (see --analyze):
 #: the truth's share along those directions is not estimated, so no interval covers it.
@@ -19,7 +20,7 @@ def test_intervals_cover_the_truth(session):
     assert np.mean(z < 1.96) >= 0.8 and z.max() < 4
     assert u.std[u.names.index("theta_6")] < 1e-5  # not estimated: about nothing, vs 2 mrad typical
     assert 0.01e-3 < u.flange_rms <= u.flange_max < 0.2e-3
-    report = result.report()["uncertainty"]
+    report = build_report(result)["uncertainty"]
     entry = report["parameters"]["a_1_mm"]
     assert entry["ci95"][0] < entry["value"] < entry["ci95"][1]
 

@@ -21,6 +21,7 @@ from ..calibration_file import calibration_path, write_calibration
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..metrics import Metrics
 from ..parameters import MODELS
+from ..report import build_report
 from .common import (
     OneLineParser,
     add_compliance_arguments,
@@ -190,7 +191,7 @@ def _calibrate(args: argparse.Namespace) -> int:
                        test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
                        progress=_announce, **_setup_options(args))
     out = Outputs(Path(args.out))
-    report = result.report()
+    report = build_report(result)
     refused = (_unsupported(report) or result.sanity_error()) if result.kinematic else None
     notes: list[str] = []
     exports = _add_exports(out, result, args.export, notes) if result.kinematic and not refused else {}
