@@ -21,7 +21,7 @@ from .estimators import DEFAULT_METHOD, get_method, run_estimator
 from .exceptions import CalibPinError, DataError
 from .measurements import MeasurementSet, read_measurements
 from .metrics import Metrics, split_rows
-from .parameters import ParameterModel, default_model, parameter_model
+from .parameters import ParameterModel, parameter_model
 from .problem import CalibrationProblem
 from .result import CalibrationResult
 from .robot import Chain, RobotDescription, load_chain, resolve_robot
@@ -212,8 +212,8 @@ def prepare(
     soft = compliance_spec(chain, compliance, payload_kg, payload_com_mm, cable_tension_n)
     options = {"anchor_mm": anchor_mm, "tool_mm": tool_mm, "length_offset_mm": length_offset_mm, "estimate": estimate,
                "compliance": soft}
-    setup = CalibrationSetup(chain, parameter_model(chain, parameters or default_model(chain)), data, noise, options)
-    setup.problem_on(np.arange(len(data)))  # refuse options the sensor does not take, now
+    setup = CalibrationSetup(chain, parameter_model(chain, parameters), data, noise, options)
+    setup.problem  # noqa: B018 (refuse options the sensor does not take now; the problem is kept for --analyze)
     return setup
 
 

@@ -59,21 +59,6 @@ class LeastSquares(Protocol):
     def rows_of(self, values: np.ndarray) -> np.ndarray: ...
 
 
-class Predictor(Protocol):
-    """What a problem needs of its sensor's measurement model (:class:`calib_pin.sensors.base.MeasurementModel`)."""
-
-    scale: np.ndarray
-    values_per_row: int
-
-    @property
-    def n_params(self) -> int: ...
-
-    def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray: ...
-
-    def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
-                              points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]: ...
-
-
 @dataclass
 class CalibrationProblem:
     """Measured data and the model that predicts it.
@@ -86,7 +71,7 @@ class CalibrationProblem:
             several (marker positions); else None.
     """
 
-    model: Any  # a Predictor: the sensor's MeasurementModel, with all its methods
+    model: Any  # the sensor's MeasurementModel (typed loosely: sensors/ imports this module)
     q: np.ndarray
     readings: np.ndarray
     points: np.ndarray | None = None
