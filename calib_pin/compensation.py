@@ -96,7 +96,7 @@ class CalibratedRobot:
         if self.deflection is not None and self.compliance.shape != (self.deflection.n,):
             raise CalibPinError(f"give {self.deflection.n} compliance(s) for {', '.join(self.deflection.spec.joints)}")
         self._real = Kinematics(chain)
-        self._real.set_perturbation(params.deltas(self.deviations))
+        self._real.set_perturbation(params.delta_matrices(self.deviations))
         self._nominal = Kinematics(chain)
 
     @property

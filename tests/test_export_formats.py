@@ -260,7 +260,7 @@ def test_kinematics_and_dh_agree_on_the_end_position(tmp_path):
     path = write_dh_table(params, x, tmp_path / "t.toml")
     table = _read_dh(tomllib.loads(path.read_text())["dh"], path)
     kin = Kinematics(chain)
-    kin.set_perturbation(params.deltas(x))
+    kin.set_perturbation(params.delta_matrices(x))
     q = _poses(chain, n=10)
     points, _ = kin.points(q, np.zeros(3))
     via_dh = np.array([dh_transforms(table, qi)[-1].translation for qi in q])

@@ -35,7 +35,7 @@ def test_zero_perturbation_reproduces_urdf(chain, params):
     """Zero deviation gives the URDF's FK to 1e-12 m."""
     q = random_poses(chain, 50, np.random.default_rng(1))
     kin = cp.Kinematics(chain)
-    kin.set_perturbation(params.deltas(np.zeros(params.n_params)))
+    kin.set_perturbation(params.delta_matrices(np.zeros(params.n_params)))
     ours, _ = kin.points(q, np.zeros(3))
     data = chain.model.createData()
     for k, qk in enumerate(q):
@@ -48,15 +48,18 @@ def test_perturbation_is_rebuilt_not_accumulated(chain, params):
     q = random_poses(chain, 5, np.random.default_rng(2))
     x = np.random.default_rng(3).normal(size=params.n_params) * params.scale
     kin = cp.Kinematics(chain)
-    kin.set_perturbation(params.deltas(x))
+    kin.set_perturbation(params.delta_matrices(x))
     first, _ = kin.points(q, np.zeros(3))
-    kin.set_perturbation(params.deltas(-x))
-    kin.set_perturbation(params.deltas(x))
+    kin.set_perturbation(params.delta_matrices(-x))
+    kin.set_perturbation(params.delta_matrices(x))
     again, _ = kin.points(q, np.zeros(3))
     kin.set_perturbation(None)
     nominal, _ = kin.points(q, np.zeros(3))
     assert np.array_equal(first, again)
     assert np.abs(first - nominal).max() > 1e-4
+    # The placements are written into the working copy only, never into the chain's model.
+    fresh, _ = cp.Kinematics(chain).points(q, np.zeros(3))
+    assert np.array_equal(fresh, nominal)
 
 
 def test_perturbed_model_matches_kinematics(chain, params):
@@ -64,7 +67,7 @@ def test_perturbed_model_matches_kinematics(chain, params):
     x = np.random.default_rng(4).normal(size=params.n_params) * params.scale
     q = random_poses(chain, 5, np.random.default_rng(5))
     kin = cp.Kinematics(chain)
-    kin.set_perturbation(params.deltas(x))
+    kin.set_perturbation(params.delta_matrices(x))
     ours, _ = kin.points(q, np.zeros(3))
     model = chain.perturbed_model(params.deltas(x))
     data = model.createData()

@@ -32,8 +32,13 @@ class ParameterModel(Protocol):
     units: tuple[str, ...]
     scale: np.ndarray
 
+    def delta_matrices(self, x: np.ndarray) -> np.ndarray:
+        """Transforms right-multiplied onto each joint placement, then the end frame, as
+        homogeneous matrices, shape (n_joints + 1, 4, 4) (the FK path's form)."""
+        ...
+
     def deltas(self, x: np.ndarray) -> list[pin.SE3]:
-        """Transforms right-multiplied onto each joint placement, then the end frame."""
+        """:meth:`delta_matrices` as Pinocchio transforms."""
         ...
 
     def delta_jacobian(self, x: np.ndarray) -> np.ndarray:

@@ -162,52 +162,79 @@ class DHModel:
         pre[n] = _inverse(s0[-1] @ end)
         self._pre, self._c_matrices, self._end_matrix = pre, c, end
         self._hayati = np.isin(np.arange(n), self.hayati_rows)
+        # Rz(phi) C = cos(phi) (E_c C) + sin(phi) (E_s C) + E_z C: the joint rotations of
+        # delta_matrices as three constant factors, for the rows 1..n that follow a link
+        # (row n is the end frame: no rotation, the end matrix itself).
+        e_c, e_s, e_z = np.zeros((3, 4, 4))
+        e_c[0, 0] = e_c[1, 1] = 1.0
+        e_s[0, 1], e_s[1, 0] = -1.0, 1.0
+        e_z[2, 2] = e_z[3, 3] = 1.0
+        after = np.concatenate([c[1:], end[None]])
+        self._turn = (e_c @ after, e_s @ after, e_z @ after)
+        self._turn[2][-1] = end
+        self._first = (e_c @ c[0], e_s @ c[0], e_z @ c[0])
+        # delta_jacobian: row i's theta column is constant, Ad(C_i^-1) e_wz at joint i;
+        # its a, d|beta, alpha columns sit at placement i + 1 (the end frame for the last
+        # row) behind the constant part of the placement after the link, C_{i+1} (end).
+        rows = np.arange(n)
+        e_wz = np.zeros((n, 1, 6))
+        e_wz[:, 0, 5] = 1.0
+        theta = np.zeros((n + 1, 6, n, 4))
+        theta[rows, :, rows, 3] = _act_inv(c, e_wz)[:, 0]
+        self._jac_theta = theta.reshape(6 * (n + 1), 4 * n)
+        after = np.concatenate([c[1:], end[None]])
+        self._ad_after_inv = _act_inv(after, np.broadcast_to(np.eye(6), (n, 6, 6))).transpose(0, 2, 1)
+        index = np.arange(self._jac_theta.size).reshape(n + 1, 6, n, 4)
+        self._jac_blocks = index[rows + 1, :, rows, :3]  # (n, 6, 3): the a, d|beta, alpha blocks
 
-    def _link_x(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """S_i(x) for every row, shape (n, 4, 4), and the joint rotations Rz(theta_offset + Δθ) C_i."""
+    def delta_matrices(self, x: np.ndarray) -> np.ndarray:
+        """Placement perturbations for deviations x, shape (4 n,), [m, m, rad, rad] (a
+        Hayati row's second entry is beta [rad]), as matrices, shape (n + 1, 4, 4):
+        delta_0 = pre_0 W_0 and delta_i = pre_i S_(i-1) W_i, with the link S_i(x) and
+        W_i = Rz(theta_offset_i + dtheta_i) C_i (W_n: the end matrix)."""
         t = self.table
         da, dd, dal, dth = self._split(x)
-        links = _link_matrices(t.d + np.where(self._hayati, 0.0, dd), t.a + da, t.alpha + dal,
-                               np.where(self._hayati, dd, 0.0))
-        return links, _rz_matrices(t.theta_offset + dth) @ self._c_matrices
+        if self.hayati_rows:
+            links = _link_matrices(t.d + np.where(self._hayati, 0.0, dd), t.a + da, t.alpha + dal,
+                                   np.where(self._hayati, dd, 0.0))
+        else:
+            links = _link_matrices(t.d + dd, t.a + da, t.alpha + dal)
+        phi = t.theta_offset + dth
+        cos, sin = np.cos(phi), np.sin(phi)
+        mid = np.empty((len(phi) + 1, 4, 4))
+        mid[0] = cos[0] * self._first[0] + sin[0] * self._first[1] + self._first[2]
+        turn_c, turn_s, turn_z = self._turn
+        # The turns of joints 1..n-1, then none for the end matrix (its factors are zero).
+        np.matmul(links[:-1], cos[1:, None, None] * turn_c[:-1] + sin[1:, None, None] * turn_s[:-1] + turn_z[:-1],
+                  out=mid[1:-1])
+        np.matmul(links[-1], turn_z[-1], out=mid[-1])
+        return self._pre @ mid
 
     def deltas(self, x: np.ndarray) -> list[pin.SE3]:
-        """Placement perturbations for deviations x, shape (4 n,), [m, m, rad, rad]
-        (a Hayati row's second entry is beta [rad])."""
-        n = self.table.n_joints
-        links, w = self._link_x(x)
-        mid = np.empty((n + 1, 4, 4))
-        mid[0] = w[0]
-        mid[1:n] = links[:-1] @ w[1:]
-        mid[n] = links[-1] @ self._end_matrix
-        out = self._pre @ mid
-        return [pin.SE3(m[:3, :3], m[:3, 3]) for m in out]
+        """:meth:`delta_matrices` as Pinocchio transforms."""
+        return [pin.SE3(m) for m in self.delta_matrices(x)]
 
     def delta_jacobian(self, x: np.ndarray) -> np.ndarray:
         """Right-twist derivative of :meth:`deltas`, shape (6 (n + 1), 4 n)."""
         t, n = self.table, self.table.n_joints
         _, dd, dal, dth = self._split(x)
         alpha = t.alpha + dal  # the a and d twists do not depend on a_i or d_i
-        beta = np.where(self._hayati, dd, 0.0)
-        ca, sa = np.cos(alpha), np.sin(alpha)
-        # Twists in S_i's end frame, per row: columns a, d (or beta), alpha as (v, w).
-        tw = np.zeros((n, 3, 6))
-        tw[:, 0, 0] = 1.0  # a_i: Rx(alpha)^T x = x
-        tw[:, 1, 1], tw[:, 1, 2] = sa, ca  # d_i: Rx(alpha)^T z
-        tw[:, 2, 3] = 1.0  # alpha_i: about x
-        ry = _ry_matrices(beta)  # Ry(beta)^-1 moves them behind a Hayati row's tilt
-        tw = (tw.reshape(n, 6, 3) @ ry).reshape(n, 3, 6)  # v R = (R^T v)^T per 3-vector
-        tw[self._hayati, 1] = (0.0, 0.0, 0.0, 0.0, 1.0, 0.0)  # beta_i: about y
-        after = np.empty((n, 4, 4))
-        after[:-1] = _rz_matrices(t.theta_offset[1:] + dth[1:]) @ self._c_matrices[1:]
-        after[-1] = self._end_matrix
-        jac = np.zeros((n + 1, 6, n, 4))
-        rows = np.arange(n)
-        jac[rows + 1, :, rows, :3] = _act_inv(after, tw).transpose(0, 2, 1)
-        z = np.zeros((n, 6))
-        z[:, 5] = 1.0
-        jac[rows, :, rows, 3] = _act_inv(self._c_matrices, z[:, None])[:, 0]
-        return jac.reshape(6 * (n + 1), 4 * n)
+        # Twists (v, w) per row in S_i's end frame, columns a, d (or beta), alpha.
+        tw = np.zeros((n, 2, 3, 3))
+        tw[:, 0, 0, 0] = 1.0  # a_i: Rx(alpha)^T x = x
+        tw[:, 0, 1, 1], tw[:, 0, 2, 1] = np.sin(alpha), np.cos(alpha)  # d_i: Rx(alpha)^T z
+        tw[:, 1, 0, 2] = 1.0  # alpha_i: about x
+        tw[self._hayati, :, :, 1] = ((0.0, 0.0, 0.0), (0.0, 1.0, 0.0))  # beta_i: about y
+        # Carried behind Ry(beta) (the identity on non-Hayati rows; it keeps beta's own
+        # axis) and Rz(theta_offset + dtheta) of the next joint (none for the end frame).
+        phi = np.zeros(n)
+        phi[:-1] = t.theta_offset[1:] + dth[1:]
+        turn = _rz_matrices(phi)[:, :3, :3].transpose(0, 2, 1) @ _ry_matrices(
+            np.where(self._hayati, dd, 0.0)).transpose(0, 2, 1)
+        blocks = self._ad_after_inv @ (turn[:, None] @ tw).reshape(n, 6, 3)
+        jac = self._jac_theta.copy()
+        jac.flat[self._jac_blocks] = blocks
+        return jac
 
 
 def _rz_matrices(angle: np.ndarray) -> np.ndarray:
@@ -228,16 +255,16 @@ def _ry_matrices(angle: np.ndarray) -> np.ndarray:
     return out
 
 
-def _link_matrices(d: np.ndarray, a: np.ndarray, alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
-    """Tz(d) Tx(a) Rx(alpha) Ry(beta) as 4x4 transforms, shape (n, 4, 4)."""
+def _link_matrices(d: np.ndarray, a: np.ndarray, alpha: np.ndarray, beta: np.ndarray | None = None) -> np.ndarray:
+    """Tz(d) Tx(a) Rx(alpha) Ry(beta) as 4x4 transforms, shape (n, 4, 4); beta None: zero."""
     c, s = np.cos(alpha), np.sin(alpha)
-    cb, sb = np.cos(beta), np.sin(beta)
-    out = np.zeros((len(c), 4, 4))
-    out[:, 0, 0], out[:, 0, 2], out[:, 0, 3] = cb, sb, a
-    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = s * sb, c, -s * cb
-    out[:, 2, 0], out[:, 2, 1], out[:, 2, 2], out[:, 2, 3] = -c * sb, s, c * cb, d
-    out[:, 3, 3] = 1.0
-    return out
+    zero = np.zeros_like(c)
+    if beta is None:
+        rows = (1.0 + zero, zero, zero, a, zero, c, -s, zero, zero, s, c, d)
+    else:
+        cb, sb = np.cos(beta), np.sin(beta)
+        rows = (cb, zero, sb, a, s * sb, c, -s * cb, zero, -c * sb, s, c * cb, d)
+    return np.stack((*rows, zero, zero, zero, 1.0 + zero), axis=-1).reshape(-1, 4, 4)
 
 
 def _inverse(m: np.ndarray) -> np.ndarray:

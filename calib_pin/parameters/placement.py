@@ -32,6 +32,10 @@ class PlacementModel:
         """exp6 of each placement's twist, shape of x (6 (n + 1),)."""
         return [pin.exp6(t) for t in np.asarray(x, dtype=float).reshape(-1, 6)]
 
+    def delta_matrices(self, x: np.ndarray) -> np.ndarray:
+        """:meth:`deltas` as homogeneous matrices, shape (n + 1, 4, 4)."""
+        return np.array([m.homogeneous for m in self.deltas(x)])
+
     def delta_jacobian(self, x: np.ndarray) -> np.ndarray:
         """Block diagonal of exp6's right Jacobians, shape (6 (n + 1), 6 (n + 1))."""
         twists = np.asarray(x, dtype=float).reshape(-1, 6)

@@ -13,8 +13,6 @@ own frame.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 import pinocchio as pin
 
@@ -31,34 +29,34 @@ class Kinematics:
 
     def __init__(self, chain: Chain) -> None:
         self.chain = chain
-        self._nominal = chain.model
         self._model = chain.model.copy()
         self._data = self._model.createData()
         self._fid = chain.frame_id
-        self._frame_nominal = chain.model.frames[self._fid].placement.copy()
-        self._joint_nominal = [
-            chain.model.jointPlacements[j].copy() for j in range(1, chain.model.njoints)
-        ]
+        model = self._model
+        placements = [model.jointPlacements[j] for j in range(1, model.njoints)] + [model.frames[self._fid].placement]
+        #: Nominal joint placements, then the end frame's, shape (n_joints + 1, 4, 4).
+        self._nominal = np.array([m.homogeneous for m in placements])
+        # Live views into the working model: set_perturbation writes the placements in
+        # place, and updateFramePlacement writes the end frame's pose where points reads it.
+        self._targets = [(m.rotation, m.translation) for m in placements]
+        self._placement = self._data.oMf[self._fid]
+        self._rotation, self._translation = self._placement.rotation, self._placement.translation
+        self._parent = self._data.oMi[model.frames[self._fid].parentJoint]  # forwardKinematics writes it
+        self._parent_rotation, self._parent_translation = self._parent.rotation, self._parent.translation
 
-    def set_perturbation(self, deltas: Sequence[pin.SE3] | None) -> None:
+    def set_perturbation(self, deltas: np.ndarray | None) -> None:
         """Rebuild the working placements as nominal * delta.
 
         Args:
-            deltas: ``n_joints + 1`` transforms (joints base to end, then the end
-                frame), or None for the nominal robot.
+            deltas: ``n_joints + 1`` homogeneous transforms, shape (n_joints + 1, 4, 4)
+                (joints base to end, then the end frame; see
+                :meth:`~calib_pin.parameters.base.ParameterModel.delta_matrices`), or
+                None for the nominal robot.
         """
-        model = self._model
-        if deltas is None:
-            for j, nominal in enumerate(self._joint_nominal, start=1):
-                model.jointPlacements[j] = nominal
-            frame = model.frames[self._fid]
-            frame.placement = self._frame_nominal
-        else:
-            for j, (nominal, delta) in enumerate(zip(self._joint_nominal, deltas, strict=False), start=1):
-                model.jointPlacements[j] = nominal * delta
-            frame = model.frames[self._fid]
-            frame.placement = self._frame_nominal * deltas[-1]
-        model.frames[self._fid] = frame
+        placements = self._nominal if deltas is None else self._nominal @ deltas
+        for (rotation, translation), placement in zip(self._targets, placements, strict=True):
+            rotation[:] = placement[:3, :3]
+            translation[:] = placement[:3, 3]
 
     def frames(self, q: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The end frame's placement at many poses, and its frame Jacobian.
@@ -115,52 +113,48 @@ class Kinematics:
         model, data, fid = self._model, self._data, self._fid
         configs = self.chain.configuration(np.atleast_2d(q))
         n = len(configs)
-        point = np.broadcast_to(np.asarray(point, dtype=float), (n, 3))
-        if not jacobian:
-            positions = np.empty((n, 3))
+        point = np.asarray(point, dtype=float)
+        rot, trans = np.empty((n, 3, 3)), np.empty((n, 3))
+        if not jacobian:  # the parent joint's placement, then the end frame's in it
+            forward, live_rot, live_trans = pin.forwardKinematics, self._parent_rotation, self._parent_translation
             for k in range(n):
-                pin.forwardKinematics(model, data, configs[k])
-                positions[k] = pin.updateFramePlacement(model, data, fid).act(point[k])
-            return positions, None
+                forward(model, data, configs[k])
+                rot[k], trans[k] = live_rot, live_trans
+            frame_rot, frame_trans = self._targets[-1]
+            local = point @ frame_rot.T + frame_trans  # the point in the parent joint's frame
+            return trans + (rot @ local if local.ndim == 1 else (rot @ local[:, :, None])[:, :, 0]), None
+        live_rot, live_trans = self._rotation, self._translation
         n_place = 6 * self.chain.n_joints
-        frames = np.empty((n, 4, 4))
-        reg = np.empty((n, 6, n_place + (self.chain.n_joints if joints else 0)))
-        placement = data.oMf[fid]  # a live view: the regressor call updates it
+        # Columns: the placement regressor, the end frame's own local twist (identity),
+        # then the joint Jacobian: one product with the lever below gives them all.
+        reg = np.zeros((n, 6, n_place + 6 + (self.chain.n_joints if joints else 0)))
+        reg[:, :, n_place : n_place + 6] = np.eye(6)
         for k in range(n):
             if joints:  # forward kinematics and the joint Jacobians in one pass
                 pin.computeJointJacobians(model, data, configs[k])
             else:
                 pin.forwardKinematics(model, data, configs[k])
             reg[k, :, :n_place] = pin.computeFrameKinematicRegressor(model, data, fid, pin.LOCAL)
-            frames[k] = placement.homogeneous
+            rot[k], trans[k] = live_rot, live_trans  # the regressor call updated the frame
             if joints:
-                reg[k, :, n_place:] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
-        return self._lever(frames, reg, point, n_place)
+                reg[k, :, n_place + 6 :] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
+        return _lever(rot, trans, reg, np.broadcast_to(point, (n, 3)))
 
-    @staticmethod
-    def _lever(frames: np.ndarray, reg: np.ndarray, point: np.ndarray,
-               n_place: int) -> tuple[np.ndarray, np.ndarray]:
-        """Positions of ``point`` and their derivative from the end frames (n, 4, 4) and
-        local end-frame twists per column (n, 6, m): the placement regressor's first
-        ``n_place`` columns, then any joint columns. A local twist (v, w) of the end
-        frame moves the point by R (v + w x point); the end frame's own six columns go
-        between the two groups."""
-        n, m = len(frames), reg.shape[2]
-        rot, trans = frames[:, :3, :3], frames[:, :3, 3]
-        v, w = reg[:, :3], reg[:, 3:]
-        px, py, pz = (point[:, i, None] for i in range(3))
-        moved = np.empty((n, 3, m))
-        moved[:, 0] = v[:, 0] + w[:, 1] * pz - w[:, 2] * py
-        moved[:, 1] = v[:, 1] + w[:, 2] * px - w[:, 0] * pz
-        moved[:, 2] = v[:, 2] + w[:, 0] * py - w[:, 1] * px
-        minus_skew = np.zeros((n, 3, 3))  # -[point]x: w -> w x point
-        minus_skew[:, 0, 1], minus_skew[:, 0, 2] = point[:, 2], -point[:, 1]
-        minus_skew[:, 1, 0], minus_skew[:, 1, 2] = -point[:, 2], point[:, 0]
-        minus_skew[:, 2, 0], minus_skew[:, 2, 1] = point[:, 1], -point[:, 0]
-        rotated = rot @ moved
-        d_positions = np.empty((n, 3, m + 6))
-        d_positions[:, :, :n_place] = rotated[:, :, :n_place]
-        d_positions[:, :, n_place : n_place + 3] = rot
-        d_positions[:, :, n_place + 3 : n_place + 6] = rot @ minus_skew
-        d_positions[:, :, n_place + 6 :] = rotated[:, :, n_place:]
-        return trans + (rot @ point[:, :, None])[:, :, 0], d_positions
+
+#: The Levi-Civita symbol as a (3, 9) matrix: point @ _CROSS gives -[point]x row-major,
+#: the matrix of w -> w x point.
+_CROSS = np.array([[[0, 0, 0], [0, 0, 1], [0, -1, 0]],
+                   [[0, 0, -1], [0, 0, 0], [1, 0, 0]],
+                   [[0, 1, 0], [-1, 0, 0], [0, 0, 0]]], dtype=float).reshape(3, 9)
+
+
+def _lever(rot: np.ndarray, trans: np.ndarray, reg: np.ndarray,
+           point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of ``point`` (n, 3) and their derivative from the end frames' rotations
+    (n, 3, 3) and translations (n, 3), and local end-frame twists (v, w) per column
+    (n, 6, m). A local twist moves the point by R (v + w x point) = [R, -R [point]x] (v, w)."""
+    n = len(rot)
+    lever = np.empty((n, 3, 6))
+    lever[:, :, :3] = rot
+    lever[:, :, 3:] = rot @ (point @ _CROSS).reshape(n, 3, 3)
+    return trans + (rot @ point[:, :, None])[:, :, 0], lever @ reg

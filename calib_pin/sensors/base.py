@@ -184,7 +184,7 @@ class MeasurementModel(ABC):
 
     def set_robot(self, x: np.ndarray | None) -> None:
         """Put the robot's deviations of x (None: nominal) on the FK path."""
-        self._kin.set_perturbation(None if x is None else self.params.deltas(self.robot(x)))
+        self._kin.set_perturbation(None if x is None else self.params.delta_matrices(self.robot(x)))
 
     def points_at(self, x: np.ndarray | None, q: np.ndarray, point: np.ndarray) -> np.ndarray:
         """Base-frame positions [m] of end-frame points (3,) or (n_rows, 3) at q, for x."""
@@ -206,7 +206,7 @@ class MeasurementModel(ABC):
         """:meth:`point_jacobian` plus the end-frame rotations, shape (n_rows, 3, 3)
         (the derivative of each position with respect to the point itself)."""
         xr = self.robot(x)
-        self._kin.set_perturbation(self.params.deltas(xr))
+        self._kin.set_perturbation(self.params.delta_matrices(xr))
         soft = self.deflection
         if soft is None:
             points, d_place = self._kin.points(q, point, jacobian=True)
