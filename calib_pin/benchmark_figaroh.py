@@ -10,8 +10,10 @@ BLAS threads. Timed, both from the data in memory:
 * calib-pin: the problem on every row (the device frame and marker fitted in closed
   form) and the estimator (history recording off), the parameter model a user gets by
   default (``placement`` for the UR5).
-* FIGAROH: ``create_param_list()`` (structural parameter selection on random
-  configurations, then the frame-absorbed ones dropped on the measured poses) and
+* FIGAROH: ``create_param_list()`` (parameter selection; ``structural``, its default:
+  from random configurations, then the frame-absorbed ones dropped on the measured
+  poses; ``excitation``: from the measured poses, also run because on this data the
+  default selection leaves a model that cannot fit the noise floor) and
   ``solve_optimisation()`` (its closed-form frame guess and scipy LM with its outlier
   rounds), with ``BaseCalibration``'s default cost function and settings
   (``full_params``, unknown base and tip frames as its examples set them). Not timed:
@@ -49,6 +51,8 @@ MARKER_MM = ((60.0, 0.0, 40.0),)
 FRESH_POSES = 1000
 #: Reading noise, 1 sigma per axis [mm].
 NOISE_MM = 0.05
+#: FIGAROH's parameter selections (``estimation.method``): its default, and the one from the measured poses.
+SELECTIONS = ("structural", "excitation")
 #: What each timing includes (printed under the table).
 TIMED = ("calib-pin: problem on the rows (closed-form device frame and marker) + estimator, history off; "
          "FIGAROH: create_param_list() + solve_optimisation() (parameter selection, frame guess, LM with "
@@ -61,6 +65,7 @@ class Race:
 
     samples: int
     method: str
+    selection: str
     calib_s: float
     figaroh_s: float
     calib_train_mm: float
@@ -110,13 +115,15 @@ class _Figaroh:
         self.robot = pin.RobotWrapper(setup.chain.model.copy())
         self.config = config
 
-    def loaded(self) -> Any:
-        """A calibrator with its config and data read (untimed), frames unknown as in FIGAROH's examples."""
+    def loaded(self, selection: str) -> Any:
+        """A calibrator with its config and data read (untimed), frames unknown as in FIGAROH's
+        examples, and ``selection`` its ``estimation.method`` (``structural``: FIGAROH's default)."""
         from figaroh.calibration.base_calibration import BaseCalibration
 
         calibrator = BaseCalibration(self.robot, str(self.config))
         calibrator.calib_config["known_baseframe"] = False
         calibrator.calib_config["known_tipframe"] = False
+        calibrator.calib_config["estimation"] = {"method": selection}
         calibrator.load_data_set()
         return calibrator
 
@@ -156,15 +163,17 @@ def _session(samples: int, seed: int) -> tuple[CalibrationSetup, Any, np.ndarray
     return prepare("ur5", data), truth, fresh
 
 
-def race(samples: int, methods: list[str], repeats: int, seed: int) -> list[Race]:
-    """Both tools on one seeded session of ``samples`` poses, interleaved ``repeats`` times; medians."""
+def race(samples: int, methods: list[str], repeats: int, seed: int,
+         selections: tuple[str, ...] = SELECTIONS) -> list[Race]:
+    """Both tools on one seeded session of ``samples`` poses, interleaved ``repeats`` times
+    (each calib-pin method, then FIGAROH with each parameter selection); medians."""
     setup, truth, fresh = _session(samples, seed)
     true_model = truth.model(setup.chain, setup.params)
     points = np.zeros(len(setup.data), dtype=int)
     true_train = true_model.predict(truth.x_model, setup.data.q, points)
     true_fresh = true_model.predict(truth.x_model, fresh, np.zeros(len(fresh), dtype=int))
-    times: dict[str, list[float]] = {m: [] for m in methods + ["figaroh"]}
-    calib: dict[str, Any] = {}
+    times: dict[str, list[float]] = {m: [] for m in methods + list(selections)}
+    scores: dict[str, tuple[float, float, int]] = {}
     with tempfile.TemporaryDirectory(prefix="calib-pin-figaroh-") as folder:
         tool = _Figaroh(setup, _write_figaroh_files(Path(folder), setup))
         with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
@@ -172,22 +181,19 @@ def race(samples: int, methods: list[str], repeats: int, seed: int) -> list[Race
             for _ in range(repeats):
                 for m in methods:
                     model, estimate, seconds = _calib_pin(setup, m, seed)
-                    calib[m] = (model, estimate)
                     times[m].append(seconds)
-                calibrator = tool.loaded()
-                x, seconds = tool.calibrate(calibrator)
-                times["figaroh"].append(seconds)
-            fig_train = _rmse_mm(tool.positions(calibrator, x, setup.data.q), true_train)
-            fig_fresh = _rmse_mm(tool.positions(calibrator, x, fresh), true_fresh)
-    out = []
-    for m in methods:
-        model, estimate = calib[m]
-        out.append(Race(
-            samples, m, statistics.median(times[m]), statistics.median(times["figaroh"]),
-            _rmse_mm(estimate.predict(model, setup.data.q, points), true_train),
-            _rmse_mm(estimate.predict(model, fresh, np.zeros(len(fresh), dtype=int)), true_fresh),
-            fig_train, fig_fresh, len(estimate.x), len(x)))
-    return out
+                    scores[m] = (_rmse_mm(estimate.predict(model, setup.data.q, points), true_train),
+                                 _rmse_mm(estimate.predict(model, fresh, np.zeros(len(fresh), dtype=int)), true_fresh),
+                                 len(estimate.x))
+                for selection in selections:
+                    calibrator = tool.loaded(selection)
+                    x, seconds = tool.calibrate(calibrator)
+                    times[selection].append(seconds)
+                    scores[selection] = (_rmse_mm(tool.positions(calibrator, x, setup.data.q), true_train),
+                                         _rmse_mm(tool.positions(calibrator, x, fresh), true_fresh), len(x))
+    median = {k: statistics.median(v) for k, v in times.items()}
+    return [Race(samples, m, v, median[m], median[v], scores[m][0], scores[m][1], scores[v][0], scores[v][1],
+                 scores[m][2], scores[v][2]) for m in methods for v in selections]
 
 
 def against_figaroh(methods: list[str], repeats: int = 5, seed: int = 0,
@@ -209,10 +215,10 @@ def figaroh_version() -> str:
 
 def format_races(rows: list[Race]) -> str:
     """The side-by-side table: median times [s], their ratio, RMSE against the truth [mm]."""
-    lines = [f"{'samples':>7s} {'calib-pin':10s}{'median s':>9s}{'FIGAROH s':>10s}{'ratio':>8s}"
+    lines = [f"{'samples':>7s} {'calib-pin':10s}{'FIGAROH':12s}{'median s':>9s}{'FIGAROH s':>10s}{'ratio':>8s}"
              f"{'train mm':>10s}{'FIG train':>10s}{'fresh mm':>10s}{'FIG fresh':>10s}{'params':>9s}"]
     for r in rows:
-        lines.append(f"{r.samples:7d} {r.method:10s}{r.calib_s:9.4f}{r.figaroh_s:10.4f}{r.ratio:7.1f}x"
+        lines.append(f"{r.samples:7d} {r.method:10s}{r.selection:12s}{r.calib_s:9.4f}{r.figaroh_s:10.4f}{r.ratio:7.1f}x"
                      f"{r.calib_train_mm:10.4f}{r.figaroh_train_mm:10.4f}{r.calib_fresh_mm:10.4f}"
                      f"{r.figaroh_fresh_mm:10.4f}{r.calib_params:>5d}/{r.figaroh_params:<3d}")
     return "\n".join(lines)

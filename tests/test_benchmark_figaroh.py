@@ -36,16 +36,18 @@ def test_absent_figaroh_prints_one_skip_line(no_figaroh, capsys):
 
 def test_race_with_figaroh_scores_both_against_truth():
     pytest.importorskip("figaroh")
-    (row,) = benchmark_figaroh.race(100, ["lm"], repeats=1, seed=0)
-    assert row.samples == 100 and row.calib_s > 0 and row.figaroh_s > 0
+    structural, excitation = benchmark_figaroh.race(100, ["lm"], repeats=1, seed=0)
+    assert (structural.selection, excitation.selection) == ("structural", "excitation")
+    assert structural.calib_s > 0 and structural.figaroh_s > 0
     # both calibrate far below the nominal model's 2 mm error, calib-pin near the noise floor
-    assert row.calib_fresh_mm < 0.05
-    assert row.figaroh_fresh_mm < 0.5
-    assert row.figaroh_params > 9
+    assert structural.calib_fresh_mm < 0.05
+    assert structural.figaroh_fresh_mm < 0.5
+    # selected on the measured poses, FIGAROH reaches calib-pin's least-squares fit
+    assert excitation.figaroh_fresh_mm == pytest.approx(excitation.calib_fresh_mm, abs=1e-3)
 
 
 def test_format_races_one_row_per_race():
-    row = benchmark_figaroh.Race(100, "lm", 0.01, 0.5, 0.02, 0.02, 0.05, 0.06, 51, 25)
+    row = benchmark_figaroh.Race(100, "lm", "structural", 0.01, 0.5, 0.02, 0.02, 0.05, 0.06, 51, 25)
     text = benchmark_figaroh.format_races([row, row])
     assert len(text.splitlines()) == 3
     assert "50.0x" in text
