@@ -7,19 +7,21 @@ import os
 import platform
 from collections.abc import Sequence
 
-from ..estimators import ESTIMATORS
+from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from .common import OneLineParser, count, methods, non_negative, run
 
 
 def benchmark_parser() -> argparse.ArgumentParser:
     p = OneLineParser(prog="benchmark.py", description="Time calib-pin's estimators on a seeded simulated IRB120 session.")
     p.add_argument("--repeats", type=count(1000), default=5, help="timed runs per method (5)")
-    p.add_argument("--methods", type=methods, default=list(ESTIMATORS), help="comma-separated methods (all)")
+    p.add_argument("--methods", type=methods,
+                   help=f"comma-separated methods (all; against FIGAROH: {DEFAULT_METHOD},lm)")
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed (0)")
     p.add_argument("--poses", type=count(100_000), default=120, help="poses of the simulated set, 80 %% train (120)")
     p.add_argument("--scaling", action="store_true",
                    help="also print the scaling table: lm, ekf, ekf-qibas, qibas at 100, 1 000, 10 000 poses (minutes)")
-    p.add_argument("--against", choices=["figaroh"], help="also compare with FIGAROH when it is installed")
+    p.add_argument("--against", choices=["figaroh"],
+                   help="also race FIGAROH (when installed) on simulated UR5 positions, 100 and 1 000 samples")
     return p
 
 
@@ -34,7 +36,7 @@ def _benchmark(args: argparse.Namespace) -> int:
     from ..benchmark import benchmark, floor, format_scaling, format_timings, scaling
     from . import BLAS_THREADS
 
-    what, rows = benchmark(args.methods, args.repeats, args.seed, args.poses)
+    what, rows = benchmark(args.methods or list(ESTIMATORS), args.repeats, args.seed, args.poses)
     print(f"calib-pin {__version__} benchmark: {what}")
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}; BLAS limited to {BLAS_THREADS} thread by threadpoolctl "
@@ -49,10 +51,24 @@ def _benchmark(args: argparse.Namespace) -> int:
     if args.scaling:
         print(format_scaling(scaling(seed=args.seed)))
     if args.against == "figaroh":
-        try:
-            import figaroh  # noqa: F401
-        except ImportError:
-            print("against figaroh: skipped, figaroh is not installed (pip install figaroh; not a dependency)")
-        else:
-            print("against figaroh: figaroh imports, but the comparison harness is not part of this version")
+        _against_figaroh(args)
     return 0
+
+
+def _against_figaroh(args: argparse.Namespace) -> None:
+    """Print the FIGAROH race, or one line saying it is skipped."""
+    from ..benchmark_figaroh import FRESH_POSES, NOISE_MM, TIMED, against_figaroh, figaroh_version, format_races
+    from . import BLAS_THREADS
+
+    chosen = args.methods or [DEFAULT_METHOD, "lm"]
+    rows = against_figaroh(chosen, args.repeats, args.seed)
+    if rows is None:
+        print("against figaroh: skipped, figaroh is not installed (pip install figaroh; not a dependency)")
+        return
+    print(f"against FIGAROH {figaroh_version()}: simulated UR5 positions (one marker, {NOISE_MM:g} mm per axis, "
+          f"seed {args.seed}), every sample trains; interleaved calib-pin/FIGAROH, {args.repeats} repeat(s), "
+          f"medians; both in this process with BLAS limited to {BLAS_THREADS} thread (threadpoolctl)")
+    print(format_races(rows))
+    print(f"ratio: FIGAROH's median over calib-pin's; RMSE: Euclidean position error against the noise-free "
+          f"truth at the training poses and at {FRESH_POSES} fresh poses [mm]; params: calib-pin/FIGAROH unknowns")
+    print(f"timed: {TIMED}")

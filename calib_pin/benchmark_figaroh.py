@@ -1,0 +1,224 @@
+"""calib-pin against FIGAROH on the same simulated UR5 position data (``benchmark.py --against figaroh``).
+
+FIGAROH (https://github.com/thanhndv212/figaroh, ``pip install figaroh``) is not a
+dependency: :func:`against_figaroh` returns None when it is not installed. For each size
+one seeded simulated UR5 session (one marker on tool0 measured in a device frame 2 m
+away, 0.05 mm noise per axis, nominal error 2 mm RMSE) is calibrated by both tools,
+interleaved (calib-pin, FIGAROH, calib-pin, FIGAROH, ...), in one process with the same
+BLAS threads. Timed, both from the data in memory:
+
+* calib-pin: the problem on every row (the device frame and marker fitted in closed
+  form) and the estimator (history recording off), the parameter model a user gets by
+  default (``placement`` for the UR5).
+* FIGAROH: ``create_param_list()`` (parameter selection; ``structural``, its default:
+  from random configurations, then the frame-absorbed ones dropped on the measured
+  poses; ``excitation``: from the measured poses, also run because on this data the
+  default selection leaves a model that cannot fit the noise floor) and
+  ``solve_optimisation()`` (its closed-form frame guess and scipy LM with its outlier
+  rounds), with ``BaseCalibration``'s default cost function and settings
+  (``full_params``, unknown base and tip frames as its examples set them). Not timed:
+  its YAML parsing and CSV reading, and ``solve()``'s evaluation and printed report.
+
+Accuracy of both: Euclidean position RMSE [mm] against the noise-free truth at the
+training poses and at 1000 fresh poses.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import statistics
+import tempfile
+import time
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .estimators import run_estimator
+from .parameters import parameter_model
+from .pipeline import CalibrationSetup, prepare
+from .robot import load_chain
+from .simulation import random_poses, simulate_positions
+
+#: Samples (poses, one marker each) of the comparison.
+SIZES = (100, 1000)
+#: The one marker of the simulated sessions, tool0 frame [mm].
+MARKER_MM = ((60.0, 0.0, 40.0),)
+#: Fresh poses of the held-out score.
+FRESH_POSES = 1000
+#: Reading noise, 1 sigma per axis [mm].
+NOISE_MM = 0.05
+#: FIGAROH's parameter selections (``estimation.method``): its default, and the one from the measured poses.
+SELECTIONS = ("structural", "excitation")
+#: What each timing includes (printed under the table).
+TIMED = ("calib-pin: problem on the rows (closed-form device frame and marker) + estimator, history off; "
+         "FIGAROH: create_param_list() + solve_optimisation() (parameter selection, frame guess, LM with "
+         "outlier rounds), not its YAML/CSV reading nor solve()'s report")
+
+
+@dataclass(frozen=True)
+class Race:
+    """One size and one calib-pin method against FIGAROH: times [s], RMSE [mm] against the truth."""
+
+    samples: int
+    method: str
+    selection: str
+    calib_s: float
+    figaroh_s: float
+    calib_train_mm: float
+    calib_fresh_mm: float
+    figaroh_train_mm: float
+    figaroh_fresh_mm: float
+    calib_params: int
+    figaroh_params: int
+
+    @property
+    def ratio(self) -> float:
+        """FIGAROH's median time over calib-pin's."""
+        return self.figaroh_s / self.calib_s
+
+
+def _rmse_mm(predicted: np.ndarray, true: np.ndarray) -> float:
+    """Euclidean position RMSE [mm] of (n, 3) positions [m]."""
+    return float(np.sqrt(np.mean(np.sum((predicted - true) ** 2, axis=1))) * 1e3)
+
+
+def _write_figaroh_files(folder: Path, setup: CalibrationSetup) -> Path:
+    """FIGAROH's unified YAML config and its CSV (x1, y1, z1 [m], joint angles [rad]); the config path."""
+    import pandas as pd
+    import yaml
+
+    data, chain = setup.data, setup.chain
+    columns = {"x1": data.values[:, 0], "y1": data.values[:, 1], "z1": data.values[:, 2]}
+    columns.update({name: data.q[:, i] for i, name in enumerate(chain.joint_names)})
+    pd.DataFrame(columns).to_csv(folder / "data.csv", index=False)
+    marker = {"reference_joint": chain.joint_names[-1], "measurable_dof": [True] * 3 + [False] * 3}
+    config = {"robot": {"name": chain.name}, "tasks": {"calibration": {
+        "type": "kinematic_calibration",
+        "kinematics": {"base_frame": "universe", "tool_frame": chain.end_frame},
+        "measurements": {"markers": [marker]},
+        "data": {"source_file": str(folder / "data.csv"), "number_of_samples": len(data)}}}}
+    path = folder / "config.yaml"
+    path.write_text(yaml.safe_dump(config))
+    return path
+
+
+class _Figaroh:
+    """FIGAROH's BaseCalibration on one session's files, a fresh calibrator per run."""
+
+    def __init__(self, setup: CalibrationSetup, config: Path) -> None:
+        import pinocchio as pin
+
+        self.robot = pin.RobotWrapper(setup.chain.model.copy())
+        self.config = config
+
+    def loaded(self, selection: str) -> Any:
+        """A calibrator with its config and data read (untimed), frames unknown as in FIGAROH's
+        examples, and ``selection`` its ``estimation.method`` (``structural``: FIGAROH's default)."""
+        from figaroh.calibration.base_calibration import BaseCalibration
+
+        calibrator = BaseCalibration(self.robot, str(self.config))
+        calibrator.calib_config["known_baseframe"] = False
+        calibrator.calib_config["known_tipframe"] = False
+        calibrator.calib_config["estimation"] = {"method": selection}
+        calibrator.load_data_set()
+        return calibrator
+
+    @staticmethod
+    def calibrate(calibrator: Any) -> tuple[np.ndarray, float]:
+        """The estimate and the seconds of parameter selection + fit."""
+        start = time.perf_counter()
+        calibrator.create_param_list()
+        result, _ = calibrator.solve_optimisation()
+        return result.x, time.perf_counter() - start
+
+    @staticmethod
+    def positions(calibrator: Any, x: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Marker positions [m] in the measurement frame at joint angles q [rad], shape (n, 3)."""
+        from figaroh.calibration.calibration_tools import calc_updated_fkm
+
+        config = dict(calibrator.calib_config, NbSample=len(q))
+        return np.asarray(calc_updated_fkm(calibrator.model, calibrator.data, x, q, config)).reshape(3, len(q)).T
+
+
+def _calib_pin(setup: CalibrationSetup, method: str, seed: int) -> tuple[Any, Any, float]:
+    """(model, estimate, seconds) of calib-pin on every row of the session."""
+    rows = np.arange(len(setup.data))
+    start = time.perf_counter()
+    problem = setup.problem_on(rows)
+    estimate = run_estimator(method, problem, np.zeros(problem.n_params), seed=seed, noise=setup.noise,
+                             history=False)
+    return problem.model, estimate, time.perf_counter() - start
+
+
+def _session(samples: int, seed: int) -> tuple[CalibrationSetup, Any, np.ndarray]:
+    """The seeded UR5 session ready to calibrate, its truth, and the fresh poses [rad]."""
+    chain = load_chain("ur5")
+    data, truth = simulate_positions(chain, parameter_model(chain), samples, seed=seed, noise_mm=NOISE_MM,
+                                     markers_mm=MARKER_MM)
+    fresh = random_poses(chain, FRESH_POSES, np.random.default_rng(seed + 10_000))
+    return prepare("ur5", data), truth, fresh
+
+
+def race(samples: int, methods: list[str], repeats: int, seed: int,
+         selections: tuple[str, ...] = SELECTIONS) -> list[Race]:
+    """Both tools on one seeded session of ``samples`` poses, interleaved ``repeats`` times
+    (each calib-pin method, then FIGAROH with each parameter selection); medians."""
+    setup, truth, fresh = _session(samples, seed)
+    true_model = truth.model(setup.chain, setup.params)
+    points = np.zeros(len(setup.data), dtype=int)
+    true_train = true_model.predict(truth.x_model, setup.data.q, points)
+    true_fresh = true_model.predict(truth.x_model, fresh, np.zeros(len(fresh), dtype=int))
+    times: dict[str, list[float]] = {m: [] for m in methods + list(selections)}
+    scores: dict[str, tuple[float, float, int]] = {}
+    with tempfile.TemporaryDirectory(prefix="calib-pin-figaroh-") as folder:
+        tool = _Figaroh(setup, _write_figaroh_files(Path(folder), setup))
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+            warnings.simplefilter("ignore")  # BaseCalibration's default cost function warns on every call
+            for _ in range(repeats):
+                for m in methods:
+                    model, estimate, seconds = _calib_pin(setup, m, seed)
+                    times[m].append(seconds)
+                    scores[m] = (_rmse_mm(estimate.predict(model, setup.data.q, points), true_train),
+                                 _rmse_mm(estimate.predict(model, fresh, np.zeros(len(fresh), dtype=int)), true_fresh),
+                                 len(estimate.x))
+                for selection in selections:
+                    calibrator = tool.loaded(selection)
+                    x, seconds = tool.calibrate(calibrator)
+                    times[selection].append(seconds)
+                    scores[selection] = (_rmse_mm(tool.positions(calibrator, x, setup.data.q), true_train),
+                                         _rmse_mm(tool.positions(calibrator, x, fresh), true_fresh), len(x))
+    median = {k: statistics.median(v) for k, v in times.items()}
+    return [Race(samples, m, v, median[m], median[v], scores[m][0], scores[m][1], scores[v][0], scores[v][1],
+                 scores[m][2], scores[v][2]) for m in methods for v in selections]
+
+
+def against_figaroh(methods: list[str], repeats: int = 5, seed: int = 0,
+                    sizes: tuple[int, ...] = SIZES) -> list[Race] | None:
+    """The comparison at each size, or None when FIGAROH is not installed."""
+    try:
+        import figaroh  # noqa: F401
+    except ImportError:
+        return None
+    return [r for n in sizes for r in race(n, methods, repeats, seed)]
+
+
+def figaroh_version() -> str:
+    """The installed FIGAROH's version (package metadata)."""
+    from importlib.metadata import version
+
+    return version("figaroh")
+
+
+def format_races(rows: list[Race]) -> str:
+    """The side-by-side table: median times [s], their ratio, RMSE against the truth [mm]."""
+    lines = [f"{'samples':>7s} {'calib-pin':10s}{'FIGAROH':12s}{'median s':>9s}{'FIGAROH s':>10s}{'ratio':>8s}"
+             f"{'train mm':>10s}{'FIG train':>10s}{'fresh mm':>10s}{'FIG fresh':>10s}{'params':>9s}"]
+    for r in rows:
+        lines.append(f"{r.samples:7d} {r.method:10s}{r.selection:12s}{r.calib_s:9.4f}{r.figaroh_s:10.4f}{r.ratio:7.1f}x"
+                     f"{r.calib_train_mm:10.4f}{r.figaroh_train_mm:10.4f}{r.calib_fresh_mm:10.4f}"
+                     f"{r.figaroh_fresh_mm:10.4f}{r.calib_params:>5d}/{r.figaroh_params:<3d}")
+    return "\n".join(lines)

@@ -1,0 +1,53 @@
+"""benchmark.py --against figaroh: the skip line without FIGAROH, the race with it."""
+
+from __future__ import annotations
+
+import builtins
+
+import pytest
+
+from calib_pin import benchmark_figaroh
+from calib_pin.cli.benchmark import _against_figaroh, benchmark_parser
+
+
+@pytest.fixture
+def no_figaroh(monkeypatch):
+    """Make ``import figaroh`` fail as when it is not installed."""
+    real = builtins.__import__
+
+    def fake(name, *args, **kwargs):
+        if name == "figaroh" or name.startswith("figaroh."):
+            raise ImportError(f"No module named '{name}'")
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", fake)
+
+
+def test_absent_figaroh_returns_none(no_figaroh):
+    assert benchmark_figaroh.against_figaroh(["lm"], repeats=1) is None
+
+
+def test_absent_figaroh_prints_one_skip_line(no_figaroh, capsys):
+    args = benchmark_parser().parse_args(["--against", "figaroh", "--methods", "lm", "--repeats", "1"])
+    _against_figaroh(args)
+    out = capsys.readouterr().out
+    assert out == "against figaroh: skipped, figaroh is not installed (pip install figaroh; not a dependency)\n"
+
+
+def test_race_with_figaroh_scores_both_against_truth():
+    pytest.importorskip("figaroh")
+    structural, excitation = benchmark_figaroh.race(100, ["lm"], repeats=1, seed=0)
+    assert (structural.selection, excitation.selection) == ("structural", "excitation")
+    assert structural.calib_s > 0 and structural.figaroh_s > 0
+    # both calibrate far below the nominal model's 2 mm error, calib-pin near the noise floor
+    assert structural.calib_fresh_mm < 0.05
+    assert structural.figaroh_fresh_mm < 0.5
+    # selected on the measured poses, FIGAROH reaches calib-pin's least-squares fit
+    assert excitation.figaroh_fresh_mm == pytest.approx(excitation.calib_fresh_mm, abs=1e-3)
+
+
+def test_format_races_one_row_per_race():
+    row = benchmark_figaroh.Race(100, "lm", "structural", 0.01, 0.5, 0.02, 0.02, 0.05, 0.06, 51, 25)
+    text = benchmark_figaroh.format_races([row, row])
+    assert len(text.splitlines()) == 3
+    assert "50.0x" in text
