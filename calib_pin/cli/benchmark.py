@@ -7,14 +7,15 @@ import os
 import platform
 from collections.abc import Sequence
 
-from ..estimators import ESTIMATORS
+from ..estimators import PAPER_METHODS
 from .common import OneLineParser, count, methods, non_negative, run
 
 
 def benchmark_parser() -> argparse.ArgumentParser:
     p = OneLineParser(prog="benchmark.py", description="Time calib-pin's estimators on a seeded simulated IRB120 session.")
     p.add_argument("--repeats", type=count(1000), default=5, help="timed runs per method (5)")
-    p.add_argument("--methods", type=methods, default=list(ESTIMATORS), help="comma-separated methods (all)")
+    p.add_argument("--methods", type=methods, default=list(PAPER_METHODS),
+                   help="comma-separated methods (default the paper's nine)")
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed (0)")
     p.add_argument("--poses", type=count(100_000), default=120, help="poses of the simulated set, 80 %% train (120)")
     p.add_argument("--scaling", action="store_true",
