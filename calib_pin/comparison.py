@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from .batch import parallel_map
-from .estimators import ESTIMATORS, PAPER_LABELS, get_method, run_estimator
+from .estimators import PAPER_LABELS, PAPER_METHODS, get_method, run_estimator
 from .exceptions import CalibPinError
 from .metrics import Metrics
 from .parameters import ParameterModel, parameter_model
@@ -317,7 +317,7 @@ def compare(
         robot: Robot name or URDF path.
         data: Measurement CSV; None uses the robot's shipped set. Ignored when
             ``simulate_noise`` is given.
-        methods: Method names (default: all nine, M1..M9).
+        methods: Method names (default: the paper's nine, M1..M9).
         trials: Number of trials. On a measurement set, trial i uses the split of seed
             ``seed + i``; with ``simulate_noise``, trial i also simulates a new set of
             seed ``seed + i``.
@@ -334,7 +334,7 @@ def compare(
     Raises:
         CalibPinError: bad method, robot, data or settings.
     """
-    methods = list(ESTIMATORS) if methods is None else list(methods)
+    methods = list(PAPER_METHODS) if methods is None else list(methods)
     for m in methods:
         get_method(m)
     if trials < 1:

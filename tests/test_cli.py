@@ -54,7 +54,7 @@ def _run(*args, script="calibrate.py"):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["irb120", "--method", "gauss"], "unknown method 'gauss' (valid: ekf, bas, ukf, pso, rbf, lm, de, qibas, ekf-qibas)"),
+        (["irb120", "--method", "gauss"], "unknown method 'gauss' (valid: ekf, bas, ukf, pso, rbf, lm, de, qibas, ekf-qibas, lm+rbf)"),
         (["nosuchbot"], "unknown robot 'nosuchbot'"),
         (["irb120", "--data", "missing.csv"], "missing.csv: no such file"),
         (["irb120", "--test-fraction", "1.5"], "expected a number in [0, 1)"),

@@ -11,14 +11,15 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.estimators import PAPER_LABELS, get_estimator
+from calib_pin.estimators import PAPER_LABELS, PAPER_METHODS, get_estimator
 from calib_pin.estimators.qibas import parabola_vertex
 from calib_pin.report import build_report
 from calib_pin.simulation import random_poses
 from calib_pin.subspace import Subspace
 
-#: Every registered method; rbf is the one that estimates no kinematic parameters.
-METHODS = list(cp.ESTIMATORS)
+#: The paper's nine methods; rbf is the one that estimates no kinematic parameters
+#: (lm+rbf, the one combination, is tested in test_rbf.py).
+METHODS = list(PAPER_METHODS)
 PARAMETER_METHODS = [m for m in METHODS if m != "rbf"]
 
 
@@ -31,6 +32,7 @@ def results(session):
 def test_registry_in_paper_order():
     """The registry holds the nine methods of Table I in the paper's order M1..M9."""
     assert METHODS == ["ekf", "bas", "ukf", "pso", "rbf", "lm", "de", "qibas", "ekf-qibas"]
+    assert list(cp.ESTIMATORS) == [*METHODS, "lm+rbf"] and PAPER_LABELS["lm+rbf"] == "M6+M5"
     assert PAPER_LABELS["ekf"] == "M1" and PAPER_LABELS["ekf-qibas"] == "M9"
 
 

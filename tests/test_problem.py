@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -113,10 +114,11 @@ def test_result_is_not_changed_after_return():
 def test_method_records_state_their_capabilities():
     """The registry answers what the code would otherwise ask of the estimator's type."""
     assert get_method("lm").robust == "native" and get_method("bas").robust == "refit"
-    assert not get_method("rbf").kinematic and get_method("rbf").kinds == ("cable",)
+    assert not get_method("rbf").kinematic and get_method("rbf").kinds == ()
+    assert not get_method("lm+rbf").kinematic and not get_method("lm+rbf").paper
     with pytest.raises(EstimatorError, match="has no robust loss"):
         get_method("ekf").check("cauchy")
     with pytest.raises(EstimatorError, match="takes cable data, not position data"):
-        get_method("rbf").check(kind="position")
+        dataclasses.replace(get_method("rbf"), kinds=("cable",)).check(kind="position")
     with pytest.raises(EstimatorError, match="unknown method 'nope'"):
         get_method("nope")

@@ -40,6 +40,7 @@ class Method:
         kinematic: Estimates kinematic parameters (False: learns a correction of the
             values, so there is no URDF to write).
         kinds: Data kinds it takes (empty: every kind).
+        paper: One of the paper's nine methods (a default of ``compare`` and ``benchmark``).
     """
 
     name: str
@@ -49,6 +50,7 @@ class Method:
     robust: str = ""
     kinematic: bool = True
     kinds: tuple[str, ...] = ()
+    paper: bool = True
 
     def estimator(self, loss: str = "linear") -> Any:
         """The estimator with default settings and ``loss``.
@@ -85,21 +87,26 @@ class Method:
                                  "use a parameter method")
 
 
-#: The registry, in the paper's order M1..M9.
+#: The registry: the paper's M1..M9 in its order, then combinations of them.
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("ekf", "M1", "extended Kalman filter (filterpy)", "ekf:EKF"),
     Method("bas", "M2", "beetle antennae search", "bas:BAS", robust="refit"),
     Method("ukf", "M3", "unscented Kalman filter (filterpy)", "ukf:UKF"),
     Method("pso", "M4", "particle swarm", "pso:PSO", robust="refit"),
-    Method("rbf", "M5", "RBF network on the values' error (scipy)", "rbf:RBF", kinematic=False, kinds=("cable",)),
+    Method("rbf", "M5", "RBF network on the values' error (scipy)", "rbf:RBF", kinematic=False),
     Method("lm", "M6", "Levenberg-Marquardt (scipy)", "lm:LevenbergMarquardt", robust="native"),
     Method("de", "M7", "differential evolution (scipy)", "de:DE", robust="refit"),
     Method("qibas", "M8", "quadratic interpolated BAS", "qibas:QIBAS", robust="refit"),
     Method("ekf-qibas", "M9", "EKF, then QIBAS (the paper's method)", "ekf_qibas:EKFQIBAS", robust="native"),
+    Method("lm+rbf", "M6+M5", "LM, then an RBF network on what it leaves", "lm_rbf:LMRBF", kinematic=False,
+           paper=False),
 )}
 
-#: Method names, in the paper's order.
+#: Every method name: the paper's M1..M9 in its order, then the combinations.
 ESTIMATORS = tuple(METHODS)
+
+#: The paper's nine methods, in its order (the default of ``compare`` and ``benchmark``).
+PAPER_METHODS = tuple(m.name for m in METHODS.values() if m.paper)
 
 #: The paper's label of each method (Table I).
 PAPER_LABELS = {m.name: m.label for m in METHODS.values()}
@@ -150,5 +157,5 @@ def run_estimator(
                                evaluations=tuple(recorder.evaluations))
 
 
-__all__ = ["DEFAULT_METHOD", "ESTIMATORS", "LOSSES", "METHODS", "PAPER_LABELS", "EstimateResult", "Method",
-           "get_estimator", "get_method", "run_estimator"]
+__all__ = ["DEFAULT_METHOD", "ESTIMATORS", "LOSSES", "METHODS", "PAPER_LABELS", "PAPER_METHODS", "EstimateResult",
+           "Method", "get_estimator", "get_method", "run_estimator"]

@@ -32,6 +32,11 @@ from ..subspace import Subspace
 #: ``callback(rmse, evaluations)``: training RMSE [m] reached with that many evaluations.
 Callback = Callable[[float, float], None]
 
+#: ``correction(q, points)``: what to add to the values a model predicts at joint angles
+#: q (n_rows, n_joints) [rad] for rows measuring points ``points`` (each row's point
+#: index, or None for a sensor that measures one point), shape (n_rows, values_per_row), [m].
+Correction = Callable[[np.ndarray, np.ndarray | None], np.ndarray]
+
 
 @dataclass(frozen=True)
 class EstimateResult:
@@ -51,7 +56,7 @@ class EstimateResult:
         time_s: Wall time of the estimate, [s].
         extras: Method-specific results: ``covariance`` (a Kalman filter's P carried to
             x), ``stages`` (a pipeline's iterations per stage), ``correction`` (RBF: a
-            function of joint angles giving what to add to the predicted values [m]),
+            :data:`Correction`, what to add to the predicted values [m]),
             ``outliers`` (rows a robust method judged outliers).
     """
 
@@ -72,7 +77,7 @@ class EstimateResult:
         return self.correction is None
 
     @property
-    def correction(self) -> Callable[[np.ndarray], np.ndarray] | None:
+    def correction(self) -> Correction | None:
         return self.extras.get("correction")
 
     @property
@@ -88,10 +93,11 @@ class EstimateResult:
         return tuple(self.extras.get("outliers", ()))
 
     def predict(self, model: Any, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-        """Values [m] this estimate predicts at joint angles q [rad] with a measurement model."""
+        """Values [m] this estimate predicts at joint angles q [rad] with a measurement model,
+        for rows measuring ``points`` (point indices; None for a one-point sensor)."""
         values = model.predict(self.x, q, points)
         if self.correction is not None:
-            values = values + self.correction(np.atleast_2d(q)).reshape(values.shape)
+            values = values + self.correction(np.atleast_2d(q), points).reshape(values.shape)
         return values
 
     def residual(self, problem: LeastSquares) -> np.ndarray:
@@ -99,7 +105,7 @@ class EstimateResult:
         r = problem.residual(self.x)
         if self.correction is None:
             return r
-        return r + self.correction(problem.q).reshape(-1)  # type: ignore[attr-defined]
+        return r + self.correction(problem.q, problem.points).reshape(-1)  # type: ignore[attr-defined]
 
     def converged(self, tolerance: float = 0.05) -> tuple[int, float]:
         """Iterations and evaluations used until the training RMSE first came within

@@ -1,25 +1,61 @@
-"""Radial-basis-function network (paper M5): learns the reading error, not the robot.
+"""Radial-basis-function network (paper M5): learns the error of the values, not the robot.
 
-A thin-plate-spline RBF network (scipy's RBFInterpolator, with a degree-1 polynomial
-tail) maps joint angles [rad] to the reading error of the model at x0 (measured minus
-predicted, [m]) on the training poses. Predictions are then the model's readings plus
-the network's output. Its smoothing (the regularisation added to the kernel matrix) is
-chosen by ``folds``-fold cross-validation on the training poses from ``smoothing``.
+scipy's RBFInterpolator (with a degree-1 polynomial tail) maps each row's inputs to the
+error of the model at x0 (measured minus predicted, [m]; a vector for a position) on the
+training rows. Predictions are then the model's values plus the network's output.
 
-It yields **no kinematic parameters**: ``x`` stays at x0, the result carries a
-``correction`` instead, and calib-pin exports no URDF for it. It corrects only the
-reading of this one sensor at this one anchor, and only near the training poses.
+Inputs (``features``): ``sincos``, the sine and cosine of every joint angle (the forward
+kinematics is a sum of products of them, and 0 and 2 pi are the same angle), or
+``angles``, the raw joint angles [rad] (the first version of M5). For a sensor that
+measures several points per pose (markers), the row's point index enters as dummy
+columns of size ``point_scale``. Input columns constant on the training rows are dropped.
+
+The kernel, its shape parameter epsilon (for the kernels that take one) and the
+smoothing (the regularisation added to the kernel matrix) are chosen together by
+``folds``-fold cross-validation over the training poses (all rows of one configuration
+in the same fold): the grid point with the least held-out squared error wins, unless
+no grid point beats a zero correction (then the correction is zero: nothing learnable).
+
+It yields **no kinematic parameters**: ``x`` stays at x0 and the result carries a
+``correction(q, points)`` instead, so calib-pin exports no URDF for it. It corrects only
+this sensor's values (at the points it was trained on), and only near the training
+poses. :mod:`.lm_rbf` runs it on what a geometric fit leaves.
 """
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import RBFInterpolator
 
+from ..exceptions import EstimatorError
 from ..problem import LeastSquares
 from .base import Callback, EstimateResult, Tracker, rmse
+
+#: scipy kernels that need a shape parameter epsilon.
+EPSILON_KERNELS = ("gaussian", "multiquadric", "inverse_multiquadric", "inverse_quadratic")
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """How joint angles [rad] and point indices become the network's input rows."""
+
+    features: str
+    n_points: int
+    point_scale: float
+    keep: np.ndarray | None = None  # input columns kept (None: all)
+
+    def __call__(self, q: np.ndarray, points: np.ndarray | None) -> np.ndarray:
+        q = np.atleast_2d(q)
+        columns = [np.hstack([np.sin(q), np.cos(q)]) if self.features == "sincos" else q]
+        if self.n_points > 1:
+            if points is None or np.any((points < 0) | (points >= self.n_points)):
+                raise EstimatorError(f"the RBF correction knows points 0..{self.n_points - 1} only")
+            columns.append(self.point_scale * (np.asarray(points)[:, None] == np.arange(1, self.n_points)))
+        rows = np.hstack(columns)
+        return rows if self.keep is None else rows[:, self.keep]
 
 
 @dataclass(frozen=True)
@@ -27,15 +63,22 @@ class RBF:
     """RBF network settings.
 
     Attributes:
-        kernel: scipy RBFInterpolator kernel.
+        features: ``sincos`` (sin and cos of the joint angles) or ``angles`` (raw [rad]).
+        kernels: scipy RBFInterpolator kernels tried by cross-validation.
+        epsilons: Shape parameters tried for the kernels of ``EPSILON_KERNELS``
+            [1 / input unit].
+        smoothing: Smoothing values tried by cross-validation.
         degree: Degree of the polynomial tail.
-        smoothing: Candidate smoothing values tried by cross-validation.
+        point_scale: Size of the point-index dummy columns (input units).
         folds: Cross-validation folds (at most the number of poses).
     """
 
-    kernel: str = "thin_plate_spline"
+    features: str = "sincos"
+    kernels: tuple[str, ...] = ("thin_plate_spline", "cubic", "gaussian", "multiquadric")
+    epsilons: tuple[float, ...] = (0.2, 0.5, 1.0, 2.0)
+    smoothing: tuple[float, ...] = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0, 1000.0)
     degree: int = 1
-    smoothing: tuple[float, ...] = (0.0, 1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
+    point_scale: float = 1.0
     folds: int = 5
 
     def __call__(
@@ -44,26 +87,64 @@ class RBF:
     ) -> EstimateResult:
         track = Tracker(problem, callback)
         x0 = np.asarray(x0, dtype=float)
-        error = -track.residual(x0)  # measured minus predicted, [m]
+        error = -track.residual(x0).reshape(problem.n_rows, -1)  # measured minus predicted, [m]
         track.record(rmse(error))
         q = problem.q  # type: ignore[attr-defined]  # RBF learns over the joint angles
-        fold = np.random.default_rng(seed).permutation(len(q)) % min(self.folds, len(q))
-
-        def cv_error(smoothing: float) -> float:
-            sq = 0.0
-            for k in range(fold.max() + 1):
-                held = fold == k
-                net = RBFInterpolator(q[~held], error[~held], kernel=self.kernel,
-                                      degree=self.degree, smoothing=smoothing)
-                sq += float(np.sum((net(q[held]) - error[held]) ** 2))
-            return sq
-
-        chosen = min(self.smoothing, key=cv_error)
-        net = RBFInterpolator(q, error, kernel=self.kernel, degree=self.degree, smoothing=chosen)
-        result = track.result(
-            x0, 1, f"{self.kernel} network, smoothing {chosen:g} by {fold.max() + 1}-fold "
-            "cross-validation", correction=lambda q_new: net(np.atleast_2d(q_new)),
-        )
+        points = getattr(problem, "points", None)
+        inputs = self.inputs(q, points)
+        features = inputs(q, points)
+        _, pose = np.unique(q, axis=0, return_inverse=True)  # rows of one configuration share a fold
+        n_poses = int(pose.max()) + 1
+        fold = np.random.default_rng(seed).permutation(n_poses)[pose.ravel()] % min(self.folds, n_poses)
+        scores = {g: _cv_error(features, error, fold, g, self.degree) for g in self.grid()}
+        kernel, epsilon, smoothing = min(scores, key=scores.__getitem__)
+        cv = f"by {fold.max() + 1}-fold cross-validation"
+        if scores[kernel, epsilon, smoothing] >= float(np.sum(error**2)):  # no network beats adding nothing
+            width = error.shape[1]
+            result = track.result(x0, 1, f"no network: none beat a zero correction {cv}",
+                                  correction=lambda q_new, points_new: np.zeros((len(np.atleast_2d(q_new)), width)))
+        else:
+            net = RBFInterpolator(features, error, kernel=kernel, epsilon=epsilon, degree=self.degree,
+                                  smoothing=smoothing)
+            shape = f", epsilon {epsilon:g}" if kernel in EPSILON_KERNELS else ""
+            result = track.result(
+                x0, 1, f"{kernel} network on {self.features} inputs{shape}, smoothing {smoothing:g} {cv}",
+                correction=lambda q_new, points_new: net(inputs(q_new, points_new)),
+            )
         if track.recording:
             track.record(rmse(result.residual(problem)))
         return result
+
+    def inputs(self, q: np.ndarray, points: np.ndarray | None) -> Inputs:
+        """The input map fitted to the training rows (their joint angles q [rad] and
+        point indices): constant columns dropped.
+
+        Raises:
+            EstimatorError: unknown ``features``.
+        """
+        if self.features not in ("sincos", "angles"):
+            raise EstimatorError(f"unknown RBF features '{self.features}' (valid: sincos, angles)")
+        n_points = 1 if points is None else int(np.max(points)) + 1
+        every = Inputs(self.features, n_points, self.point_scale)
+        return Inputs(self.features, n_points, self.point_scale, np.ptp(every(q, points), axis=0) > 1e-12)
+
+    def grid(self) -> list[tuple[str, float, float]]:
+        """Every (kernel, epsilon, smoothing) tried; epsilon 1 for kernels without one."""
+        return [(k, e, s) for k in self.kernels
+                for e, s in itertools.product(self.epsilons if k in EPSILON_KERNELS else (1.0,), self.smoothing)]
+
+
+def _cv_error(features: np.ndarray, error: np.ndarray, fold: np.ndarray, setting: tuple[str, float, float],
+              degree: int) -> float:
+    """Held-out squared error [m^2] summed over the folds; inf where a fit is singular."""
+    kernel, epsilon, smoothing = setting
+    total = 0.0
+    for k in range(fold.max() + 1):
+        held = fold == k
+        try:
+            net = RBFInterpolator(features[~held], error[~held], kernel=kernel, epsilon=epsilon,
+                                  degree=degree, smoothing=smoothing)
+        except (ValueError, np.linalg.LinAlgError):
+            return np.inf
+        total += float(np.sum((net(features[held]) - error[held]) ** 2))
+    return total

@@ -144,14 +144,15 @@ class MeasurementModel(ABC):
         return np.arange(n_poses), None
 
     def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
-                       correction: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
+                       correction: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
+                       ) -> np.ndarray:
         """Each row's error [m] predicting a separate session at x (None: nominal), with
-        an optional learnt ``correction`` of the values; rows of points this model does
-        not know are refused (a sensor that can locate new points overrides this)."""
+        an optional learnt ``correction(q, points)`` of the values; rows of points this
+        model does not know are refused (a sensor that can locate new points overrides this)."""
         points = self.point_index(data, data.point_ids)
         predicted = self.predict(x, data.q, points)
         if correction is not None:
-            predicted = predicted + correction(data.q).reshape(predicted.shape)
+            predicted = predicted + correction(data.q, points).reshape(predicted.shape)
         return np.linalg.norm((predicted - data.values).reshape(len(data), -1), axis=1)
 
     # --- shared -----------------------------------------------------------------------

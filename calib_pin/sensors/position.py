@@ -136,23 +136,36 @@ class PositionModel(MeasurementModel):
         return np.array([known[int(v)] for v in labels], dtype=int)
 
     def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
-                       correction: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
-        """Position errors [m] of a separate session. A marker this calibration never saw
+                       correction: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
+                       ) -> np.ndarray:
+        """Position errors [m] of a separate session, with an optional learnt
+        ``correction(q, points)`` of the positions. A marker this calibration never saw
         is located from its first row (that row's configuration and measured position
         give the point in the end frame through the model at x and its device frame); its
-        other rows are scored, that first row is not."""
+        other rows are scored, that first row is not.
+
+        Raises:
+            CalibPinError: a new marker with a correction (it knows the calibration's markers only).
+        """
         assert data.point_ids is not None
         device = self.geometry_at(x)
         errors = []
         for label in np.unique(data.point_ids):
             rows = np.flatnonzero(data.point_ids == label)
             if int(label) in device.labels:
-                point = device.markers[device.labels.index(int(label))]
+                index = device.labels.index(int(label))
+                point = device.markers[index]
+            elif correction is not None:
+                raise CalibPinError(f"{data.source}: point_id {int(label)} is not a marker of this calibration, "
+                                    "and its learnt correction knows only those "
+                                    f"({', '.join(map(str, device.labels))})")
             else:
                 point = self.locate(x, data.q[rows[0]], data.values[rows[0]])
                 rows = rows[1:]
             base = self.points_at(x, data.q[rows], point)
             predicted = base @ device.frame.rotation.T + device.frame.translation
+            if correction is not None:
+                predicted = predicted + correction(data.q[rows], np.full(len(rows), index)).reshape(predicted.shape)
             errors.append(np.linalg.norm(predicted - data.values[rows], axis=1))
         return np.concatenate(errors) if errors else np.zeros(0)
 
