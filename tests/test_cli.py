@@ -1,6 +1,7 @@
 """Command line: the main job, its outputs, and one-line errors with exit 2."""
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -200,3 +201,14 @@ def test_simulate_with_a_model_then_calibrate_it(tmp_path, capsys):
     assert "joint-placement deviations" in capsys.readouterr().out
     assert calibrate_main(["ur5", "--no-html", "--data", str(csv), "--method", "lm", "--out", str(tmp_path / "o")]) == 0
     assert "placement model" in capsys.readouterr().out
+
+
+def test_every_command_runs_blas_on_one_thread():
+    """The thread limit covers the libraries loaded after the command starts too (scipy's
+    own OpenBLAS, Pinocchio's OpenMP), not only those loaded before."""
+    code = ("from calib_pin.cli import command; command('calibrate'); "
+            "import scipy.linalg, scipy.optimize, pinocchio; from calib_pin.estimators import ekf; "
+            "from threadpoolctl import threadpool_info; print(max(i['num_threads'] for i in threadpool_info()))")
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.strip() == "1"

@@ -8,6 +8,7 @@ only when it runs, so starting is quick.
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 from collections.abc import Callable, Sequence
 
@@ -33,8 +34,17 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
 BLAS_THREADS = 1
 
 
+#: Environment variables the BLAS and OpenMP libraries read when they load.
+THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
 def limit_blas_threads(threads: int = BLAS_THREADS) -> None:
-    """Limit the BLAS and OpenMP pools of this process to ``threads`` (threadpoolctl)."""
+    """Limit the BLAS and OpenMP pools of this process (and of the worker processes it
+    starts) to ``threads``: threadpoolctl for the libraries already loaded, the
+    environment for those loaded later (scipy bundles its own OpenBLAS, loaded with
+    scipy.linalg, and Pinocchio brings OpenMP)."""
+    for variable in THREAD_VARIABLES:
+        os.environ[variable] = str(threads)
     import numpy  # noqa: F401 - threadpoolctl limits the libraries already loaded
     from threadpoolctl import threadpool_limits
 
@@ -44,6 +54,7 @@ def limit_blas_threads(threads: int = BLAS_THREADS) -> None:
 def command(name: str) -> Callable[[Sequence[str] | None], int]:
     """The main function of subcommand ``name``, run with :data:`BLAS_THREADS` BLAS threads."""
     module, function, _ = COMMANDS[name]
+    limit_blas_threads()  # before the command's module loads numpy, scipy or Pinocchio
     main = getattr(importlib.import_module(f"{__name__}.{module}"), function)
 
     def limited(argv: Sequence[str] | None = None) -> int:
