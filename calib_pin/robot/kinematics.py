@@ -119,7 +119,8 @@ class Kinematics:
             forward, live_rot, live_trans = pin.forwardKinematics, self._parent_rotation, self._parent_translation
             for k in range(n):
                 forward(model, data, configs[k])
-                rot[k], trans[k] = live_rot, live_trans
+                rot[k] = live_rot
+                trans[k] = live_trans
             frame_rot, frame_trans = self._targets[-1]
             local = point @ frame_rot.T + frame_trans  # the point in the parent joint's frame
             return trans + (rot @ local if local.ndim == 1 else (rot @ local[:, :, None])[:, :, 0]), None
