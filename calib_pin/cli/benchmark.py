@@ -39,8 +39,8 @@ def _benchmark(args: argparse.Namespace) -> int:
     what, rows = benchmark(args.methods or list(PAPER_METHODS), args.repeats, args.seed, args.poses)
     print(f"calib-pin {__version__} benchmark: {what}")
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"Python {platform.python_version()}; BLAS limited to {BLAS_THREADS} thread by threadpoolctl "
-          "(calib_pin.cli.limit_blas_threads, every command)")
+          f"Python {platform.python_version()}; BLAS and OpenMP limited to {BLAS_THREADS} thread "
+          "(threadpoolctl and the environment: calib_pin.cli.limit_blas_threads, every command)")
     print(format_timings(rows))
     cost = floor(args.poses, args.seed)
     print(f"one evaluation over {round(0.8 * args.poses)} poses [ms]: " +
