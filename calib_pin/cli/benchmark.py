@@ -67,7 +67,7 @@ def _against_figaroh(args: argparse.Namespace) -> None:
         return
     print(f"against FIGAROH {figaroh_version()}: simulated UR5 positions (one marker, {NOISE_MM:g} mm per axis, "
           f"seed {args.seed}), every sample trains; interleaved calib-pin/FIGAROH, {args.repeats} repeat(s), "
-          f"medians; both in this process with BLAS limited to {BLAS_THREADS} thread (threadpoolctl)")
+          f"medians; both in this process with BLAS and OpenMP limited to {BLAS_THREADS} thread")
     print(format_races(rows))
     print(f"ratio: FIGAROH's median over calib-pin's; RMSE: Euclidean position error against the noise-free "
           f"truth at the training poses and at {FRESH_POSES} fresh poses [mm]; params: calib-pin/FIGAROH unknowns")
