@@ -167,8 +167,8 @@ class CalibrationResult:
         """
         if not self.kinematic:
             raise CalibPinError(
-                f"method '{self.method}' learns a correction of the readings, not kinematic "
-                "parameters: there is no corrected URDF to write")
+                f"method '{self.method}' learns a correction of the measured values, which a URDF cannot hold: "
+                "there is no corrected URDF to write")
         self.check_sanity()
         return write_calibrated_urdf(self.chain, self.deltas, path)
 

@@ -198,7 +198,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     report["urdf"] = exports.get("urdf")
     report["exports"] = exports
     report["urdf_refused"] = refused or (None if result.kinematic else
-                                         f"{result.method} learns a correction of the readings, not kinematic parameters")
+                                         f"{result.method} learns a correction of the measured values, which a URDF cannot hold")
     if report["urdf"]:  # the calibration file goes with the URDF: geometry, compliance, sensor, versions
         out.add(calibration_path(out.folder, result.chain.name), lambda tmp: write_calibration(result, tmp))
     _add_html(out, report, args.no_html)
@@ -275,4 +275,4 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     for warning in result.warnings:
         print(f"warning: {warning}")
     if not result.kinematic:
-        print(f"no URDF written: {result.method} learns a correction of the readings, not kinematic parameters")
+        print(f"no URDF written: {result.method} learns a correction of the measured values, which a URDF cannot hold")
