@@ -160,19 +160,15 @@ class DHModel:
         pre[0] = _inverse(w0[0])
         pre[1:n] = _inverse(s0[:-1] @ w0[1:])
         pre[n] = _inverse(s0[-1] @ end)
-        self._pre, self._c_matrices, self._end_matrix = pre, c, end
+        self._pre, self._end_matrix = pre, end
         self._hayati = np.isin(np.arange(n), self.hayati_rows)
-        # Rz(phi) C = cos(phi) (E_c C) + sin(phi) (E_s C) + E_z C: the joint rotations of
-        # delta_matrices as three constant factors, for the rows 1..n that follow a link
-        # (row n is the end frame: no rotation, the end matrix itself).
+        # Rz(phi) C_i = cos(phi) (E_c C_i) + sin(phi) (E_s C_i) + E_z C_i: the joint
+        # rotations of delta_matrices as three constant factors per joint, shape (n, 4, 4) each.
         e_c, e_s, e_z = np.zeros((3, 4, 4))
         e_c[0, 0] = e_c[1, 1] = 1.0
         e_s[0, 1], e_s[1, 0] = -1.0, 1.0
         e_z[2, 2] = e_z[3, 3] = 1.0
-        after = np.concatenate([c[1:], end[None]])
-        self._turn = (e_c @ after, e_s @ after, e_z @ after)
-        self._turn[2][-1] = end
-        self._first = (e_c @ c[0], e_s @ c[0], e_z @ c[0])
+        self._turn = (e_c @ c, e_s @ c, e_z @ c)
         # delta_jacobian: row i's theta column is constant, Ad(C_i^-1) e_wz at joint i;
         # its a, d|beta, alpha columns sit at placement i + 1 (the end frame for the last
         # row) behind the constant part of the placement after the link, C_{i+1} (end).
@@ -200,14 +196,12 @@ class DHModel:
         else:
             links = _link_matrices(t.d + dd, t.a + da, t.alpha + dal)
         phi = t.theta_offset + dth
-        cos, sin = np.cos(phi), np.sin(phi)
-        mid = np.empty((len(phi) + 1, 4, 4))
-        mid[0] = cos[0] * self._first[0] + sin[0] * self._first[1] + self._first[2]
         turn_c, turn_s, turn_z = self._turn
-        # The turns of joints 1..n-1, then none for the end matrix (its factors are zero).
-        np.matmul(links[:-1], cos[1:, None, None] * turn_c[:-1] + sin[1:, None, None] * turn_s[:-1] + turn_z[:-1],
-                  out=mid[1:-1])
-        np.matmul(links[-1], turn_z[-1], out=mid[-1])
+        w = np.cos(phi)[:, None, None] * turn_c + np.sin(phi)[:, None, None] * turn_s + turn_z
+        mid = np.empty((len(phi) + 1, 4, 4))
+        mid[0] = w[0]
+        np.matmul(links[:-1], w[1:], out=mid[1:-1])
+        np.matmul(links[-1], self._end_matrix, out=mid[-1])
         return self._pre @ mid
 
     def deltas(self, x: np.ndarray) -> list[pin.SE3]:
