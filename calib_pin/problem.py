@@ -124,9 +124,9 @@ class CalibrationProblem:
 
     def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:
         """Row ``row``'s residual (values_per_row,) [m] and Jacobian (values_per_row, n_params)."""
-        part = self.subset(slice(row, row + 1))
-        values, jac = part.predict_with_jacobian(x)
-        return values - part.readings.reshape(-1), jac
+        rows = slice(row, row + 1)
+        values, jac = self.model.predict_with_jacobian(x, self.q[rows], None if self.points is None else self.points[rows])
+        return values.reshape(-1) - self.readings[rows].reshape(-1), jac.reshape(values.size, -1)
 
     def row_errors(self, residual: np.ndarray) -> np.ndarray:
         """Size of each row's error, shape (n_rows,), [m]: |reading error| for one value

@@ -68,7 +68,8 @@ class EKF:
                 # The residual (predicted - measured) is the prediction of a zero measurement.
                 residual, jac = problem.row_residual_with_jacobian(space.to_x(kf.x[:, 0]), k)
                 track.nfev += 1.0 / problem.n_rows
-                kf.predict()
+                if self.process:  # F = I: with Q = 0 the prediction leaves x and P as they are
+                    kf.predict()
                 kf.update(zero, HJacobian=lambda z, h=jac @ space.basis: h,
                           Hx=lambda z, r=residual: r.reshape(-1, 1))
                 track.record_at(space.to_x(kf.x[:, 0]))

@@ -223,8 +223,9 @@ class DHModel:
         # axis) and Rz(theta_offset + dtheta) of the next joint (none for the end frame).
         phi = np.zeros(n)
         phi[:-1] = t.theta_offset[1:] + dth[1:]
-        turn = _rz_matrices(phi)[:, :3, :3].transpose(0, 2, 1) @ _ry_matrices(
-            np.where(self._hayati, dd, 0.0)).transpose(0, 2, 1)
+        turn = _rz_matrices(phi)[:, :3, :3].transpose(0, 2, 1)
+        if self.hayati_rows:
+            turn = turn @ _ry_matrices(np.where(self._hayati, dd, 0.0)).transpose(0, 2, 1)
         blocks = self._ad_after_inv @ (turn[:, None] @ tw).reshape(n, 6, 3)
         jac = self._jac_theta.copy()
         jac.flat[self._jac_blocks] = blocks
@@ -252,13 +253,15 @@ def _ry_matrices(angle: np.ndarray) -> np.ndarray:
 def _link_matrices(d: np.ndarray, a: np.ndarray, alpha: np.ndarray, beta: np.ndarray | None = None) -> np.ndarray:
     """Tz(d) Tx(a) Rx(alpha) Ry(beta) as 4x4 transforms, shape (n, 4, 4); beta None: zero."""
     c, s = np.cos(alpha), np.sin(alpha)
-    zero = np.zeros_like(c)
+    out = np.zeros((len(c), 4, 4))
+    out[:, 0, 3], out[:, 1, 1], out[:, 2, 1], out[:, 2, 3], out[:, 3, 3] = a, c, s, d, 1.0
     if beta is None:
-        rows = (1.0 + zero, zero, zero, a, zero, c, -s, zero, zero, s, c, d)
+        out[:, 0, 0], out[:, 1, 2], out[:, 2, 2] = 1.0, -s, c
     else:
         cb, sb = np.cos(beta), np.sin(beta)
-        rows = (cb, zero, sb, a, s * sb, c, -s * cb, zero, -c * sb, s, c * cb, d)
-    return np.stack((*rows, zero, zero, zero, 1.0 + zero), axis=-1).reshape(-1, 4, 4)
+        out[:, 0, 0], out[:, 0, 2], out[:, 1, 0], out[:, 1, 2] = cb, sb, s * sb, -s * cb
+        out[:, 2, 0], out[:, 2, 2] = -c * sb, c * cb
+    return out
 
 
 def _inverse(m: np.ndarray) -> np.ndarray:

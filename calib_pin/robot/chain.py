@@ -257,13 +257,22 @@ def _limits(model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return continuous, lower, upper
 
 
+def joint_motions(model: pin.Model) -> np.ndarray:
+    """Each joint's motion subspace S (linear, angular) in its own frame, shape
+    (njoints - 1, 6): a unit axis in the angular part for a revolute joint, in the linear
+    part for a prismatic one (Pinocchio's local joint Jacobian at the neutral pose)."""
+    data = model.createData()
+    pin.computeJointJacobians(model, data, pin.neutral(model))
+    return np.array([pin.getJointJacobian(model, data, j, pin.LOCAL)[:, model.joints[j].idx_v]
+                     for j in range(1, model.njoints)]).reshape(-1, 6)
+
+
 def _check_joints(full: pin.Model, chain_ids: list[int], description: RobotDescription) -> None:
     """Refuse a chain joint with a zero axis or with limits that leave no range."""
-    data = full.createData()
-    jacobians = pin.computeJointJacobians(full, data, pin.neutral(full))
+    motions = joint_motions(full)
     for j in chain_ids:
         name, joint = full.names[j], full.joints[j]
-        if not np.linalg.norm(jacobians[:, joint.idx_v]) > 0:
+        if not np.linalg.norm(motions[j - 1]) > 0:
             raise RobotError(f"{description.urdf}: joint '{name}' has a zero axis (it moves nothing)")
         if joint.nq == 1:
             lower, upper = full.lowerPositionLimit[joint.idx_q], full.upperPositionLimit[joint.idx_q]

@@ -1,14 +1,35 @@
-"""The one forward-kinematics path: a chain under a placement perturbation.
+"""The one forward-kinematics path: a chain under a placement perturbation, at many poses.
 
 :class:`Kinematics` evaluates a :class:`~calib_pin.robot.chain.Chain` under a
 perturbation: every joint placement and the end frame's placement are right-multiplied
 by a small rigid transform, always rebuilt from the nominal placements (never
 accumulated, never reverted). Parameter models (:mod:`calib_pin.parameters`) map their
-deviations onto these transforms, so the one Pinocchio regressor serves them all.
+deviations onto these transforms, so this one path serves them all.
+
+Two evaluations share the perturbed placements:
+
+- Positions (:meth:`Kinematics.points` without derivatives, what every cost evaluation
+  of a search asks for) are computed for all poses of a batch together, a few numpy
+  operations per joint whatever the number of poses. A Python loop of one Pinocchio
+  call per pose costs about 1 us per pose in call overhead alone, more than this whole
+  batched pass, and was the floor that held EKF-QIBAS and QIBAS back. Each joint moves
+  by exp(S_i q_i), with S_i Pinocchio's motion subspace of the joint
+  (:func:`~calib_pin.robot.chain.joint_motions`): after its placement M_i, its
+  transform is f0 F0_i + f1 F1_i + F2_i with (f0, f1) = (cos q, sin q) for a revolute
+  joint, (q, 0) for a prismatic one, and constant factors F_k,i = M_i E_k (Rodrigues:
+  E_0 = I - w w^T, E_1 = [w]x, E_2 = w w^T plus the homogeneous 1; prismatic: E_0 = [0 v;
+  0 0], E_2 = I).
+- Positions with derivatives (Jacobians, frames) come from Pinocchio per pose:
+  ``forwardKinematics``/``computeJointJacobians``, ``computeFrameKinematicRegressor``
+  and ``getFrameJacobian`` on a working copy of the model, whose placements are written
+  only when a derivative is asked for.
+
+The tests hold the batched positions to Pinocchio's to 1e-12 m for revolute, prismatic,
+continuous and off-axis joints.
 
 Frames and units: positions in [m] in the base (URDF root) frame, joint angles in
-[rad], twists as Pinocchio orders them (linear, angular) in the perturbed placement's
-own frame.
+[rad] (prismatic [m]), twists as Pinocchio orders them (linear, angular) in the
+perturbed placement's own frame.
 """
 
 from __future__ import annotations
@@ -16,15 +37,30 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .chain import Chain
+from .chain import Chain, joint_motions
+
+
+def _factors(motions: np.ndarray, revolute: np.ndarray) -> np.ndarray:
+    """The constant factors E_k of each joint's motion, shape (3, n_joints, 4, 4)."""
+    out = np.zeros((3, len(motions), 4, 4))
+    for i, (v, w) in enumerate(zip(motions[:, :3], motions[:, 3:], strict=True)):
+        if revolute[i]:  # Rodrigues' formula
+            out[0, i, :3, :3] = np.eye(3) - np.outer(w, w)
+            out[1, i, :3, :3] = [[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]]
+            out[2, i, :3, :3] = np.outer(w, w)
+            out[2, i, 3, 3] = 1.0
+        else:  # prismatic: q along v
+            out[0, i, :3, 3] = v
+            out[2, i] = np.eye(4)
+    return out
 
 
 class Kinematics:
     """Forward kinematics of a chain under a placement perturbation.
 
-    Holds one working copy of the chain's model. :meth:`set_perturbation` rebuilds its
-    placements from the nominal ones; :meth:`points` is the one FK path every estimator
-    and the simulator use.
+    :meth:`set_perturbation` rebuilds the placements from the nominal ones (the batched
+    factors and the working Pinocchio model follow when first used); :meth:`points` is
+    the one FK path every estimator and the simulator use.
     """
 
     def __init__(self, chain: Chain) -> None:
@@ -36,13 +72,16 @@ class Kinematics:
         placements = [model.jointPlacements[j] for j in range(1, model.njoints)] + [model.frames[self._fid].placement]
         #: Nominal joint placements, then the end frame's, shape (n_joints + 1, 4, 4).
         self._nominal = np.array([m.homogeneous for m in placements])
-        # Live views into the working model: set_perturbation writes the placements in
+        # Live views into the working model: _working_model writes the placements in
         # place, and updateFramePlacement writes the end frame's pose where points reads it.
         self._targets = [(m.rotation, m.translation) for m in placements]
         self._placement = self._data.oMf[self._fid]
         self._rotation, self._translation = self._placement.rotation, self._placement.translation
-        self._parent = self._data.oMi[model.frames[self._fid].parentJoint]  # forwardKinematics writes it
-        self._parent_rotation, self._parent_translation = self._parent.rotation, self._parent.translation
+        motions = joint_motions(model)
+        self._revolute = np.linalg.norm(motions[:, 3:], axis=1) > np.linalg.norm(motions[:, :3], axis=1)
+        self._basis = _factors(motions, self._revolute)
+        self._coef_cache = (np.empty((0, len(motions))), np.empty((len(motions), 0, 3)))
+        self.set_perturbation(None)
 
     def set_perturbation(self, deltas: np.ndarray | None) -> None:
         """Rebuild the working placements as nominal * delta.
@@ -53,10 +92,49 @@ class Kinematics:
                 :meth:`~calib_pin.parameters.base.ParameterModel.delta_matrices`), or
                 None for the nominal robot.
         """
-        placements = self._nominal if deltas is None else self._nominal @ deltas
-        for (rotation, translation), placement in zip(self._targets, placements, strict=True):
-            rotation[:] = placement[:3, :3]
-            translation[:] = placement[:3, 3]
+        self._placements = self._nominal if deltas is None else self._nominal @ deltas
+        self._backward: np.ndarray | None = None  # both rebuilt from _placements when used
+        self._model_stale = True
+
+    def _working_model(self) -> None:
+        """Write the placements into the working Pinocchio model, if not done since set."""
+        if self._model_stale:
+            for (rotation, translation), placement in zip(self._targets, self._placements, strict=True):
+                rotation[:] = placement[:3, :3]
+                translation[:] = placement[:3, 3]
+            self._model_stale = False
+
+    def _backward_factors(self) -> np.ndarray:
+        """Per joint, [v, 1] @ out[i] = (F0 v | F1 v | F2 v) row-wise, shape (n_joints, 4, 12)."""
+        if self._backward is None:
+            factors = self._placements[:-1] @ self._basis  # (3, n, 4, 4): F_k,i = M_i E_k
+            self._backward = np.ascontiguousarray(factors.transpose(1, 3, 0, 2).reshape(-1, 4, 12))
+        return self._backward
+
+    def _coefficients(self, q: np.ndarray) -> np.ndarray:
+        """(f0, f1, 1) of each joint at each pose, shape (n_joints, n_poses, 3). The last
+        poses' are kept: a search evaluates the same poses many times."""
+        cached_q, coef = self._coef_cache
+        if not (q.shape == cached_q.shape and np.array_equal(q, cached_q)):
+            f0 = np.where(self._revolute, np.cos(q), q).T  # (n_joints, n_poses)
+            f1 = np.sin(q).T  # a prismatic joint's F1 is zero
+            coef = np.stack([f0, f1, np.ones_like(f0)], axis=-1)
+            self._coef_cache = (q.copy(), coef)
+        return coef
+
+    def _positions(self, q: np.ndarray, point: np.ndarray) -> np.ndarray:
+        """Base-frame positions [m] of ``point`` (3,) or (n_poses, 3) at all poses
+        q (n_poses, n_joints), back to front: the point through each joint in turn."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        coef = self._coefficients(q)
+        backward = self._backward_factors()
+        end = self._placements[-1]
+        v = np.empty((len(q), 4))
+        v[:, :3] = point @ end[:3, :3].T + end[:3, 3]
+        v[:, 3] = 1.0
+        for i in range(len(coef) - 1, -1, -1):
+            v = np.einsum("pk,pkj->pj", coef[i], (v @ backward[i]).reshape(-1, 3, 4))
+        return v[:, :3]
 
     def frames(self, q: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The end frame's placement at many poses, and its frame Jacobian.
@@ -71,6 +149,7 @@ class Kinematics:
             jacobians: shape (n_poses, 6, n_joints) or None: the end frame's local twist
                 (linear [m], angular [rad]) per unit of each joint.
         """
+        self._working_model()
         model, data, fid = self._model, self._data, self._fid
         configs = self.chain.configuration(np.atleast_2d(q))
         n = len(configs)
@@ -110,20 +189,14 @@ class Kinematics:
                 also the derivative of the position with respect to the point.
                 With ``joints``, n_joints more columns: d position / d q.
         """
+        point = np.asarray(point, dtype=float)
+        if not jacobian:
+            return self._positions(q, point), None
+        self._working_model()
         model, data, fid = self._model, self._data, self._fid
         configs = self.chain.configuration(np.atleast_2d(q))
         n = len(configs)
-        point = np.asarray(point, dtype=float)
         rot, trans = np.empty((n, 3, 3)), np.empty((n, 3))
-        if not jacobian:  # the parent joint's placement, then the end frame's in it
-            forward, live_rot, live_trans = pin.forwardKinematics, self._parent_rotation, self._parent_translation
-            for k in range(n):
-                forward(model, data, configs[k])
-                rot[k] = live_rot
-                trans[k] = live_trans
-            frame_rot, frame_trans = self._targets[-1]
-            local = point @ frame_rot.T + frame_trans  # the point in the parent joint's frame
-            return trans + (rot @ local if local.ndim == 1 else (rot @ local[:, :, None])[:, :, 0]), None
         live_rot, live_trans = self._rotation, self._translation
         n_place = 6 * self.chain.n_joints
         # Columns: the placement regressor, the end frame's own local twist (identity),
@@ -139,7 +212,7 @@ class Kinematics:
             rot[k], trans[k] = live_rot, live_trans  # the regressor call updated the frame
             if joints:
                 reg[k, :, n_place + 6 :] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
-        return _lever(rot, trans, reg, np.broadcast_to(point, (n, 3)))
+        return _lever(rot, trans, reg, point)
 
 
 #: The Levi-Civita symbol as a (3, 9) matrix: point @ _CROSS gives -[point]x row-major,
@@ -151,11 +224,11 @@ _CROSS = np.array([[[0, 0, 0], [0, 0, 1], [0, -1, 0]],
 
 def _lever(rot: np.ndarray, trans: np.ndarray, reg: np.ndarray,
            point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions of ``point`` (n, 3) and their derivative from the end frames' rotations
-    (n, 3, 3) and translations (n, 3), and local end-frame twists (v, w) per column
-    (n, 6, m). A local twist moves the point by R (v + w x point) = [R, -R [point]x] (v, w)."""
+    """Positions of ``point`` (3,) or (n, 3) and their derivative from the end frames'
+    rotations (n, 3, 3) and translations (n, 3), and local end-frame twists (v, w) per
+    column (n, 6, m). A local twist moves the point by R (v + w x point) = [R, -R [point]x] (v, w)."""
     n = len(rot)
     lever = np.empty((n, 3, 6))
     lever[:, :, :3] = rot
-    lever[:, :, 3:] = rot @ (point @ _CROSS).reshape(n, 3, 3)
-    return trans + (rot @ point[:, :, None])[:, :, 0], lever @ reg
+    lever[:, :, 3:] = rot @ (point @ _CROSS).reshape(*point.shape[:-1], 3, 3)
+    return trans + (rot @ point[..., None])[..., 0], lever @ reg
