@@ -222,6 +222,11 @@ _CROSS = np.array([[[0, 0, 0], [0, 0, 1], [0, -1, 0]],
                    [[0, 1, 0], [-1, 0, 0], [0, 0, 0]]], dtype=float).reshape(3, 9)
 
 
+def cross_matrices(points: np.ndarray) -> np.ndarray:
+    """The matrices of w -> w x p (that is -[p]x) for points p, shape (..., 3) -> (..., 3, 3)."""
+    return (points @ _CROSS).reshape(*np.shape(points)[:-1], 3, 3)
+
+
 def _lever(rot: np.ndarray, trans: np.ndarray, reg: np.ndarray,
            point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Positions of ``point`` (3,) or (n, 3) and their derivative from the end frames'
@@ -230,5 +235,5 @@ def _lever(rot: np.ndarray, trans: np.ndarray, reg: np.ndarray,
     n = len(rot)
     lever = np.empty((n, 3, 6))
     lever[:, :, :3] = rot
-    lever[:, :, 3:] = rot @ (point @ _CROSS).reshape(*point.shape[:-1], 3, 3)
+    lever[:, :, 3:] = rot @ cross_matrices(point)
     return trans + (rot @ point[..., None])[..., 0], lever @ reg

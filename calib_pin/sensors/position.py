@@ -30,6 +30,7 @@ from ..exceptions import CalibPinError, DataError
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
+from ..robot.kinematics import cross_matrices
 from .base import MeasurementModel, chosen
 
 if TYPE_CHECKING:
@@ -228,13 +229,17 @@ class PositionModel(MeasurementModel):
             lever[:, :, :3] = np.eye(3)
             # T_DB = T0 exp6(twist): a right twist (v, w) of it moves the image of a
             # base point p by R_DB (v + w x p); exp6's right Jacobian maps d twist to it.
-            lever[:, :, 3:] = -np.cross(points[:, :, None], np.eye(3)[None], axis=1)
+            lever[:, :, 3:] = cross_matrices(points)
             jac[:, :, col : col + 6] = rot @ (lever @ pin.Jexp6(pin.Motion(twist)))
             col += 6
         if "markers" in self.estimate:
             # Row n's position moves with its own marker's three columns by R_DB R_end.
-            cols = col + 3 * np.asarray(markers)[:, None] + np.arange(3)
-            jac[np.arange(len(points))[:, None, None], np.arange(3)[None, :, None], cols[:, None, :]] = rot @ end_rot
+            block = rot @ end_rot
+            if len(self.device.markers) == 1:
+                jac[:, :, col : col + 3] = block
+            else:
+                cols = col + 3 * markers[:, None] + np.arange(3)
+                jac[np.arange(len(points))[:, None, None], np.arange(3)[None, :, None], cols[:, None, :]] = block
         return points @ rot.T + device.frame.translation, jac
 
 
