@@ -12,6 +12,8 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.estimators import PAPER_LABELS, PAPER_METHODS, get_estimator
+from calib_pin.estimators.ekf import EKF
+from calib_pin.pipeline import prepare
 from calib_pin.estimators.qibas import parabola_vertex
 from calib_pin.report import build_report
 from calib_pin.simulation import random_poses
@@ -227,3 +229,19 @@ def test_any_urdf_arm_calibrates_with_the_placement_model(robot, end_frame):
     true_fresh = cp.CableModel(chain, placement, truth.sensor).predict(truth.x, q)
     fresh = np.sqrt(np.mean((result.predict(q) - true_fresh) ** 2)) * 1e3
     assert fresh < 0.06 and result.metrics["test"]["before"].rmse_mm > 1.0
+
+
+def test_ekf_leaves_out_only_an_identity_prediction(session):
+    """Without process noise the EKF skips filterpy's prediction (F = I, Q = 0): the same
+    estimate, to the bit, as calling it with a Q that underflows to zero; with process
+    noise the prediction runs and widens the covariance."""
+    data, _ = session
+    problem = prepare("irb120", data).problem_on(np.arange(40))
+    x0 = np.zeros(problem.n_params)
+    skipped = EKF()(problem, x0)
+    predicted = EKF(process=1e-300)(problem, x0)  # (1e-300 * scale)^2 underflows: Q = 0
+    assert np.array_equal(skipped.x, predicted.x)
+    assert np.array_equal(skipped.covariance, predicted.covariance)
+    drifting = EKF(process=0.1)(problem, x0)
+    assert not np.array_equal(drifting.x, skipped.x)
+    assert np.trace(drifting.covariance) > np.trace(skipped.covariance)

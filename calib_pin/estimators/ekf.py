@@ -72,7 +72,8 @@ class EKF:
                     kf.predict()
                 kf.update(zero, HJacobian=lambda z, h=jac @ space.basis: h,
                           Hx=lambda z, r=residual: r.reshape(-1, 1))
-                track.record_at(space.to_x(kf.x[:, 0]))
+                if track.recording:
+                    track.record_at(space.to_x(kf.x[:, 0]))
         return track.result(
             space.to_x(kf.x[:, 0]), self.passes * problem.n_rows,
             f"{self.passes} pass(es) over {problem.n_rows} rows",

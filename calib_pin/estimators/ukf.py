@@ -72,7 +72,8 @@ class UKF:
                 kf.update(zero, row=problem.subset(slice(k, k + 1)))
                 kf.P = 0.5 * (kf.P + kf.P.T)
                 track.nfev += (2 * n + 1) / problem.n_rows
-                track.record_at(space.to_x(kf.x))
+                if track.recording:
+                    track.record_at(space.to_x(kf.x))
         return track.result(
             space.to_x(kf.x), self.passes * problem.n_rows,
             f"{self.passes} pass(es) over {problem.n_rows} rows",
