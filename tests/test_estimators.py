@@ -13,8 +13,8 @@ import pytest
 import calib_pin as cp
 from calib_pin.estimators import PAPER_LABELS, PAPER_METHODS, get_estimator
 from calib_pin.estimators.ekf import EKF
-from calib_pin.pipeline import prepare
 from calib_pin.estimators.qibas import parabola_vertex
+from calib_pin.pipeline import prepare
 from calib_pin.report import build_report
 from calib_pin.simulation import random_poses
 from calib_pin.subspace import Subspace
