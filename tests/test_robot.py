@@ -1,5 +1,7 @@
 """The Pinocchio chain: URDF matches the DH table, perturbations rebuild from nominal."""
 
+import dataclasses
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -111,16 +113,36 @@ MIXED_URDF = """<?xml version="1.0"?>
 """
 
 
-@pytest.mark.parametrize("robot", ["irb120", "ur5", "mixed"])
+SINGLE_URDF = """<?xml version="1.0"?>
+<robot name="single"><link name="base"/><link name="l1"/><link name="tool0"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.3" rpy="0.1 0 0"/><axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="jt" type="fixed"><parent link="l1"/><child link="tool0"/><origin xyz="0.2 0 0.1"/></joint>
+</robot>
+"""
+
+#: A side branch (joint js) that the chain to tool0 does not pass through.
+BRANCH_URDF = """<?xml version="1.0"?>
+<robot name="branch"><link name="base"/><link name="l1"/><link name="side"/><link name="tool0"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><origin xyz="0 0 0.3"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="js" type="revolute"><parent link="l1"/><child link="side"/><origin xyz="0 0.2 0"/>
+    <axis xyz="1 0 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="jt" type="fixed"><parent link="l1"/><child link="tool0"/><origin xyz="0 0 0.1"/></joint>
+</robot>
+"""
+
+
+@pytest.mark.parametrize("robot", ["irb120", "ur5", "mixed", "single"])
 def test_batched_positions_match_pinocchio(robot, tmp_path):
     """The batched positions equal Pinocchio's forward kinematics of the perturbed model
     to 1e-12 m, for revolute, prismatic, continuous and off-axis joints, one point or
     one point per pose; so do the positions of the derivative path."""
-    if robot == "mixed":
-        (tmp_path / "mixed.urdf").write_text(MIXED_URDF)
-        robot = str(tmp_path / "mixed.urdf")
+    if robot in ("mixed", "single"):
+        (tmp_path / f"{robot}.urdf").write_text(MIXED_URDF if robot == "mixed" else SINGLE_URDF)
+        robot = str(tmp_path / f"{robot}.urdf")
     chain = cp.load_chain(robot)
-    if robot.endswith(".urdf"):
+    if robot.endswith("mixed.urdf"):
         assert chain.joint_kinds == ("JointModelRZ", "JointModelPrismaticUnaligned", "JointModelRUBX",
                                      "JointModelRevoluteUnaligned")
     rng = np.random.default_rng(4)
@@ -157,3 +179,31 @@ def test_positions_follow_joint_angles_changed_in_place(chain):
     fresh, _ = cp.Kinematics(chain).points(q, np.zeros(3))
     assert np.array_equal(after, fresh)
     assert np.abs(after - before).max() > 1e-3
+
+
+def test_side_branch_chain_perturbs_its_reduced_model(tmp_path):
+    """A URDF with a joint off the chain: the reduced model (that joint locked) takes the
+    end frame's correction like the full one."""
+    (tmp_path / "branch.urdf").write_text(BRANCH_URDF)
+    chain = cp.load_chain(str(tmp_path / "branch.urdf"))
+    assert chain.joint_names == ("j1",)
+    delta = pin.SE3(np.eye(3), np.array([0.001, 0.0, 0.0]))
+    for full in (True, False):
+        model = chain.perturbed_model([pin.SE3.Identity(), delta], full=full)
+        source = chain.full_model if full else chain.model
+        fid = source.getFrameId("tool0")
+        assert np.allclose(model.frames[fid].placement.translation,
+                           (source.frames[fid].placement * delta).translation, atol=1e-15)
+
+
+def test_screw_joint_is_refused(chain):
+    """A chain built by hand with a helical joint: its batched positions would be wrong,
+    so Kinematics refuses it in one line."""
+    model = pin.Model()
+    joint = model.addJoint(0, pin.JointModelHelicalUnaligned(np.array([0.0, 0.0, 1.0]), 0.01),
+                           pin.SE3.Identity(), "screw")
+    model.addFrame(pin.Frame("tool0", joint, 0, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
+    screw = dataclasses.replace(chain, model=model, frame_id=model.getFrameId("tool0"), joint_names=("screw",),
+                                lower=np.array([-1.0]), upper=np.array([1.0]))
+    with pytest.raises(cp.CalibPinError, match="joint 'screw' .* both turns and slides"):
+        cp.Kinematics(screw)

@@ -180,7 +180,10 @@ def tool_frames(model: pin.Model, end_id: int) -> list[int]:
     for fid in range(len(model.frames)):
         g = fid
         while g != root and g != 0 and model.frames[g].type != pin.FrameType.JOINT:
-            g = model.frames[g].parentFrame
+            parent = model.frames[g].parentFrame
+            if parent == g:  # a joint locked by buildReducedModel can be its own parent
+                break
+            g = parent
         if g == root:
             out.append(fid)
     return out
@@ -263,8 +266,8 @@ def joint_motions(model: pin.Model) -> np.ndarray:
     part for a prismatic one (Pinocchio's local joint Jacobian at the neutral pose)."""
     data = model.createData()
     pin.computeJointJacobians(model, data, pin.neutral(model))
-    return np.array([pin.getJointJacobian(model, data, j, pin.LOCAL)[:, model.joints[j].idx_v]
-                     for j in range(1, model.njoints)]).reshape(-1, 6)
+    return np.array([np.reshape(pin.getJointJacobian(model, data, j, pin.LOCAL), (6, -1))[:, model.joints[j].idx_v]
+                     for j in range(1, model.njoints)]).reshape(-1, 6)  # (6,) when the model has one dof
 
 
 def _check_joints(full: pin.Model, chain_ids: list[int], description: RobotDescription) -> None:

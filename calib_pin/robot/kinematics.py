@@ -11,14 +11,16 @@ Two evaluations share the perturbed placements:
 - Positions (:meth:`Kinematics.points` without derivatives, what every cost evaluation
   of a search asks for) are computed for all poses of a batch together, a few numpy
   operations per joint whatever the number of poses. A Python loop of one Pinocchio
-  call per pose costs about 1 us per pose in call overhead alone, more than this whole
-  batched pass, and was the floor that held EKF-QIBAS and QIBAS back. Each joint moves
-  by exp(S_i q_i), with S_i Pinocchio's motion subspace of the joint
+  call per pose costs about 0.5-1 us per pose in call overhead alone, and was the floor
+  that held EKF-QIBAS and QIBAS back; the batched pass costs 0.7 times that loop at 96
+  poses (the same poses again, as a search evaluates them; 1.1 times for new poses) and
+  0.28 times at 1 000 (``benchmark.py`` prints the residual against that floor). Each
+  joint moves by exp(S_i q_i), with S_i Pinocchio's motion subspace of the joint
   (:func:`~calib_pin.robot.chain.joint_motions`): after its placement M_i, its
   transform is f0 F0_i + f1 F1_i + F2_i with (f0, f1) = (cos q, sin q) for a revolute
   joint, (q, 0) for a prismatic one, and constant factors F_k,i = M_i E_k (Rodrigues:
   E_0 = I - w w^T, E_1 = [w]x, E_2 = w w^T plus the homogeneous 1; prismatic: E_0 = [0 v;
-  0 0], E_2 = I).
+  0 0], E_2 = I). A joint that both turns and slides (a screw) is refused.
 - Positions with derivatives (Jacobians, frames) come from Pinocchio per pose:
   ``forwardKinematics``/``computeJointJacobians``, ``computeFrameKinematicRegressor``
   and ``getFrameJacobian`` on a working copy of the model, whose placements are written
@@ -37,6 +39,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from ..exceptions import RobotError
 from .chain import Chain, joint_motions
 
 
@@ -60,7 +63,9 @@ class Kinematics:
 
     :meth:`set_perturbation` rebuilds the placements from the nominal ones (the batched
     factors and the working Pinocchio model follow when first used); :meth:`points` is
-    the one FK path every estimator and the simulator use.
+    the one FK path every estimator and the simulator use. One object holds one
+    perturbation: share it between threads only behind a lock, and build a new one
+    rather than copying it (a copy's live views point into the original's model).
     """
 
     def __init__(self, chain: Chain) -> None:
@@ -78,7 +83,12 @@ class Kinematics:
         self._placement = self._data.oMf[self._fid]
         self._rotation, self._translation = self._placement.rotation, self._placement.translation
         motions = joint_motions(model)
-        self._revolute = np.linalg.norm(motions[:, 3:], axis=1) > np.linalg.norm(motions[:, :3], axis=1)
+        turns, slides = np.linalg.norm(motions[:, 3:], axis=1), np.linalg.norm(motions[:, :3], axis=1)
+        if np.any(np.minimum(turns, slides) > 1e-9):
+            name = chain.joint_names[int(np.argmax(np.minimum(turns, slides)))]
+            raise RobotError(f"joint '{name}' of '{chain.name}' both turns and slides (a screw joint); "
+                             "calib-pin takes chains of revolute and prismatic joints")
+        self._revolute = turns > slides
         self._basis = _factors(motions, self._revolute)
         self._coef_cache = (np.empty((0, len(motions))), np.empty((len(motions), 0, 3)))
         self.set_perturbation(None)
@@ -126,6 +136,8 @@ class Kinematics:
         """Base-frame positions [m] of ``point`` (3,) or (n_poses, 3) at all poses
         q (n_poses, n_joints), back to front: the point through each joint in turn."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
+        if q.shape[-1] != len(self._basis[0]):
+            raise ValueError(f"joint positions have {q.shape[-1]} columns; the chain has {len(self._basis[0])} joints")
         coef = self._coefficients(q)
         backward = self._backward_factors()
         end = self._placements[-1]
