@@ -10,6 +10,7 @@ Units: joint angles in [rad] (prismatic joints [m]), positions in [m], base fram
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import sys
 import tempfile
@@ -113,9 +114,10 @@ class Chain:
     def name(self) -> str:
         return self.description.name
 
-    @property
+    @functools.cached_property
     def joint_kinds(self) -> tuple[str, ...]:
-        """Pinocchio joint kind of each chain joint (``JointModelRY``, ...)."""
+        """Pinocchio joint kind of each chain joint (``JointModelRY``, ...); read once (the
+        CSV reader asks for every angle of every row)."""
         return tuple(self.model.joints[j].shortname() for j in range(1, self.model.njoints))
 
     def configuration(self, q: np.ndarray) -> np.ndarray:
