@@ -234,12 +234,8 @@ class PositionModel(MeasurementModel):
             col += 6
         if "markers" in self.estimate:
             # Row n's position moves with its own marker's three columns by R_DB R_end.
-            block = rot @ end_rot
-            if len(self.device.markers) == 1:
-                jac[:, :, col : col + 3] = block
-            else:
-                cols = col + 3 * markers[:, None] + np.arange(3)
-                jac[np.arange(len(points))[:, None, None], np.arange(3)[None, :, None], cols[:, None, :]] = block
+            cols = col + 3 * markers[:, None] + np.arange(3)
+            jac[np.arange(len(points))[:, None, None], np.arange(3)[None, :, None], cols[:, None, :]] = rot @ end_rot
         return points @ rot.T + device.frame.translation, jac
 
 
