@@ -51,3 +51,15 @@ def test_format_races_one_row_per_race():
     text = benchmark_figaroh.format_races([row, row])
     assert len(text.splitlines()) == 3
     assert "50.0x" in text
+
+
+def test_format_goal_judges_each_method_on_the_default_selection():
+    def race(samples, method, selection, calib_s):
+        return benchmark_figaroh.Race(samples, method, selection, calib_s, 1.0, 0.02, 0.02, 0.05, 0.06, 51, 25)
+
+    rows = [race(100, "lm", "structural", 0.02), race(1000, "lm", "structural", 0.01),
+            race(100, "ekf-qibas", "structural", 0.05), race(1000, "ekf-qibas", "structural", 0.02),
+            race(100, "ekf-qibas", "excitation", 0.01)]  # not FIGAROH's default: not judged
+    line = benchmark_figaroh.format_goal(rows)
+    assert "lm 50.0x at 100, 100.0x at 1000 (met)" in line
+    assert "ekf-qibas 20.0x at 100, 50.0x at 1000 (not met)" in line

@@ -57,7 +57,7 @@ def _benchmark(args: argparse.Namespace) -> int:
 
 def _against_figaroh(args: argparse.Namespace) -> None:
     """Print the FIGAROH race, or one line saying it is skipped."""
-    from ..benchmark_figaroh import FRESH_POSES, NOISE_MM, TIMED, against_figaroh, figaroh_version, format_races
+    from ..benchmark_figaroh import FRESH_POSES, NOISE_MM, TIMED, against_figaroh, figaroh_version, format_goal, format_races
     from . import BLAS_THREADS
 
     chosen = args.methods or [DEFAULT_METHOD, "lm"]
@@ -72,3 +72,4 @@ def _against_figaroh(args: argparse.Namespace) -> None:
     print(f"ratio: FIGAROH's median over calib-pin's; RMSE: Euclidean position error against the noise-free "
           f"truth at the training poses and at {FRESH_POSES} fresh poses [mm]; params: calib-pin/FIGAROH unknowns")
     print(f"timed: {TIMED}")
+    print(format_goal(rows))

@@ -41,5 +41,5 @@ class PlacementModel:
         twists = np.asarray(x, dtype=float).reshape(-1, 6)
         jac = np.zeros((twists.size, twists.size))
         for i, t in enumerate(twists):
-            jac[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = pin.Jexp6(pin.Motion(t))
+            jac[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = pin.Jexp6(t)
         return jac

@@ -109,9 +109,9 @@ class Kinematics:
     def _working_model(self) -> None:
         """Write the placements into the working Pinocchio model, if not done since set."""
         if self._model_stale:
-            for (rotation, translation), placement in zip(self._targets, self._placements, strict=True):
-                rotation[:] = placement[:3, :3]
-                translation[:] = placement[:3, 3]
+            rotations, translations = self._placements[:, :3, :3], self._placements[:, :3, 3]
+            for (rotation, translation), r, t in zip(self._targets, rotations, translations, strict=True):
+                rotation[:], translation[:] = r, t
             self._model_stale = False
 
     def _backward_factors(self) -> np.ndarray:
@@ -214,7 +214,7 @@ class Kinematics:
         # Columns: the placement regressor, the end frame's own local twist (identity),
         # then the joint Jacobian: one product with the lever below gives them all.
         reg = np.zeros((n, 6, n_place + 6 + (self.chain.n_joints if joints else 0)))
-        reg[:, :, n_place : n_place + 6] = np.eye(6)
+        reg[:, :, n_place : n_place + 6] = _EYE6
         for k in range(n):
             if joints:  # forward kinematics and the joint Jacobians in one pass
                 pin.computeJointJacobians(model, data, configs[k])
@@ -226,6 +226,8 @@ class Kinematics:
                 reg[k, :, n_place + 6 :] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
         return _lever(rot, trans, reg, point)
 
+
+_EYE6 = np.eye(6)
 
 #: The Levi-Civita symbol as a (3, 9) matrix: point @ _CROSS gives -[point]x row-major,
 #: the matrix of w -> w x point.
