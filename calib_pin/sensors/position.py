@@ -276,8 +276,10 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
                markers: np.ndarray, labels: tuple[int, ...]) -> PositionDevice:
     """Best-fit device frame and marker points for the nominal robot.
 
-    Alternates a rigid (Kabsch) fit of the frame with a linear fit of the markers, then
-    polishes both together with scipy's least squares.
+    Alternates a rigid (Kabsch) fit of the frame with a linear fit of the markers until
+    the markers stop moving, then polishes both together with scipy's least squares
+    (the nominal robot's points and end frames stay put: only the sensor's Jacobian
+    columns change).
 
     Args:
         q: Joint angles, shape (n_poses, n_joints), [rad].
