@@ -147,6 +147,12 @@ def parallel_map(
 
 def _dask_map(fn: Callable, items: list, scheduler: str) -> list:
     distributed = require("distributed")
+    from distributed.comm.addressing import get_address_host_port
+
+    try:  # a malformed address would otherwise fail inside Client and leave it hanging 20 s
+        get_address_host_port(scheduler)
+    except ValueError as e:
+        raise CalibPinError(f"'{scheduler}' is not a Dask scheduler address ({e}); give tcp://host:port") from None
     try:
         client = distributed.Client(scheduler, timeout="10s", set_as_default=False)
     except (OSError, TimeoutError) as e:

@@ -103,6 +103,13 @@ def test_duplicate_set_names_and_bad_jobs_are_refused(sets, tmp_path):
         parallel_map(abs, [1], jobs=0)
 
 
+@pytest.mark.parametrize("address", ["notanaddress", "http://127.0.0.1:8786", "tcp://host:port"])
+def test_malformed_scheduler_address_is_refused_before_connecting(address):
+    pytest.importorskip("distributed")
+    with pytest.raises(CalibPinError, match="is not a Dask scheduler address .*; give tcp://host:port"):
+        parallel_map(abs, [1], scheduler=address)
+
+
 def test_parallel_map_keeps_the_order():
     assert parallel_map(abs, [-3, 1, -2], jobs=2) == [3, 1, 2]
 
@@ -124,6 +131,7 @@ def test_batch_cli_writes_outputs_and_names_the_failed_set(sets, tmp_path, capsy
     (["a.csv", "--out", "x", "--jobs", "0"], "expected a whole number from 1"),
     (["a.csv", "--out", "x", "--method", "nope"], "invalid choice"),
     (["a.csv", "--out", "x", "--loss", "nope"], "unknown loss 'nope'"),
+    (["a.csv", "--out", "x", "--scheduler", "localhost"], "'localhost' is not a Dask scheduler address"),
 ])
 def test_batch_cli_bad_options_are_one_line_exit_2(argv, message, capsys):
     from calib_pin.cli.batch import batch_main

@@ -139,6 +139,9 @@ def test_compare_writes_tables_and_figures(tmp_path, capsys):
     "args, message",
     [
         (["irb120", "--methods", "lm,nope"], "unknown method 'nope' (valid: ekf, bas"),
+        (["irb120", "--methods", "lm,,ekf"], "empty method name in 'lm,,ekf'"),
+        (["irb120", "--simulate", "gauss", "--scheduler", "http://127.0.0.1:8786"],
+         "'http://127.0.0.1:8786' is not a Dask scheduler address"),
         (["irb120", "--trials", "0"], "expected a whole number from 1 to 100000, got '0'"),
         (["irb120", "--simulate", "pink"], "invalid choice: 'pink'"),
         (["irb120", "--data", "missing.csv"], "missing.csv: no such file"),

@@ -139,9 +139,11 @@ def methods(text: str) -> list[str]:
     """Comma-separated estimator names."""
     from ..estimators import ESTIMATORS
 
-    names = [n.strip() for n in text.split(",") if n.strip()]
+    names = [n.strip() for n in text.split(",")]
+    if "" in names:
+        raise argparse.ArgumentTypeError(f"empty method name in '{text}' (comma-separated, e.g. lm,ekf-qibas)")
     unknown = [n for n in names if n not in ESTIMATORS]
-    if unknown or not names:
+    if unknown:
         raise argparse.ArgumentTypeError(
             f"unknown method '{unknown[0] if unknown else text}' (valid: {', '.join(ESTIMATORS)})")
     return names
