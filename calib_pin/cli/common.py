@@ -145,7 +145,7 @@ def methods(text: str) -> list[str]:
     unknown = [n for n in names if n not in ESTIMATORS]
     if unknown:
         raise argparse.ArgumentTypeError(
-            f"unknown method '{unknown[0] if unknown else text}' (valid: {', '.join(ESTIMATORS)})")
+            f"unknown method '{unknown[0]}' (valid: {', '.join(ESTIMATORS)})")
     return names
 
 

@@ -227,7 +227,9 @@ class Kinematics:
         return _lever(rot, trans, reg, point)
 
 
+#: The end frame's own twist columns of the regressor (read only).
 _EYE6 = np.eye(6)
+_EYE6.setflags(write=False)
 
 #: The Levi-Civita symbol as a (3, 9) matrix: point @ _CROSS gives -[point]x row-major,
 #: the matrix of w -> w x point.

@@ -255,7 +255,9 @@ class PositionModel(MeasurementModel):
         return jac
 
 
+#: The device twist's linear columns of the lever (read only).
 _EYE3 = np.eye(3)
+_EYE3.setflags(write=False)
 
 
 def _index(points: np.ndarray | None, n_rows: int) -> np.ndarray:
