@@ -192,6 +192,13 @@ class MeasurementModel(ABC):
         self.set_robot(x)
         return self._kin.points(self.joint_angles(x, q), point)[0]
 
+    def end_frames(self, x: np.ndarray | None, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The end frame's rotations (n_rows, 3, 3) and origins (n_rows, 3) [m] in the
+        base frame at q, for x (None: nominal); no derivatives."""
+        self.set_robot(x)
+        rot, trans, _ = self._kin.frames(self.joint_angles(x, q))
+        return rot, trans
+
     def point_jacobian(self, x: np.ndarray, q: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """A point fixed in the end frame and its derivative with respect to x.
 

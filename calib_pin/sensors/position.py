@@ -290,7 +290,7 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
     """
     n_markers = len(labels)
     model = PositionModel(chain, params, PositionDevice(pin.SE3.Identity(), np.zeros((n_markers, 3)), labels))
-    origin, end_rot, _ = model.points_with_jacobians(np.zeros(model.n_params), q, np.zeros(3))
+    end_rot, origin = model.end_frames(None, q)
     points = np.zeros((n_markers, 3))
     for _ in range(30):  # converges linearly, to 1e-16 m in about ten rounds
         base = origin + np.einsum("nij,nj->ni", end_rot, points[markers])
