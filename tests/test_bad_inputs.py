@@ -2,8 +2,9 @@
 
 Each row of :data:`CASES` is (command, arguments, files to create, expected exit status,
 fragment of the one stderr line). A row with status 0 is a valid input that must be
-accepted: no traceback, exit 0, and the fragment somewhere in what the command printed. The files are created in a fresh folder that is the
-working directory of the run; ``calib-pin`` is the entry point itself.
+accepted: no traceback, exit 0, and the fragment somewhere in what the command printed.
+The files are created in a fresh folder that is the working directory of the run;
+``calib-pin`` is the entry point itself.
 """
 
 from __future__ import annotations
