@@ -26,12 +26,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
+from .arguments import MAX_MM, as_bool, as_optional, as_path, as_robot
 from .compensation import CalibratedRobot
 from .exceptions import CalibPinError, DataError, RobotError
 from .parameters import parameter_model
 from .robot.chain import Chain, load_chain
 from .robot.deflection import ComplianceSpec, stiffness
 from .robot.description import resolve_robot
+from .sanity import beyond_sanity
 from .units import for_humans
 
 if TYPE_CHECKING:
@@ -130,11 +132,58 @@ def find_calibration(path: Path) -> Path:
     return path
 
 
+def _json_spelling(value: float) -> str:
+    return "NaN" if value != value else ("Infinity" if value > 0 else "-Infinity")
+
+
+def _check_finite(value: Any, source: Path, key: str = "") -> None:
+    """Refuse a NaN or infinite number anywhere in the document (calib-pin never writes
+    one), naming its key (``deviations_si.a_1``, ``compliance.cable_pull.anchor_mm[0]``)."""
+    if isinstance(value, float) and not np.isfinite(value):
+        raise DataError(str(source), f"{_json_spelling(value)} is not a finite number", None, key or None)
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_finite(v, source, f"{key}.{k}" if key else str(k))
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _check_finite(v, source, f"{key}[{i}]")
+
+
+def _field(doc: dict[str, Any], key: str, kind: type | tuple[type, ...], what: str, source: Path,
+           prefix: str = "") -> Any:
+    """``doc[key]`` when it is a ``kind``; else a DataError naming ``prefix + key``."""
+    name = prefix + key
+    if key not in doc:
+        raise DataError(str(source), f"missing ({what})", None, name)
+    value = doc[key]
+    if isinstance(value, bool) or not isinstance(value, kind):
+        raise DataError(str(source), f"expected {what}, got {json.dumps(value)[:40]}", None, name)
+    return value
+
+
+def _number(doc: dict[str, Any], key: str, source: Path, prefix: str, unit: str) -> float:
+    return float(_field(doc, key, (int, float), f"a number in {unit}", source, prefix))
+
+
+def _version(doc: dict[str, Any], source: Path) -> None:
+    version = _field(doc, "format_version", int, f"a whole number from 1 to {FORMAT_VERSION}", source)
+    if version > FORMAT_VERSION:
+        raise DataError(str(source), f"format version {version} is newer than this calib-pin "
+                        f"reads ({FORMAT_VERSION}): update calib-pin", None, "format_version")
+    if version < 1:
+        raise DataError(str(source), f"format version {version} does not exist (1 to {FORMAT_VERSION})",
+                        None, "format_version")
+
+
 def _chain(doc: dict[str, Any], robot: str | None, source: Path) -> Chain:
     """The nominal chain the calibration was made on: by name, else by the URDF path;
-    its URDF must be the one calibrated (same SHA-256)."""
+    its URDF must be the one calibrated (same SHA-256), its joints the file's."""
+    for key in ("robot", "urdf", "urdf_sha256", "end_frame"):
+        _field(doc, key, str, "text", source)
+    joints = _field(doc, "joints", list, "the list of joint names", source)
     if robot is not None and resolve_robot(robot).name != doc["robot"]:
-        raise CalibPinError(f"{source} is a calibration of robot '{doc['robot']}', not '{resolve_robot(robot).name}'")
+        raise DataError(str(source), f"is a calibration of robot '{doc['robot']}', not '{resolve_robot(robot).name}'",
+                        None, "robot")
     candidates = [robot] if robot is not None else [doc["robot"], doc["urdf"]]
     for candidate in candidates:
         try:
@@ -142,26 +191,96 @@ def _chain(doc: dict[str, Any], robot: str | None, source: Path) -> Chain:
         except RobotError:
             continue
         if _sha256(Path(description.urdf)) == doc["urdf_sha256"]:
-            return load_chain(description, doc["end_frame"])
+            try:
+                chain = load_chain(description, doc["end_frame"])
+            except RobotError as e:
+                raise DataError(str(source), str(e), None, "end_frame") from None
+            if list(joints) != list(chain.joint_names):
+                raise DataError(str(source), f"{', '.join(map(str, joints))[:80]} are not the joints of "
+                                f"'{chain.name}' to '{chain.end_frame}' ({', '.join(chain.joint_names)})",
+                                None, "joints")
+            return chain
     raise CalibPinError(f"{source}: the URDF of robot '{doc['robot']}' is not the one calibrated "
                         f"({doc['urdf']}, SHA-256 {doc['urdf_sha256'][:12]}...): calibrate again")
 
 
+def _deviations(doc: dict[str, Any], params: Any, chain: Chain, source: Path) -> np.ndarray:
+    """The robot's deviations (SI), each a number within calibrate's sanity bound."""
+    stored = _field(doc, "deviations_si", dict, "the deviations by name", source)
+    missing = [n for n in params.names if n not in stored]
+    extra = [n for n in stored if n not in params.names]
+    if missing or extra or list(stored) != list(params.names):
+        what = (f"no {missing[0]}" if missing else f"{extra[0]} is not" if extra else "not in the order of")
+        raise DataError(str(source), f"deviations do not match the {params.name} model of '{chain.name}' "
+                        f"({what}{' a parameter of it' if extra and not missing else ''})", None, "deviations_si")
+    x = np.array([_number(stored, name, source, "deviations_si.", unit)
+                  for name, unit in zip(params.names, params.units, strict=True)])
+    for value, name, unit in zip(x, params.names, params.units, strict=True):
+        beyond = beyond_sanity(value, unit)
+        if beyond:
+            raise DataError(str(source), f"{beyond} that calibrate refuses to export: not a plausible "
+                            "calibration (calibrate again)", None, f"deviations_si.{name}")
+    return x
+
+
+def _xyz_mm(doc: dict[str, Any], key: str, source: Path, prefix: str) -> np.ndarray:
+    value = _field(doc, key, list, "3 numbers x, y, z in mm", source, prefix)
+    if len(value) != 3 or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) < MAX_MM
+                                  for v in value):
+        raise DataError(str(source), f"expected 3 numbers x, y, z in mm, got {json.dumps(value)[:40]}",
+                        None, prefix + key)
+    return np.array(value, dtype=float) * 1e-3
+
+
+def _compliance_of(soft: dict[str, Any], chain: Chain, source: Path,
+                   cable: bool) -> tuple[ComplianceSpec, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """The compliance spec, its values [rad/Nm] (each >= 0) and the cable's pull, checked."""
+    p = "compliance."
+    joints = _field(soft, "joints", list, "the compliant joints' names", source, p)
+    unknown = [j for j in joints if j not in chain.joint_names]
+    if unknown or not joints or len(set(joints)) != len(joints):
+        raise DataError(str(source), f"{json.dumps(joints)[:60]} are not distinct joints of '{chain.name}' "
+                        f"({', '.join(chain.joint_names)})", None, p + "joints")
+    tension = _number(soft, "cable_tension_n", source, p, "N") if "cable_tension_n" in soft else 0.0
+    if tension < 0:
+        raise DataError(str(source), f"{tension:g} N is negative", None, p + "cable_tension_n")
+    payload = soft.get("payload")
+    if payload is not None:
+        payload = _field(soft, "payload", dict, "the payload (mass_kg, com_mm) or null", source, p)
+        if _number(payload, "mass_kg", source, p + "payload.", "kg") < 0:
+            raise DataError(str(source), "a mass is >= 0", None, p + "payload.mass_kg")
+        _xyz_mm(payload, "com_mm", source, p + "payload.")
+    spec = ComplianceSpec.from_dict(soft)
+    stored = _field(soft, "compliance_rad_per_Nm", dict, "the compliance of each joint", source, p)
+    if sorted(stored) != sorted(spec.joints):
+        raise DataError(str(source), f"holds {', '.join(stored) or 'none'}, the compliant joints are "
+                        f"{', '.join(spec.joints)}", None, p + "compliance_rad_per_Nm")
+    values = np.array([_number(stored, j, source, p + "compliance_rad_per_Nm.", "rad/Nm") for j in spec.joints])
+    for j, c in zip(spec.joints, values, strict=True):
+        if c < 0:
+            raise DataError(str(source), f"{c:g} rad/Nm is negative: a compliance is >= 0", None,
+                            f"{p}compliance_rad_per_Nm.{j}")
+    pull = None
+    if soft.get("cable_pull") is not None:
+        where = _field(soft, "cable_pull", dict, "the cable's hook_mm and anchor_mm", source, p)
+        hook = _xyz_mm(where, "hook_mm", source, p + "cable_pull.")
+        anchor = _xyz_mm(where, "anchor_mm", source, p + "cable_pull.")
+        pull = (hook, anchor) if cable else None
+    return spec, values, pull
+
+
 def _robot(doc: dict[str, Any], chain: Chain, source: Path, cable: bool) -> CalibratedRobot:
-    params = parameter_model(chain, doc["parameter_model"])
-    stored = doc["deviations_si"]
-    if list(stored) != list(params.names):
-        raise DataError(str(source), f"deviations do not match the {params.name} model of '{chain.name}'",
-                        None, "deviations_si")
-    x = np.array([float(stored[name]) for name in params.names])
-    soft, values, pull = doc.get("compliance"), None, None
-    spec = None
-    if soft:
-        spec = ComplianceSpec.from_dict(soft)
-        values = np.array([float(soft["compliance_rad_per_Nm"][j]) for j in spec.joints])
-        if cable and soft.get("cable_pull"):
-            pull = (np.asarray(soft["cable_pull"]["hook_mm"], float) * 1e-3,
-                    np.asarray(soft["cable_pull"]["anchor_mm"], float) * 1e-3)
+    name = _field(doc, "parameter_model", str, "a parameter model's name", source)
+    try:
+        params = parameter_model(chain, name)
+    except RobotError as e:
+        raise DataError(str(source), str(e), None, "parameter_model") from None
+    x = _deviations(doc, params, chain, source)
+    soft = doc.get("compliance")
+    if not soft:
+        return CalibratedRobot(chain, params, x)
+    soft = _field(doc, "compliance", dict, "the joint compliances or null", source)
+    spec, values, pull = _compliance_of(soft, chain, source, cable)
     return CalibratedRobot(chain, params, x, spec, values, pull)
 
 
@@ -179,16 +298,21 @@ def load_calibration(path: str | Path, robot: str | None = None, *, cable: bool 
 
     Raises:
         CalibPinError: a missing or unreadable file, another robot, or a URDF that is
-            not the one calibrated.
+            not the one calibrated; a file whose content is not what calibrate writes:
+            its format version, a value that is not a finite number (anywhere), other
+            joints or parameter names than the robot's, a deviation beyond calibrate's
+            sanity bound (:mod:`calib_pin.sanity`), a negative compliance. The message
+            names the file and the key (``deviations_si.a_1``).
     """
-    source = find_calibration(Path(path))
+    source = find_calibration(as_path(path, "path"))
+    robot = as_optional(as_robot, robot, "robot")
+    cable = as_bool(cable, "cable")
     try:
         doc = json.loads(source.read_text(encoding="utf-8"))
-        if doc.get("format") != FORMAT:
+        if not isinstance(doc, dict) or doc.get("format") != FORMAT:
             raise DataError(str(source), f"not a {FORMAT} file", None, "format")
-        if int(doc.get("format_version", 0)) > FORMAT_VERSION:
-            raise DataError(str(source), f"format version {doc['format_version']} is newer than this calib-pin "
-                            f"reads ({FORMAT_VERSION}): update calib-pin", None, "format_version")
+        _version(doc, source)
+        _check_finite(doc, source)
         return _robot(doc, _chain(doc, robot, source), source, cable)
     except OSError as e:
         raise DataError(str(source), f"cannot read: {e.strerror or e}") from None

@@ -40,5 +40,19 @@ class DataError(CalibPinError):
         super().__init__(f"{where}:{what} {reason}")
 
 
+class ArgumentError(CalibPinError):
+    """A library function's argument of the wrong type, shape, unit or value.
+
+    Attributes:
+        argument: The argument's name, as the function's signature spells it.
+        reason: What is wrong, in words.
+    """
+
+    def __init__(self, argument: str, reason: str) -> None:
+        self.argument = argument
+        self.reason = reason
+        super().__init__(f"argument {argument}: {reason}")
+
+
 class EstimatorError(CalibPinError):
     """An unknown estimator name or an estimate that cannot be made."""

@@ -18,16 +18,13 @@ from .metrics import Metrics
 from .parameters import ParameterModel
 from .problem import CalibrationProblem
 from .robot import Chain
+from .sanity import beyond_sanity
 from .units import for_humans
 
 if TYPE_CHECKING:
     from .identifiability import Identifiability
     from .uncertainty import Uncertainty
 
-#: No exported deviation may exceed these (a real arm's errors are a few mm and tenths
-#: of a degree); a larger one means the data could not determine it.
-SANITY_M = 20e-3
-SANITY_RAD = np.deg2rad(5.0)
 
 
 @dataclass(frozen=True)
@@ -138,17 +135,12 @@ class CalibrationResult:
 
     def sanity_error(self) -> str | None:
         """Why the estimate may not be exported (a deviation, robot or sensor, beyond
-        SANITY_M / SANITY_RAD, naming the first), or None."""
+        SANITY_M / SANITY_RAD of :mod:`calib_pin.sanity`, naming the first), or None."""
         model = self.problem.model
         for value, name, unit in zip(self.x, model.names, model.units, strict=True):
-            if unit not in ("m", "rad"):
-                continue  # compliances: see report.json's compliance section
-            bound = SANITY_M if unit == "m" else SANITY_RAD
-            if abs(value) > bound:
-                shown, bound_shown, unit_shown = ((value * 1e3, bound * 1e3, "mm") if unit == "m"
-                                                  else (np.rad2deg(value), np.rad2deg(bound), "deg"))
-                return (f"{name} = {shown:+.3g} {unit_shown} is beyond the sanity bound {bound_shown:g} "
-                        f"{unit_shown}: the data cannot support it (a parameter the poses barely see, see "
+            beyond = beyond_sanity(value, unit)  # compliances: see report.json's compliance section
+            if beyond:
+                return (f"{name} = {beyond}: the data cannot support it (a parameter the poses barely see, see "
                         "--analyze; a wrong anchor_mm/tool_mm or unit; or outliers, see --loss); no URDF written")
         return None
 

@@ -264,7 +264,137 @@ R3_PARALLEL: list[Case] = [
 # ---------------------------------------------------------------------------
 # round 3 (issue 20), 2 and 4: no silent wrong result; calibration files validated; the parser
 # ---------------------------------------------------------------------------
+def _calibration_file(**changes: object) -> str:
+    """A valid irb120 calibration file (zero deviations, rigid), JSON text, with ``changes``
+    at dotted keys (``deviations_si.a_1``); a value None removes the key."""
+    import hashlib
+    import json
+
+    from calib_pin import load_chain, parameter_model
+
+    chain = load_chain("irb120")
+    params = parameter_model(chain)
+    doc: dict = {
+        "format": "calib-pin calibration", "format_version": 1, "robot": "irb120",
+        "urdf": str(ROOT / "robots" / "irb120.urdf"),
+        "urdf_sha256": hashlib.sha256((ROOT / "robots" / "irb120.urdf").read_bytes()).hexdigest(),
+        "end_frame": "tool0", "joints": list(chain.joint_names), "parameter_model": "dh",
+        "deviations_si": dict.fromkeys(params.names, 0.0),
+        "deviation_units": dict(zip(params.names, params.units, strict=True)),
+        "compliance": {"joints": ["joint_2"], "payload": None, "cable_tension_n": 5.0,
+                       "compliance_rad_per_Nm": {"joint_2": 2e-5},
+                       "cable_pull": {"hook_mm": [0.0, 0.0, 50.0], "anchor_mm": [600.0, 200.0, -100.0]}},
+        "sensor": {"kind": "cable", "unknowns_si": {"anchor_x": 0.0}},
+    }
+    for key, value in changes.items():
+        *path, last = key.split(".")
+        where = doc
+        for part in path:
+            where = where[part]
+        if value is None:
+            del where[last]
+        else:
+            where[last] = value
+    return json.dumps(doc)
+
+
+COMPENSATE = "compensate"
+CAL_ARGS = ["irb120", "--calibration", "c.json", "--targets", "p.csv", "--out", "o.csv"]
+SHIFTED = META[2].replace("600.000000", "650.000000")  # the anchor 50 mm away
+TEST_ARGS = ["irb120", "--data", "d.csv", "--test-data", "t.csv", "--method", "lm", "--no-html", "--out", "out"]
+
+
+def _test_csv(*meta: str) -> str:
+    """A validation session of 20 poses with the metadata lines ``meta``."""
+    return csv(*ROWS[40:60], meta=meta)
+
+
 R3_WRONG: list[Case] = [
+    # --- compensate: the calibration file is validated on load
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(), "p.csv": POSES}, 0, "targets compensated"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"deviations_si.a_1": 0.5}), "p.csv": POSES},
+     2, "c.json: deviations_si.a_1: +500 mm is beyond the sanity bound 20 mm"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"deviations_si.theta_3": 0.2}), "p.csv": POSES},
+     2, "deviations_si.theta_3"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"deviations_si.a_1": float("nan")}), "p.csv": POSES},
+     2, "c.json: deviations_si.a_1: NaN is not a finite number"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"deviations_si.d_2": float("inf")}), "p.csv": POSES},
+     2, "c.json: deviations_si.d_2"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file().replace('"d_3": 0.0', '"d_3": 1e999'), "p.csv": POSES},
+     2, "c.json: deviations_si.d_3"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"deviations_si.a_2": "0.001"}), "p.csv": POSES},
+     2, "c.json: deviations_si.a_2"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"deviations_si.a_2": None}), "p.csv": POSES},
+     2, "c.json: deviations_si"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"deviations_si.zeta_9": 0.0}), "p.csv": POSES},
+     2, "c.json: deviations_si"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"compliance.compliance_rad_per_Nm.joint_2": -1e-5}),
+                            "p.csv": POSES}, 2, "c.json: compliance.compliance_rad_per_Nm.joint_2"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"compliance.compliance_rad_per_Nm.joint_2": float("nan")}),
+                            "p.csv": POSES}, 2, "c.json: compliance.compliance_rad_per_Nm.joint_2"),
+    (COMPENSATE, [*CAL_ARGS, "--with-cable"],
+     {"c.json": _calibration_file(**{"compliance.cable_pull.anchor_mm": [float("nan"), 0, 0]}), "p.csv": POSES},
+     2, "c.json: compliance.cable_pull.anchor_mm"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"compliance.joints": ["joint_9"]}), "p.csv": POSES},
+     2, "c.json: compliance.joints"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"sensor.unknowns_si.anchor_x": float("inf")}),
+                            "p.csv": POSES}, 2, "c.json: sensor.unknowns_si.anchor_x"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(format_version="1.5"), "p.csv": POSES}, 2, "c.json: format_version"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(format_version=0), "p.csv": POSES}, 2, "c.json: format_version"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(format_version=None), "p.csv": POSES}, 2, "c.json: format_version"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(format_version=2), "p.csv": POSES}, 2, "c.json: format_version"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(robot="ur5"), "p.csv": POSES}, 2, "c.json: robot"),
+    (COMPENSATE, ["ur5", *CAL_ARGS[1:]], {"c.json": _calibration_file(), "p.csv": POSES}, 2, "not 'ur5'"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(joints=["joint_1", "joint_2"]), "p.csv": POSES},
+     2, "c.json: joints"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(parameter_model="poe"), "p.csv": POSES},
+     2, "c.json: parameter_model"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(end_frame=7), "p.csv": POSES}, 2, "c.json: end_frame"),
+    (COMPENSATE, CAL_ARGS, {"c.json": "[1, 2]", "p.csv": POSES}, 2, "c.json"),
+    # --- calibrate --test-data: the validation session's own set-up must agree with the training one
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META)}, 0, "test rows from t.csv"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[5])}, 0, "test rows from t.csv"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[2].replace("600.000000", "600.0000001"),
+                                                          *META[3:])}, 0, "test rows from t.csv"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], SHIFTED, *META[3:])},
+     2, "t.csv: anchor_mm: the validation session has 650, 200, -100 mm, the calibration 600, 200, -100 mm"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:3], "# tool_mm: 0, 0, 60", *META[4:])},
+     2, "t.csv: tool_mm"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:4], "# length_offset_mm: 12.5", META[5])},
+     2, "t.csv: length_offset_mm"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:4], "# length_offset_m: 0.0125", META[5])},
+     2, "t.csv: length_offset_mm"),
+    (CAL, [*TEST_ARGS, "--anchor-mm", "650,200,-100"], {"d.csv": data(), "t.csv": _test_csv(*META)},
+     2, "t.csv: anchor_mm: the validation session has 600, 200, -100 mm, the calibration 650, 200, -100 mm (--anchor-mm)"),
+    (CAL, [*TEST_ARGS, "--length-offset-mm", "3"], {"d.csv": data(), "t.csv": _test_csv(*META)},
+     2, "t.csv: length_offset_mm"),
+    (CAL, [*TEST_ARGS, "--anchor-mm", "650,200,-100"], {"d.csv": data(), "t.csv": _test_csv(*META[:2], SHIFTED, *META[3:])},
+     0, "test rows from t.csv"),
+    # --- every command: a repeated option that is not a list is refused; negative values parse
+    (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--analyze"], {"a.csv": data(), "b.csv": data()},
+     2, "--data given twice"),
+    (CAL, ["irb120", "--data=a.csv", "--analyze", "--data", "b.csv"], {"a.csv": data(), "b.csv": data()},
+     2, "--data given twice"),
+    (CAL, ["irb120", "--dat", "a.csv", "--analyze"], {"a.csv": data()}, 2, "--dat"),
+    (CAL, ["irb120", "--method", "lm", "--method=ekf", "--analyze"], {}, 2, "--method given twice"),
+    (SIM, ["irb120", "--out", "a.csv", "--out", "b.csv"], {}, 2, "--out given twice"),
+    (SIM, ["irb120", "--out", "a.csv", "--poses", "10", "--poses", "20"], {}, 2, "--poses given twice"),
+    (COMPENSATE, [*CAL_ARGS, "--targets", "q.csv"], {}, 2, "--targets given twice"),
+    (MK, ["irb120", "--n", "5", "--n", "6", "--out", "p.csv"], {}, 2, "--n given twice"),
+    (PLAN, ["irb120", "--out", "p.csv", "--out", "q.csv"], {}, 2, "--out given twice"),
+    (COL, [*COLLECT, "--port", "/dev/null/other"], {"p.csv": POSES}, 2, "--port given twice"),
+    (CMP, ["irb120", "--trials", "1", "--trials", "2"], {}, 2, "--trials given twice"),
+    (BENCH, ["--repeats", "1", "--repeats", "2"], {}, 2, "--repeats given twice"),
+    (FAKE, ["--protocol", "modbus", "--protocol", "ascii"], {}, 2, "--protocol given twice"),
+    ("batch", ["a.csv", "--out", "o", "--out", "p"], {"a.csv": data()}, 2, "--out given twice"),
+    (ENTRY, ["simulate", "irb120", "--out", "a.csv", "--out=b.csv"], {}, 2, "--out given twice"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "20", "--anchor-mm", "-600,200,-100", "--tool-mm", "-2.2,0,50"],
+     {}, 0, "wrote"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "20", "--length-offset-mm", "-1e-1"], {}, 0, "wrote"),
+    (CAL, ["irb120", "--analyze", "--tool-mm", "-2.2,0,50", "--anchor-mm", "-600,-200,-100"], {}, 0, "rank"),
+    (CAL, ["irb120", "--analyze", "--anchor-mm", "-600 200 -100"], {}, 0, "rank"),
+    (CAL, ["irb120", "--analyze", "--length-offset-mm", "-1e-3"], {}, 0, "rank"),
+    (CAL, ["irb120", "--analyze", "--anchor-mm", "-6,0"], {}, 2, "--anchor-mm"),
 ]
 
 

@@ -1,0 +1,231 @@
+"""Checks of the public functions' arguments: each wrong argument is one
+:class:`~calib_pin.exceptions.ArgumentError` naming it, never a numpy, Pinocchio or plain
+Python error from deep inside.
+
+Every validator takes the value and the argument's name (as the caller wrote it, e.g.
+``q`` or ``anchor_mm``) and returns the value in the form the function works with.
+Units are those of the argument: ``as_xyz_mm`` takes [mm], ``as_angles_rad`` [rad]
+(prismatic joints [m]).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .exceptions import ArgumentError
+
+if TYPE_CHECKING:
+    from .robot.chain import Chain
+
+#: Largest coordinate accepted in [mm] (a kilometre: a bigger one is a unit mistake).
+MAX_MM = 1e6
+#: Turns a continuous joint (no limits) may be given, each way.
+CONTINUOUS_TURNS = 2
+#: How far outside its URDF limits a joint angle is accepted, [rad] or [m]: the
+#: tolerance of the measurement reader (:mod:`calib_pin.measurements.checks`).
+LIMIT_TOLERANCE = 1e-9
+
+
+def _shown(value: Any) -> str:
+    """A value for a message: its type for containers, a short repr otherwise."""
+    if isinstance(value, (str, bytes)):
+        text = repr(value)
+        return text if len(text) <= 40 else text[:40] + "...'"
+    if isinstance(value, (numbers.Number, type(None))):
+        return repr(value)
+    shape = getattr(value, "shape", None)
+    return f"{type(value).__name__}{' of shape ' + str(tuple(shape)) if shape is not None else ''}"
+
+
+def as_path(value: Any, arg: str) -> Path:
+    """A file or folder path (str or os.PathLike)."""
+    if isinstance(value, (str, os.PathLike)) and str(value).strip():
+        return Path(value)
+    raise ArgumentError(arg, f"expected a file path (str or pathlib.Path), got {_shown(value)}")
+
+
+def as_bool(value: Any, arg: str) -> bool:
+    """True or False (numpy's bool too; not 0/1 nor text)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise ArgumentError(arg, f"expected True or False, got {_shown(value)}")
+
+
+def as_int(value: Any, arg: str, low: int | None = 0, high: int | None = None) -> int:
+    """A whole number in [low, high] (an int or a numpy integer; not a bool, float or text)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise ArgumentError(arg, f"expected a whole number, got {_shown(value)}")
+    number = int(value)
+    if (low is not None and number < low) or (high is not None and number > high):
+        span = f"from {low}" if high is None else f"from {low} to {high}" if low is not None else f"up to {high}"
+        raise ArgumentError(arg, f"expected a whole number {span}, got {number}")
+    return number
+
+
+def as_float(value: Any, arg: str, low: float | None = None, high: float | None = None, *,
+             low_open: bool = False, high_open: bool = False, unit: str = "") -> float:
+    """A finite real number in the range given (``low_open``: ``low`` itself excluded)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ArgumentError(arg, f"expected a number{' in ' + unit if unit else ''}, got {_shown(value)}")
+    number = float(value)
+    if not math.isfinite(number):
+        raise ArgumentError(arg, f"expected a finite number, got {number}")
+    below = low is not None and (number <= low if low_open else number < low)
+    above = high is not None and (number >= high if high_open else number > high)
+    if below or above:
+        left = "(" if low_open else "["
+        right = ")" if high_open else "]"
+        span = f"{left}{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}{right}"
+        raise ArgumentError(arg, f"expected a number in {span}{' ' + unit if unit else ''}, got {number:g}")
+    return number
+
+
+def as_optional(check: Callable[..., Any], value: Any, arg: str, *args: Any, **kwargs: Any) -> Any:
+    """None, or ``check(value, arg, ...)``."""
+    return None if value is None else check(value, arg, *args, **kwargs)
+
+
+def as_choice(value: Any, arg: str, choices: Iterable[str]) -> str:
+    """One of ``choices`` (text)."""
+    valid = tuple(choices)
+    if not isinstance(value, str) or value not in valid:
+        raise ArgumentError(arg, f"expected one of {', '.join(valid)}, got {_shown(value)}")
+    return value
+
+
+def as_names(value: Any, arg: str) -> tuple[str, ...]:
+    """Names: a comma-separated str (``"anchor,offset"``) or a sequence of str; None or
+    blank gives ``()``. Blanks around names are dropped."""
+    if value is None:
+        return ()
+    if isinstance(value, str):
+        items: Sequence[Any] = value.split(",")
+    elif isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1):
+        items = list(value)
+    else:
+        raise ArgumentError(arg, f"expected names (a comma-separated str or a sequence of str), got {_shown(value)}")
+    names = []
+    for item in items:
+        if not isinstance(item, str):
+            raise ArgumentError(arg, f"expected names as str, got {_shown(item)} in the sequence")
+        if item.strip():
+            names.append(item.strip())
+    return tuple(names)
+
+
+def as_array(value: Any, arg: str, shape: Sequence[int | None] | None = None, *, finite: bool = True,
+             unit: str = "") -> np.ndarray:
+    """A float array of ``shape`` (None: any size on that axis; a shape None: any).
+
+    Refuses text, None, ragged or non-numeric sequences, complex numbers, a wrong shape,
+    and (with ``finite``) NaN or infinite entries, naming the first.
+    """
+    if value is None or isinstance(value, (str, bytes)):
+        raise ArgumentError(arg, f"expected numbers{' in ' + unit if unit else ''}, got {_shown(value)}")
+    try:
+        raw = np.asarray(value)
+    except ValueError:  # ragged nested sequences
+        raise ArgumentError(arg, "expected a regular array of numbers (rows of equal length)") from None
+    if raw.dtype.kind not in "iuf" and not (raw.dtype.kind == "O" and raw.size == 0):
+        what = {"b": "True/False values", "c": "complex numbers", "U": "text", "S": "text"}.get(raw.dtype.kind)
+        raise ArgumentError(arg, f"expected real numbers, got {what or 'an array of ' + raw.dtype.name}")
+    array = raw.astype(float)
+    if shape is not None:
+        expected = tuple(shape)
+        if array.ndim != len(expected) or any(e is not None and s != e for s, e in zip(array.shape, expected, strict=True)):
+            shown = "(" + ", ".join("n" if e is None else str(e) for e in expected) + ("," if len(expected) == 1 else "") + ")"
+            raise ArgumentError(arg, f"expected shape {shown}, got shape {array.shape}")
+    if finite and not np.all(np.isfinite(array)):
+        where = tuple(int(i) for i in np.argwhere(~np.isfinite(array))[0])
+        index = f"[{', '.join(map(str, where))}]" if where else ""
+        raise ArgumentError(arg, f"{arg}{index} is {array[where]}: expected finite numbers")
+    return array
+
+
+def as_xyz_mm(value: Any, arg: str) -> np.ndarray:
+    """A point or offset ``(x, y, z)`` in [mm]: shape (3,), finite, each below 1e6 mm."""
+    xyz = as_array(value, arg, (3,), unit="mm")
+    if np.abs(xyz).max() >= MAX_MM:
+        raise ArgumentError(arg, f"{xyz.tolist()} mm is beyond {MAX_MM:g} mm: a unit mistake? (x, y, z in mm)")
+    return xyz
+
+
+def as_angles_rad(q: Any, arg: str, chain: Chain, *, tolerance: float = LIMIT_TOLERANCE) -> np.ndarray:
+    """Joint angles [rad] (prismatic joints [m]) of ``chain``: shape (n_joints,) or
+    (n, n_joints), finite, within the URDF limits (less ``tolerance``; a continuous joint
+    within CONTINUOUS_TURNS turns). The array keeps its shape.
+
+    A value outside the limits where the same values read as degrees would fit gets the
+    hint "looks like degrees".
+    """
+    angles = as_array(q, arg, unit="rad")
+    if angles.ndim not in (1, 2) or angles.shape[-1] != chain.n_joints:
+        raise ArgumentError(arg, f"expected shape ({chain.n_joints},) or (n, {chain.n_joints}) (one angle per joint "
+                            f"of '{chain.name}' to '{chain.end_frame}'), got shape {angles.shape}")
+    turns = CONTINUOUS_TURNS * 2 * np.pi
+    lower = np.where(np.isfinite(chain.lower), chain.lower, -turns) - tolerance
+    upper = np.where(np.isfinite(chain.upper), chain.upper, turns) + tolerance
+    outside = (angles < lower) | (angles > upper)
+    if outside.any():
+        where = tuple(int(i) for i in np.argwhere(outside)[0])
+        j = where[-1]
+        revolute = not chain.joint_kinds[j].startswith("JointModelP")
+        unit = "rad" if revolute else "m"
+        radians = np.deg2rad(angles)
+        hint = ("; looks like degrees: give radians (np.deg2rad)" if revolute
+                and np.all((radians >= lower) & (radians <= upper)) else "")
+        index = f"[{', '.join(map(str, where))}]"
+        raise ArgumentError(arg, f"{arg}{index} = {angles[where]:.6g} {unit} is outside the limits of "
+                            f"{chain.joint_names[j]} [{chain.lower[j]:.6g}, {chain.upper[j]:.6g}] {unit}{hint}")
+    return angles
+
+
+def as_instance(value: Any, arg: str, kind: type | tuple[type, ...], what: str) -> Any:
+    """``value`` when it is a ``kind``; ``what`` says what was expected (and how to make one)."""
+    if not isinstance(value, kind):
+        raise ArgumentError(arg, f"expected {what}, got {_shown(value)}")
+    return value
+
+
+def as_parameter_model(value: Any, arg: str, chain: Chain | None = None) -> Any:
+    """A parameter model (:func:`calib_pin.parameter_model`), of ``chain`` when given."""
+    if not all(hasattr(value, a) for a in ("names", "units", "delta_matrices")):
+        raise ArgumentError(arg, f"expected a parameter model (calib_pin.parameter_model(chain)), got {_shown(value)}")
+    own = getattr(value, "chain", None)
+    if chain is not None and own is not None and own is not chain and (
+            own.name != chain.name or own.joint_names != chain.joint_names or own.end_frame != chain.end_frame):
+        raise ArgumentError(arg, f"is a model of '{own.name}' to '{own.end_frame}', not of '{chain.name}' "
+                            f"to '{chain.end_frame}'")
+    return value
+
+
+def as_chain(value: Any, arg: str = "chain") -> Chain:
+    """A robot chain (:func:`calib_pin.load_chain`)."""
+    from .robot.chain import Chain
+
+    return as_instance(value, arg, Chain, "a robot chain (calib_pin.load_chain('irb120'))")
+
+
+def as_robot(value: Any, arg: str = "robot") -> Any:
+    """A robot: its name or URDF path (str or os.PathLike), or a resolved description."""
+    from .robot.description import RobotDescription
+
+    if isinstance(value, RobotDescription):
+        return value
+    if isinstance(value, os.PathLike):
+        return str(value)
+    if isinstance(value, str) and value.strip():
+        return value
+    raise ArgumentError(arg, f"expected a robot name or URDF path (str), got {_shown(value)}")
+
+
+__all__ = ["CONTINUOUS_TURNS", "LIMIT_TOLERANCE", "MAX_MM", "as_angles_rad", "as_array", "as_bool", "as_chain",
+           "as_choice", "as_float", "as_instance", "as_int", "as_names", "as_optional", "as_parameter_model",
+           "as_path", "as_robot", "as_xyz_mm"]
