@@ -157,6 +157,16 @@ def as_xyz_mm(value: Any, arg: str) -> np.ndarray:
     return xyz
 
 
+def outside_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                   tolerance: float = LIMIT_TOLERANCE) -> tuple[int, ...] | None:
+    """Index of the first joint value of q (..., n_joints) outside [lower - tolerance,
+    upper + tolerance] (limits of shape (n_joints,), +-inf for none), or None."""
+    outside = (q < lower - tolerance) | (q > upper + tolerance)
+    if not outside.any():
+        return None
+    return tuple(int(i) for i in np.argwhere(outside)[0])
+
+
 def as_angles_rad(q: Any, arg: str, chain: Chain, *, tolerance: float = LIMIT_TOLERANCE) -> np.ndarray:
     """Joint angles [rad] (prismatic joints [m]) of ``chain``: shape (n_joints,) or
     (n, n_joints), finite, within the URDF limits (less ``tolerance``; a continuous joint
@@ -170,17 +180,16 @@ def as_angles_rad(q: Any, arg: str, chain: Chain, *, tolerance: float = LIMIT_TO
         raise ArgumentError(arg, f"expected shape ({chain.n_joints},) or (n, {chain.n_joints}) (one angle per joint "
                             f"of '{chain.name}' to '{chain.end_frame}'), got shape {angles.shape}")
     turns = CONTINUOUS_TURNS * 2 * np.pi
-    lower = np.where(np.isfinite(chain.lower), chain.lower, -turns) - tolerance
-    upper = np.where(np.isfinite(chain.upper), chain.upper, turns) + tolerance
-    outside = (angles < lower) | (angles > upper)
-    if outside.any():
-        where = tuple(int(i) for i in np.argwhere(outside)[0])
+    lower = np.where(np.isfinite(chain.lower), chain.lower, -turns)
+    upper = np.where(np.isfinite(chain.upper), chain.upper, turns)
+    where = outside_limits(angles, lower, upper, tolerance)
+    if where is not None:
         j = where[-1]
         revolute = not chain.joint_kinds[j].startswith("JointModelP")
         unit = "rad" if revolute else "m"
         radians = np.deg2rad(angles)
         hint = ("; looks like degrees: give radians (np.deg2rad)" if revolute
-                and np.all((radians >= lower) & (radians <= upper)) else "")
+                and outside_limits(radians, lower, upper, tolerance) is None else "")
         index = f"[{', '.join(map(str, where))}]"
         raise ArgumentError(arg, f"{arg}{index} = {angles[where]:.6g} {unit} is outside the limits of "
                             f"{chain.joint_names[j]} [{chain.lower[j]:.6g}, {chain.upper[j]:.6g}] {unit}{hint}")
@@ -228,4 +237,4 @@ def as_robot(value: Any, arg: str = "robot") -> Any:
 
 __all__ = ["CONTINUOUS_TURNS", "LIMIT_TOLERANCE", "MAX_MM", "as_angles_rad", "as_array", "as_bool", "as_chain",
            "as_choice", "as_float", "as_instance", "as_int", "as_names", "as_optional", "as_parameter_model",
-           "as_path", "as_robot", "as_xyz_mm"]
+           "as_path", "as_robot", "as_xyz_mm", "outside_limits"]

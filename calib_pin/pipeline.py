@@ -19,7 +19,9 @@ import numpy as np
 
 from .estimators import DEFAULT_METHOD, get_method, run_estimator
 from .exceptions import CalibPinError, DataError
+from .arguments import as_path
 from .measurements import MeasurementSet, read_measurements
+from .measurements.checks import check_measurements, check_same_setup
 from .metrics import Metrics, split_rows
 from .parameters import ParameterModel, parameter_model
 from .problem import CalibrationProblem
@@ -164,21 +166,21 @@ def _load_robot(robot: str | RobotDescription, data: str | Path | MeasurementSet
 def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_label: str = "",
               end_frame: str | None = None) -> tuple[Chain, MeasurementSet]:
     """The measurement set for ``chain`` (its shipped default when ``data`` is None), and
-    the chain again for the set's own ``end_frame`` when the caller named none."""
+    the chain again for the set's own ``end_frame`` when the caller named none; a set in
+    memory is checked as a file is (:func:`~calib_pin.measurements.checks.check_measurements`)."""
     if data is None:
         data = chain.description.default_data
         if data is None or not Path(data).is_file():
             raise CalibPinError(f"robot '{chain.name}' has no default measurement set: pass --data")
-    if isinstance(data, MeasurementSet):
-        return chain, data
-    loaded = read_measurements(data, chain, robot_label=robot_label)
+    given = isinstance(data, MeasurementSet)
+    loaded = data if given else read_measurements(as_path(data, "data"), chain, robot_label=robot_label)
     if end_frame is not None and loaded.end_frame and loaded.end_frame != end_frame:
-        raise DataError(loaded.source, f"was measured at end frame '{loaded.end_frame}', not '{end_frame}': leave "
-                        "--end-frame out, or change the file's '# end_frame:' if it is wrong", None, "end_frame")
+        raise DataError(loaded.source or "data", f"was measured at end frame '{loaded.end_frame}', not '{end_frame}': "
+                        "leave --end-frame out, or change the file's '# end_frame:' if it is wrong", None, "end_frame")
     if end_frame is None and loaded.end_frame and loaded.end_frame != chain.end_frame:
         chain = load_chain(chain.description, loaded.end_frame)
-        loaded = read_measurements(loaded.source, chain, robot_label=robot_label)
-    return chain, loaded
+        loaded = data if given else read_measurements(loaded.source, chain, robot_label=robot_label)
+    return chain, check_measurements(chain, loaded, robot_label)
 
 
 def prepare(
@@ -281,8 +283,11 @@ def calibrate(
 
 
 def _validation(setup: CalibrationSetup, test_data: str | Path | MeasurementSet, robot_label: str) -> MeasurementSet:
-    """A separate validation session for ``setup``'s robot, of the same kind of data."""
+    """A separate validation session for ``setup``'s robot, of the same kind of data and
+    the same drawstring set-up (its own ``anchor_mm``/``tool_mm``/``length_offset_mm``
+    must agree: :func:`~calib_pin.measurements.checks.check_same_setup`)."""
     _, validation = load_data(setup.chain, test_data, robot_label, setup.chain.end_frame)
     if validation.kind != setup.data.kind:
         raise DataError(validation.source, f"holds {validation.kind} data, the calibration set {setup.data.kind} data")
+    check_same_setup(validation, setup.data, setup.options)
     return validation

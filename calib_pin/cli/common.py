@@ -8,8 +8,9 @@ Ctrl-C, with one line.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, NoReturn
 
 import numpy as np
@@ -21,11 +22,67 @@ SENSOR_FAULT_EXIT = 3
 INTERRUPTED_EXIT = 130
 
 
+#: A value that is a negative number or starts a list of numbers (``-2.2,0,50``, ``-1e-3``):
+#: argparse would take it for an option.
+_NEGATIVE_VALUE = re.compile(r"^-\.?\d[\d.eE+\-,;\s]*$")
+#: Actions that collect repeated options (a list) rather than replace the first.
+_LIST_ACTIONS = (argparse._AppendAction, argparse._AppendConstAction, argparse._CountAction, argparse._ExtendAction)
+
+
 class OneLineParser(argparse.ArgumentParser):
-    """ArgumentParser whose errors are one line and exit 2."""
+    """ArgumentParser whose errors are one line and exit 2, for every command.
+
+    On top of argparse: an option is spelled out in full (no prefix abbreviations,
+    ``allow_abbrev=False``); an option that holds one value may be given once (a second
+    ``--data`` would silently replace the first); and a value that is a negative number
+    or a list of numbers (``--tool-mm -2.2,0,50``) is the option's value, not an option.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         self.exit(BAD_INPUT_EXIT, f"{self.prog}: error: {message} (see --help)\n")
+
+    def parse_known_args(self, args: Sequence[str] | None = None,  # type: ignore[override]
+                         namespace: argparse.Namespace | None = None) -> tuple[argparse.Namespace, list[str]]:
+        argv = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(self._prepared(argv), namespace)
+
+    def _prepared(self, argv: list[str]) -> list[str]:
+        """``argv`` with ``--opt -2.2,0,50`` as ``--opt=-2.2,0,50``; refuses an option
+        that holds one value given twice (in any spelling: ``--opt x``, ``--opt=x``)."""
+        out: list[str] = []
+        seen: dict[argparse.Action, str] = {}
+        i = 0
+        while i < len(argv):
+            token = argv[i]
+            if token == "--":
+                out.extend(argv[i:])
+                break
+            name, eq, _ = token.partition("=")
+            action = self._option_string_actions.get(name) if token.startswith("-") else None
+            if action is None or action.nargs == 0 or isinstance(action, _LIST_ACTIONS) or action.nargs not in (None, 1):
+                out.append(token)
+                i += 1
+                continue
+            value = argv[i + 1] if not eq and i + 1 < len(argv) else None
+            spelled = repr(token[:60] if eq or value is None else f"{name} {value[:40]}")
+            if action in seen:
+                self.error(f"{name} given twice ({seen[action]} and {spelled}): give it once; a second "
+                           "one would replace the first")
+            seen[action] = spelled
+            if value is not None and _NEGATIVE_VALUE.match(value):
+                out.append(f"{name}={value}")
+                i += 2
+            elif value is not None and not value.startswith("-"):
+                out += [token, value]
+                i += 2
+            else:
+                out.append(token)
+                i += 1
+        return out
 
 
 def fail(message: str) -> int:

@@ -1,0 +1,217 @@
+"""Checks of a measurement set against the robot it is for: the ones the CSV reader makes
+row by row, for any :class:`MeasurementSet` (read, simulated or made by hand).
+
+:func:`check_measurements` is what the library's entry points (``prepare``,
+``calibrate``, ``CalibrationSetup.run``, a ``test_data`` session) call, and so the
+command line through them. :func:`check_same_setup` refuses a validation session whose
+own drawstring set-up contradicts the one the calibration used.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..arguments import LIMIT_TOLERANCE, as_instance, outside_limits
+from ..exceptions import DataError
+from ..robot.chain import Chain
+from .dataset import MeasurementSet
+
+#: Data kinds a set may hold: drawstring readings, positions, or a pose list.
+KINDS = ("cable", "position", "poses")
+#: How far two set-ups may differ and still agree (the CSV files' rounding), [m].
+SETUP_TOLERANCE_M = 1e-9
+
+
+def _where(data: MeasurementSet) -> str:
+    return data.source or "data"
+
+
+def _row_line(data: MeasurementSet, row: int) -> tuple[int | None, str]:
+    """The file line of ``row`` (0-based), or None and ``row k: `` for a set in memory."""
+    if data.lines is not None and len(data.lines) == len(data):
+        return int(data.lines[row]), ""
+    return None, f"row {row} (0-based): "
+
+
+def _robot_matches(label: str, chain: Chain, robot_label: str | None) -> bool:
+    """The set's ``robot`` is the chain's name, what the caller called it, or its URDF's path."""
+    if label in (chain.name, robot_label):
+        return True
+    try:
+        return Path(label).resolve() == Path(chain.description.urdf).resolve()
+    except (OSError, ValueError):
+        return False
+
+
+def _check_shapes(chain: Chain, data: MeasurementSet) -> None:
+    where = _where(data)
+    if data.kind not in KINDS:
+        raise DataError(where, f"kind '{data.kind}' is not one of {', '.join(KINDS)}", None, "kind")
+    q = np.asarray(data.q)
+    if q.dtype.kind not in "iuf" or q.ndim != 2 or q.shape[1] != chain.n_joints:
+        raise DataError(where, f"joint angles of shape {q.shape} ({q.dtype.name}): expected (n_rows, "
+                        f"{chain.n_joints}) numbers for the joints of '{chain.name}' to '{chain.end_frame}'", None, "q")
+    if not len(q):
+        raise DataError(where, "has no rows", None, "q")
+    values = np.asarray(data.values)
+    expected = {"cable": (len(q),), "position": (len(q), 3)}.get(data.kind)
+    if expected is not None and (values.dtype.kind not in "iuf" or values.shape != expected):
+        raise DataError(where, f"{data.kind} values of shape {values.shape} ({values.dtype.name}): expected "
+                        f"{expected} numbers, one {'reading' if data.kind == 'cable' else 'x, y, z'} per row",
+                        None, "values")
+    for name in ("lines", "pose_ids", "point_ids"):
+        labels = getattr(data, name)
+        if labels is not None and np.shape(labels) != (len(q),):
+            raise DataError(where, f"{name} of shape {np.shape(labels)}: expected one per row ({len(q)})", None, name)
+    if data.kind == "position" and data.point_ids is None:
+        raise DataError(where, "a position set needs point_ids (which marker each row measured)", None, "point_ids")
+
+
+def _check_angles(chain: Chain, data: MeasurementSet) -> None:
+    q = np.asarray(data.q, dtype=float)
+    bad = np.argwhere(~np.isfinite(q))
+    if len(bad):
+        row, j = (int(i) for i in bad[0])
+        line, prefix = _row_line(data, row)
+        raise DataError(_where(data), f"{prefix}{q[row, j]} is not a finite joint angle", line, f"q{j + 1}")
+    where = outside_limits(q, chain.lower, chain.upper, LIMIT_TOLERANCE)  # the CSV reader's tolerance
+    if where is not None:
+        row, j = where
+        line, prefix = _row_line(data, row)
+        prismatic = chain.joint_kinds[j].startswith("JointModelP")
+        factor, unit = (1e3, "mm") if prismatic else (math.degrees(1.0), "deg")
+        raise DataError(_where(data), f"{prefix}{q[row, j] * factor:g} {unit} is outside the limits of "
+                        f"{chain.joint_names[j]} [{chain.lower[j] * factor:g}, {chain.upper[j] * factor:g}] {unit}",
+                        line, f"q{j + 1}")
+
+
+def _check_values(data: MeasurementSet) -> None:
+    if data.kind == "poses":
+        return
+    values = np.asarray(data.values, dtype=float)
+    bad = np.argwhere(~np.isfinite(values))
+    name = "length" if data.kind == "cable" else "position"
+    if len(bad):
+        row = int(bad[0][0])
+        line, prefix = _row_line(data, row)
+        raise DataError(_where(data), f"{prefix}{values[tuple(bad[0])]} is not a finite {name} reading", line,
+                        name if data.kind == "cable" else "xyz"[int(bad[0][1])])
+    if data.kind == "cable" and (values < 0).any():
+        row = int(np.argmax(values < 0))
+        line, prefix = _row_line(data, row)
+        raise DataError(_where(data), f"{prefix}{values[row] * 1e3:g} mm is negative: a drawstring reading is >= 0",
+                        line, "length")
+
+
+def _check_metadata(chain: Chain, data: MeasurementSet, robot_label: str | None) -> None:
+    where = _where(data)
+    if data.robot is not None and not _robot_matches(str(data.robot), chain, robot_label):
+        raise DataError(where, f"is for robot '{data.robot}', not '{chain.name}'", None, "robot")
+    if data.end_frame and data.end_frame != chain.end_frame:
+        raise DataError(where, f"was measured at end frame '{data.end_frame}', not '{chain.end_frame}'",
+                        None, "end_frame")
+    for name in ("anchor", "tool"):
+        point = getattr(data, name)
+        if point is not None and (np.shape(point) != (3,) or not np.all(np.isfinite(point))):
+            raise DataError(where, f"{name} must be 3 finite numbers (x, y, z in m), got {point!r:.60}", None, name)
+    if not (isinstance(data.length_offset, (int, float, np.floating)) and math.isfinite(data.length_offset)):
+        raise DataError(where, f"length_offset must be a finite number in m, got {data.length_offset!r:.40}",
+                        None, "length_offset")
+    if data.noise is not None and not (isinstance(data.noise, (int, float, np.floating))
+                                       and math.isfinite(data.noise) and data.noise >= 0):
+        raise DataError(where, f"noise must be a number >= 0 in m, got {data.noise!r:.40}", None, "noise")
+
+
+def check_measurements(chain: Chain, data: Any, robot_label: str | None = None) -> MeasurementSet:
+    """Check a measurement set against the robot chain it is for.
+
+    The checks: its kind; the joint angles' shape (n_rows, n_joints), every angle finite
+    and within the URDF limits (the CSV reader's tolerance); the values' shape, finite,
+    drawstring readings >= 0; one label per row; the robot it names (the chain's name,
+    ``robot_label`` or its URDF path), its end frame, and finite sensor metadata.
+
+    Args:
+        chain: The robot chain the set is for (joints, limits, end frame).
+        data: The set.
+        robot_label: What the caller called the robot (a name or URDF path), also
+            accepted as the set's ``robot``.
+
+    Returns:
+        ``data``, unchanged.
+
+    Raises:
+        ArgumentError: ``data`` is not a MeasurementSet.
+        DataError: naming the set's source (or ``data``), the file line (or the 0-based
+            row) and the field (``q3``, ``length``, ``robot``, ...).
+    """
+    as_instance(data, "data", MeasurementSet, "a MeasurementSet (calib_pin.read_measurements or simulate)")
+    _check_shapes(chain, data)
+    _check_angles(chain, data)
+    _check_values(data)
+    _check_metadata(chain, data, robot_label)
+    return data
+
+
+_META_KEY = re.compile(r"^#\s*([A-Za-z_][\w.]*)\s*:")
+
+
+def _file_keys(path: str) -> set[str] | None:
+    """The metadata keys (``# key:`` lines above the header) of the CSV file ``path``, or
+    None when it is not a readable file (a set made in memory)."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace") as f:
+            keys = set()
+            for raw in f:
+                line = raw.strip()
+                if not line:
+                    continue
+                if not line.startswith("#"):
+                    break
+                if m := _META_KEY.match(line):
+                    keys.add(m.group(1))
+            return keys
+    except (OSError, ValueError):
+        return None
+
+
+def _mm(value: Any) -> str:
+    return ", ".join(f"{v:.10g}" for v in np.atleast_1d(np.asarray(value, dtype=float) * 1e3))
+
+
+def check_same_setup(session: MeasurementSet, training: MeasurementSet, options: dict[str, Any]) -> None:
+    """Refuse a validation session whose own drawstring set-up (``anchor_mm``,
+    ``tool_mm``, ``length_offset_mm``) contradicts the calibration's: the training set's,
+    or the caller's overrides in ``options`` ([mm]). Agreement within
+    :data:`SETUP_TOLERANCE_M`, or a session that does not say, is fine.
+
+    Raises:
+        DataError: naming the session's file, the key and both values.
+    """
+    if session.kind != "cable":
+        return
+    keys = _file_keys(session.source) if session.source else None
+    for name in ("anchor", "tool", "length_offset"):
+        key = f"{name}_mm"
+        own = getattr(session, name)
+        if name == "length_offset":
+            given = (keys is not None and bool({"length_offset_mm", "length_offset_m"} & keys)) or (
+                keys is None and own != 0.0)
+            if not given:
+                continue
+        elif own is None:
+            continue
+        override = options.get(key)
+        used = np.asarray(override, dtype=float) * 1e-3 if override is not None else getattr(training, name)
+        if used is None:
+            continue
+        if not np.allclose(np.asarray(own, dtype=float), used, rtol=0.0, atol=SETUP_TOLERANCE_M):
+            by = f"--{key.replace('_', '-')}" if override is not None else (training.source or "the training set")
+            raise DataError(session.source or "test_data",
+                            f"the validation session has {_mm(own)} mm, the calibration {_mm(used)} mm ({by}): "
+                            "one sensor set-up per calibration for now; measure both with the same set-up, or "
+                            "correct the file's line", None, key)
