@@ -26,7 +26,16 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from .exceptions import CalibPinError
+from .arguments import (
+    as_angles_rad,
+    as_array,
+    as_chain,
+    as_instance,
+    as_int,
+    as_optional,
+    as_parameter_model,
+)
+from .exceptions import ArgumentError, CalibPinError
 from .parameters import ParameterModel
 from .robot.chain import Chain
 from .robot.deflection import ComplianceSpec, Deflection
@@ -85,9 +94,19 @@ class CalibratedRobot:
     def __init__(self, chain: Chain, params: ParameterModel, deviations: np.ndarray,
                  compliance: ComplianceSpec | None = None, compliance_values: np.ndarray | None = None,
                  cable: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        self.chain = chain
-        self.params = params
-        self.deviations = np.asarray(deviations, dtype=float)
+        self.chain = as_chain(chain, "chain")
+        self.params = as_parameter_model(params, "params", chain)
+        self.deviations = as_array(deviations, "deviations", (len(params.names),))
+        as_optional(as_instance, compliance, "compliance", ComplianceSpec,
+                    "a ComplianceSpec (calib_pin.robot.deflection) or None")
+        if compliance_values is not None:
+            values = as_array(compliance_values, "compliance_values", (None,), unit="rad/Nm")
+            if np.any(values < 0):
+                raise ArgumentError("compliance_values", f"a compliance is >= 0 [rad/Nm], got {values.tolist()}")
+        if cable is not None and (not isinstance(cable, tuple) or len(cable) != 2):
+            raise ArgumentError("cable", "expected (hook, anchor), each 3 numbers in m, or None")
+        if cable is not None:
+            cable = (as_array(cable[0], "cable", (3,)), as_array(cable[1], "cable", (3,)))
         if compliance is not None and compliance.cable_tension_n and cable is None:
             compliance = ComplianceSpec(compliance.joints, compliance.payload, 0.0)
         self.compliance_spec = compliance
@@ -106,13 +125,16 @@ class CalibratedRobot:
 
     def joint_angles(self, q: np.ndarray) -> np.ndarray:
         """The link angles of the real arm at commands q (n, n_joints) [rad]: q - c tau(q)."""
-        q = np.atleast_2d(np.asarray(q, dtype=float))
+        return self._link_angles(np.atleast_2d(as_angles_rad(q, "q", self.chain)))
+
+    def _link_angles(self, q: np.ndarray) -> np.ndarray:
+        """:meth:`joint_angles` of checked q (n, n_joints), also beyond the limits (iterates)."""
         if self.deflection is None:
             return q
         return self.deflection.joint_angles(q, self.compliance)[0]
 
     def _frames(self, q: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        return self._real.frames(self.joint_angles(q), jacobian)
+        return self._real.frames(self._link_angles(np.atleast_2d(q)), jacobian)
 
     def forward(self, q: np.ndarray) -> pin.SE3 | list[pin.SE3]:
         """The real arm's end frame at joint angles q: geometry and deflection.
@@ -124,12 +146,14 @@ class CalibratedRobot:
             The end frame's placement in the base frame ([m]), one pin.SE3 for one pose,
             a list for many.
         """
+        q = as_angles_rad(q, "q", self.chain)
         rot, trans, _ = self._frames(q)
         frames = [pin.SE3(r, t) for r, t in zip(rot, trans, strict=True)]
         return frames[0] if np.ndim(q) == 1 else frames
 
     def nominal(self, q: np.ndarray) -> pin.SE3 | list[pin.SE3]:
         """The nominal model's end frame at q (as :meth:`forward`)."""
+        q = as_angles_rad(q, "q", self.chain)
         rot, trans, _ = self._nominal.frames(np.atleast_2d(q))
         frames = [pin.SE3(r, t) for r, t in zip(rot, trans, strict=True)]
         return frames[0] if np.ndim(q) == 1 else frames
@@ -148,6 +172,7 @@ class CalibratedRobot:
             CalibPinError: a target needs a joint beyond its limit, or does not converge
                 (near a singularity), naming the target (1-based).
         """
+        q_nominal = as_angles_rad(q_nominal, "q_nominal", self.chain)
         result = self.solve(q_nominal)
         result.check()
         return result.q[0] if np.ndim(q_nominal) == 1 else result.q
@@ -159,7 +184,8 @@ class CalibratedRobot:
         Levenberg-Marquardt per target: a step that raises the error is undone and the
         damping raised tenfold; each step moves a joint by at most ``_MAX_STEP_RAD``.
         """
-        q_nom = np.atleast_2d(np.asarray(q_nominal, dtype=float))
+        q_nom = np.atleast_2d(as_angles_rad(q_nominal, "q_nominal", self.chain))
+        max_iterations = as_int(max_iterations, "max_iterations", 1, 10**6)
         rot_t, trans_t, _ = self._nominal.frames(q_nom)
         targets = [pin.SE3(r, t) for r, t in zip(rot_t, trans_t, strict=True)]
         q, best_q = q_nom.copy(), q_nom.copy()

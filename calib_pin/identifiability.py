@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import qr
 
+from .arguments import as_array, as_float, as_instance
 from .problem import CalibrationProblem
 from .subspace import RCOND, Subspace
 
@@ -122,10 +123,16 @@ def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: flo
     Args:
         rcond: Singular values below ``rcond`` times the largest count as zero (the
             same cut the estimators' search space uses, :data:`calib_pin.subspace.RCOND`).
+
+    Raises:
+        ArgumentError: not a problem, x not of shape (n_params,) or not finite, rcond
+            not in (0, 1).
     """
+    as_instance(problem, "problem", CalibrationProblem, "a CalibrationProblem (setup.problem)")
     model = problem.model
     names = list(model.names)
-    x = np.zeros(len(names)) if x is None else np.asarray(x, dtype=float)
+    x = np.zeros(len(names)) if x is None else as_array(x, "x", (len(names),))
+    rcond = as_float(rcond, "rcond", 0.0, 1.0, low_open=True, high_open=True)
     jacobian = problem.jacobian(x)
     space = Subspace.of(jacobian, model.scale, x, rcond)
     scaled = jacobian * model.scale

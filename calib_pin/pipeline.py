@@ -17,13 +17,24 @@ from typing import Any
 
 import numpy as np
 
+from .arguments import (
+    MAX_MM,
+    as_choice,
+    as_float,
+    as_instance,
+    as_int,
+    as_names,
+    as_optional,
+    as_path,
+    as_robot,
+    as_xyz_mm,
+)
 from .estimators import DEFAULT_METHOD, get_method, run_estimator
-from .exceptions import CalibPinError, DataError
-from .arguments import as_path
+from .exceptions import ArgumentError, CalibPinError, DataError
 from .measurements import MeasurementSet, read_measurements
 from .measurements.checks import check_measurements, check_same_setup
 from .metrics import Metrics, split_rows
-from .parameters import ParameterModel, parameter_model
+from .parameters import MODELS, ParameterModel, parameter_model
 from .problem import CalibrationProblem
 from .result import CalibrationResult
 from .robot import Chain, RobotDescription, load_chain, resolve_robot
@@ -35,16 +46,17 @@ DEFAULT_NOISE_MM = 0.05
 
 
 def check_estimate(estimate: Any) -> tuple[str, ...]:
-    """The sensor unknowns named in ``estimate`` (names, blanks dropped).
+    """The sensor unknowns named in ``estimate`` (a comma-separated str or a sequence of
+    names; blanks dropped).
 
     Raises:
-        CalibPinError: a name no sensor can estimate.
+        ArgumentError: not names, or a name no sensor can estimate.
     """
     valid = tuple(dict.fromkeys(e for s in SENSORS.values() for e in s.estimable))
-    names = tuple(e.strip() for e in (estimate or ()) if e.strip())
+    names = as_names(estimate, "estimate")
     for e in names:
         if e not in valid:
-            raise CalibPinError(f"cannot estimate '{e}' (valid: {', '.join(valid)})")
+            raise ArgumentError("estimate", f"cannot estimate '{e}' (valid: {', '.join(valid)})")
     return names
 
 
@@ -52,11 +64,9 @@ def check_fraction(test_fraction: float) -> float:
     """The share of rows held out, in [0, 1).
 
     Raises:
-        CalibPinError: outside [0, 1).
+        ArgumentError: not a number in [0, 1).
     """
-    if not 0.0 <= test_fraction < 1.0:
-        raise CalibPinError(f"test fraction must be in [0, 1), got {test_fraction:g}")
-    return test_fraction
+    return as_float(test_fraction, "test_fraction", 0.0, 1.0, high_open=True)
 
 
 @dataclass
@@ -107,11 +117,20 @@ class CalibrationSetup:
             loss: str = "linear", test_data: MeasurementSet | None = None) -> CalibrationResult:
         """Estimate with ``method`` (and ``loss``) on the training rows and score both splits.
 
-        With ``test_data`` (a separate session) every row of ``data`` trains and the test
-        metrics come from ``test_data`` (see :mod:`calib_pin.validation`).
+        With ``test_data`` (a separate session, a set or its CSV) every row of ``data``
+        trains and the test metrics come from ``test_data``. Both sets are checked against
+        the chain first (:func:`~calib_pin.measurements.checks.check_measurements`).
+
+        Raises:
+            CalibPinError: a bad argument (naming it) or a bad set.
         """
-        spec = get_method(method)
-        spec.check(loss, self.data.kind)
+        spec = get_method(as_instance(method, "method", str, "a method name (calib_pin.ESTIMATORS)"))
+        seed = as_int(seed, "seed", 0)
+        test_fraction = check_fraction(test_fraction)
+        spec.check(as_instance(loss, "loss", str, "a loss name (linear, huber, soft_l1, cauchy)"), self.data.kind)
+        check_measurements(self.chain, self.data)
+        if test_data is not None:
+            test_data = _validation(self, test_data, "")
         warnings: list[str] = []
         if test_data is None:
             train, test = self.split(test_fraction, seed)
@@ -156,6 +175,7 @@ def score_session(result: CalibrationResult, session: MeasurementSet) -> Calibra
 
 def _load_robot(robot: str | RobotDescription, data: str | Path | MeasurementSet | None,
                 end_frame: str | None) -> Chain:
+    robot = as_robot(robot, "robot")
     description = robot if isinstance(robot, RobotDescription) else resolve_robot(robot)
     if end_frame is None and description.end_frame is None and data is not None:
         # No tool0 in the URDF: the data file may name the end frame.
@@ -172,14 +192,14 @@ def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_labe
         data = chain.description.default_data
         if data is None or not Path(data).is_file():
             raise CalibPinError(f"robot '{chain.name}' has no default measurement set: pass --data")
-    given = isinstance(data, MeasurementSet)
-    loaded = data if given else read_measurements(as_path(data, "data"), chain, robot_label=robot_label)
+    given = data if isinstance(data, MeasurementSet) else None
+    loaded = given if given is not None else read_measurements(as_path(data, "data"), chain, robot_label=robot_label)
     if end_frame is not None and loaded.end_frame and loaded.end_frame != end_frame:
         raise DataError(loaded.source or "data", f"was measured at end frame '{loaded.end_frame}', not '{end_frame}': "
                         "leave --end-frame out, or change the file's '# end_frame:' if it is wrong", None, "end_frame")
     if end_frame is None and loaded.end_frame and loaded.end_frame != chain.end_frame:
         chain = load_chain(chain.description, loaded.end_frame)
-        loaded = data if given else read_measurements(loaded.source, chain, robot_label=robot_label)
+        loaded = given if given is not None else read_measurements(loaded.source, chain, robot_label=robot_label)
     return chain, check_measurements(chain, loaded, robot_label)
 
 
@@ -205,11 +225,20 @@ def prepare(
         CalibPinError: any bad input (robot, file, option), with a one-line message.
     """
     estimate = check_estimate(estimate)
+    _check_data(data, "data")
+    end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
+    anchor_mm = as_optional(as_xyz_mm, anchor_mm, "anchor_mm")
+    tool_mm = as_optional(as_xyz_mm, tool_mm, "tool_mm")
+    payload_com_mm = as_optional(as_xyz_mm, payload_com_mm, "payload_com_mm")
+    length_offset_mm = as_optional(as_float, length_offset_mm, "length_offset_mm", -MAX_MM, MAX_MM, unit="mm")
+    noise_mm = as_optional(as_float, noise_mm, "noise_mm", 0.0, MAX_MM, low_open=True, unit="mm")
+    payload_kg = as_optional(as_float, payload_kg, "payload_kg", 0.0, 1e6, unit="kg")
+    cable_tension_n = as_optional(as_float, cable_tension_n, "cable_tension_n", 0.0, 1e6, unit="N")
+    parameters = as_optional(as_choice, parameters, "parameters", MODELS)
+    compliance = as_names(compliance, "compliance")
     chain = _load_robot(robot, data, end_frame)
     parameter_model(chain, parameters)  # a robot that cannot be calibrated says so first
     chain, data = load_data(chain, data, str(robot), end_frame)
-    if noise_mm is not None and not noise_mm > 0:
-        raise CalibPinError(f"noise_mm must be positive, got {noise_mm:g}")
     noise = noise_mm * 1e-3 if noise_mm is not None else (data.noise or DEFAULT_NOISE_MM * 1e-3)
     soft = compliance_spec(chain, compliance, payload_kg, payload_com_mm, cable_tension_n)
     options = {"anchor_mm": anchor_mm, "tool_mm": tool_mm, "length_offset_mm": length_offset_mm, "estimate": estimate,
@@ -268,10 +297,16 @@ def calibrate(
         progress: Called with the prepared setup before the estimation starts.
 
     Raises:
-        CalibPinError: any bad input (robot, file, option), with a one-line message.
+        CalibPinError: any bad input (robot, file, option), with a one-line message; a
+            bad argument is an :class:`~calib_pin.exceptions.ArgumentError` naming it.
     """
-    get_method(method).check(loss)
+    get_method(as_instance(method, "method", str, "a method name (calib_pin.ESTIMATORS)")).check(
+        as_instance(loss, "loss", str, "a loss name (linear, huber, soft_l1, cauchy)"))
     check_fraction(test_fraction)
+    as_int(seed, "seed", 0)
+    _check_data(test_data, "test_data")
+    if progress is not None and not callable(progress):
+        raise ArgumentError("progress", f"expected a function of the setup, or None, got {type(progress).__name__}")
     setup = prepare(robot, data, end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
                     length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters,
                     estimate=estimate, compliance=compliance, payload_kg=payload_kg,
@@ -280,6 +315,12 @@ def calibrate(
     if progress is not None:
         progress(setup)
     return setup.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)
+
+
+def _check_data(data: Any, arg: str) -> None:
+    """``data`` is None, a path or a MeasurementSet."""
+    if data is not None and not isinstance(data, (str, Path, MeasurementSet)):
+        as_path(data, arg)  # os.PathLike passes; anything else is refused naming ``arg``
 
 
 def _validation(setup: CalibrationSetup, test_data: str | Path | MeasurementSet, robot_label: str) -> MeasurementSet:

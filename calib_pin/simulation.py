@@ -16,7 +16,20 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from .exceptions import CalibPinError, DataError
+from .arguments import (
+    MAX_MM,
+    as_angles_rad,
+    as_array,
+    as_chain,
+    as_choice,
+    as_float,
+    as_instance,
+    as_int,
+    as_optional,
+    as_parameter_model,
+    as_xyz_mm,
+)
+from .exceptions import ArgumentError, CalibPinError, DataError
 from .measurements import MeasurementSet
 from .parameters import ParameterModel
 from .robot import Chain
@@ -236,12 +249,17 @@ def simulate(
         compliance, true_compliance: The true arm's compliant joints and loads, and their
             compliances [rad/Nm] (:mod:`calib_pin.robot.deflection`); None: a rigid arm.
     """
-    if noise_kind not in NOISE_KINDS:
-        raise CalibPinError(f"unknown noise kind '{noise_kind}' (valid: {', '.join(NOISE_KINDS)})")
+    seed, n_poses, noise_mm, nominal_rmse_mm = _common_arguments(chain, params, n_poses, seed, noise_mm, nominal_rmse_mm,
+                                                                 poses is not None)
+    noise_kind = as_choice(noise_kind, "noise_kind", NOISE_KINDS)
+    anchor, tool = as_xyz_mm(anchor_mm, "anchor_mm"), as_xyz_mm(tool_mm, "tool_mm")
+    offset = as_float(length_offset_mm, "length_offset_mm", -MAX_MM, MAX_MM, unit="mm")
+    if poses is not None:
+        poses = np.atleast_2d(as_angles_rad(poses, "poses", chain))
     rng = np.random.default_rng(seed)
-    sensor = Drawstring(np.array(anchor_mm) * 1e-3, np.array(tool_mm) * 1e-3, length_offset_mm * 1e-3)
+    sensor = Drawstring(anchor * 1e-3, tool * 1e-3, offset * 1e-3)
     cable = CableModel(chain, params, sensor)
-    poses = _poses_above_base(chain, cable, n_poses, rng) if poses is None else np.atleast_2d(np.asarray(poses, float))
+    poses = _poses_above_base(chain, cable, n_poses, rng) if poses is None else poses
     n_poses = len(poses)
     nominal = cable.predict(np.zeros(len(params.names)), poses)
     x = _true_deviations(params, rng, nominal_rmse_mm, lambda x: np.abs(cable.predict(x, poses) - nominal))
@@ -259,6 +277,16 @@ def simulate(
     return data, truth
 
 
+def _common_arguments(chain: Any, params: Any, n_poses: Any, seed: Any, noise_mm: Any, nominal_rmse_mm: Any,
+                      poses_given: bool = False) -> tuple[int, int, float, float]:
+    """The arguments both simulators share, checked: seed, number of poses, noise and
+    nominal error [mm] (``n_poses`` is not used when poses are given)."""
+    as_parameter_model(params, "params", as_chain(chain, "chain"))
+    n = 1 if poses_given else as_int(n_poses, "n_poses", 1, 10**8)
+    return (as_int(seed, "seed", 0), n, as_float(noise_mm, "noise_mm", 0.0, 1e3, unit="mm"),
+            as_float(nominal_rmse_mm, "nominal_rmse_mm", 0.0, 1e3, unit="mm"))
+
+
 def _true_compliance(spec: ComplianceSpec | None, values: Any) -> np.ndarray:
     """The true compliances [rad/Nm] of ``spec``'s joints (empty for a rigid arm).
 
@@ -266,12 +294,14 @@ def _true_compliance(spec: ComplianceSpec | None, values: Any) -> np.ndarray:
         CalibPinError: values without joints, a count that does not match, or a negative value.
     """
     if spec is None:
-        if values is not None and len(values):
-            raise CalibPinError("true compliances need compliant joints")
+        if values is not None and np.size(values):
+            raise ArgumentError("true_compliance", "true compliances need compliant joints (compliance)")
         return np.zeros(0)
-    c = np.asarray(values if values is not None else [], dtype=float).reshape(-1)
-    if c.shape != (len(spec.joints),) or not np.all(np.isfinite(c) & (c >= 0)):
-        raise CalibPinError(f"give {len(spec.joints)} true compliance(s) >= 0 for {', '.join(spec.joints)}")
+    as_instance(spec, "compliance", ComplianceSpec, "a ComplianceSpec (calib_pin.robot.deflection) or None")
+    c = as_array(values if values is not None else [], "true_compliance", (len(spec.joints),), unit="rad/Nm")
+    if not np.all(c >= 0):
+        raise ArgumentError("true_compliance", f"give {len(spec.joints)} true compliance(s) >= 0 for "
+                            f"{', '.join(spec.joints)} [rad/Nm], got {c.tolist()}")
     return c
 
 
@@ -302,10 +332,15 @@ def simulate_positions(
         The set (rows: pose-major, markers labelled 1..k) and the truth (deviations and
         device geometry).
     """
+    seed, n_poses, noise_mm, nominal_rmse_mm = _common_arguments(chain, params, n_poses, seed, noise_mm, nominal_rmse_mm)
+    markers = as_array(markers_mm, "markers_mm", (None, 3), unit="mm") * 1e-3
+    if not len(markers):
+        raise ArgumentError("markers_mm", "give at least one marker point (x, y, z in mm)")
+    as_optional(as_instance, device, "device", pin.SE3, "the device frame T_DB as a pinocchio.SE3, or None")
+    _true_compliance(compliance, true_compliance)
     rng = np.random.default_rng(seed)
     if device is None:
         device = pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4]))
-    markers = np.asarray(markers_mm, dtype=float) * 1e-3
     labels = tuple(range(1, len(markers) + 1))
     truth_device = PositionDevice(device, markers, labels)
     model = PositionModel(chain, params, truth_device, estimate=())

@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import EstimatorError
+from ..arguments import as_array, as_bool, as_float, as_instance, as_int
+from ..exceptions import ArgumentError, EstimatorError
 from ..problem import LeastSquares
 from ..progress import progress_bar
 from .base import EstimateResult, History
@@ -137,7 +138,22 @@ def run_estimator(
 ) -> EstimateResult:
     """Run the estimator ``name`` (with ``loss``), recording its convergence history
     (unless ``history`` is False) and its wall time ``time_s``. PSO and DE show a bar
-    over their generations on a terminal (:mod:`calib_pin.progress`)."""
+    over their generations on a terminal (:mod:`calib_pin.progress`).
+
+    Raises:
+        CalibPinError: an unknown method or loss; an ArgumentError naming a bad
+            argument (x0 not of shape (n_params,) or not finite, noise not > 0 [m], ...).
+    """
+    get_method(as_instance(name, "name", str, "a method name (calib_pin.ESTIMATORS)"))
+    as_instance(loss, "loss", str, f"a loss name ({', '.join(LOSSES)})")
+    for attribute in ("n_params", "residual"):
+        if not hasattr(problem, attribute):
+            raise ArgumentError("problem", f"expected a least-squares problem (a CalibrationProblem), got "
+                                f"{type(problem).__name__}")
+    x0 = as_array(x0, "x0", (problem.n_params,))
+    seed = as_int(seed, "seed", 0)
+    noise = as_float(noise, "noise", 0.0, 1.0, low_open=True, unit="m")
+    history = as_bool(history, "history")
     estimator = get_estimator(name, loss)
     recorder = History() if history else None
     generations = getattr(estimator, "max_iter", 0) if getattr(estimator, "reports_generations", False) else 0

@@ -202,7 +202,12 @@ def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> C
     Raises:
         RobotError: unknown robot, unreadable URDF, missing frame, or a chain joint
             with more than one degree of freedom.
+        ArgumentError: robot not a name, path or description; end_frame not text.
     """
+    from ..arguments import as_instance, as_optional, as_robot
+
+    robot = as_robot(robot, "robot")
+    end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
     description = robot if isinstance(robot, RobotDescription) else resolve_robot(robot)
     full = _load_urdf_model(description)
     end = end_frame or description.end_frame

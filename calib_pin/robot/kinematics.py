@@ -39,7 +39,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import RobotError
+from ..exceptions import ArgumentError, RobotError
 from .chain import Chain, joint_motions
 
 
@@ -69,6 +69,8 @@ class Kinematics:
     """
 
     def __init__(self, chain: Chain) -> None:
+        if not isinstance(chain, Chain):
+            raise ArgumentError("chain", f"expected a robot chain (calib_pin.load_chain), got {type(chain).__name__}")
         self.chain = chain
         self._model = chain.model.copy()
         self._data = self._model.createData()
@@ -102,6 +104,9 @@ class Kinematics:
                 :meth:`~calib_pin.parameters.base.ParameterModel.delta_matrices`), or
                 None for the nominal robot.
         """
+        if deltas is not None and np.shape(deltas) != self._nominal.shape:
+            raise ArgumentError("deltas", f"expected shape {self._nominal.shape} (n_joints + 1 homogeneous "
+                                f"transforms), got shape {np.shape(deltas)}")
         self._placements = self._nominal if deltas is None else self._nominal @ deltas
         self._backward: np.ndarray | None = None  # both rebuilt from _placements when used
         self._model_stale = True
@@ -135,9 +140,7 @@ class Kinematics:
     def _positions(self, q: np.ndarray, point: np.ndarray) -> np.ndarray:
         """Base-frame positions [m] of ``point`` (3,) or (n_poses, 3) at all poses
         q (n_poses, n_joints), back to front: the point through each joint in turn."""
-        q = np.atleast_2d(np.asarray(q, dtype=float))
-        if q.shape[-1] != len(self._basis[0]):
-            raise ValueError(f"joint positions have {q.shape[-1]} columns; the chain has {len(self._basis[0])} joints")
+        q = _joint_positions(q, len(self._basis[0]))
         coef = self._coefficients(q)
         backward = self._backward_factors()
         end = self._placements[-1]
@@ -161,9 +164,10 @@ class Kinematics:
             jacobians: shape (n_poses, 6, n_joints) or None: the end frame's local twist
                 (linear [m], angular [rad]) per unit of each joint.
         """
+        q = _joint_positions(q, self.chain.n_joints)
         self._working_model()
         model, data, fid = self._model, self._data, self._fid
-        configs = self.chain.configuration(np.atleast_2d(q))
+        configs = self.chain.configuration(q)
         n = len(configs)
         rot, trans = np.empty((n, 3, 3)), np.empty((n, 3))
         jac = np.empty((n, 6, self.chain.n_joints)) if jacobian else None
@@ -201,12 +205,16 @@ class Kinematics:
                 also the derivative of the position with respect to the point.
                 With ``joints``, n_joints more columns: d position / d q.
         """
+        q = _joint_positions(q, self.chain.n_joints)
         point = np.asarray(point, dtype=float)
+        if point.shape != (3,) and point.shape != (len(q), 3) or not np.isfinite(point).all():
+            raise ArgumentError("point", f"expected 3 finite numbers (x, y, z in m, end frame) or one point per pose "
+                                f"({len(q)}, 3), got shape {point.shape}")
         if not jacobian:
             return self._positions(q, point), None
         self._working_model()
         model, data, fid = self._model, self._data, self._fid
-        configs = self.chain.configuration(np.atleast_2d(q))
+        configs = self.chain.configuration(q)
         n = len(configs)
         rot, trans = np.empty((n, 3, 3)), np.empty((n, 3))
         live_rot, live_trans = self._rotation, self._translation
@@ -225,6 +233,24 @@ class Kinematics:
             if joints:
                 reg[k, :, n_place + 6 :] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
         return _lever(rot, trans, reg, point)
+
+
+def _joint_positions(q: np.ndarray, n_joints: int) -> np.ndarray:
+    """q as a float array (n_poses, n_joints), finite (a cheap check: every cost
+    evaluation comes here).
+
+    Raises:
+        ArgumentError: another shape, or a value that is not a finite number.
+    """
+    try:
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+    except (TypeError, ValueError):
+        raise ArgumentError("q", "expected joint positions as numbers [rad] (prismatic [m])") from None
+    if q.ndim != 2 or q.shape[1] != n_joints:
+        raise ArgumentError("q", f"expected shape (n_poses, {n_joints}) or ({n_joints},), got shape {q.shape}")
+    if not np.isfinite(q).all():
+        raise ArgumentError("q", "joint positions must be finite numbers (NaN or inf given)")
+    return q
 
 
 #: The end frame's own twist columns of the regressor (read only).

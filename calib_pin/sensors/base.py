@@ -29,16 +29,21 @@ if TYPE_CHECKING:
     from ..problem import CalibrationProblem
 
 
-def chosen(estimate: tuple[str, ...], valid: tuple[str, ...], sensor: str) -> tuple[str, ...]:
-    """The sensor unknowns to estimate, in ``valid``'s order.
+def chosen(estimate: Any, valid: tuple[str, ...], sensor: str) -> tuple[str, ...]:
+    """The sensor unknowns to estimate (a comma-separated str or a sequence of names), in
+    ``valid``'s order.
 
     Raises:
-        ValueError: a name this sensor has no such unknown for.
+        ArgumentError: not names, or a name this sensor has no such unknown for.
     """
-    unknown = set(estimate) - set(valid)
+    from ..arguments import as_names
+    from ..exceptions import ArgumentError
+
+    names = as_names(estimate, "estimate")
+    unknown = set(names) - set(valid)
     if unknown:
-        raise ValueError(f"{sensor} cannot estimate {sorted(unknown)[0]!r} (valid: {', '.join(valid)})")
-    return tuple(e for e in valid if e in estimate)
+        raise ArgumentError("estimate", f"{sensor} cannot estimate {sorted(unknown)[0]!r} (valid: {', '.join(valid)})")
+    return tuple(e for e in valid if e in names)
 
 
 class MeasurementModel(ABC):
@@ -72,8 +77,10 @@ class MeasurementModel(ABC):
     def __init__(self, chain: Chain, params: ParameterModel, extra: list[tuple[str, str, float]],
                  compliance: ComplianceSpec | None = None,
                  cable: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        self.chain = chain
-        self.params = params
+        from ..arguments import as_chain, as_parameter_model
+
+        self.chain = as_chain(chain, "chain")
+        self.params = as_parameter_model(params, "params", chain)
         self._kin = Kinematics(chain)
         self.n_robot = len(params.names)
         self.compliance_spec = compliance

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..exceptions import CalibPinError, DataError
+from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
@@ -77,9 +77,12 @@ class CableModel(MeasurementModel):
 
     def __init__(self, chain: Chain, params: ParameterModel, sensor: Drawstring, estimate: tuple[str, ...] = (),
                  compliance: ComplianceSpec | None = None) -> None:
+        if not isinstance(sensor, Drawstring):
+            raise ArgumentError("sensor", f"expected a Drawstring (anchor, tool [m], length_offset [m]), got "
+                                f"{type(sensor).__name__}")
         self.estimate = chosen(estimate, CABLE_EXTRAS, "a drawstring")
-        extra = [(f"anchor_{a}", "m", 2e-3) for a in "xyz"] if "anchor" in estimate else []
-        extra += [("offset", "m", 1e-3)] if "offset" in estimate else []
+        extra = [(f"anchor_{a}", "m", 2e-3) for a in "xyz"] if "anchor" in self.estimate else []
+        extra += [("offset", "m", 1e-3)] if "offset" in self.estimate else []
         # The cable pulls from the given tool point towards the given anchor (not a correction of it).
         super().__init__(chain, params, extra, compliance, cable=(sensor.tool, sensor.anchor))
         self.sensor = sensor

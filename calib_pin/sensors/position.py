@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import CalibPinError, DataError
+from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
@@ -86,11 +86,14 @@ class PositionModel(MeasurementModel):
 
     def __init__(self, chain: Chain, params: ParameterModel, device: PositionDevice,
                  estimate: tuple[str, ...] = POSITION_EXTRAS, compliance: ComplianceSpec | None = None) -> None:
+        if not isinstance(device, PositionDevice):
+            raise ArgumentError("device", f"expected a PositionDevice (frame T_DB, marker points [m]), got "
+                                f"{type(device).__name__}")
         self.estimate = chosen(estimate, POSITION_EXTRAS, "a position device")
         extra = []
-        if "device" in estimate:
+        if "device" in self.estimate:
             extra += [(f"device_{a}", "m", 2e-3) for a in "xyz"] + [(f"device_r{a}", "rad", 2e-3) for a in "xyz"]
-        if "markers" in estimate:
+        if "markers" in self.estimate:
             extra += [(f"marker{label}_{a}", "m", 1e-3) for label in device.labels for a in "xyz"]
         super().__init__(chain, params, extra, compliance)
         self.device = device
