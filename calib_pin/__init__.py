@@ -33,11 +33,12 @@ _API = {
     "MeasurementSet": "measurements", "read_measurements": "measurements", "write_measurements": "measurements",
     "simulate": "simulation", "simulate_positions": "simulation", "Truth": "simulation",
     "ESTIMATORS": "estimators", "EstimateResult": "estimators", "run_estimator": "estimators",
-    "CalibPinError": "exceptions", "DataError": "exceptions", "EstimatorError": "exceptions",
+    "ArgumentError": "exceptions", "CalibPinError": "exceptions", "DataError": "exceptions", "EstimatorError": "exceptions",
     "RobotError": "exceptions",
 }
 
 __all__ = [
+    "ArgumentError",
     "CableModel",
     "CalibPinError",
     "CalibrationProblem",
@@ -93,7 +94,7 @@ if TYPE_CHECKING:
     from .comparison import Comparison, compare
     from .compensation import CalibratedRobot
     from .estimators import ESTIMATORS, EstimateResult, run_estimator
-    from .exceptions import CalibPinError, DataError, EstimatorError, RobotError
+    from .exceptions import ArgumentError, CalibPinError, DataError, EstimatorError, RobotError
     from .identifiability import analyze
     from .measurements import MeasurementSet, read_measurements, write_measurements
     from .parameters import DHModel, HayatiModel, PlacementModel, parameter_model

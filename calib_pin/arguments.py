@@ -174,8 +174,8 @@ def as_angles_rad(q: Any, arg: str, chain: Chain, *, tolerance: float = LIMIT_TO
     (n, n_joints), finite, within the URDF limits (less ``tolerance``; a continuous joint
     within CONTINUOUS_TURNS turns). The array keeps its shape.
 
-    A value outside the limits beyond a turn (|q| > 2 pi), where the same values read as
-    degrees would fit, gets the hint "looks like degrees".
+    A value outside the limits, when some |q| is beyond a turn (2 pi) and every value
+    read as degrees would fit, gets the hint "looks like degrees".
     """
     angles = as_array(q, arg, unit="rad")
     if angles.ndim not in (1, 2) or angles.shape[-1] != chain.n_joints:
@@ -190,7 +190,7 @@ def as_angles_rad(q: Any, arg: str, chain: Chain, *, tolerance: float = LIMIT_TO
         revolute = not chain.joint_kinds[j].startswith("JointModelP")
         unit = "rad" if revolute else "m"
         radians = np.deg2rad(angles)
-        hint = ("; looks like degrees: give radians (np.deg2rad)" if revolute and abs(angles[where]) > 2 * np.pi
+        hint = ("; looks like degrees: give radians (np.deg2rad)" if revolute and np.abs(angles).max() > 2 * np.pi
                 and outside_limits(radians, lower, upper, tolerance) is None else "")
         index = f"[{', '.join(map(str, where))}]"
         raise ArgumentError(arg, f"{arg}{index} = {angles[where]:.6g} {unit} is outside the limits of "

@@ -129,6 +129,7 @@ class CalibrationSetup:
         test_fraction = check_fraction(test_fraction)
         spec.check(as_instance(loss, "loss", str, "a loss name (linear, huber, soft_l1, cauchy)"), self.data.kind)
         check_measurements(self.chain, self.data)
+        _check_data(test_data, "test_data")
         if test_data is not None:
             test_data = _validation(self, test_data, "")
         warnings: list[str] = []

@@ -1,0 +1,234 @@
+"""Every public entry point refuses a bad argument with a CalibPinError that names it.
+
+Each case calls one entry point with one kind of bad argument (a wrong type, a wrong
+shape, NaN, degrees given as radians, text where numbers or names are expected, a value
+out of range) and asserts the error is a CalibPinError whose message names the argument;
+an ArgumentError also carries the name as ``.argument``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import calib_pin as cp
+from calib_pin.arguments import as_angles_rad, as_array, as_names, as_xyz_mm
+from calib_pin.calibration_file import calibration_path, write_calibration
+from calib_pin.exceptions import ArgumentError
+from calib_pin.robot.deflection import ComplianceSpec
+from calib_pin.sensors import Drawstring
+from calib_pin.simulation import random_poses
+
+NAN3 = (float("nan"), 0.0, 0.0)
+
+
+@pytest.fixture(scope="module")
+def small(chain, params):
+    """A simulated drawstring set of 30 poses."""
+    return cp.simulate(chain, params, 30, seed=1)[0]
+
+
+@pytest.fixture(scope="module")
+def setup(small):
+    return cp.prepare("irb120", small)
+
+
+@pytest.fixture(scope="module")
+def arm(chain, params):
+    return cp.CalibratedRobot(chain, params, np.zeros(len(params.names)), ComplianceSpec(("joint_2",)), [2e-5])
+
+
+@pytest.fixture(scope="module")
+def calibration(small, tmp_path_factory):
+    """A calibration file of an LM fit on the small set."""
+    result = cp.calibrate("irb120", small, method="lm")
+    folder = tmp_path_factory.mktemp("cal")
+    return write_calibration(result, calibration_path(folder, "irb120"))
+
+
+def q_deg(chain):
+    """Poses in degrees: what a caller who forgot np.deg2rad passes."""
+    return np.rad2deg(random_poses(chain, 4, np.random.default_rng(0)))
+
+
+#: (entry point, argument named, call): the call is made with the fixtures below.
+CASES = [
+    # calibrate / prepare
+    ("calibrate", "robot", lambda f: cp.calibrate(123, f.small)),
+    ("calibrate", "data", lambda f: cp.calibrate("irb120", 42)),
+    ("calibrate", "test_data", lambda f: cp.calibrate("irb120", f.small, test_data=3.5)),
+    ("calibrate", "method", lambda f: cp.calibrate("irb120", f.small, method=["lm"])),
+    ("calibrate", "method", lambda f: cp.calibrate("irb120", f.small, method="nope")),
+    ("calibrate", "seed", lambda f: cp.calibrate("irb120", f.small, seed=-1)),
+    ("calibrate", "seed", lambda f: cp.calibrate("irb120", f.small, seed=1.5)),
+    ("calibrate", "seed", lambda f: cp.calibrate("irb120", f.small, seed="3")),
+    ("calibrate", "test_fraction", lambda f: cp.calibrate("irb120", f.small, test_fraction=1.5)),
+    ("calibrate", "test_fraction", lambda f: cp.calibrate("irb120", f.small, test_fraction="0.2")),
+    ("calibrate", "loss", lambda f: cp.calibrate("irb120", f.small, loss=None)),
+    ("calibrate", "end_frame", lambda f: cp.calibrate("irb120", f.small, end_frame=5)),
+    ("calibrate", "anchor_mm", lambda f: cp.calibrate("irb120", f.small, anchor_mm="600,200,-100")),
+    ("calibrate", "anchor_mm", lambda f: cp.calibrate("irb120", f.small, anchor_mm=(600, 200))),
+    ("calibrate", "anchor_mm", lambda f: cp.calibrate("irb120", f.small, anchor_mm=NAN3)),
+    ("calibrate", "tool_mm", lambda f: cp.calibrate("irb120", f.small, tool_mm=[0, 0, "x"])),
+    ("calibrate", "tool_mm", lambda f: cp.calibrate("irb120", f.small, tool_mm=(0, 0, 5e7))),
+    ("calibrate", "length_offset_mm", lambda f: cp.calibrate("irb120", f.small, length_offset_mm="3")),
+    ("calibrate", "length_offset_mm", lambda f: cp.calibrate("irb120", f.small, length_offset_mm=float("nan"))),
+    ("calibrate", "noise_mm", lambda f: cp.calibrate("irb120", f.small, noise_mm=0)),
+    ("calibrate", "noise_mm", lambda f: cp.calibrate("irb120", f.small, noise_mm="0.1")),
+    ("calibrate", "parameters", lambda f: cp.calibrate("irb120", f.small, parameters="poe")),
+    ("calibrate", "estimate", lambda f: cp.calibrate("irb120", f.small, estimate="moon")),
+    ("calibrate", "estimate", lambda f: cp.calibrate("irb120", f.small, estimate=5)),
+    ("calibrate", "estimate", lambda f: cp.calibrate("irb120", f.small, estimate=("anchor", 3))),
+    ("calibrate", "compliance", lambda f: cp.calibrate("irb120", f.small, compliance=7)),
+    ("calibrate", "payload_kg", lambda f: cp.calibrate("irb120", f.small, compliance="joint_2", payload_kg=-1)),
+    ("calibrate", "payload_com_mm", lambda f: cp.calibrate("irb120", f.small, compliance="joint_2", payload_com_mm=(1, 2))),
+    ("calibrate", "cable_tension_n", lambda f: cp.calibrate("irb120", f.small, compliance="joint_2",
+                                                            cable_tension_n=float("inf"))),
+    ("calibrate", "progress", lambda f: cp.calibrate("irb120", f.small, progress="yes")),
+    ("prepare", "robot", lambda f: cp.prepare(None, f.small)),
+    ("prepare", "anchor_mm", lambda f: cp.prepare("irb120", f.small, anchor_mm=[[1, 2, 3]])),
+    ("prepare", "noise_mm", lambda f: cp.prepare("irb120", f.small, noise_mm=-1)),
+    # CalibrationSetup.run
+    ("CalibrationSetup.run", "method", lambda f: f.setup.run(3)),
+    ("CalibrationSetup.run", "seed", lambda f: f.setup.run("lm", seed=-2)),
+    ("CalibrationSetup.run", "test_fraction", lambda f: f.setup.run("lm", test_fraction=2.0)),
+    ("CalibrationSetup.run", "loss", lambda f: f.setup.run("lm", loss=["huber"])),
+    ("CalibrationSetup.run", "test_data", lambda f: f.setup.run("lm", test_data=12)),
+    # simulate / simulate_positions
+    ("simulate", "chain", lambda f: cp.simulate("irb120", f.params, 10, 0)),
+    ("simulate", "params", lambda f: cp.simulate(f.chain, "dh", 10, 0)),
+    ("simulate", "n_poses", lambda f: cp.simulate(f.chain, f.params, 0, 0)),
+    ("simulate", "n_poses", lambda f: cp.simulate(f.chain, f.params, 2.5, 0)),
+    ("simulate", "seed", lambda f: cp.simulate(f.chain, f.params, 10, -1)),
+    ("simulate", "noise_mm", lambda f: cp.simulate(f.chain, f.params, 10, 0, noise_mm=float("nan"))),
+    ("simulate", "noise_mm", lambda f: cp.simulate(f.chain, f.params, 10, 0, noise_mm=-0.1)),
+    ("simulate", "nominal_rmse_mm", lambda f: cp.simulate(f.chain, f.params, 10, 0, nominal_rmse_mm=-1)),
+    ("simulate", "anchor_mm", lambda f: cp.simulate(f.chain, f.params, 10, 0, anchor_mm=(1, 2))),
+    ("simulate", "tool_mm", lambda f: cp.simulate(f.chain, f.params, 10, 0, tool_mm="0,0,50")),
+    ("simulate", "length_offset_mm", lambda f: cp.simulate(f.chain, f.params, 10, 0, length_offset_mm=np.inf)),
+    ("simulate", "noise_kind", lambda f: cp.simulate(f.chain, f.params, 10, 0, noise_kind="pink")),
+    ("simulate", "poses", lambda f: cp.simulate(f.chain, f.params, 10, 0, poses=q_deg(f.chain))),
+    ("simulate", "poses", lambda f: cp.simulate(f.chain, f.params, 10, 0, poses=np.zeros((4, 5)))),
+    ("simulate", "compliance", lambda f: cp.simulate(f.chain, f.params, 10, 0, compliance="joint_2",
+                                                     true_compliance=[1e-5])),
+    ("simulate", "true_compliance", lambda f: cp.simulate(f.chain, f.params, 10, 0, compliance=ComplianceSpec(("joint_2",)),
+                                                          true_compliance=[-1e-5])),
+    ("simulate_positions", "markers_mm", lambda f: cp.simulate_positions(f.chain, f.params, 10, 0, markers_mm=(1, 2, 3))),
+    ("simulate_positions", "device", lambda f: cp.simulate_positions(f.chain, f.params, 10, 0, device=np.eye(4))),
+    ("simulate_positions", "n_poses", lambda f: cp.simulate_positions(f.chain, f.params, "10", 0)),
+    # analyze
+    ("analyze", "problem", lambda f: cp.analyze("irb120")),
+    ("analyze", "x", lambda f: cp.analyze(f.setup.problem, np.zeros(3))),
+    ("analyze", "x", lambda f: cp.analyze(f.setup.problem, np.full(f.setup.problem.n_params, np.nan))),
+    ("analyze", "rcond", lambda f: cp.analyze(f.setup.problem, rcond=-1.0)),
+    # load_calibration
+    ("load_calibration", "path", lambda f: cp.load_calibration(3)),
+    ("load_calibration", "robot", lambda f: cp.load_calibration(f.calibration, robot=5)),
+    ("load_calibration", "cable", lambda f: cp.load_calibration(f.calibration, cable="yes")),
+    # compensation: CalibratedRobot
+    ("CalibratedRobot", "chain", lambda f: cp.CalibratedRobot("irb120", f.params, np.zeros(24))),
+    ("CalibratedRobot", "deviations", lambda f: cp.CalibratedRobot(f.chain, f.params, np.zeros(23))),
+    ("CalibratedRobot", "deviations", lambda f: cp.CalibratedRobot(f.chain, f.params, np.full(24, np.nan))),
+    ("CalibratedRobot", "compliance_values", lambda f: cp.CalibratedRobot(
+        f.chain, f.params, np.zeros(24), ComplianceSpec(("joint_2",)), [-1e-5])),
+    ("CalibratedRobot.forward", "q", lambda f: f.arm.forward(q_deg(f.chain))),
+    ("CalibratedRobot.forward", "q", lambda f: f.arm.forward(np.zeros(5))),
+    ("CalibratedRobot.forward", "q", lambda f: f.arm.forward("0,0,0,0,0,0")),
+    ("CalibratedRobot.nominal", "q", lambda f: f.arm.nominal(np.full(6, np.nan))),
+    ("CalibratedRobot.joint_angles", "q", lambda f: f.arm.joint_angles(np.zeros((2, 7)))),
+    ("CalibratedRobot.compensate", "q_nominal", lambda f: f.arm.compensate(q_deg(f.chain))),
+    ("CalibratedRobot.compensate", "q_nominal", lambda f: f.arm.compensate([[0, 0, 0, 0, 0, None]])),
+    ("CalibratedRobot.solve", "max_iterations", lambda f: f.arm.solve(np.zeros(6), max_iterations=0)),
+    # run_estimator
+    ("run_estimator", "name", lambda f: cp.run_estimator(5, f.setup.problem, np.zeros(f.setup.problem.n_params))),
+    ("run_estimator", "problem", lambda f: cp.run_estimator("lm", "problem", np.zeros(3))),
+    ("run_estimator", "x0", lambda f: cp.run_estimator("lm", f.setup.problem, np.zeros(3))),
+    ("run_estimator", "x0", lambda f: cp.run_estimator("lm", f.setup.problem, "zeros")),
+    ("run_estimator", "seed", lambda f: cp.run_estimator("lm", f.setup.problem, np.zeros(f.setup.problem.n_params), seed=-1)),
+    ("run_estimator", "noise", lambda f: cp.run_estimator("lm", f.setup.problem, np.zeros(f.setup.problem.n_params),
+                                                          noise=0.0)),
+    ("run_estimator", "loss", lambda f: cp.run_estimator("lm", f.setup.problem, np.zeros(f.setup.problem.n_params),
+                                                         loss="wobbly")),
+    ("run_estimator", "history", lambda f: cp.run_estimator("lm", f.setup.problem, np.zeros(f.setup.problem.n_params),
+                                                            history="no")),
+    # Kinematics
+    ("Kinematics", "chain", lambda f: cp.Kinematics("irb120")),
+    ("Kinematics.points", "q", lambda f: cp.Kinematics(f.chain).points(np.zeros((3, 5)), np.zeros(3))),
+    ("Kinematics.points", "q", lambda f: cp.Kinematics(f.chain).points(np.full((3, 6), np.nan), np.zeros(3))),
+    ("Kinematics.points", "point", lambda f: cp.Kinematics(f.chain).points(np.zeros((3, 6)), (1, 2))),
+    ("Kinematics.points", "point", lambda f: cp.Kinematics(f.chain).points(np.zeros((3, 6)), NAN3, jacobian=True)),
+    ("Kinematics.frames", "q", lambda f: cp.Kinematics(f.chain).frames(np.zeros(4))),
+    ("Kinematics.set_perturbation", "deltas", lambda f: cp.Kinematics(f.chain).set_perturbation(np.zeros((6, 4, 4)))),
+    # load_chain, parameter_model, the sensor models
+    ("load_chain", "robot", lambda f: cp.load_chain(3)),
+    ("load_chain", "end_frame", lambda f: cp.load_chain("irb120", end_frame=7)),
+    ("parameter_model", "chain", lambda f: cp.parameter_model("irb120")),
+    ("parameter_model", "name", lambda f: cp.parameter_model(f.chain, 3)),
+    ("CableModel", "sensor", lambda f: cp.CableModel(f.chain, f.params, (1, 2, 3))),
+    ("CableModel", "params", lambda f: cp.CableModel(f.chain, None, Drawstring(np.zeros(3), np.zeros(3)))),
+    ("CableModel", "estimate", lambda f: cp.CableModel(f.chain, f.params, Drawstring(np.zeros(3), np.zeros(3)),
+                                                       estimate="moon")),
+    ("PositionModel", "device", lambda f: cp.PositionModel(f.chain, f.params, "tracker")),
+]
+
+
+class Fixtures:
+    """The fixtures a case may use, as attributes."""
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+
+@pytest.mark.parametrize(("entry", "argument", "call"), CASES,
+                         ids=[f"{c[0]}-{c[1]}-{k}" for k, c in enumerate(CASES)])
+def test_a_bad_argument_is_named(entry, argument, call, chain, params, small, setup, arm, calibration):
+    fixtures = Fixtures(chain=chain, params=params, small=small, setup=setup, arm=arm, calibration=calibration)
+    with pytest.raises(cp.CalibPinError) as caught:
+        call(fixtures)
+    message = str(caught.value)
+    assert argument in message, message
+    assert len(message.splitlines()) == 1, message
+    if isinstance(caught.value, ArgumentError):
+        assert caught.value.argument == argument
+
+
+def test_every_public_function_is_covered():
+    """Each public callable of calib_pin.__all__ that takes arguments has a case (the
+    error classes and plain records excepted; compare's own module is another slice's)."""
+    exempt = {"ArgumentError", "CalibPinError", "DataError", "EstimatorError", "RobotError", "ESTIMATORS", "EstimateResult",
+              "MeasurementSet", "Truth", "CalibrationResult", "CalibrationProblem", "Comparison", "Chain",
+              "DHModel", "HayatiModel", "PlacementModel", "Drawstring", "PositionDevice", "CalibrationSetup",
+              "read_measurements", "write_measurements", "compare", "__version__"}
+    covered = {c[0].split(".")[0] for c in CASES} | {"CalibrationSetup"}
+    assert set(cp.__all__) - exempt - covered == set()
+
+
+def test_degrees_get_a_hint(chain, arm):
+    with pytest.raises(ArgumentError, match="looks like degrees"):
+        arm.forward(q_deg(chain))
+    with pytest.raises(ArgumentError, match="looks like degrees"):
+        as_angles_rad(np.full(6, 30.0), "q", chain)
+    with pytest.raises(ArgumentError) as caught:  # just beyond a limit: refused, no hint
+        as_angles_rad(np.r_[chain.upper[0] + 0.01, np.zeros(5)], "q", chain)
+    assert "looks like degrees" not in str(caught.value) and "joint_1" in str(caught.value)
+
+
+def test_valid_arguments_pass(chain, small):
+    """What the validators accept: names as text or sequences, numbers as lists, radians."""
+    assert as_names("anchor, offset", "estimate") == ("anchor", "offset")
+    assert as_names(["anchor"], "estimate") == ("anchor",) and as_names(None, "estimate") == ()
+    assert as_xyz_mm([1, 2, 3], "anchor_mm").tolist() == [1.0, 2.0, 3.0]
+    assert as_array(np.arange(6, dtype=np.int32), "x", (6,)).dtype == float
+    q = random_poses(chain, 3, np.random.default_rng(1))
+    assert as_angles_rad(q, "q", chain) is not q and as_angles_rad(q[0], "q", chain).shape == (6,)
+    result = cp.calibrate("irb120", small, method="lm", estimate="anchor", seed=np.int64(2), test_fraction=0)
+    assert "anchor_x_mm" in result.sensor_corrections
+
+
+def test_argument_error_carries_the_name():
+    error = ArgumentError("q", "bad")
+    assert error.argument == "q" and error.reason == "bad" and isinstance(error, cp.CalibPinError)
+    assert str(error) == "argument q: bad"
+    assert Path(cp.__file__).name == "__init__.py"

@@ -1,0 +1,115 @@
+"""The library checks a measurement set as the CSV reader does: another robot's data, NaN
+readings or angles, joints outside their limits, and a validation session whose own
+drawstring set-up contradicts the calibration's (calib_pin.measurements.checks)."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import numpy as np
+import pytest
+
+import calib_pin as cp
+from calib_pin.measurements.checks import check_measurements, check_same_setup
+from calib_pin.pipeline import CalibrationSetup
+
+
+@pytest.fixture(scope="module")
+def cable(chain, params):
+    return cp.simulate(chain, params, 30, seed=5)[0]
+
+
+@pytest.fixture(scope="module")
+def positions(chain, params):
+    return cp.simulate_positions(chain, params, 12, seed=5)[0]
+
+
+def changed(data: cp.MeasurementSet, **fields) -> cp.MeasurementSet:
+    """A copy of ``data`` with arrays edited: ``q=(row, joint, value)``, ``values=(index, value)``."""
+    q, values = data.q.copy(), data.values.copy()
+    if "q" in fields:
+        row, joint, value = fields.pop("q")
+        q[row, joint] = value
+    if "values" in fields:
+        index, value = fields.pop("values")
+        values[index] = value
+    return dataclasses.replace(data, q=q, values=values, **fields)
+
+
+def bad_sets(chain, cable, positions):
+    """(set, fragment of the refusal) for each kind of fault."""
+    over = chain.upper[2] + 0.01
+    return [
+        (changed(cable, robot="ur5"), "robot: is for robot 'ur5', not 'irb120'"),
+        (changed(cable, values=(3, np.nan)), "row 3 (0-based): nan is not a finite length reading"),
+        (changed(cable, values=(4, -0.2)), "length: row 4 (0-based): -200 mm is negative"),
+        (changed(cable, q=(2, 1, np.nan)), "q2: row 2 (0-based): nan is not a finite joint angle"),
+        (changed(cable, q=(7, 2, over)), "is outside the limits of joint_3"),
+        (changed(cable, q=(1, 0, np.inf)), "q1"),
+        (dataclasses.replace(cable, q=cable.q[:, :5]), "expected (n_rows, 6)"),
+        (dataclasses.replace(cable, values=cable.values[:-1]), "values"),
+        (dataclasses.replace(cable, end_frame="flange"), "end_frame"),
+        (dataclasses.replace(cable, kind="laser"), "kind"),
+        (dataclasses.replace(cable, anchor=np.array([np.nan, 0, 0])), "anchor"),
+        (changed(positions, values=(5, np.inf)), "row 5 (0-based): inf is not a finite position reading"),
+        (dataclasses.replace(positions, point_ids=None), "point_ids"),
+        (dataclasses.replace(cable, lines=np.arange(10, 40)), None),  # lines name the file line: accepted
+    ]
+
+
+def test_check_measurements(chain, cable, positions):
+    for data, fragment in bad_sets(chain, cable, positions):
+        if fragment is None:
+            assert check_measurements(chain, data) is data
+            continue
+        with pytest.raises(cp.DataError, match=re.escape(fragment)):
+            check_measurements(chain, data)
+    at_line = changed(cable, values=(3, np.nan), lines=np.arange(10, 40), source="s.csv")
+    with pytest.raises(cp.DataError, match=r"^s\.csv:13: length: nan is not a finite length reading$"):
+        check_measurements(chain, at_line)
+    with pytest.raises(cp.ArgumentError, match="data"):
+        check_measurements(chain, {"q": cable.q})
+
+
+def test_entry_points_refuse_a_bad_set_in_memory(chain, params, cable, positions):
+    """calibrate, prepare, CalibrationSetup.run (made by hand) and a test_data session all
+    check the set: the checks are the library's, the CLI goes through them."""
+    for data, fragment in bad_sets(chain, cable, positions)[:6]:
+        with pytest.raises(cp.CalibPinError):
+            cp.calibrate("irb120", data, method="lm")
+        with pytest.raises(cp.CalibPinError):
+            cp.prepare("irb120", data)
+        by_hand = CalibrationSetup(chain, params, data, 5e-5, {})
+        with pytest.raises(cp.CalibPinError, match=re.escape(fragment.split(":")[0])):
+            by_hand.run("lm")
+        with pytest.raises(cp.CalibPinError):
+            cp.calibrate("irb120", cable, method="lm", test_data=data)
+
+
+def test_a_set_in_memory_at_another_end_frame_uses_it(chain, params):
+    """A set measured at 'flange' calibrates at 'flange' (as a file's '# end_frame:' does)."""
+    flange = cp.load_chain("irb120", "flange")
+    data, _ = cp.simulate(flange, cp.parameter_model(flange), 30, seed=2)
+    assert data.end_frame == "flange"
+    assert cp.prepare("irb120", data).chain.end_frame == "flange"
+    with pytest.raises(cp.DataError, match="end frame 'flange', not 'tool0'"):
+        cp.prepare("irb120", data, end_frame="tool0")
+
+
+def test_validation_session_with_another_setup_is_refused(cable, tmp_path):
+    """A session whose own anchor (tool, offset) contradicts the calibration's is refused in
+    one line naming the file, the key and both values; the same set-up is scored."""
+    moved = dataclasses.replace(cable, anchor=cable.anchor + [0.05, 0, 0], source="t.csv")
+    with pytest.raises(cp.DataError, match=r"t\.csv: anchor_mm: the validation session has 650, 200, -100 mm, "
+                                           r"the calibration 600, 200, -100 mm"):
+        cp.calibrate("irb120", cable, method="lm", test_data=moved)
+    offset = dataclasses.replace(cable, length_offset=0.0125, source="")
+    with pytest.raises(cp.DataError, match="length_offset_mm"):
+        cp.calibrate("irb120", cable, method="lm", test_data=offset)
+    with pytest.raises(cp.DataError, match=r"the calibration 610, 200, -100 mm \(--anchor-mm\)"):
+        check_same_setup(cable, cable, {"anchor_mm": (610.0, 200.0, -100.0)})
+    check_same_setup(dataclasses.replace(cable, anchor=None, tool=None), cable, {})  # the session does not say
+    check_same_setup(dataclasses.replace(cable, anchor=cable.anchor + 4e-10), cable, {})  # within rounding
+    result = cp.calibrate("irb120", cable, method="lm", test_data=dataclasses.replace(cable, source="same"))
+    assert result.test_source == "same" and result.metrics["test"]["after"].rmse_mm < 0.2
