@@ -248,6 +248,11 @@ def simulate(
             ones (``n_poses`` is then ignored).
         compliance, true_compliance: The true arm's compliant joints and loads, and their
             compliances [rad/Nm] (:mod:`calib_pin.robot.deflection`); None: a rigid arm.
+
+    Raises:
+        ArgumentError: a bad argument, named (a chain or parameter model of another
+            type, a count, seed or noise out of range, a point not 3 finite numbers [mm],
+            poses not within the joint limits in [rad], negative true compliances).
     """
     seed, n_poses, noise_mm, nominal_rmse_mm = _common_arguments(chain, params, n_poses, seed, noise_mm, nominal_rmse_mm,
                                                                  poses is not None)
@@ -331,6 +336,10 @@ def simulate_positions(
     Returns:
         The set (rows: pose-major, markers labelled 1..k) and the truth (deviations and
         device geometry).
+
+    Raises:
+        ArgumentError: a bad argument, named (as :func:`simulate`; ``markers_mm`` not
+            (k, 3) finite numbers [mm], ``device`` not a pinocchio.SE3).
     """
     seed, n_poses, noise_mm, nominal_rmse_mm = _common_arguments(chain, params, n_poses, seed, noise_mm, nominal_rmse_mm)
     markers = as_array(markers_mm, "markers_mm", (None, 3), unit="mm") * 1e-3

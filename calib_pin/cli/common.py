@@ -15,7 +15,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from ..exceptions import CalibPinError
+from ..exceptions import ArgumentError, CalibPinError
 
 BAD_INPUT_EXIT = 2
 SENSOR_FAULT_EXIT = 3
@@ -212,8 +212,8 @@ def estimate_names(text: str) -> tuple[str, ...]:
 
     try:
         names = check_estimate(text.split(","))
-    except CalibPinError as e:
-        raise argparse.ArgumentTypeError(f"{e}, comma-separated") from None
+    except ArgumentError as e:
+        raise argparse.ArgumentTypeError(f"{e.reason}, comma-separated") from None
     if not names:
         raise argparse.ArgumentTypeError(f"cannot estimate '{text}' (comma-separated names)")
     return names
