@@ -36,6 +36,8 @@ perturbed placement's own frame.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 
@@ -140,7 +142,7 @@ class Kinematics:
     def _positions(self, q: np.ndarray, point: np.ndarray) -> np.ndarray:
         """Base-frame positions [m] of ``point`` (3,) or (n_poses, 3) at all poses
         q (n_poses, n_joints), back to front: the point through each joint in turn."""
-        q = _joint_positions(q, len(self._basis[0]))
+        q = _joint_positions(q, len(self._basis[0]), finite=False)  # checked on the result below
         coef = self._coefficients(q)
         backward = self._backward_factors()
         end = self._placements[-1]
@@ -149,6 +151,9 @@ class Kinematics:
         v[:, 3] = 1.0
         for i in range(len(coef) - 1, -1, -1):
             v = np.einsum("pk,pkj->pj", coef[i], (v @ backward[i]).reshape(-1, 3, 4))
+        if not math.isfinite(v.sum()):  # a NaN or inf in q or the point: one sum, not a pass per input
+            _joint_positions(q, len(coef))
+            raise ArgumentError("point", "expected finite numbers (x, y, z in m, end frame)")
         return v[:, :3]
 
     def frames(self, q: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -205,9 +210,9 @@ class Kinematics:
                 also the derivative of the position with respect to the point.
                 With ``joints``, n_joints more columns: d position / d q.
         """
-        q = _joint_positions(q, self.chain.n_joints)
+        q = _joint_positions(q, self.chain.n_joints, finite=jacobian)
         point = np.asarray(point, dtype=float)
-        if point.shape != (3,) and point.shape != (len(q), 3) or not np.isfinite(point).all():
+        if point.shape != (3,) and point.shape != (len(q), 3) or jacobian and not np.isfinite(point).all():
             raise ArgumentError("point", f"expected 3 finite numbers (x, y, z in m, end frame) or one point per pose "
                                 f"({len(q)}, 3), got shape {point.shape}")
         if not jacobian:
@@ -235,9 +240,9 @@ class Kinematics:
         return _lever(rot, trans, reg, point)
 
 
-def _joint_positions(q: np.ndarray, n_joints: int) -> np.ndarray:
-    """q as a float array (n_poses, n_joints), finite (a cheap check: every cost
-    evaluation comes here).
+def _joint_positions(q: np.ndarray, n_joints: int, finite: bool = True) -> np.ndarray:
+    """q as a float array (n_poses, n_joints), finite unless ``finite`` is False (the
+    batched positions check their result instead: every cost evaluation comes here).
 
     Raises:
         ArgumentError: another shape, or a value that is not a finite number.
@@ -248,7 +253,7 @@ def _joint_positions(q: np.ndarray, n_joints: int) -> np.ndarray:
         raise ArgumentError("q", "expected joint positions as numbers [rad] (prismatic [m])") from None
     if q.ndim != 2 or q.shape[1] != n_joints:
         raise ArgumentError("q", f"expected shape (n_poses, {n_joints}) or ({n_joints},), got shape {q.shape}")
-    if not np.isfinite(q).all():
+    if finite and not np.isfinite(q).all():
         raise ArgumentError("q", "joint positions must be finite numbers (NaN or inf given)")
     return q
 
