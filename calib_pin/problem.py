@@ -89,6 +89,12 @@ class CalibrationProblem:
         return self.model.n_params
 
     @property
+    def nonnegative(self) -> tuple[int, ...]:
+        """Unknowns that must be >= 0 (the compliances), kept so by every estimator
+        (:func:`calib_pin.estimators.run_estimator`)."""
+        return self.model.nonnegative
+
+    @property
     def n_rows(self) -> int:
         """Data rows."""
         return len(self.readings)

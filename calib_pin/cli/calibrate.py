@@ -192,7 +192,7 @@ def _calibrate(args: argparse.Namespace) -> int:
                        progress=_announce, **_setup_options(args))
     out = Outputs(Path(args.out))
     report = build_report(result)
-    refused = (_unsupported(report) or result.sanity_error()) if result.kinematic else None
+    refused = (_unsupported(result, report) or result.sanity_error()) if result.kinematic else None
     notes: list[str] = []
     exports = _add_exports(out, result, args.export, notes) if result.kinematic and not refused else {}
     report["urdf"] = exports.get("urdf")
@@ -228,16 +228,27 @@ def _announce(setup: Any) -> None:
               "this can take minutes (Ctrl-C stops, writing nothing)", file=sys.stderr, flush=True)
 
 
-def _unsupported(report: dict[str, Any]) -> str | None:
-    """Why the training poses cannot support a URDF (their rank is below half the unknowns), or None;
-    the reason is added to ``report["warnings"]``."""
-    ident = report["identifiability"]
-    if 2 * ident["rank"] >= ident["unknowns"]:
-        return None
-    why = (f"the training poses identify only {ident['rank']} of {ident['unknowns']} directions "
-           "(identical or too few distinct poses?): no URDF written; measure more varied poses")
-    report["warnings"].append(why)
+def _unsupported(result: Any, report: dict[str, Any]) -> str | None:
+    """Why the training poses cannot calibrate anything (:func:`calib_pin.identifiability.support_error`),
+    or None; the reason is added to ``report["warnings"]``. A rank-deficient set is not refused."""
+    from ..identifiability import support_error
+
+    why = support_error(result.problem.subset(result.train))
+    if why:
+        report["warnings"].append(why)
     return why
+
+
+def compliance_cells(soft: dict[str, Any]) -> str:
+    """The compliances of report.json's ``compliance`` section for people: urad/Nm and the
+    stiffness in Nm/rad; a joint at zero is rigid (its stiffness is infinite, JSON null)."""
+    bounded = set(soft.get("bounded_at_zero", ()))
+    cells = []
+    for joint, c in soft["compliance_rad_per_Nm"].items():
+        k = soft["stiffness_Nm_per_rad"].get(joint)
+        stiff = f"stiffness {k:.3g} Nm/rad" if k is not None and c else "rigid"
+        cells.append(f"{joint} {c * 1e6:.1f} urad/Nm ({stiff}{', bounded at zero' if joint in bounded else ''})")
+    return ", ".join(cells)
 
 
 def _summary(result: Any, report: dict[str, Any]) -> None:
@@ -252,9 +263,7 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
     soft = report.get("compliance")
     if soft:
-        cells = ", ".join(f"{j} {c * 1e6:.1f} urad/Nm (stiffness {k:.3g} Nm/rad)" for (j, c), k
-                          in zip(soft["compliance_rad_per_Nm"].items(), soft["stiffness_Nm_per_rad"].values(), strict=True))
-        print(f"joint compliance: {cells}; deflection is not in the URDF")
+        print(f"joint compliance: {compliance_cells(soft)}; deflection is not in the URDF")
     est = result.estimate
     print(f"estimation: {est.time_s:.3f} s, {est.iterations} iterations ({est.message})")
     u = report["uncertainty"]
@@ -272,7 +281,7 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     after, before = result.metrics["train"]["after"], result.metrics["train"]["before"]
     if after.rmse_mm > before.rmse_mm:
         print("warning: the calibrated model fits the training poses worse than the nominal one")
-    for warning in result.warnings:
+    for warning in report["warnings"]:  # the result's own, and the report's (rank, bounded compliances)
         print(f"warning: {warning}")
     if not result.kinematic:
         print(f"no URDF written: {result.method} learns a correction of the measured values, which a URDF cannot hold")
