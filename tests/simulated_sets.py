@@ -3,8 +3,8 @@
 - :func:`small_wrist_cable`: a drawstring set of 120 poses with a small wrist (q4..q6 within
   +-0.3 deg) and base (q1 within +-2 deg) range, as a cable set measured in a tight corner
   of the workspace: with the anchor and the zero offset estimated it sees 10 of 28 directions.
-- :func:`ur5_grid`: 1 000 UR5 poses, one marker measured by a laser tracker, under the
-  placement model: 25 of 51 directions.
+- :func:`ur5_grid`: 1 000 UR5 poses (or fewer: 200 see the same), one marker measured by a
+  laser tracker, under the placement model: 25 of 51 directions.
 
 Both have sensor noise :data:`NOISE_MM` (1 sigma); a calibration of the identifiable
 subspace predicts their held-out rows at about that error.
@@ -49,7 +49,7 @@ def small_wrist_cable() -> str:
 
 @cache
 def ur5_grid(poses: int = 1000) -> str:
-    """CSV text of the UR5 laser-tracker set, one marker (placement model: 25 of 51)."""
+    """CSV text of the UR5 laser-tracker set of ``poses`` poses, one marker (placement model: 25 of 51)."""
     chain = load_chain("ur5")
     data, _ = simulate_positions(chain, parameter_model(chain, "placement"), poses, 2, noise_mm=NOISE_MM,
                                  markers_mm=((0.0, 0.0, 50.0),))

@@ -282,7 +282,7 @@ R3_COMPLIANCE: list[Case] = [
     (CAL, ["irb120", "--data", "c.csv", "--method", "lm", "--estimate", "anchor,offset", "--no-html"],
      {"c.csv": small_wrist_cable()}, 0, "identify only 10 of 28 directions"),
     (CAL, ["ur5", "--data", "u.csv", "--model", "placement", "--method", "lm", "--no-html"],
-     {"u.csv": ur5_grid()}, 0, "identify only 25 of 51 directions"),
+     {"u.csv": ur5_grid(200)}, 0, "identify only 25 of 51 directions"),
     # ... but a set that cannot calibrate anything is refused: one distinct pose
     (CAL, ["irb120", "--data", "same.csv", "--method", "lm", "--estimate", "anchor,offset"], {"same.csv": IDENTICAL},
      2, "1 distinct pose"),

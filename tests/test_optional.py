@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+import calib_pin
 from calib_pin.cli.calibrate import calibrate_main
 from calib_pin.optional import figures_or_warn
 
@@ -44,6 +45,7 @@ def test_broken_matplotlib_import_still_writes_the_calibration(tmp_path, monkeyp
     """An ImportError inside matplotlib: one warning line, no report.html, the rest written."""
     monkeypatch.setitem(sys.modules, "matplotlib.backends.backend_agg", None)  # import fails
     monkeypatch.delitem(sys.modules, "calib_pin.report_figures", raising=False)
+    monkeypatch.delattr(calib_pin, "report_figures", raising=False)  # imported anew, so it fails
     out = tmp_path / "o"
     assert calibrate_main([*ARGS, "--out", str(out)]) == 0
     err = capfd.readouterr().err
