@@ -94,7 +94,7 @@ class Fixed:
 
     def __getattr__(self, name: str) -> Any:
         """The full problem's data (``q``, ``points``, ``model``) for methods that read it."""
-        if name.startswith("__"):
+        if name.startswith("__") or name in ("problem", "free", "values"):  # not set yet (unpickling)
             raise AttributeError(name)
         return getattr(self.problem, name)
 
