@@ -105,10 +105,15 @@ def write_calibration(result: CalibrationResult, path: str | Path) -> Path:
     """Write the calibration file of ``result`` to ``path``.
 
     Raises:
-        CalibPinError: the method estimates no kinematic parameters (``rbf``).
+        CalibPinError: the method estimates no kinematic parameters (``rbf``), or a
+            compliance is negative (or NaN).
     """
     if not result.kinematic:
         raise CalibPinError(f"method '{result.method}' estimates no kinematic parameters: no calibration file")
+    model = result.problem.model
+    negative = [model.names[i] for i in model.nonnegative if not result.x[i] >= 0]
+    if negative:  # compensate would use it blindly
+        raise CalibPinError(f"{negative[0]} is negative (a compliance is >= 0): no calibration file written")
     path = Path(path)
     path.write_text(json.dumps(calibration_document(result), indent=2, allow_nan=False) + "\n", encoding="utf-8")
     return path

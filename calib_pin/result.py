@@ -119,6 +119,14 @@ class CalibrationResult:
         return for_humans(model.compliance(self.x), model.names[n:m], model.units[n:m])
 
     @property
+    def bounded_compliance(self) -> tuple[str, ...]:
+        """Joints whose compliance fitted negative and was fixed at zero (a compliance is
+        >= 0, see :mod:`calib_pin.estimators.active_set`); empty if none."""
+        spec = self.problem.model.compliance_spec
+        first = self.problem.model.n_robot
+        return tuple(spec.joints[i - first] for i in self.estimate.bounded) if spec is not None else ()
+
+    @property
     def kinematic(self) -> bool:
         """True when the method estimated kinematic parameters (all but ``rbf``)."""
         return self.estimate.kinematic
@@ -137,9 +145,13 @@ class CalibrationResult:
         return self.estimate.predict(self.problem.model, q, points)
 
     def sanity_error(self) -> str | None:
-        """Why the estimate may not be exported (a deviation, robot or sensor, beyond
-        SANITY_M / SANITY_RAD, naming the first), or None."""
+        """Why the estimate may not be exported (a negative compliance, or a deviation,
+        robot or sensor, beyond SANITY_M / SANITY_RAD, naming the first), or None."""
         model = self.problem.model
+        for i in model.nonnegative:
+            if not self.x[i] >= 0:
+                return (f"{model.names[i]} = {self.x[i] * 1e6:.3g} urad/Nm is negative (a joint cannot give way "
+                        "against its load): the calibration is not written")
         for value, name, unit in zip(self.x, model.names, model.units, strict=True):
             if unit not in ("m", "rad"):
                 continue  # compliances: see report.json's compliance section

@@ -321,7 +321,7 @@ def simulate_positions(
         q=q, values=positions, kind="position", robot=chain.name, end_frame=chain.end_frame,
         notes={"source": f"calib-pin position simulator, seed {seed}, noise {noise_mm:g} mm per axis"},
         pose_ids=np.repeat(np.arange(1, n_poses + 1), len(markers)),
-        point_ids=np.array(labels)[index], noise=noise_mm * 1e-3,
+        point_ids=np.array(labels)[index], noise=noise_mm * 1e-3 or None,  # noise-free: no sensor sigma to state
     )
     truth = Truth(x, tuple(params.names), tuple(params.units), truth_device, "position", noise_mm * 1e-3, seed,
                   compliance=compliance, compliance_values=soft if compliance else None)

@@ -140,7 +140,7 @@ CASES: list[Case] = [
     (SIM, ["irb120"], {}, 2, "--out"),
     (SIM, ["irb120", "--out", "s.csv", "--poses", "1e9"], {}, 2, "--poses"),
     (SIM, ["irb120", "--out", "s.csv", "--poses", "0"], {}, 2, "--poses"),
-    (SIM, ["irb120", "--out", "s.csv", "--noise-mm", "0"], {}, 2, "--noise-mm"),
+    (SIM, ["irb120", "--out", "s.csv", "--noise-mm", "0"], {}, 0, "noise 0 mm"),
     (SIM, ["irb120", "--out", "s.csv", "--noise-mm", "1e300"], {}, 2, "--noise-mm"),
     (SIM, ["irb120", "--out", "s.csv", "--noise-kind", "pink"], {}, 2, "--noise-kind"),
     (SIM, ["irb120", "--out", "s.csv", "--nominal-rmse-mm", "-1"], {}, 2, "--nominal-rmse-mm"),
@@ -271,7 +271,25 @@ R3_WRONG: list[Case] = [
 # ---------------------------------------------------------------------------
 # round 3 (issue 20), 2 and 3: compliance >= 0, rank-deficient sets calibrate, figures optional
 # ---------------------------------------------------------------------------
+from simulated_sets import small_wrist_cable, ur5_grid  # noqa: E402 (seeded rank-deficient sets)
+
+WU = (ROOT / "robots" / "irb120_wu2015.csv").read_text()
 R3_COMPLIANCE: list[Case] = [
+    # a compliance is >= 0: negative ones are bounded at zero and the fit repeated, the printout names them
+    (CAL, ["irb120", "--data", "w.csv", "--method", "lm", "--compliance", "all", "--no-html"], {"w.csv": WU}, 0,
+     "bounded at zero: joint_5"),
+    # rank deficiency is normal: the identifiable subspace is fitted, one warning line, outputs written
+    (CAL, ["irb120", "--data", "c.csv", "--method", "lm", "--estimate", "anchor,offset", "--no-html"],
+     {"c.csv": small_wrist_cable()}, 0, "identify only 10 of 28 directions"),
+    (CAL, ["ur5", "--data", "u.csv", "--model", "placement", "--method", "lm", "--no-html"],
+     {"u.csv": ur5_grid(200)}, 0, "identify only 25 of 51 directions"),
+    # ... but a set that cannot calibrate anything is refused: one distinct pose
+    (CAL, ["irb120", "--data", "same.csv", "--method", "lm", "--estimate", "anchor,offset"], {"same.csv": IDENTICAL},
+     2, "1 distinct pose"),
+    # noise 0: a noise-free simulation is fine; a Kalman filter's assumed sigma of 0 is not
+    (SIM, ["irb120", "--poses-file", "p.csv", "--seed", "1", "--noise-mm", "0", "--out", "truth.csv"],
+     {"p.csv": POSES}, 0, "noise 0 mm"),  # the README's dry run
+    (CAL, ["irb120", "--method", "lm", "--noise-mm", "0"], {}, 2, "Kalman"),
 ]
 
 

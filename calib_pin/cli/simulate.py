@@ -18,7 +18,6 @@ from .common import (
     count,
     finite,
     non_negative,
-    positive_float,
     run,
 )
 from .outputs import Outputs
@@ -35,7 +34,8 @@ def simulate_parser() -> argparse.ArgumentParser:
     )
     add_robot_arguments(p, "default 600,200,-100", "default 0,0,50")
     p.add_argument("--poses", type=count(MAX_POSES), default=120, help="number of poses (default 120)")
-    p.add_argument("--noise-mm", type=positive_float(100.0), default=0.05, help="reading noise, 1 sigma, mm (default 0.05)")
+    p.add_argument("--noise-mm", type=non_negative(float, 100.0), default=0.05,
+                   help="reading noise, 1 sigma, mm (default 0.05; 0: a noise-free set, e.g. the values of a dry run)")
     p.add_argument("--noise-kind", choices=NOISE_KINDS, default="gauss",
                    help="gauss, student (t, 3 dof, heavy tails) or outliers (gauss + 5%% gross errors "
                    "of 1-3 mm) (default gauss)")

@@ -161,6 +161,12 @@ class MeasurementModel(ABC):
     def n_params(self) -> int:
         return len(self.names)
 
+    @property
+    def nonnegative(self) -> tuple[int, ...]:
+        """Indices of the unknowns that must be >= 0: the joint compliances (a spring gives
+        way along its load, never against it); every estimator keeps them so."""
+        return tuple(range(self.n_robot, self.sensor_start))
+
     def robot(self, x: np.ndarray) -> np.ndarray:
         """The robot's deviations within x, shape (n_robot,)."""
         return np.asarray(x, dtype=float)[: self.n_robot]
