@@ -146,20 +146,20 @@ class Outputs:
     def _place(self, staged: list[tuple[Path, Path]]) -> None:
         """Rename each temporary file to its final name; on a failure, undo the ones done."""
         placed: list[tuple[Path, Path | None]] = []  # (final, backup of what it replaced)
-        path = staged[0][1] if staged else self.folder
+        current = self.folder
         try:
-            for tmp, path in staged:
-                backup = _keep(path) if self.force else None
+            for tmp, current in staged:
+                backup = _keep(current) if self.force else None
                 try:
                     if self.force:
-                        os.replace(tmp, path)
+                        os.replace(tmp, current)
                     else:
-                        _link_new(tmp, path)
+                        _link_new(tmp, current)
                 except BaseException:
                     if backup is not None:
                         _remove(backup)
                     raise
-                placed.append((path, backup))
+                placed.append((current, backup))
         except BaseException as e:
             for path, backup in reversed(placed):
                 with contextlib.suppress(OSError):
@@ -168,8 +168,7 @@ class Outputs:
                     else:
                         path.unlink()
             if isinstance(e, OSError):
-                where = e.filename if getattr(e, "filename", None) else path
-                raise OutputError(f"{where}: cannot rename into place: {e.strerror or e}; "
+                raise OutputError(f"{current}: cannot rename into place: {e.strerror or e}; "
                                   "no output was changed") from None
             raise
         for _, backup in placed:
@@ -184,8 +183,9 @@ def _sibling(path: Path, kind: str) -> Path:
 
 def _keep(path: Path) -> Path | None:
     """A second name for the file ``path`` replaces (a hard link; a copy where the
-    filesystem has none), to put it back if the commit fails; None if there is none."""
-    if not os.path.lexists(path):
+    filesystem has none), to put it back if the commit fails; None if there is none (or
+    it is a folder, which the rename then refuses)."""
+    if not os.path.lexists(path) or (path.is_dir() and not path.is_symlink()):
         return None
     backup = _sibling(path, "old")
     _remove(backup)
