@@ -112,7 +112,7 @@ def collect_parser() -> argparse.ArgumentParser:
     p.add_argument("--anchor-mm", type=xyz_mm, help="sensor point P0 in the base frame, x,y,z mm (written to the file)")
     p.add_argument("--tool-mm", type=xyz_mm, help="hook point in the end frame, x,y,z mm (written to the file)")
     _add_sensor_arguments(p)
-    add_force_argument(p, "the --save-profile file")
+    add_force_argument(p, "--save-profile file")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
     return p
 

@@ -55,7 +55,7 @@ def run(action: Callable[[], int], interrupted: str = "stopped by Ctrl-C: nothin
     except BrokenPipeError:
         return fail("standard output was closed (files already written are kept)")
     except MemoryError:
-        return fail("not enough memory for this size: ask for fewer poses or candidates")
+        return fail("not enough memory for this size: ask for fewer poses or candidates, or give a smaller file")
     except OSError as e:
         where = f"{e.filename}: " if getattr(e, "filename", None) else ""
         return fail(f"{where}{e.strerror or e}")

@@ -33,7 +33,7 @@ def compensate_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="corrected targets CSV (same columns, plus the remaining error)")
     p.add_argument("--with-cable", action="store_true",
                    help="keep the drawstring's pull of the calibration in the deflection (default: the arm without it)")
-    add_force_argument(p, "the --out file")
+    add_force_argument(p, "--out file")
     return p
 
 

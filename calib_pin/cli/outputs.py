@@ -34,10 +34,10 @@ class OutputError(CalibPinError):
     without ``--force``; or one that could not be written (nothing was then changed)."""
 
 
-def add_force_argument(p: argparse.ArgumentParser, what: str = "the output file") -> None:
+def add_force_argument(p: argparse.ArgumentParser, what: str = "output file") -> None:
     """``--force``: replace an existing output (never one of the command's inputs)."""
     p.add_argument("--force", action="store_true",
-                   help=f"replace {what} if it exists (without --force an existing file is refused; "
+                   help=f"replace an existing {what} (without --force an existing output is refused; "
                    "an output that is one of the command's inputs is refused even with --force)")
 
 

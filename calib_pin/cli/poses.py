@@ -27,7 +27,7 @@ def make_poses_parser() -> argparse.ArgumentParser:
                    help="keep this far inside every joint limit, deg (5)")
     p.add_argument("--end-frame", help="end frame (default tool0)")
     p.add_argument("--out", required=True, help="pose list CSV")
-    add_force_argument(p, "the --out file")
+    add_force_argument(p, "--out file")
     return p
 
 
@@ -85,7 +85,7 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--estimate", type=estimate_names, default=(),
                    help="sensor geometry that will be estimated too: anchor, offset or anchor,offset")
     p.add_argument("--out", required=True, help="pose list CSV")
-    add_force_argument(p, "the --out file")
+    add_force_argument(p, "--out file")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
     args = p.parse_args(argv)
     if args.candidates < args.n:

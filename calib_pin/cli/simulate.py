@@ -49,7 +49,7 @@ def simulate_parser() -> argparse.ArgumentParser:
     p.add_argument("--true-compliance-urad-per-nm", type=_values,
                    help="true compliance of each --compliance joint, comma-separated, urad/Nm (e.g. 25,40)")
     p.add_argument("--out", required=True, help="output CSV (FILE.truth.json is written beside it)")
-    add_force_argument(p, "FILE.csv and FILE.truth.json")
+    add_force_argument(p, "FILE.csv or FILE.truth.json")
     return p
 
 

@@ -206,7 +206,7 @@ def _read_locked(path: Path) -> tuple[int, bytes]:
     try:
         fd = os.open(path, os.O_RDWR | os.O_APPEND)
     except OSError as e:
-        raise DataError(str(path), f"cannot be read: {e.strerror or e}") from None
+        raise DataError(str(path), f"cannot be opened to read and append: {e.strerror or e}") from None
     _lock(fd, path)
     try:
         chunks: list[bytes] = []
