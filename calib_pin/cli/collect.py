@@ -172,9 +172,16 @@ def _wait(auto: float | None):
 
 
 def _start(session: Session, outputs: Outputs, args: argparse.Namespace) -> None:
-    """Write what the checks allowed: the --save-profile file, the session's header or cut."""
-    _save(outputs, args)
+    """Write what the checks allowed: the session's header or cut, the --save-profile file
+    (if that fails, a session file this run created is removed again)."""
+    new = session.new
     session.start()
+    try:
+        _save(outputs, args)
+    except BaseException:
+        if new:
+            session.discard()
+        raise
     if session.dropped:
         print(f"dropped an incomplete last line of {args.out} (a write cut short): {session.dropped!r}")
 

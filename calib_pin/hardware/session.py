@@ -73,7 +73,13 @@ class Session:
 
     @property
     def started(self) -> bool:
+        """Whether :meth:`start` has written what it had to (rows may be appended)."""
         return self._header is None and self._keep is None and self._fd is not None
+
+    @property
+    def new(self) -> bool:
+        """Whether the file does not exist yet (:meth:`start` creates it)."""
+        return self._header is not None
 
     def start(self) -> None:
         """Write what preparing only planned: a new file with its header (created
@@ -91,6 +97,14 @@ class Session:
             os.ftruncate(self._fd, self._keep)
             os.fsync(self._fd)
             self._keep = None
+
+    def discard(self) -> None:
+        """Remove a file this run created and has not written a row to (another output
+        of the run failed: all of them or none), and release it."""
+        if self._fd is not None and self.done == 0:
+            with contextlib.suppress(FileNotFoundError):
+                self.path.unlink()
+        self.close()
 
     def close(self) -> None:
         """Release the file and its lock."""
@@ -316,13 +330,15 @@ def append_row(session: Session, k: int, reading: StableReading) -> str:
     size = os.fstat(fd).st_size
     try:
         _write_all(fd, line.encode("utf-8"))
-    except OSError as e:
+    except BaseException as e:  # a full disk, or Ctrl-C mid-write: the row is not counted
         try:
             os.ftruncate(fd, size)
             os.fsync(fd)
             left = "the cut row was removed"
         except OSError:
             left = "the cut row is left unfinished (the next run drops it)"
+        if not isinstance(e, OSError):
+            raise
         raise SessionWriteError(
             f"{session.path}: cannot write pose {pid}: {e.strerror or e}; {left}; {session.done} of "
             f"{len(session.poses)} poses are saved: free disk space and run the same command to resume") from None
