@@ -50,8 +50,11 @@ def _same_file(a: Path, b: Path) -> bool:
     """Whether ``a`` and ``b`` name one file (either may not exist yet)."""
     try:
         return os.path.samefile(a, b)
-    except OSError:
-        return a.resolve() == b.resolve()
+    except (OSError, ValueError):
+        try:
+            return a.resolve() == b.resolve()
+        except (OSError, RuntimeError, ValueError):  # a symbolic link loop, a NUL in the name
+            return os.path.abspath(a) == os.path.abspath(b)
 
 
 def input_role(path: str | os.PathLike[str], inputs: Inputs) -> str | None:
