@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from .exceptions import CalibPinError, DataError
+from .input_files import check_regular
 from .measurements import MeasurementSet
 from .parameters import ParameterModel
 from .robot import Chain
@@ -139,6 +140,7 @@ class Truth:
             DataError: unreadable file, or deviations that do not match ``params``.
         """
         try:
+            check_regular(path)
             doc = json.loads(Path(path).read_text())
             kind = doc.get("data_kind", "cable")
             x = from_humans(doc["deviations"], params.names, params.units)

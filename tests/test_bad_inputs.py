@@ -250,7 +250,52 @@ CASES: list[Case] = [
 # ---------------------------------------------------------------------------
 # round 3 (issue 20), 1 and 5: outputs never overwritten or cut, messages that name the real cause
 # ---------------------------------------------------------------------------
+SIM5 = ["irb120", "--poses", "20", "--out", "s.csv"]
+MK5 = ["irb120", "--n", "5", "--out", "p.csv"]
+PLAN5 = ["irb120", "--n", "5", "--candidates", "40", "--out", "p.csv"]
+CMPN = "compensate"
+COMP = ["irb120", "--calibration", "c.json", "--targets", "t.csv", "--out", "x.csv"]
 R3_OUTPUTS: list[Case] = [
+    # an existing output is refused without --force, replaced with it; an input is never an output
+    (SIM, SIM5, {"s.csv": "old"}, 2, "s.csv exists: give --force to replace it"),
+    (SIM, SIM5, {"s.truth.json": "old"}, 2, "s.truth.json exists: give --force"),
+    (SIM, [*SIM5, "--force"], {"s.csv": "old", "s.truth.json": "old"}, 0, "wrote s.truth.json"),
+    (SIM, ["irb120", "--poses-file", "p.csv", "--out", "p.csv", "--force"], {"p.csv": POSES}, 2,
+     "p.csv is an input of this command (--poses-file)"),
+    (SIM, ["irb120", "--poses-file", "./s.truth.json", "--out", "s.csv", "--force"], {"s.truth.json": POSES}, 2,
+     "s.truth.json is an input of this command (--poses-file)"),
+    (SIM, ["r.urdf", "--out", "r.urdf", "--force"], {"r.urdf": URDF}, 2, "r.urdf is an input of this command (ROBOT)"),
+    (MK, MK5, {"p.csv": "old"}, 2, "p.csv exists: give --force to replace it"),
+    (MK, [*MK5, "--force"], {"p.csv": "old"}, 0, "wrote p.csv"),
+    (MK, ["r.urdf", "--out", "r.urdf", "--force"], {"r.urdf": URDF}, 2, "r.urdf is an input of this command"),
+    (MK, ["irb120", "--out", "p.csv", "--force"], {"p.csv/x": "x"}, 2, "p.csv is a folder"),
+    (PLAN, PLAN5, {"p.csv": "old"}, 2, "p.csv exists: give --force to replace it"),
+    (PLAN, [*PLAN5, "--force"], {"p.csv": "old"}, 0, "wrote p.csv"),
+    (PLAN, ["r.urdf", "--n", "5", "--candidates", "40", "--out", "r.urdf", "--force"], {"r.urdf": URDF}, 2,
+     "r.urdf is an input of this command"),
+    (CMPN, COMP, {"t.csv": POSES, "x.csv": "old"}, 2, "x.csv exists: give --force to replace it"),
+    (CMPN, [*COMP[:-1], "t.csv", "--force"], {"t.csv": POSES}, 2, "t.csv is an input of this command (--targets)"),
+    (CMPN, [*COMP[:-1], "c.json", "--force"], {"t.csv": POSES, "c.json": "{}"}, 2,
+     "c.json is an input of this command (--calibration)"),
+    (COL, [*COLLECT, "--save-profile", "prof.json"], {"p.csv": POSES, "prof.json": "{}"}, 2,
+     "prof.json exists: give --force to replace it"),
+    (COL, [*COLLECT, "--save-profile", "p.csv", "--force"], {"p.csv": POSES}, 2, "p.csv is an input of this command"),
+    (COL, [*COLLECT, "--save-profile", "o.csv", "--force"], {"p.csv": POSES}, 2, "o.csv is an input of this command (--out"),
+    (COL, [*COLLECT, "--profile", "s.json", "--save-profile", "s.json", "--force"], {"p.csv": POSES, "s.json": "{}"},
+     2, "s.json is an input of this command (--profile)"),
+    (COL, ["irb120", "--poses", "p.csv", "--out", "p.csv", *PORT], {"p.csv": POSES}, 2,
+     "p.csv is an input of this command (--poses)"),
+    # messages that name the real cause
+    (CAL, ["irb120", "--data", "/dev/zero"], {}, 2, "/dev/zero: is not a regular file"),
+    (SIM, [*SIM5, "--poses-file", "/dev/zero"], {}, 2, "/dev/zero: is not a regular file"),
+    (COL, ["irb120", "--poses", "/dev/zero", "--out", "o.csv", *PORT], {}, 2, "/dev/zero: is not a regular file"),
+    (COL, [*COLLECT, "--profile", "/dev/zero"], {"p.csv": POSES}, 2, "/dev/zero: is not a regular file"),
+    (CMPN, ["irb120", "--calibration", "/dev/zero", "--targets", "t.csv", "--out", "x.csv"], {"t.csv": POSES}, 2,
+     "/dev/zero: is not a regular file"),
+    (CAL, ["irb120", "--data", "a\nb.csv"], {}, 2, "a\\nb.csv: no such file"),
+    (CAL, ["irb120", "--data", "a\rb\x1b[2J.csv"], {}, 2, "a\\rb\\x1b[2J.csv"),
+    (CAL, ["irb120", "--method", "x\ny"], {}, 2, "x\\ny"),
+    (MK, ["irb120", "--out", "p\n.csv"], {"p\n.csv": "old"}, 2, "p\\n.csv exists"),
 ]
 
 

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import DataError
+from ..input_files import check_regular
 from ..robot.chain import Chain
 from .dataset import MeasurementSet
 
@@ -125,6 +126,8 @@ class _Parsed:
 
 def _read_text(path: Path, data: bytes | None = None) -> str:
     try:
+        if data is None:
+            check_regular(path)  # /dev/zero would be read for ever
         data = path.read_bytes() if data is None else data
     except FileNotFoundError:
         raise DataError(str(path), "no such file") from None
