@@ -305,7 +305,8 @@ def with_columns(text: str, names: str = "temp_C,sigma_mm,time") -> str:
     head = next(k for k, line in enumerate(lines) if not line.startswith("#"))
     lines[head] += "," + names
     for k in range(head + 1, len(lines)):
-        lines[k] += f",{20 + 0.1 * (k % 7):.1f},0.01{k % 9},2024-05-01T10:{k % 60:02d}:00"
+        pool = [f"{20 + 0.1 * (k % 7):.1f}", f"0.01{k % 9}", f"2024-05-01T10:{k % 60:02d}:00", f"T{k % 4}"]
+        lines[k] += "," + ",".join(pool[: len(names.split(","))])
     return "\n".join(lines) + "\n"
 
 

@@ -154,9 +154,13 @@ def _real_copy(path: Path, poses: range = range(36), new_label: str | None = Non
     return path
 
 
-def _numeric_copy(path: Path, poses: range) -> Path:
+def _numeric_copy(path: Path, poses: range, new_label: str | None = None) -> Path:
+    """The Wu set's poses ``poses`` as shipped (``new_label`` for marker 3)."""
     lines = WU2015.read_text().splitlines()
-    path.write_text("\n".join(lines[:5] + [r for r in lines[5:] if int(r.split(",")[0]) in poses]) + "\n")
+    rows = [r for r in lines[5:] if int(r.split(",")[0]) in poses]
+    if new_label:
+        rows = [r.replace(",3,", f",{new_label},", 1) for r in rows]
+    path.write_text("\n".join(lines[:5] + rows) + "\n")
     return path
 
 
@@ -192,9 +196,13 @@ def test_test_data_scores_string_labels_like_numbers(tmp_path):
                         test_data=_real_copy(tmp_path / "rv.csv", range(24, 36)))
     for stage in ("before", "after"):
         assert abs(real.metrics["test"][stage].rmse_mm - original.metrics["test"][stage].rmse_mm) < 1e-9
-    new = cp.calibrate("irb120", _real_copy(tmp_path / "rc.csv", range(24)), method="lm",
+    original = cp.calibrate("irb120", tmp_path / "c.csv", method="lm",
+                            test_data=_numeric_copy(tmp_path / "n.csv", range(24, 36), new_label="9"))
+    new = cp.calibrate("irb120", tmp_path / "rc.csv", method="lm",
                        test_data=_real_copy(tmp_path / "nv.csv", range(24, 36), new_label="Z9"))
-    assert new.metrics["test"]["after"].rmse_mm < 0.2 < new.metrics["test"]["before"].rmse_mm
+    for stage in ("before", "after"):  # marker Z9 (9) is located from its first row
+        assert abs(new.metrics["test"][stage].rmse_mm - original.metrics["test"][stage].rmse_mm) < 1e-9
+    assert new.metrics["test"]["after"].rmse_mm < new.metrics["test"]["before"].rmse_mm / 5
     assert any("(in nv.csv" in w for w in new.warnings)
 
 
