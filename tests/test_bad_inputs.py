@@ -362,8 +362,8 @@ R3_FILES: list[Case] = [
     # refused: mixed marker labels, separators or decimal marks
     (CAL, ["irb120", "--data", "w.csv"], {"w.csv": wu(labels={"1": "1", "2": "T2", "3": "3"})}, 2, "point_id"),
     (CAL, ["irb120", "--data", "w.csv"], {"w.csv": wu(labels={"1": "", "2": "T2", "3": "A"})}, 2, "w.csv:6: point_id"),
-    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": european(data()).replace(european(ROWS[5]), ROWS[5])}, 2,
-     "d.csv:13"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": european(data()).replace(european(ROWS[5]), ROWS[5] + "\n")}, 2,
+     "d.csv:13: has 1 field separated by ';'"),
     (CAL, ["irb120", "--data", "d.csv"], {"d.csv": european(data()).replace(european(ROWS[5]), european(ROWS[5]).replace(",", ".", 1))},
      2, "decimal"),
     (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], head=HEAD.replace("q3_deg,", "q3_deg;"))}, 2,

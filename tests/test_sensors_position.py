@@ -8,6 +8,7 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.cli.calibrate import calibrate_main
+from calib_pin.report import build_report
 from calib_pin.sensors import fit_device
 from calib_pin.simulation import random_poses
 
@@ -185,6 +186,9 @@ def test_string_labels_and_european_csv_calibrate_to_the_same_numbers(tmp_path):
     with pytest.raises(cp.DataError, match="point_id B is not a marker of this calibration .markers: A, SMR1, T2."):
         real.predict(q[:1], ["B"])
     assert any("ignored columns: temp_C, sigma_mm, time" in w for w in real.warnings)
+    report = build_report(real)
+    assert report["ignored_columns"] == ["temp_C", "sigma_mm", "time"] and list(report["markers_mm"]) == list(markers)
+    assert any("ignored columns" in w for w in report["warnings"]) and build_report(original)["ignored_columns"] == []
 
 
 def test_test_data_scores_string_labels_like_numbers(tmp_path):

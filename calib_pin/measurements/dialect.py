@@ -15,7 +15,6 @@
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -130,15 +129,17 @@ def decimal_mark(sep: str, override: Override, samples: Iterable[tuple[str, int,
 def number(text: str, path: Path | str, line: int | None, name: str, decimal: str = ".") -> float:
     """A finite decimal number written with decimal mark ``decimal``, or a DataError naming the place."""
     t = text.strip()
+    readable = decimal == "." or "." not in t
+    plain = t.replace(",", ".") if decimal == "," else t
+    if readable and _NUMBER.match(plain):
+        value = float(plain)
+        if abs(value) <= 1e12:  # also False for an exponent beyond float's range (inf)
+            return value
+        raise DataError(str(path), f"'{quote(text)}' is out of range", line, name)
     if t.lower().lstrip("+-") in ("nan", "inf", "infinity"):
         raise DataError(str(path), f"'{quote(text)}' is not a finite number", line, name)
-    value = as_number(t, decimal)
-    if value is None:
-        mark = "" if decimal == "." or "." not in t else " (this file's decimal mark is ',')"
-        raise DataError(str(path), f"'{quote(text)}' is not a number{mark}", line, name)
-    if not math.isfinite(value) or abs(value) > 1e12:
-        raise DataError(str(path), f"'{quote(text)}' is out of range", line, name)
-    return value
+    mark = " (this file's decimal mark is ',')" if decimal == "," and "." in t else ""
+    raise DataError(str(path), f"'{quote(text)}' is not a number{mark}", line, name)
 
 
 def as_number(text: str, decimal: str = ".") -> float | None:
