@@ -46,6 +46,9 @@ def test_predict_asks_for_point_ids_with_several_markers(chain, three_markers):
         result.predict(np.zeros((4, 6)))
     with pytest.raises(cp.CalibPinError, match=r"point_ids: 3 labels for 4 poses"):
         result.predict(np.zeros((4, 6)), [1, 2, 3])
+    with pytest.raises(cp.CalibPinError, match=r"point_id 1.5 is not a marker label"):
+        result.predict(np.zeros((1, 6)), [1.5])
+    np.testing.assert_array_equal(result.predict(np.zeros((2, 6)), ["2", 2.0]), result.predict(np.zeros((2, 6)), 2))
 
 
 @pytest.mark.parametrize(

@@ -129,15 +129,13 @@ def _metadata_line(parsed: _Parsed, stripped: str, path: Path, number_: int) -> 
             raise DataError(str(path), "metadata given twice", number_, key)
         parsed.override = dialect.parse_override(value, path, number_)
         return
-    base, _, unit = key.rpartition("_")
-    name = base if base in (*_VECTOR_KEYS, *_SCALAR_KEYS) and unit in ("mm", "m") else key
-    if any(name == seen or key == seen_key for _, seen_key, seen in
-           ((n, k, _meta_name(k)) for n, k, _ in parsed.raw_meta)):
+    if _meta_name(key) in {_meta_name(seen) for _, seen, _ in parsed.raw_meta}:  # anchor_mm and anchor_m too
         raise DataError(str(path), "metadata given twice", number_, key)
     parsed.raw_meta.append((number_, key, value))
 
 
 def _meta_name(key: str) -> str:
+    """What a metadata key sets: ``anchor`` for ``anchor_mm`` and ``anchor_m``, else the key."""
     base, _, unit = key.rpartition("_")
     return base if base in (*_VECTOR_KEYS, *_SCALAR_KEYS) and unit in ("mm", "m") else key
 

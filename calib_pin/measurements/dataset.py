@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -23,23 +22,14 @@ def point_label(value: Any) -> PointLabel:
         CalibPinError: anything else (a fraction, NaN, None, a list).
     """
     if isinstance(value, bool | np.bool_):
-        raise CalibPinError(f"point_id {value!r} is not a marker label (a whole number or a text label)")
+        raise CalibPinError(f"point_id {value} is not a marker label (a whole number or a text label)")
     if isinstance(value, int | np.integer):
         return int(value)
     if isinstance(value, float | np.floating) and float(value).is_integer():
         return int(value)
     if isinstance(value, str) and value.strip():
         return str(value).strip()
-    raise CalibPinError(f"point_id {value!r} is not a marker label (a whole number or a text label)")
-
-
-def label_array(labels: Iterable[PointLabel]) -> np.ndarray:
-    """Labels as the array a set's ``point_ids`` is: int when every label is a whole
-    number, else str (numpy's unicode dtype)."""
-    labels = list(labels)
-    if all(isinstance(v, int) for v in labels):
-        return np.array(labels, dtype=int)
-    return np.array([str(v) for v in labels], dtype=str)
+    raise CalibPinError(f"point_id {value} is not a marker label (a whole number or a text label)")
 
 
 @dataclass
