@@ -1,5 +1,6 @@
 """Position measurements: the model's Jacobian, the device fit, simulated and real data."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -229,3 +230,14 @@ def test_labelled_position_sets_round_trip(tmp_path, chain):
     assert back.point_ids.tolist() == data.point_ids.tolist()
     np.testing.assert_allclose(back.positions, data.positions, atol=1e-12)
     assert back.extra["time"].tolist() == data.extra["time"].tolist()
+
+
+def test_hand_made_sets_may_use_text_labels_but_not_mixed(chain, params, position_session):
+    """A MeasurementSet built in memory with text labels calibrates; numbers mixed with text are refused."""
+    data, _ = position_session
+    text = dataclasses.replace(data, point_ids=np.array([f"P{v}" for v in data.point_ids], dtype=object))
+    result = cp.calibrate("irb120", text, method="lm")
+    assert result.sensor.labels == ("P1", "P2", "P3")
+    mixed = dataclasses.replace(data, point_ids=np.array([v if v < 3 else "P3" for v in data.point_ids], dtype=object))
+    with pytest.raises(cp.DataError, match=r"point_id: mixes whole numbers \(1\) and text labels \(P3\)"):
+        cp.calibrate("irb120", mixed, method="lm")

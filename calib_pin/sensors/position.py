@@ -135,8 +135,7 @@ class PositionModel(MeasurementModel):
                 f"--estimate {','.join(options['estimate'])} is for drawstring data; with positions "
                 f"({data.source}) the device frame and the marker points are always estimated")
         assert data.point_ids is not None
-        unique, points = np.unique(data.point_ids, return_inverse=True)
-        labels = tuple(point_label(v) for v in unique)
+        labels, points = marker_labels(data.point_ids, data.source or "the measurement set")
         fit_rows = np.asarray(fit_rows, dtype=int)
         seen = set(points[fit_rows].tolist())
         missing = [label for k, label in enumerate(labels) if k not in seen]
@@ -177,9 +176,9 @@ class PositionModel(MeasurementModel):
         device = self.geometry_at(x)
         errors = []
         known = set(device.labels)
-        for value in np.unique(data.point_ids):
-            rows = np.flatnonzero(data.point_ids == value)
-            label = point_label(value)
+        session_labels, session_points = marker_labels(data.point_ids, data.source or "the measurement set")
+        for k, label in enumerate(session_labels):
+            rows = np.flatnonzero(session_points == k)
             if label in known or _other_form(label) in known:
                 index = int(device.index_of([label])[0])
                 point = device.markers[index]
@@ -285,6 +284,25 @@ class PositionModel(MeasurementModel):
 #: The device twist's linear columns of the lever (read only).
 _EYE3 = np.eye(3)
 _EYE3.setflags(write=False)
+
+
+def marker_labels(point_ids: np.ndarray, source: str = "") -> tuple[tuple[PointLabel, ...], np.ndarray]:
+    """The distinct marker labels of rows labelled ``point_ids`` (sorted) and each row's
+    index into them, shape (n_rows,).
+
+    Raises:
+        DataError: a value that is no label, or whole numbers mixed with text labels.
+    """
+    values = [point_label(v) for v in np.asarray(point_ids, dtype=object).reshape(-1)]
+    kinds = {type(v) for v in values}
+    if len(kinds) > 1:
+        number = next(v for v in values if isinstance(v, int))
+        text = next(v for v in values if isinstance(v, str))
+        raise DataError(source, f"mixes whole numbers ({number}) and text labels ({text}): use one kind",
+                        None, "point_id")
+    labels: list = sorted(set(values), key=lambda v: v)  # one kind: all int or all str
+    index = {label: k for k, label in enumerate(labels)}
+    return tuple(labels), np.array([index[v] for v in values], dtype=int)
 
 
 def _other_form(label: PointLabel) -> PointLabel | None:
