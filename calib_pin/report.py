@@ -105,6 +105,7 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         **_outliers(result),
         "split": {"train": result.train.tolist(), "test": result.test.tolist()},
         "warnings": list(result.warnings),
+        "ignored_columns": list(result.data.extra),  # the data's extra columns, read and kept, not used
         "residuals": _residuals(result),
         "identifiability_spectrum": _spectrum(result),
         "workspace_uncertainty": _workspace(result),

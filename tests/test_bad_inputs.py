@@ -341,7 +341,99 @@ R3_COMPLIANCE: list[Case] = [
 # ---------------------------------------------------------------------------
 # round 3 (issue 20), 3: real files (extra columns, string labels, ';' and decimal comma)
 # ---------------------------------------------------------------------------
+WU = (ROOT / "robots" / "irb120_wu2015.csv").read_text().splitlines()
+WU_META, WU_HEAD, WU_ROWS = WU[:4], WU[4], WU[5:]
+#: The Wu set's point_id labels as a lab might write them.
+WU_LABELS = {"1": "SMR1", "2": "T2", "3": "A"}
+FAST = ["--method", "lm", "--no-html"]
+
+
+def european(text: str) -> str:
+    """``text`` in the ';'/decimal-comma dialect: rows and numeric metadata (';' between numbers)."""
+    lines = []
+    for line in text.splitlines():
+        key, colon, value = line.partition(":")
+        if line.startswith("#") and colon and key.endswith(("_mm", "_m")):
+            lines.append(key + ":" + value.replace(",", ";").replace(".", ","))
+        elif not line.startswith("#"):
+            lines.append(line.replace(",", ";").replace(".", ","))
+        else:
+            lines.append(line)
+    return "\n".join(lines) + "\n"
+
+
+def with_columns(text: str, names: str = "temp_C,sigma_mm,time") -> str:
+    """``text`` with columns ``names`` after the last (a temperature, a standard deviation, a time stamp)."""
+    lines = text.splitlines()
+    head = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    lines[head] += "," + names
+    for k in range(head + 1, len(lines)):
+        pool = [f"{20 + 0.1 * (k % 7):.1f}", f"0.01{k % 9}", f"2024-05-01T10:{k % 60:02d}:00", f"T{k % 4}"]
+        lines[k] += "," + ",".join(pool[: len(names.split(","))])
+    return "\n".join(lines) + "\n"
+
+
+def wu(rows: range = range(0, 36), labels: dict[str, str] | None = None) -> str:
+    """The real Wu position set, poses ``rows`` only, its point_id relabelled by ``labels``."""
+    kept = [r for r in WU_ROWS if int(r.split(",", 1)[0]) in rows]
+    if labels:
+        kept = [swap(r, 1, labels[r.split(",")[1]]) for r in kept]
+    return "\n".join([*WU_META, WU_HEAD, *kept]) + "\n"
+
+
 R3_FILES: list[Case] = [
+    # accepted: extra columns are read past and reported
+    (CAL, ["irb120", "--data", "d.csv", *FAST], {"d.csv": with_columns(data())}, 0,
+     "ignored columns: temp_C, sigma_mm, time"),
+    (CAL, ["irb120", "--data", "d.csv", *FAST], {"d.csv": with_columns(data(), "label,comment,x_std_mm,Pose_1")}, 0,
+     "ignored columns: label, comment, x_std_mm, Pose_1"),
+    (CAL, ["irb120", "--data", "d.csv", *FAST], {"d.csv": csv(*(f"{k},{r}" for k, r in enumerate(ROWS[:40])),
+                                                               head="," + HEAD)}, 0, "ignored columns: column 1"),
+    # accepted: ';' with decimal commas, ';' with points, a trailing separator, the '# csv:' override
+    (CAL, ["irb120", "--data", "d.csv", *FAST], {"d.csv": european(data())}, 0, "40 poses from d.csv"),
+    (CAL, ["irb120", "--data", "d.csv", *FAST], {"d.csv": european(with_columns(data()))}, 0,
+     "ignored columns: temp_C, sigma_mm, time"),
+    (CAL, ["irb120", "--data", "d.csv", *FAST], {"d.csv": csv(*(r.replace(",", ";") for r in ROWS[:40]),
+                                                               head=HEAD.replace(",", ";"))}, 0, "40 poses from d.csv"),
+    (CAL, ["irb120", "--data", "d.csv", *FAST], {"d.csv": "\n".join(line if line.startswith("#") else line + ";"
+                                                                    for line in european(data()).splitlines())}, 0,
+     "40 poses from d.csv"),
+    (CAL, ["irb120", "--data", "d.csv", *FAST], {"d.csv": "# csv: sep=; decimal=,\n" + european(data())}, 0,
+     "40 poses from d.csv"),
+    (CAL, ["irb120", "--data", "d.csv", *FAST], {"d.csv": "\n".join(line.replace(",", "\t") if not line.startswith("#")
+                                                                    else line for line in data().splitlines())}, 0,
+     "40 poses from d.csv"),
+    # accepted: string marker labels, in the data and in a validation session
+    (CAL, ["irb120", "--data", "w.csv", *FAST], {"w.csv": wu(labels=WU_LABELS)}, 0, "108 rows at 36 poses from w.csv"),
+    (CAL, ["irb120", "--data", "w.csv", "--test-data", "v.csv", *FAST],
+     {"w.csv": wu(range(0, 26), WU_LABELS), "v.csv": european(with_columns(wu(range(26, 36), WU_LABELS)))}, 0,
+     "ignored columns: temp_C, sigma_mm, time (in v.csv"),
+    # refused: what looks like one of the known columns but is not one, or is one twice
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], head=HEAD.replace("length_mm", "lenght_mm"))}, 2,
+     "did you mean length_mm"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], head=HEAD.replace("length_mm", "length_cm"))}, 2,
+     "length_cm"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], head=HEAD.replace("length_mm", "Length"))}, 2,
+     "Length"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*(r + ",0" for r in ROWS[:40]), head=HEAD + ",q7_deg")}, 2,
+     "q7"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*(r + ",0" for r in ROWS[:40]), head=HEAD + ",q2_degrees")}, 2,
+     "q2_degrees"),
+    (CAL, ["irb120", "--data", "w.csv"], {"w.csv": wu().replace("pose,point_id,", "pose,pointid,")}, 2,
+     "did you mean point_id"),
+    (CAL, ["irb120", "--data", "w.csv"], {"w.csv": wu().replace("x_mm,y_mm,z_mm", "X,Y,Z")}, 2, "w.csv:5: X"),
+    # refused: mixed marker labels, separators or decimal marks
+    (CAL, ["irb120", "--data", "w.csv"], {"w.csv": wu(labels={"1": "1", "2": "T2", "3": "3"})}, 2, "point_id"),
+    (CAL, ["irb120", "--data", "w.csv"], {"w.csv": wu(labels={"1": "", "2": "T2", "3": "A"})}, 2, "w.csv:6: point_id"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": european(data()).replace(european(ROWS[5]), ROWS[5] + "\n")}, 2,
+     "d.csv:13: has 1 field separated by ';'"),
+    (CAL, ["irb120", "--data", "d.csv"],
+     {"d.csv": european(data()).replace(european(ROWS[5]), european(ROWS[5]).replace(",", ".", 1))}, 2,
+     "d.csv:13: q1_deg: decimal point in"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": csv(*ROWS[:40], head=HEAD.replace("q3_deg,", "q3_deg;"))}, 2,
+     "d.csv:7"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": "# csv: sep=, decimal=,\n" + data()}, 2, "d.csv:1: csv"),
+    (CAL, ["irb120", "--data", "d.csv"], {"d.csv": "# csv: sep=|\n" + data()}, 2, "d.csv:1: csv"),
 ]
 
 
