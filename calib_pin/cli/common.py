@@ -29,6 +29,14 @@ _NEGATIVE_VALUE = re.compile(r"^-\.?\d[\d.eE+\-,;\s]*$")
 _LIST_ACTIONS = (argparse._AppendAction, argparse._AppendConstAction, argparse._CountAction, argparse._ExtendAction)
 
 
+def one_line(text: str) -> str:
+    """``text`` with every control character escaped as ``repr`` does (``\\n``, ``\\x1b``):
+    a file name or a field may hold them, and an error message stays one line."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 class OneLineParser(argparse.ArgumentParser):
     """ArgumentParser whose errors are one line and exit 2, for every command.
 
@@ -43,7 +51,7 @@ class OneLineParser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
-        self.exit(BAD_INPUT_EXIT, f"{self.prog}: error: {message} (see --help)\n")
+        self.exit(BAD_INPUT_EXIT, f"{self.prog}: error: {one_line(message)} (see --help)\n")
 
     def parse_known_args(self, args: Sequence[str] | None = None,  # type: ignore[override]
                          namespace: argparse.Namespace | None = None) -> tuple[argparse.Namespace, list[str]]:
@@ -86,8 +94,8 @@ class OneLineParser(argparse.ArgumentParser):
 
 
 def fail(message: str) -> int:
-    """Print one error line on stderr; the bad-input exit status."""
-    print(f"error: {message}", file=sys.stderr)
+    """Print one error line on stderr (control characters escaped); the bad-input exit status."""
+    print(f"error: {one_line(message)}", file=sys.stderr)
     return BAD_INPUT_EXIT
 
 
@@ -104,7 +112,7 @@ def run(action: Callable[[], int], interrupted: str = "stopped by Ctrl-C: nothin
     except BrokenPipeError:
         return fail("standard output was closed (files already written are kept)")
     except MemoryError:
-        return fail("not enough memory for this size: ask for fewer poses or candidates")
+        return fail("not enough memory for this size: ask for fewer poses or candidates, or give a smaller file")
     except OSError as e:
         where = f"{e.filename}: " if getattr(e, "filename", None) else ""
         return fail(f"{where}{e.strerror or e}")
