@@ -72,3 +72,38 @@ def test_bad_settings():
         cp.compare("irb120", methods=["lm"], trials=0)
     with pytest.raises(cp.CalibPinError, match="unknown noise kind 'pink'"):
         cp.compare("irb120", methods=["lm"], simulate_noise="pink")
+
+
+def _compare_cli(tmp_path, env_extra=None, limit_bytes=None):
+    """``calib-pin compare`` on 30 simulated poses with lm into tmp_path/out, in a subprocess."""
+    import os
+    import resource
+    import signal
+    import subprocess
+    import sys
+
+    def full_disk():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
+
+    env = {**os.environ, **(env_extra or {})}
+    return subprocess.run([sys.executable, "-c", "import sys; from calib_pin.cli import main; sys.exit(main(sys.argv[1:]))",
+                           "compare", "irb120", "--simulate", "gauss", "--poses", "30", "--methods", "lm", "--out", "out"],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60,
+                          preexec_fn=full_disk if limit_bytes else None)
+
+
+def test_compare_on_a_full_disk_writes_all_outputs_or_none(tmp_path):
+    """Room for the tables but not the figures: no table is left without its figures."""
+    done = _compare_cli(tmp_path, limit_bytes=20_000)
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert done.returncode == 2 and len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
+    assert not (tmp_path / "out").exists() or list((tmp_path / "out").iterdir()) == []
+
+
+def test_compare_with_a_broken_matplotlib_warns_and_writes_the_tables(tmp_path):
+    done = _compare_cli(tmp_path, env_extra={"MPLBACKEND": "nonsense"})
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert done.returncode == 0, done.stderr
+    assert len(lines) == 1 and lines[0].startswith("warning: no figures") and "MPLBACKEND" in lines[0], done.stderr
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["table1.csv", "table1.md"]

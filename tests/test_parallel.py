@@ -1,0 +1,284 @@
+"""Parallel runs keep finished work and report their faults in one line.
+
+Each fault is made to happen: Ctrl-C (SIGINT to the process group, as a terminal sends
+it) after the first set or trial is kept, a joblib worker killed by SIGKILL, a plain TCP
+server given as the Dask scheduler, a scheduler without workers and a scheduler killed
+during the run. A test-only ``sitecustomize`` on ``PYTHONPATH`` slows a set down or
+kills its worker in the subprocess and in the worker processes it starts. Every
+process is stopped by its PID.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import socket
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+import calib_pin as cp
+
+#: Where a run keeps its finished sets or trials (in its output folder).
+CHECKPOINT_FOLDER = ".calib-pin-checkpoint"
+
+ROOT = Path(__file__).resolve().parent.parent
+
+#: Set names whose calibration the hook slows down (30 s) or whose worker it kills.
+HOOK_BATCH = """
+    import os, time
+    import calib_pin.pipeline as _pipeline
+    _calibrate = _pipeline.calibrate
+    def calibrate(robot, data, *args, **kwargs):
+        name = os.path.basename(str(data))
+        if name.startswith("slow"):
+            time.sleep(30)
+        if name.startswith("die"):
+            time.sleep(1.0)
+            os.kill(os.getpid(), 9)
+        return _calibrate(robot, data, *args, **kwargs)
+    _pipeline.calibrate = calibrate
+"""
+
+#: Trials of seed > 0 take 30 s.
+HOOK_COMPARE = """
+    import time
+    import calib_pin.comparison as _comparison
+    _trial = _comparison._trial
+    def slow_trial(setup, truth, methods, seed, *args, **kwargs):
+        if seed > 0:
+            time.sleep(30)
+        return _trial(setup, truth, methods, seed, *args, **kwargs)
+    _comparison._trial = slow_trial
+"""
+
+
+def _env(tmp_path: Path, hook: str | None) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    if hook is not None:
+        folder = tmp_path / "hook"
+        folder.mkdir(exist_ok=True)
+        (folder / "sitecustomize.py").write_text(textwrap.dedent(hook))
+        env["PYTHONPATH"] = str(folder)
+    return env
+
+
+#: ``calib-pin ARGS...`` in a subprocess.
+CLI = [sys.executable, "-c", "import sys; from calib_pin.cli import main; sys.exit(main(sys.argv[1:]))"]
+
+
+def _start(argv: list[str], tmp_path: Path, hook: str | None) -> subprocess.Popen:
+    return subprocess.Popen([*CLI, *argv], cwd=tmp_path, env=_env(tmp_path, hook),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def _finish(proc: subprocess.Popen, timeout: float = 30) -> tuple[int, str, str]:
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate()
+        pytest.fail(f"still running after {timeout} s: {err[-2000:]}")
+    return proc.returncode, out, err
+
+
+def _wait_for_kept(folder: Path, n: int, proc: subprocess.Popen, timeout: float = 15) -> None:
+    """Until ``n`` items are in the run's checkpoint (or fail, stopping ``proc``)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and proc.poll() is None:
+        if len(list((folder / CHECKPOINT_FOLDER).glob("*.json"))) >= n:
+            return
+        time.sleep(0.05)
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGKILL)
+    _, err = proc.communicate()
+    pytest.fail(f"no checkpoint of {n} item(s) in {folder}: {err[-2000:]}")
+
+
+def _lines(err: str) -> list[str]:
+    return [line for line in err.splitlines() if line.strip()]
+
+
+def _table(path: Path) -> list[dict[str, str]]:
+    """A CSV's rows without the wall-time columns."""
+    with path.open() as f:
+        return [{k: v for k, v in row.items() if not k.startswith("time_s")} for row in csv.DictReader(f)]
+
+
+@pytest.fixture(scope="module")
+def sets(tmp_path_factory, chain, params) -> list[Path]:
+    """Three simulated 30-pose sets (seeds 0-2)."""
+    folder = tmp_path_factory.mktemp("parallel_sets")
+    paths = []
+    for seed in range(3):
+        data, _ = cp.simulate(chain, params, 30, seed=seed, noise_mm=0.05)
+        path = folder / f"s{seed}.csv"
+        cp.write_measurements(path, data)
+        paths.append(path)
+    return paths
+
+
+def _copy_sets(sets: list[Path], folder: Path, names: list[str]) -> list[str]:
+    for path, name in zip(sets, names, strict=True):
+        (folder / f"{name}.csv").write_bytes(path.read_bytes())
+    return [f"{name}.csv" for name in names]
+
+
+def test_batch_ctrl_c_keeps_finished_sets_and_the_same_command_resumes(sets, tmp_path):
+    from calib_pin.cli.batch import batch_main
+
+    files = _copy_sets(sets, tmp_path, ["s0", "slow1", "slow2"])
+    argv = ["batch", *files, "--out", "out", "--method", "lm"]
+    proc = _start(argv, tmp_path, HOOK_BATCH)
+    _wait_for_kept(tmp_path / "out", 1, proc)
+    os.killpg(proc.pid, signal.SIGINT)
+    code, _, err = _finish(proc)
+    assert code == 130 and len(_lines(err)) == 1, err
+    assert "stopped by Ctrl-C: 1 of 3 set(s) kept in out" in err and "same command" in err, err
+    assert not (tmp_path / "out" / "summary.csv").exists()
+
+    resumed = subprocess.run([*CLI, *argv], cwd=tmp_path, env=_env(tmp_path, None),
+                             capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 0, resumed.stderr
+    assert "resuming out: 1 of 3 set(s) already done" in resumed.stdout
+    assert not (tmp_path / "out" / CHECKPOINT_FOLDER).exists()  # a complete run leaves no checkpoint
+
+    os.chdir(tmp_path)  # the uninterrupted run, here: the same summary and reports
+    try:
+        assert batch_main([*files, "--out", "ref", "--method", "lm"]) == 0
+    finally:
+        os.chdir(ROOT)
+    assert _table(tmp_path / "out" / "summary.csv") == _table(tmp_path / "ref" / "summary.csv")
+    for name in ("s0", "slow1", "slow2"):
+        assert (tmp_path / "out" / name / "irb120_calibrated.urdf").read_bytes() == \
+            (tmp_path / "ref" / name / "irb120_calibrated.urdf").read_bytes()
+
+
+def test_compare_ctrl_c_in_worker_processes_keeps_finished_trials_and_resumes(tmp_path):
+    from calib_pin.cli.compare import compare_main
+
+    argv = ["compare", "irb120", "--simulate", "gauss", "--poses", "30", "--methods", "lm", "--trials", "3",
+            "--out", "out", "--jobs", "2", "--quiet"]
+    proc = _start(argv, tmp_path, HOOK_COMPARE)
+    _wait_for_kept(tmp_path / "out", 1, proc, timeout=30)
+    os.killpg(proc.pid, signal.SIGINT)
+    code, _, err = _finish(proc)
+    assert code == 130 and len(_lines(err)) == 1, err
+    assert "stopped by Ctrl-C: 1 of 3 trial(s) kept in out" in err, err
+    assert not (tmp_path / "out" / "table1.csv").exists()
+
+    resumed = subprocess.run([*CLI, *argv[:-3], "--quiet"], cwd=tmp_path,
+                             env=_env(tmp_path, None), capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 0, resumed.stderr
+    assert "resuming out: 1 of 3 trial(s) already done" in resumed.stdout
+    assert not (tmp_path / "out" / CHECKPOINT_FOLDER).exists()
+    assert compare_main([*argv[1:-5], "--out", str(tmp_path / "ref"), "--quiet"]) == 0
+    assert _table(tmp_path / "out" / "table1.csv") == _table(tmp_path / "ref" / "table1.csv")
+
+
+def test_a_killed_joblib_worker_is_one_line_and_keeps_the_finished_sets(sets, tmp_path):
+    files = _copy_sets(sets, tmp_path, ["s0", "s1", "die2"])
+    argv = ["batch", *files, "--out", "out", "--method", "lm", "--jobs", "2"]
+    code, out, err = _finish(_start(argv, tmp_path, HOOK_BATCH), timeout=60)
+    assert code == 2 and len(_lines(err)) == 1, err
+    assert "worker process died" in err and "2 of 3 set(s) kept in out" in err, err
+    assert len(list((tmp_path / "out" / CHECKPOINT_FOLDER).glob("*.json"))) == 2
+    resumed = subprocess.run([*CLI, *argv[:-2]], cwd=tmp_path,
+                             env=_env(tmp_path, None), capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 0, resumed.stderr
+    assert "resuming out: 2 of 3 set(s) already done" in resumed.stdout
+    assert [row["status"] for row in _table(tmp_path / "out" / "summary.csv")] == ["ok"] * 3
+
+
+#: The scheduler's answer is awaited 1 s in the tests (the default is longer).
+HOOK_ANSWER = """
+    import calib_pin.parallel as _parallel
+    _parallel.ANSWER_TIMEOUT_S = 1.0
+"""
+
+
+def test_a_tcp_server_that_is_not_a_dask_scheduler_is_one_line_within_seconds(sets, tmp_path):
+    pytest.importorskip("distributed")
+    server = socket.socket()
+    try:
+        server.bind(("127.0.0.1", 0))
+        server.listen()
+        address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+        start = time.monotonic()
+        code, _, err = _finish(_start(["batch", str(sets[0]), "--out", "out", "--scheduler", address],
+                                      tmp_path, HOOK_ANSWER), timeout=20)
+    finally:
+        server.close()
+    assert time.monotonic() - start < 15
+    assert code == 2 and len(_lines(err)) == 1, err
+    assert f"{address} is not a Dask scheduler" in err, err
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class _Scheduler:
+    """A ``dask scheduler`` subprocess on 127.0.0.1 without workers; its log lines kept."""
+
+    def __init__(self) -> None:
+        self.port = _free_port()
+        self.address = f"tcp://127.0.0.1:{self.port}"
+        self.proc = subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1", "--port",
+                                      str(self.port), "--dashboard-address", ":0", "--no-show"],
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        self.log: list[str] = []
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        assert self.proc.stderr is not None
+        for line in self.proc.stderr:
+            self.log.append(line)
+
+    def wait_for(self, text: str, timeout: float = 20) -> None:
+        deadline = time.monotonic() + timeout
+        while not any(text in line for line in self.log):
+            if time.monotonic() > deadline or self.proc.poll() is not None:
+                pytest.fail(f"the scheduler did not log '{text}': {''.join(self.log)[-2000:]}")
+            time.sleep(0.05)
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+
+
+def test_dask_scheduler_without_workers_and_killed_scheduler_are_one_line(sets, tmp_path):
+    pytest.importorskip("distributed")
+    from calib_pin.batch import ParallelFault, parallel_map
+
+    scheduler = _Scheduler()
+    try:
+        scheduler.wait_for("Scheduler at:")
+        start = time.monotonic()
+        with pytest.raises(ParallelFault, match=f"no Dask worker is connected to the scheduler at {scheduler.address}"):
+            parallel_map(abs, [1, 2], scheduler=scheduler.address, worker_wait_s=1.0)
+        assert time.monotonic() - start < 10
+
+        proc = _start(["batch", str(sets[0]), "--out", "out", "--scheduler", scheduler.address], tmp_path, None)
+        try:
+            scheduler.wait_for("Receive client connection", timeout=20)
+            time.sleep(0.3)
+            scheduler.kill()
+            code, _, err = _finish(proc, timeout=30)
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+    finally:
+        scheduler.kill()
+    assert code == 2 and len(_lines(err)) == 1, err
+    assert f"the Dask scheduler at {scheduler.address} died or is unreachable" in err, err
