@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -171,7 +172,7 @@ def test_a_rerun_leaves_no_earlier_output_beside_a_set_that_now_fails(sets, tmp_
     from calib_pin.cli.batch import batch_main
 
     broken, refused = tmp_path / "arm.csv", tmp_path / "arm_b.csv"
-    text = open(sets[0][0].data).read()
+    text = Path(sets[0][0].data).read_text()
     broken.write_text(text)
     refused.write_text(text)
     out = tmp_path / "out"
@@ -204,7 +205,7 @@ def test_rerun_keys_depend_on_inputs_and_options(sets, tmp_path):
     from calib_pin.batch import task_key
 
     path = tmp_path / "k.csv"
-    path.write_bytes(open(sets[0][0].data, "rb").read())
+    path.write_bytes(Path(sets[0][0].data).read_bytes())
     task = BatchTask("irb120", str(path), "lm", 0, {"test_fraction": 0.2})
     key = task_key(task)
     assert task_key(BatchTask("irb120", str(path), "lm", 0, {"test_fraction": 0.2})) == key

@@ -98,7 +98,8 @@ def test_compare_on_a_full_disk_writes_all_outputs_or_none(tmp_path):
     done = _compare_cli(tmp_path, limit_bytes=20_000)
     lines = [line for line in done.stderr.splitlines() if line.strip()]
     assert done.returncode == 2 and len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
-    assert not (tmp_path / "out").exists() or list((tmp_path / "out").iterdir()) == []
+    assert "File too large: nothing was written; 1 of 1 trial(s) kept in out" in lines[0], done.stderr
+    assert [p.name for p in (tmp_path / "out").iterdir()] == [".calib-pin-checkpoint"]  # the trial, for a rerun
 
 
 def test_compare_with_a_broken_matplotlib_warns_and_writes_the_tables(tmp_path):

@@ -11,6 +11,7 @@ process is stopped by its PID.
 from __future__ import annotations
 
 import csv
+import json
 import os
 import signal
 import socket
@@ -32,15 +33,17 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: Set names whose calibration the hook slows down (30 s) or whose worker it kills.
 HOOK_BATCH = """
-    import os, time
+    import glob, os, time
     import calib_pin.pipeline as _pipeline
     _calibrate = _pipeline.calibrate
     def calibrate(robot, data, *args, **kwargs):
         name = os.path.basename(str(data))
         if name.startswith("slow"):
             time.sleep(30)
-        if name.startswith("die"):
-            time.sleep(1.0)
+        if name.startswith("die"):  # once the other sets are kept: the worker dies by SIGKILL
+            deadline = time.monotonic() + 20
+            while len(glob.glob("out/.calib-pin-checkpoint/*.json")) < 2 and time.monotonic() < deadline:
+                time.sleep(0.02)
             os.kill(os.getpid(), 9)
         return _calibrate(robot, data, *args, **kwargs)
     _pipeline.calibrate = calibrate
@@ -130,94 +133,94 @@ def _copy_sets(sets: list[Path], folder: Path, names: list[str]) -> list[str]:
     return [f"{name}.csv" for name in names]
 
 
-def test_batch_ctrl_c_keeps_finished_sets_and_the_same_command_resumes(sets, tmp_path):
+def test_batch_ctrl_c_keeps_finished_sets_and_the_same_command_resumes(sets, tmp_path, monkeypatch, capsys):
     from calib_pin.cli.batch import batch_main
 
     files = _copy_sets(sets, tmp_path, ["s0", "slow1", "slow2"])
-    argv = ["batch", *files, "--out", "out", "--method", "lm"]
-    proc = _start(argv, tmp_path, HOOK_BATCH)
+    argv = [*files, "--out", "out", "--method", "lm"]
+    proc = _start(["batch", *argv], tmp_path, HOOK_BATCH)
     _wait_for_kept(tmp_path / "out", 1, proc)
     os.killpg(proc.pid, signal.SIGINT)
     code, _, err = _finish(proc)
     assert code == 130 and len(_lines(err)) == 1, err
-    assert "stopped by Ctrl-C: 1 of 3 set(s) kept in out" in err and "same command" in err, err
+    assert "stopped by Ctrl-C: 1 of 3 set(s) kept in out; run the same command to resume" in err, err
     assert not (tmp_path / "out" / "summary.csv").exists()
 
-    resumed = subprocess.run([*CLI, *argv], cwd=tmp_path, env=_env(tmp_path, None),
-                             capture_output=True, text=True, timeout=60)
-    assert resumed.returncode == 0, resumed.stderr
-    assert "resuming out: 1 of 3 set(s) already done" in resumed.stdout
+    monkeypatch.chdir(tmp_path)  # the same command again (here, without the slow sets), then an uninterrupted run
+    assert batch_main(argv) == 0
+    assert "resuming out: 1 of 3 set(s) already done" in capsys.readouterr().out
     assert not (tmp_path / "out" / CHECKPOINT_FOLDER).exists()  # a complete run leaves no checkpoint
-
-    os.chdir(tmp_path)  # the uninterrupted run, here: the same summary and reports
-    try:
-        assert batch_main([*files, "--out", "ref", "--method", "lm"]) == 0
-    finally:
-        os.chdir(ROOT)
+    assert batch_main([*files, "--out", "ref", "--method", "lm"]) == 0
+    assert "resuming" not in capsys.readouterr().out
     assert _table(tmp_path / "out" / "summary.csv") == _table(tmp_path / "ref" / "summary.csv")
     for name in ("s0", "slow1", "slow2"):
         assert (tmp_path / "out" / name / "irb120_calibrated.urdf").read_bytes() == \
             (tmp_path / "ref" / name / "irb120_calibrated.urdf").read_bytes()
+        reports = [json.loads((tmp_path / o / name / "report.json").read_text()) for o in ("out", "ref")]
+        for report in reports:
+            report.pop("time_s", None)
+            report.pop("urdf")
+        assert reports[0] == reports[1]
 
 
-def test_compare_ctrl_c_in_worker_processes_keeps_finished_trials_and_resumes(tmp_path):
+def test_compare_ctrl_c_keeps_finished_trials_and_the_same_command_resumes(tmp_path, monkeypatch, capsys):
     from calib_pin.cli.compare import compare_main
 
-    argv = ["compare", "irb120", "--simulate", "gauss", "--poses", "30", "--methods", "lm", "--trials", "3",
-            "--out", "out", "--jobs", "2", "--quiet"]
-    proc = _start(argv, tmp_path, HOOK_COMPARE)
-    _wait_for_kept(tmp_path / "out", 1, proc, timeout=30)
+    argv = ["irb120", "--simulate", "gauss", "--poses", "30", "--methods", "lm", "--trials", "3", "--quiet"]
+    proc = _start(["compare", *argv, "--out", "out"], tmp_path, HOOK_COMPARE)
+    _wait_for_kept(tmp_path / "out", 1, proc)
     os.killpg(proc.pid, signal.SIGINT)
     code, _, err = _finish(proc)
     assert code == 130 and len(_lines(err)) == 1, err
-    assert "stopped by Ctrl-C: 1 of 3 trial(s) kept in out" in err, err
-    assert not (tmp_path / "out" / "table1.csv").exists()
+    assert "stopped by Ctrl-C: 1 of 3 trial(s) kept in out; run the same command to resume" in err, err
+    assert list((tmp_path / "out").iterdir()) == [tmp_path / "out" / CHECKPOINT_FOLDER]
 
-    resumed = subprocess.run([*CLI, *argv[:-3], "--quiet"], cwd=tmp_path,
-                             env=_env(tmp_path, None), capture_output=True, text=True, timeout=60)
-    assert resumed.returncode == 0, resumed.stderr
-    assert "resuming out: 1 of 3 trial(s) already done" in resumed.stdout
+    monkeypatch.chdir(tmp_path)
+    assert compare_main([*argv, "--out", "out"]) == 0
+    assert "resuming out: 1 of 3 trial(s) already done" in capsys.readouterr().out
     assert not (tmp_path / "out" / CHECKPOINT_FOLDER).exists()
-    assert compare_main([*argv[1:-5], "--out", str(tmp_path / "ref"), "--quiet"]) == 0
+    assert compare_main([*argv, "--out", "ref"]) == 0
     assert _table(tmp_path / "out" / "table1.csv") == _table(tmp_path / "ref" / "table1.csv")
+    assert {p.name for p in (tmp_path / "out").iterdir()} == {p.name for p in (tmp_path / "ref").iterdir()}
 
 
-def test_a_killed_joblib_worker_is_one_line_and_keeps_the_finished_sets(sets, tmp_path):
+def test_a_killed_joblib_worker_is_one_line_and_keeps_the_finished_sets(sets, tmp_path, monkeypatch, capsys):
+    from calib_pin.cli.batch import batch_main
+
     files = _copy_sets(sets, tmp_path, ["s0", "s1", "die2"])
-    argv = ["batch", *files, "--out", "out", "--method", "lm", "--jobs", "2"]
-    code, out, err = _finish(_start(argv, tmp_path, HOOK_BATCH), timeout=60)
+    argv = [*files, "--out", "out", "--method", "lm"]
+    code, out, err = _finish(_start(["batch", *argv, "--jobs", "2"], tmp_path, HOOK_BATCH), timeout=60)
     assert code == 2 and len(_lines(err)) == 1, err
-    assert "worker process died" in err and "2 of 3 set(s) kept in out" in err, err
+    assert "a local worker process died (exit SIGKILL" in err and "2 of 3 set(s) kept in out" in err, err
     assert len(list((tmp_path / "out" / CHECKPOINT_FOLDER).glob("*.json"))) == 2
-    resumed = subprocess.run([*CLI, *argv[:-2]], cwd=tmp_path,
-                             env=_env(tmp_path, None), capture_output=True, text=True, timeout=60)
-    assert resumed.returncode == 0, resumed.stderr
-    assert "resuming out: 2 of 3 set(s) already done" in resumed.stdout
+    monkeypatch.chdir(tmp_path)
+    assert batch_main(argv) == 0
+    assert "resuming out: 2 of 3 set(s) already done" in capsys.readouterr().out
     assert [row["status"] for row in _table(tmp_path / "out" / "summary.csv")] == ["ok"] * 3
 
 
-#: The scheduler's answer is awaited 1 s in the tests (the default is longer).
-HOOK_ANSWER = """
-    import calib_pin.parallel as _parallel
-    _parallel.ANSWER_TIMEOUT_S = 1.0
-"""
-
-
-def test_a_tcp_server_that_is_not_a_dask_scheduler_is_one_line_within_seconds(sets, tmp_path):
+def test_a_tcp_server_that_is_not_a_dask_scheduler_is_one_line_within_seconds(sets, tmp_path, monkeypatch, capfd):
     pytest.importorskip("distributed")
+    import calib_pin.parallel
+    from calib_pin.cli.batch import batch_main
+
+    monkeypatch.setattr(calib_pin.parallel, "ANSWER_TIMEOUT_S", 0.5)
     server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    status: list[int] = []
+    run = threading.Thread(target=lambda: status.append(batch_main([str(sets[0]), "--out", str(tmp_path / "o"),
+                                                                     "--scheduler", address])), daemon=True)
     try:
-        server.bind(("127.0.0.1", 0))
-        server.listen()
-        address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
-        start = time.monotonic()
-        code, _, err = _finish(_start(["batch", str(sets[0]), "--out", "out", "--scheduler", address],
-                                      tmp_path, HOOK_ANSWER), timeout=20)
+        run.start()
+        run.join(timeout=10)  # it hung for ever
     finally:
         server.close()
-    assert time.monotonic() - start < 15
-    assert code == 2 and len(_lines(err)) == 1, err
-    assert f"{address} is not a Dask scheduler" in err, err
+    assert not run.is_alive(), "still waiting for the server after 10 s"
+    err = capfd.readouterr().err
+    assert status == [2] and len(_lines(err)) == 1, err
+    assert f"{address} is not a Dask scheduler: it accepts connections but gave no Dask answer within 0.5 s" in err
 
 
 def _free_port() -> int:
@@ -243,9 +246,12 @@ class _Scheduler:
         for line in self.proc.stderr:
             self.log.append(line)
 
-    def wait_for(self, text: str, timeout: float = 20) -> None:
+    def seen(self, text: str) -> int:
+        return sum(text in line for line in self.log)
+
+    def wait_for(self, text: str, timeout: float = 20, times: int = 1) -> None:
         deadline = time.monotonic() + timeout
-        while not any(text in line for line in self.log):
+        while self.seen(text) < times:
             if time.monotonic() > deadline or self.proc.poll() is not None:
                 pytest.fail(f"the scheduler did not log '{text}': {''.join(self.log)[-2000:]}")
             time.sleep(0.05)
@@ -268,9 +274,10 @@ def test_dask_scheduler_without_workers_and_killed_scheduler_are_one_line(sets, 
             parallel_map(abs, [1, 2], scheduler=scheduler.address, worker_wait_s=1.0)
         assert time.monotonic() - start < 10
 
+        clients = scheduler.seen("Receive client connection")
         proc = _start(["batch", str(sets[0]), "--out", "out", "--scheduler", scheduler.address], tmp_path, None)
         try:
-            scheduler.wait_for("Receive client connection", timeout=20)
+            scheduler.wait_for("Receive client connection", timeout=20, times=clients + 1)
             time.sleep(0.3)
             scheduler.kill()
             code, _, err = _finish(proc, timeout=30)

@@ -1,4 +1,11 @@
-"""``compare``: the estimators side by side (the paper's Table I, Fig. 2 and Fig. 3)."""
+"""``compare``: the estimators side by side (the paper's Table I, Fig. 2 and Fig. 3).
+
+Writes table1.csv, table1.md, fig2_residuals.png and fig3_convergence.png all together
+or none (:class:`~calib_pin.cli.outputs.Outputs`); the figures are optional: without a
+working matplotlib one warning line, and the tables. Each finished trial is kept in
+``OUT/.calib-pin-checkpoint`` as it finishes: after Ctrl-C (exit 130, one line) or a
+worker fault the same command runs only the trials not yet done, and says so.
+"""
 
 from __future__ import annotations
 
@@ -6,11 +13,13 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from ..estimators import PAPER_METHODS
 from ..progress import quiet_progress
 from ..simulation import NOISE_KINDS
 from .common import (
+    INTERRUPTED_EXIT,
     OneLineParser,
     add_compliance_arguments,
     compliance_options,
@@ -22,6 +31,7 @@ from .common import (
     positive_float,
     run,
 )
+from .outputs import Outputs
 
 #: Most trials one comparison may run.
 MAX_TRIALS = 100_000
@@ -66,27 +76,73 @@ def compare_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _compare(args: argparse.Namespace, argv: list[str]) -> int:
+    from ..checkpoint import Checkpoint, Interrupted
     from ..comparison import compare
-    from ..figures import convergence_figure, residual_figure
+    from ..exceptions import CalibPinError
 
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CalibPinError(f"{out}: the output folder is a file")
     if args.trials >= 10:
         print(f"comparing {len(args.methods)} methods over {args.trials} trials; this can take long "
-              "(Ctrl-C stops, writing nothing)", file=sys.stderr, flush=True)
-    result = compare(
-        args.robot, args.data, methods=args.methods, trials=args.trials, seed=args.seed,
-        test_fraction=args.test_fraction, simulate_noise=args.simulate,
-        noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
-        **compliance_options(args),
-    )
-    out = Path(args.out)
-    print(result.format_table())
-    command = "python scripts/compare.py " + " ".join(argv)
-    written = [
-        result.write_csv(out / "table1.csv"),
-        result.write_markdown(out / "table1.md", command),
-        residual_figure(result, out / "fig2_residuals.png"),
-        convergence_figure(result, out / "fig3_convergence.png"),
-    ]
+              "(Ctrl-C stops; the finished trials are kept and the same command resumes)", file=sys.stderr, flush=True)
+    try:
+        result = compare(
+            args.robot, args.data, methods=args.methods, trials=args.trials, seed=args.seed,
+            test_fraction=args.test_fraction, simulate_noise=args.simulate,
+            noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
+            checkpoint=out, notify=lambda line: print(line, flush=True), **compliance_options(args),
+        )
+        print(result.format_table())
+        command = "python scripts/compare.py " + " ".join(argv)
+        written = _write(result, out, command)
+    except Interrupted as e:
+        print(f"\n{e}", file=sys.stderr)
+        return INTERRUPTED_EXIT
+    except KeyboardInterrupt:  # after the trials: while writing, which leaves nothing
+        kept = Checkpoint(out, "trial").kept(args.trials, args.trials)
+        print(f"\nstopped by Ctrl-C while writing: nothing was written; {kept}", file=sys.stderr)
+        return INTERRUPTED_EXIT
+    except OSError as e:  # a full disk while writing: nothing was written, the trials are kept
+        raise Checkpoint(out, "trial").unwritten(e, args.trials) from None
+    Checkpoint(out).clear()
     for path in written:
         print(f"wrote {path}")
     return 0
+
+
+def _write(result: Any, out: Path, command: str) -> list[Path]:
+    """Write the tables and the figures together, or none; without a working matplotlib
+    (not installed, broken, a bad MPLBACKEND) warn in one line and write the tables."""
+    tables = [(out / "table1.csv", lambda tmp: result.write_csv(tmp)),
+              (out / "table1.md", lambda tmp: result.write_markdown(tmp, command))]
+    try:
+        from ..figures import convergence_figure, residual_figure
+    except Exception as e:  # noqa: BLE001 - the figures are optional: whatever breaks matplotlib, say it
+        _no_figures(e)
+        return _commit(out, tables)
+    figures = [(out / "fig2_residuals.png", lambda tmp: residual_figure(result, tmp)),
+               (out / "fig3_convergence.png", lambda tmp: convergence_figure(result, tmp))]
+    try:
+        return _commit(out, tables + figures)
+    except (OSError, MemoryError):
+        raise  # a full disk: nothing was written (one line from run)
+    except Exception as e:  # noqa: BLE001 - drawing failed: the tables alone
+        _no_figures(e)
+        return _commit(out, tables)
+
+
+def _no_figures(error: BaseException) -> None:
+    """The one warning line for figures that cannot be drawn."""
+    from ..parallel import one_line
+
+    print(f"warning: no figures: matplotlib does not work here ({one_line(error)}); check MPLBACKEND "
+          "or pip install 'calib-pin[plots]'; the tables are written", file=sys.stderr)
+
+
+def _commit(out: Path, files: list) -> list[Path]:
+    """Write ``files`` ((path, write(tmp)) pairs) all together, or none."""
+    outputs = Outputs(out)
+    for path, write in files:
+        outputs.add(path, write)
+    return outputs.commit()
