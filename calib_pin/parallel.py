@@ -193,7 +193,10 @@ def _dask_result(distributed: Any, future: Any, scheduler: str) -> Any:
     except CalibPinError:
         raise
     except distributed.KilledWorker as e:
-        raise ParallelFault(f"Dask workers of the scheduler at {scheduler} died running a task ({one_line(e)})") from None
+        tries = re.search(r"on (\d+) different workers", str(e))
+        raise ParallelFault(f"Dask workers of the scheduler at {scheduler} died running a task: it was tried on "
+                            f"{tries.group(1) if tries else 'several'} workers and each died (killed, out of memory "
+                            "or crashed; the worker logs say why)") from None
     except Exception as e:  # noqa: BLE001 - a cluster's failure is one line, not a traceback
         if future.status == "cancelled":
             raise ParallelFault(f"the Dask scheduler at {scheduler} died or is unreachable: "

@@ -75,7 +75,7 @@ def test_bad_settings():
 
 
 def _compare_cli(tmp_path, env_extra=None, limit_bytes=None):
-    """``calib-pin compare`` on 30 simulated poses with lm into tmp_path/out, in a subprocess."""
+    """``calib-pin compare`` on 30 simulated poses with lm into tmp_path/out, started in a subprocess."""
     import os
     import resource
     import signal
@@ -86,25 +86,27 @@ def _compare_cli(tmp_path, env_extra=None, limit_bytes=None):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
 
+    tmp_path.mkdir()
     env = {**os.environ, **(env_extra or {})}
-    return subprocess.run([sys.executable, "-c", "import sys; from calib_pin.cli import main; sys.exit(main(sys.argv[1:]))",
-                           "compare", "irb120", "--simulate", "gauss", "--poses", "30", "--methods", "lm", "--out", "out"],
-                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60,
-                          preexec_fn=full_disk if limit_bytes else None)
+    return subprocess.Popen([sys.executable, "-c", "import sys; from calib_pin.cli import main; sys.exit(main(sys.argv[1:]))",
+                             "compare", "irb120", "--simulate", "gauss", "--poses", "30", "--methods", "lm", "--out", "out"],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=full_disk if limit_bytes else None)
 
 
-def test_compare_on_a_full_disk_writes_all_outputs_or_none(tmp_path):
-    """Room for the tables but not the figures: no table is left without its figures."""
-    done = _compare_cli(tmp_path, limit_bytes=20_000)
-    lines = [line for line in done.stderr.splitlines() if line.strip()]
-    assert done.returncode == 2 and len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
-    assert "File too large: nothing was written; 1 of 1 trial(s) kept in out" in lines[0], done.stderr
-    assert [p.name for p in (tmp_path / "out").iterdir()] == [".calib-pin-checkpoint"]  # the trial, for a rerun
+def test_compare_writes_all_outputs_or_none_and_the_figures_are_optional(tmp_path):
+    """A full disk with room for the tables but not the figures: nothing is written (the
+    trial is kept for the rerun). A broken matplotlib (a bad MPLBACKEND): one warning, the tables."""
+    full = _compare_cli(tmp_path / "full", limit_bytes=20_000)
+    broken = _compare_cli(tmp_path / "broken", env_extra={"MPLBACKEND": "nonsense"})
+    _, err = full.communicate(timeout=60)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert full.returncode == 2 and len(lines) == 1 and "Traceback" not in err, err
+    assert "File too large: nothing was written; 1 of 1 trial(s) kept in out" in lines[0], err
+    assert [p.name for p in (tmp_path / "full" / "out").iterdir()] == [".calib-pin-checkpoint"]
 
-
-def test_compare_with_a_broken_matplotlib_warns_and_writes_the_tables(tmp_path):
-    done = _compare_cli(tmp_path, env_extra={"MPLBACKEND": "nonsense"})
-    lines = [line for line in done.stderr.splitlines() if line.strip()]
-    assert done.returncode == 0, done.stderr
-    assert len(lines) == 1 and lines[0].startswith("warning: no figures") and "MPLBACKEND" in lines[0], done.stderr
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["table1.csv", "table1.md"]
+    _, err = broken.communicate(timeout=60)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert broken.returncode == 0, err
+    assert len(lines) == 1 and lines[0].startswith("warning: no figures") and "MPLBACKEND" in lines[0], err
+    assert sorted(p.name for p in (tmp_path / "broken" / "out").iterdir()) == ["table1.csv", "table1.md"]

@@ -27,7 +27,8 @@ def batch_parser() -> argparse.ArgumentParser:
         "OUT/summary.csv with one row per set.",
     )
     p.add_argument("sessions", nargs="+", metavar="SESSION", help="measurement set CSVs (file stems must differ)")
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--out", required=True, help="output folder (each finished set is kept in OUT/.calib-pin-checkpoint "
+                   "until the run completes: after Ctrl-C or a fault the same command resumes)")
     p.add_argument("--robot", help="robot name or URDF path (default: each file's '# robot:' line)")
     p.add_argument("--method", default="lm", choices=ESTIMATORS, metavar="METHOD",
                    help=f"estimator: {', '.join(ESTIMATORS)} (default lm)")

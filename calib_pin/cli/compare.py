@@ -47,7 +47,8 @@ def compare_parser() -> argparse.ArgumentParser:
     p.add_argument("--data", help="measurement set CSV (default: the robot's shipped set)")
     p.add_argument("--trials", type=count(MAX_TRIALS), default=1,
                    help="repeat over N seeded splits (or simulated sets): mean ± sd (default 1)")
-    p.add_argument("--out", default="out/compare", help="output folder (default ./out/compare)")
+    p.add_argument("--out", default="out/compare", help="output folder (default ./out/compare); each finished trial is "
+                   "kept in OUT/.calib-pin-checkpoint until the run completes: after Ctrl-C or a fault the same command resumes")
     p.add_argument("--methods", type=methods, default=list(PAPER_METHODS),
                    help=f"comma-separated methods (default the paper's nine: {','.join(PAPER_METHODS)})")
     p.add_argument("--seed", type=non_negative(int), default=0, help="first seed (default 0)")
@@ -93,9 +94,8 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
             noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
             checkpoint=out, notify=lambda line: print(line, flush=True), **compliance_options(args),
         )
-        print(result.format_table())
         command = "python scripts/compare.py " + " ".join(argv)
-        written = _write(result, out, command)
+        written = _write(result, out, command)  # before printing: a closed pipe loses no file
     except Interrupted as e:
         print(f"\n{e}", file=sys.stderr)
         return INTERRUPTED_EXIT
@@ -106,6 +106,7 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     except OSError as e:  # a full disk while writing: nothing was written, the trials are kept
         raise Checkpoint(out, "trial").unwritten(e, args.trials) from None
     Checkpoint(out).clear()
+    print(result.format_table())
     for path in written:
         print(f"wrote {path}")
     return 0
