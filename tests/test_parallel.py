@@ -63,12 +63,12 @@ HOOK_COMPARE = """
 
 
 def _env(tmp_path: Path, hook: str | None) -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env = dict(os.environ)
     if hook is not None:
         folder = tmp_path / "hook"
         folder.mkdir(exist_ok=True)
         (folder / "sitecustomize.py").write_text(textwrap.dedent(hook))
-        env["PYTHONPATH"] = str(folder)
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(folder), env.get("PYTHONPATH")) if p)
     return env
 
 
