@@ -28,6 +28,7 @@ import pinocchio as pin
 
 from .compensation import CalibratedRobot
 from .exceptions import CalibPinError, DataError, RobotError
+from .input_files import check_regular
 from .parameters import parameter_model
 from .robot.chain import Chain, load_chain
 from .robot.deflection import ComplianceSpec, stiffness
@@ -105,10 +106,15 @@ def write_calibration(result: CalibrationResult, path: str | Path) -> Path:
     """Write the calibration file of ``result`` to ``path``.
 
     Raises:
-        CalibPinError: the method estimates no kinematic parameters (``rbf``).
+        CalibPinError: the method estimates no kinematic parameters (``rbf``), or a
+            compliance is negative (or NaN).
     """
     if not result.kinematic:
         raise CalibPinError(f"method '{result.method}' estimates no kinematic parameters: no calibration file")
+    model = result.problem.model
+    negative = [model.names[i] for i in model.nonnegative if not result.x[i] >= 0]
+    if negative:  # compensate would use it blindly
+        raise CalibPinError(f"{negative[0]} is negative (a compliance is >= 0): no calibration file written")
     path = Path(path)
     path.write_text(json.dumps(calibration_document(result), indent=2, allow_nan=False) + "\n", encoding="utf-8")
     return path
@@ -120,6 +126,7 @@ def find_calibration(path: Path) -> Path:
     Raises:
         CalibPinError: no such file, or not exactly one in the folder.
     """
+    check_regular(path)
     if path.is_dir():
         found = sorted(path.glob("*_calibration.json"))
         if len(found) != 1:
@@ -148,6 +155,9 @@ def _chain(doc: dict[str, Any], robot: str | None, source: Path) -> Chain:
 
 
 def _robot(doc: dict[str, Any], chain: Chain, source: Path, cable: bool) -> CalibratedRobot:
+    if doc["parameter_model"] != "placement" and chain.description.dh is None:  # a URDF path has no DH table
+        raise CalibPinError(f"{source} is a {doc['parameter_model']} calibration, which needs the DH table of "
+                            f"robot '{doc['robot']}': give the robot by its name '{doc['robot']}', not as a URDF path")
     params = parameter_model(chain, doc["parameter_model"])
     stored = doc["deviations_si"]
     if list(stored) != list(params.names):

@@ -155,3 +155,44 @@ def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: flo
             [model.units[i] for i in live])) if len(null) else (),
         base=tuple(names[i] for i in sorted(pivots[:rank])),
     )
+
+
+def support_error(problem: CalibrationProblem, rcond: float = RCOND) -> str | None:
+    """Why the rows of ``problem`` (the training rows) cannot calibrate anything, or None.
+
+    Rank deficiency alone is normal (the blind directions stay at zero); refused are only
+    sets from which nothing of the robot can be learnt:
+
+    - every row at one distinct pose (identical poses): one configuration cannot tell the
+      robot's geometry from the sensor's reading;
+    - distinct poses whose values are no more than the sensor's own unknowns (the device
+      frame, markers, anchor, offset), or whose identifiable directions all belong to them
+      (the rank of the robot's columns, deviations and compliances, beyond the sensor's is 0).
+
+    The message starts "the training poses identify only R of N directions".
+    """
+    model = problem.model
+    n = problem.n_params
+    sensor = n - model.sensor_start
+    scaled = problem.jacobian(np.zeros(n)) * model.scale
+    space = Subspace.of(scaled, np.ones(n), rcond=rcond)
+    poses = len(np.unique(problem.q, axis=0))
+    rows = problem.q if problem.points is None else np.column_stack([problem.q, problem.points])
+    values = len(np.unique(rows, axis=0)) * problem.values_per_row
+    reason = None
+    if poses < 2:
+        reason = (f"all {problem.n_rows} rows are at 1 distinct pose (identical poses?): one pose cannot tell the "
+                  "robot's geometry from the sensor's reading")
+    elif values <= sensor:
+        reason = (f"{poses} distinct poses give {values} distinct values, no more than the sensor's own unknowns "
+                  f"({sensor})")
+    elif sensor:
+        s = space.singular_values
+        sensor_rank = int(np.sum(np.linalg.svd(scaled[:, model.sensor_start:], compute_uv=False) > rcond * s[0]))
+        if space.rank <= sensor_rank:
+            reason = (f"every direction {poses} distinct poses identify belongs to the sensor's own unknowns "
+                      f"({sensor}): none is the robot's")
+    if reason is None:
+        return None
+    return (f"the training poses identify only {space.rank} of {n} directions: {reason}; no URDF written; "
+            "measure more varied poses")

@@ -110,7 +110,7 @@ class CalibrationSetup:
         """
         spec = get_method(method)
         spec.check(loss, self.data.kind)
-        warnings: list[str] = []
+        warnings = [note for note in (self.data.ignored_note(),) if note]  # extra columns, read past
         if test_data is None:
             train, test = self.split(test_fraction, seed)
             if test_fraction > 0 and not len(test):
@@ -149,7 +149,8 @@ def score_session(result: CalibrationResult, session: MeasurementSet) -> Calibra
     before = model.session_errors(None, session)
     after = model.session_errors(result.x, session, result.estimate.correction)
     metrics = {**result.metrics, "test": {"before": Metrics.of(before), "after": Metrics.of(after)}}
-    return dataclasses.replace(result, metrics=metrics, test_source=session.source)
+    notes = tuple(note for note in (session.ignored_note(),) if note)  # its extra columns, read past
+    return dataclasses.replace(result, metrics=metrics, test_source=session.source, warnings=result.warnings + notes)
 
 
 def _load_robot(robot: str | RobotDescription, data: str | Path | MeasurementSet | None,

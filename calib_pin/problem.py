@@ -21,6 +21,10 @@ class LeastSquares(Protocol):
         scale: Typical size of each unknown, shape (n_params,), SI units.
         values_per_row: Residual entries one row (a Kalman update's block) holds.
         n_rows, n_values, n_params: Sizes.
+
+    A problem may also name unknowns that must be >= 0 in ``nonnegative`` (indices; a
+    calibration problem's compliances): :func:`calib_pin.estimators.run_estimator` keeps
+    them so for every method.
     """
 
     @property
@@ -87,6 +91,12 @@ class CalibrationProblem:
     @property
     def n_params(self) -> int:
         return self.model.n_params
+
+    @property
+    def nonnegative(self) -> tuple[int, ...]:
+        """Unknowns that must be >= 0 (the compliances), kept so by every estimator
+        (:func:`calib_pin.estimators.run_estimator`)."""
+        return self.model.nonnegative
 
     @property
     def n_rows(self) -> int:

@@ -105,6 +105,7 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         **_outliers(result),
         "split": {"train": result.train.tolist(), "test": result.test.tolist()},
         "warnings": list(result.warnings),
+        "ignored_columns": list(result.data.extra),  # the data's extra columns, read and kept, not used
         "residuals": _residuals(result),
         "identifiability_spectrum": _spectrum(result),
         "workspace_uncertainty": _workspace(result),
@@ -113,8 +114,27 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
     if spec is not None:
         from .robot.deflection import compliance_report
 
-        report["compliance"] = compliance_report(spec, result.problem.model.compliance(result.x))
+        report["compliance"] = compliance_report(spec, result.problem.model.compliance(result.x),
+                                                 result.bounded_compliance)
+        if result.bounded_compliance:
+            report["warnings"].append(bounded_warning(result.bounded_compliance))
+    ident = report["identifiability"]
+    if kinematic and 2 * ident["rank"] < ident["unknowns"]:  # normal, but more varied poses would see more
+        report["warnings"].append(rank_warning(ident["rank"], ident["unknowns"]))
     return _finite(report)
+
+
+def rank_warning(rank: int, unknowns: int) -> str:
+    """The one line a calibration gets whose poses identify fewer than half its unknowns
+    (normal in calibration, so not refused: the blind directions stay at zero)."""
+    return (f"the training poses identify only {rank} of {unknowns} directions: the blind directions stay "
+            "at zero (--analyze lists them)")
+
+
+def bounded_warning(joints: tuple[str, ...]) -> str:
+    """The one line for compliances that fitted negative and were fixed at zero."""
+    return (f"compliance bounded at zero: {', '.join(joints)} (fitted negative; a compliance is >= 0, so "
+            "these joints are taken as rigid and the others fitted again)")
 
 
 def _finite(value: Any) -> Any:

@@ -119,27 +119,56 @@ class CalibrationResult:
         return for_humans(model.compliance(self.x), model.names[n:m], model.units[n:m])
 
     @property
+    def bounded_compliance(self) -> tuple[str, ...]:
+        """Joints whose compliance fitted negative and was fixed at zero (a compliance is
+        >= 0, see :mod:`calib_pin.estimators.active_set`); empty if none."""
+        spec = self.problem.model.compliance_spec
+        first = self.problem.model.n_robot
+        return tuple(spec.joints[i - first] for i in self.estimate.bounded) if spec is not None else ()
+
+    @property
     def kinematic(self) -> bool:
         """True when the method estimated kinematic parameters (all but ``rbf``)."""
         return self.estimate.kinematic
 
-    def predict(self, q: np.ndarray, point_ids: Any = None) -> np.ndarray:
-        """What the calibration predicts at joint angles q (n_rows, n_joints) [rad]:
-        readings (n_rows,) [m], or positions (n_rows, 3) [m] in the device frame of the
-        markers labelled ``point_ids`` (the file's ``point_id`` of each row).
+    def predict(self, q: Any, point_ids: Any = None) -> np.ndarray:
+        """What the calibration predicts at joint angles q, for any number of poses.
+
+        Args:
+            q: Joint angles [rad], shape (n_poses, n_joints), or (n_joints,) for one pose.
+            point_ids: Positions only: which marker each pose measures, as the data's
+                ``point_id`` labels (numbers or text; ``2`` and ``"2"`` are the same): one
+                label for every pose, or one per pose. May be left out when the calibration
+                has one marker (every pose predicts it); with several it is required.
+
+        Returns:
+            Readings, shape (n_poses,), [m]; or positions, shape (n_poses, 3), [m], in the
+            device frame.
 
         Raises:
-            CalibPinError: a label that is not a marker of this calibration.
+            CalibPinError: q is not finite numbers of shape (n_poses, n_joints); point_ids
+                is left out with several markers, or is not one label or one per pose.
+            DataError: a label that is not a marker of this calibration.
         """
-        q = np.atleast_2d(q)
-        labels = None if point_ids is None else np.broadcast_to(np.asarray(point_ids), (len(q),))
-        points = self.problem.model.point_index(self.data, labels)
+        q = _joint_angles(q, self.chain.n_joints)
+        labels = None
+        if point_ids is not None:
+            labels = np.asarray(point_ids, dtype=object).reshape(-1)
+            if labels.shape == (1,):
+                labels = np.repeat(labels, len(q))
+            if labels.shape != (len(q),):
+                raise CalibPinError(f"point_ids: {labels.size} labels for {len(q)} poses (give one label, or one per pose)")
+        points = self.problem.model.point_index(labels, len(q))
         return self.estimate.predict(self.problem.model, q, points)
 
     def sanity_error(self) -> str | None:
-        """Why the estimate may not be exported (a deviation, robot or sensor, beyond
-        SANITY_M / SANITY_RAD, naming the first), or None."""
+        """Why the estimate may not be exported (a negative compliance, or a deviation,
+        robot or sensor, beyond SANITY_M / SANITY_RAD, naming the first), or None."""
         model = self.problem.model
+        for i in model.nonnegative:
+            if not self.x[i] >= 0:
+                return (f"{model.names[i]} = {self.x[i] * 1e6:.3g} urad/Nm is negative (a joint cannot give way "
+                        "against its load): the calibration is not written")
         for value, name, unit in zip(self.x, model.names, model.units, strict=True):
             if unit not in ("m", "rad"):
                 continue  # compliances: see report.json's compliance section
@@ -187,3 +216,24 @@ class CalibrationResult:
         from .identifiability import analyze
 
         return analyze(self.problem.subset(self.train))
+
+
+def _joint_angles(q: Any, n_joints: int) -> np.ndarray:
+    """q as finite floats of shape (n_poses, n_joints) [rad] (one pose may be 1-D).
+
+    Raises:
+        CalibPinError: naming ``q``: not numbers, not finite, no poses, or another shape.
+    """
+    try:
+        angles = np.array(q, dtype=float)
+    except (TypeError, ValueError):
+        raise CalibPinError(f"q: not numbers (joint angles [rad], shape (n_poses, {n_joints}))") from None
+    if angles.ndim == 1 and angles.shape == (n_joints,):
+        angles = angles[None, :]
+    if angles.ndim != 2 or angles.shape[1] != n_joints:
+        raise CalibPinError(f"q: shape {angles.shape}, expected (n_poses, {n_joints}) joint angles [rad]")
+    if not len(angles):
+        raise CalibPinError("q: no poses")
+    if not np.all(np.isfinite(angles)):
+        raise CalibPinError("q: not finite (NaN or inf)")
+    return angles

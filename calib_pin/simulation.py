@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from .exceptions import CalibPinError, DataError
+from .input_files import check_regular
 from .measurements import MeasurementSet
 from .parameters import ParameterModel
 from .robot import Chain
@@ -139,6 +140,7 @@ class Truth:
             DataError: unreadable file, or deviations that do not match ``params``.
         """
         try:
+            check_regular(path)
             doc = json.loads(Path(path).read_text())
             kind = doc.get("data_kind", "cable")
             x = from_humans(doc["deviations"], params.names, params.units)
@@ -321,7 +323,7 @@ def simulate_positions(
         q=q, values=positions, kind="position", robot=chain.name, end_frame=chain.end_frame,
         notes={"source": f"calib-pin position simulator, seed {seed}, noise {noise_mm:g} mm per axis"},
         pose_ids=np.repeat(np.arange(1, n_poses + 1), len(markers)),
-        point_ids=np.array(labels)[index], noise=noise_mm * 1e-3,
+        point_ids=np.array(labels)[index], noise=noise_mm * 1e-3 or None,  # noise-free: no sensor sigma to state
     )
     truth = Truth(x, tuple(params.names), tuple(params.units), truth_device, "position", noise_mm * 1e-3, seed,
                   compliance=compliance, compliance_values=soft if compliance else None)

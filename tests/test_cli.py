@@ -90,7 +90,7 @@ def _exit_code(main, argv) -> int:
         (["irb120", "--poses", "0"], "expected a whole number from 1 to"),
         (["nosuchbot"], "unknown robot 'nosuchbot'"),
         (["panda"], "no frame 'tool0'"),
-        (["irb120", "--noise-mm", "-1"], "expected a number in (0, 100]"),
+        (["irb120", "--noise-mm", "-1"], "expected a non-negative float"),
         (["irb120", "--length-offset-mm", "inf"], "expected a finite number"),
     ],
 )

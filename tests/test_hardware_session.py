@@ -230,3 +230,98 @@ def test_bad_input_one_line_exit_2(args, message, capsys, tmp_path, monkeypatch)
 def test_make_poses_bad_margin(capsys, tmp_path):
     assert make_poses_main(["irb120", "--n", "5", "--margin-deg", "200", "--out", str(tmp_path / "p.csv")]) == 2
     assert "leaves no range for joint_" in capsys.readouterr().err
+
+
+def _full_disk(limit):
+    """A preexec function: files of at most ``limit`` bytes; a write past it is short,
+    then fails (EFBIG), as on a full disk, instead of killing the process."""
+    import resource
+
+    def apply():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return apply
+
+
+def test_full_disk_keeps_only_whole_rows_and_says_how_many(poses, tmp_path):
+    """The disk fills during the last row: that row is not counted and is cut away again,
+    the run stops with one line saying 19 of 20 are saved, and a rerun completes the set.
+    A disk too full for the header leaves no file at all."""
+    path, values = poses
+    reference, out = tmp_path / "reference.csv", tmp_path / "s.csv"
+    with FakeIndicator("modbus", values_mm=values, follow=reference) as fake:
+        assert _collect(fake, path, reference) == 0
+    full = reference.read_bytes()
+    last_row = len(full) - full.rstrip(b"\n").rfind(b"\n") - 1
+    header_only = tmp_path / "h.csv"
+    for target, limit, saved in ((header_only, 40, None), (out, len(full) - last_row // 2, 19)):
+        with FakeIndicator("modbus", values_mm=values, follow=target) as fake:
+            command = [sys.executable, str(ROOT / "scripts" / "collect.py"), "irb120", "--poses", str(path),
+                       "--port", fake.path, "--out", str(target), *MODBUS, *FAST]
+            done = subprocess.run(command, capture_output=True, text=True, timeout=120,
+                                  preexec_fn=_full_disk(limit))
+        err = done.stderr.strip().splitlines()
+        assert done.returncode == 2 and len(err) == 1, done.stderr
+        if saved is None:
+            assert "cannot write the header" in err[0] and not target.exists(), err[0]
+            assert sorted(p.name for p in tmp_path.iterdir()) == ["reference.csv"]
+            continue
+        assert "cannot write pose 20" in err[0] and "19 of 20 poses are saved" in err[0], err[0]
+        assert "complete" not in done.stdout
+        kept = [ln for ln in out.read_bytes().splitlines(keepends=True) if not ln.startswith(b"# started:")]
+        whole = [ln for ln in full.splitlines(keepends=True) if not ln.startswith(b"# started:")]
+        assert kept == whole[:-1]  # the cut row is gone, every byte of the rest is there
+        assert _rows(out)[0] == list(range(1, 20))
+    with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
+        assert _collect(fake, path, out) == 0
+    ids, lengths = _rows(out)
+    assert ids == list(range(1, N + 1))
+    np.testing.assert_allclose(lengths, values, atol=0.0006)
+
+
+def test_second_collect_on_one_session_refuses(poses, tmp_path, capsys):
+    """Two collects on one file at once: the second refuses with one line while the first
+    goes on; every pose is then in the file once."""
+    path, values = poses
+    out = tmp_path / "s.csv"
+    with FakeIndicator("modbus", values_mm=values, follow=out) as fake:
+        _, proc = _start_collect_script(fake, path, out, rows=2)
+        try:
+            assert proc.poll() is None
+            code = _collect(fake, path, out)
+            err = capsys.readouterr().err.strip().splitlines()
+            assert code == 2 and len(err) == 1 and "another collect is writing this session now" in err[0], err
+        finally:
+            _, first_err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, first_err
+    ids, lengths = _rows(out)
+    assert ids == list(range(1, N + 1))
+    np.testing.assert_allclose(lengths, values, atol=0.0006)
+
+
+def test_refused_collect_writes_no_header_and_no_profile(poses, tmp_path, monkeypatch, capsys):
+    """Everything is checked before anything is written: a port that cannot be opened, an
+    existing --save-profile without --force, or a session of another sensor set-up
+    leave no session header, no cut and no profile."""
+    path, values = poses
+    monkeypatch.chdir(tmp_path)
+    base = ["irb120", "--poses", str(path), "--out", "s.csv", *MODBUS, *FAST]
+    assert collect_main([*base, "--port", "/dev/nonexistent-tty", "--save-profile", "prof.json"]) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    Path("prof.json").write_text("{}")
+    with FakeIndicator("modbus", values_mm=values, follow=tmp_path / "s.csv") as fake:
+        assert collect_main([*base, "--port", fake.path, "--save-profile", "prof.json"]) == 2
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["prof.json"]
+        assert Path("prof.json").read_text() == "{}"
+        Path("prof.json").unlink()
+        assert _collect(fake, path, tmp_path / "s.csv") == 0
+    cut = Path("s.csv").read_bytes()[:-30]  # the last row cut short
+    Path("s.csv").write_bytes(cut)
+    assert collect_main([*base, "--port", "/dev/nonexistent-tty", "--save-profile", "prof.json"]) == 2
+    assert collect_main([*base, "--port", "/dev/nonexistent-tty", "--save-profile", "prof.json",
+                         "--anchor-mm", "1,2,3"]) == 2
+    assert Path("s.csv").read_bytes() == cut and not Path("prof.json").exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 4 and "cannot open /dev/nonexistent-tty" in err[0] and "prof.json exists" in err[1], err
+    assert "was collected with anchor_mm none" in err[-1], err

@@ -47,7 +47,7 @@ def test_units_in_column_names(tmp_path, chain):
     "header, row, message",
     [
         (HEADER.replace("q4_deg,", ""), "10,20,-30,-50,60,812.5", r"s.csv:4: missing column q4_deg"),
-        (HEADER + ",temp", ROW + ",21", r"s.csv:4: temp: unknown column"),
+        (HEADER + ",length_cm", ROW + ",21", r"s.csv:4: length_cm: unit 'cm' is not read"),
         (HEADER, ROW.replace("-30", "abc"), r"s.csv:5: q3_deg: 'abc' is not a number"),
         (HEADER, ROW.replace("812.5", "nan"), r"s.csv:5: length_mm: 'nan' is not a finite number"),
         (HEADER, ROW.replace("20", "inf"), r"s.csv:5: q2_deg: 'inf' is not a finite number"),
@@ -111,3 +111,111 @@ def test_pose_list_and_duplicate_pose(tmp_path, chain):
     path.write_text(path.read_text().replace("\n3,", "\n2,"))
     with pytest.raises(cp.DataError, match=r"p.csv:5: pose: pose 2 appears twice"):
         cp.read_measurements(path, chain, readings=False)
+
+
+# --- real files (issue 20, 3): extra columns, ';' and decimal commas --------------------
+
+EXTRA = HEADER + ",temp_C,sigma_mm,time,comment"
+EXTRA_ROWS = [ROW + ",21.5,0.012,2024-05-01T10:00:00,first", ROW.replace("10,", "11,", 1) + ",21.7,0.011,,"]
+
+
+def test_extra_columns_are_kept_and_reported(tmp_path, chain):
+    """Columns that are not calib-pin's are read into ``extra`` (numbers as floats, the rest
+    as text), named by ``ignored_note``, kept by ``subset`` and written back."""
+    data = cp.read_measurements(_write(tmp_path, META + EXTRA + "\n" + "\n".join(EXTRA_ROWS) + "\n"), chain)
+    assert list(data.extra) == ["temp_C", "sigma_mm", "time", "comment"]
+    np.testing.assert_array_equal(data.extra["temp_C"], [21.5, 21.7])
+    np.testing.assert_array_equal(data.extra["sigma_mm"], [0.012, 0.011])
+    assert data.extra["time"].tolist() == ["2024-05-01T10:00:00", ""] and data.extra["comment"].tolist() == ["first", ""]
+    assert data.ignored_note() == "ignored columns: temp_C, sigma_mm, time, comment (in s.csv; read and kept, not used)"
+    assert data.subset(np.array([1])).extra["temp_C"].tolist() == [21.7]
+    cp.write_measurements(tmp_path / "back.csv", data)
+    back = cp.read_measurements(tmp_path / "back.csv", chain)
+    assert back.extra["time"].tolist() == data.extra["time"].tolist()
+    np.testing.assert_array_equal(back.extra["temp_C"], data.extra["temp_C"])
+    np.testing.assert_array_equal(back.q, data.q)
+    plain = cp.read_measurements(_write(tmp_path, META + HEADER + "\n" + ROW + "\n", "p.csv"), chain)
+    assert plain.extra == {} and plain.ignored_note() is None
+
+
+@pytest.mark.parametrize(
+    "header, extra, message",
+    [
+        (HEADER.replace("length_mm", "lenght_mm"), "", r"s.csv:4: lenght_mm: unknown column; did you mean length_mm\?"),
+        (HEADER.replace("q3_deg", "q3_dge"), "", r"s.csv:4: q3_dge: unit 'dge' is not read"),
+        (HEADER.replace("q3_deg", "Q3_deg"), "", r"s.csv:4: Q3_deg: unknown column; did you mean q3_deg\?"),
+        (HEADER.replace("q3_deg", "q3"), "", r"s.csv:4: q3: give the unit in the name \(q3_deg, q3_rad"),
+        (HEADER + ",q7_deg", ",0", r"s.csv:4: has joint column q7 but robot 'irb120' has 6 joints"),
+        (HEADER + ",length_m", ",0.8", r"two length columns"),
+        (HEADER + ",q1_rad", ",0", r"joint 1 has two columns"),
+        (HEADER + ",Length", ",0.8", r"s.csv:4: Length: give the unit in the name \(length_mm"),
+        (HEADER + ",temp,temp", ",1,2", r"s.csv:4: temp: column appears twice"),
+    ],
+)
+def test_columns_like_ours_must_be_valid(tmp_path, chain, header, extra, message):
+    """A column named like one of calib-pin's (a joint, a length, a coordinate, pose,
+    point_id: with another unit, no unit, other case or a typo of a missing one) is refused."""
+    with pytest.raises(cp.DataError, match=message):
+        cp.read_measurements(_write(tmp_path, META + header + "\n" + ROW + extra + "\n"), chain)
+
+
+def _dialect(text: str, sep: str, decimal: str) -> str:
+    """Rows of ``text`` written with separator ``sep`` and decimal mark ``decimal``."""
+    return "\n".join(line if line.startswith("#") else line.replace(",", sep).replace(".", decimal)
+                     for line in text.splitlines()) + "\n"
+
+
+@pytest.mark.parametrize(
+    "sep, decimal, meta",
+    [
+        (";", ",", "# anchor_mm: 600,5; 200; -100\n# tool_mm: 0 0 50,25\n# length_offset_mm: 1,5\n"),
+        (";", ",", "# anchor_mm: 600,5, 200, -100\n# tool_mm: 0,0,50.25\n# length_offset_mm: 1,5\n"),
+        (";", ".", "# anchor_mm: 600.5; 200; -100\n# tool_mm: 0, 0, 50.25\n# length_offset_mm: 1.5\n"),
+        ("\t", ",", "# anchor_mm: 600,5; 200; -100\n# tool_mm: 0; 0; 50,25\n# length_offset_mm: 1,5\n"),
+        ("\t", ".", "# anchor_mm: 600.5 200 -100\n# tool_mm: 0, 0, 50.25\n# length_offset_mm: 1.5\n"),
+    ],
+)
+def test_other_csv_dialects_read_the_same_numbers(tmp_path, chain, sep, decimal, meta):
+    """';' or tab separators with decimal commas or points give exactly the standard file's numbers."""
+    rows = [ROW.replace("812.5", f"812.{k}5").replace("20,", f"20.{k}25,", 1) for k in range(5)]
+    standard = cp.read_measurements(_write(tmp_path, "# robot: irb120\n# anchor_mm: 600.5, 200, -100\n"
+                                           "# tool_mm: 0, 0, 50.25\n# length_offset_mm: 1.5\n"
+                                           + EXTRA.replace(",comment", "") + "\n"
+                                           + "\n".join(r + ",21.5,0.012,10:00" for r in rows) + "\n"), chain)
+    other = cp.read_measurements(_write(tmp_path, "# robot: irb120\n" + meta + _dialect(
+        EXTRA.replace(",comment", "") + "\n" + "\n".join(r + ",21.5,0.012,10:00" for r in rows), sep, decimal),
+        "o.csv"), chain)
+    np.testing.assert_array_equal(other.q, standard.q)
+    np.testing.assert_array_equal(other.lengths, standard.lengths)
+    np.testing.assert_array_equal(other.anchor, standard.anchor)
+    np.testing.assert_array_equal(other.tool, standard.tool)
+    assert other.length_offset == standard.length_offset
+    np.testing.assert_array_equal(other.extra["sigma_mm"], standard.extra["sigma_mm"])
+    assert other.extra["time"].tolist() == ["10:00"] * 5
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (META + HEADER.replace(",", ";") + "\n" + ROW.replace(",", ";").replace(".", ",") + "\n"
+         + ROW.replace(",", ";") + "\n", r"s.csv:6: length_mm: decimal point in '812.5', but line 5 has a decimal comma"),
+        (META + HEADER.replace(",", ";") + "\n" + ROW + "\n", r"s.csv:5: has 1 field separated by ';' as the header"),
+        (META + HEADER.replace("q2_deg,", "q2_deg;") + "\n" + ROW + "\n", r"s.csv:4: the header mixes ',' and ';'"),
+        ("# csv: decimal=,\n" + META + HEADER + "\n" + ROW + "\n", r"s.csv:1: csv: a decimal comma needs ';' or tab"),
+        ("# csv: sep=|\n" + META + HEADER + "\n" + ROW + "\n", r"s.csv:1: csv: 'sep=|' is not"),
+        (META.replace("600, 200, -100", "600,5 200,-100") + HEADER.replace(",", ";") + "\n"
+         + ROW.replace(",", ";").replace(".", ",") + "\n", r"s.csv:2: anchor_mm: needs 3 numbers"),
+    ],
+)
+def test_ambiguous_dialects_are_refused(tmp_path, chain, text, message):
+    """Mixed decimal marks, mixed separators and a bad ``# csv:`` line are one error each."""
+    with pytest.raises(cp.DataError, match=message):
+        cp.read_measurements(_write(tmp_path, text), chain)
+
+
+def test_csv_line_overrides_the_detection(tmp_path, chain):
+    """``# csv: sep=, decimal=.`` reads a header that holds a ';' inside a column name."""
+    text = "# csv: sep=,\n" + META + HEADER + ",note;x\n" + ROW + ",a\n"
+    data = cp.read_measurements(_write(tmp_path, text), chain)
+    assert data.extra["note;x"].tolist() == ["a"]
+    assert "csv" not in data.notes  # describes this file's text only: never written back

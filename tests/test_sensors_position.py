@@ -1,5 +1,6 @@
 """Position measurements: the model's Jacobian, the device fit, simulated and real data."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -8,6 +9,7 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.cli.calibrate import calibrate_main
+from calib_pin.report import build_report
 from calib_pin.sensors import fit_device
 from calib_pin.simulation import random_poses
 
@@ -129,3 +131,113 @@ def test_cli_calibrates_real_positions_and_refuses_cable_options(tmp_path, capsy
     code = calibrate_main(["irb120", "--no-html", "--data", str(WU2015), "--estimate", "anchor", "--out", str(tmp_path / "x")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "the device frame and the marker points are always estimated" in err[0]
+
+
+# --- real files (issue 20, 3): string marker labels -----------------------------------
+
+LABELS = {"1": "SMR1", "2": "T2", "3": "A"}
+
+
+def _real_copy(path: Path, poses: range = range(36), new_label: str | None = None) -> Path:
+    """The Wu set's poses ``poses`` as another lab might write it: marker labels SMR1, T2, A
+    (``new_label`` for marker 3 instead), extra columns (temperature, standard deviation, a
+    time stamp), ';' separators and decimal commas."""
+    lines = WU2015.read_text().splitlines()
+    out = [line for line in lines[:4]]
+    out.append(lines[4].replace(",", ";") + ";temp_C;sigma_mm;time")
+    for k, row in enumerate(lines[5:]):
+        fields = row.split(",")
+        if int(fields[0]) not in poses:
+            continue
+        fields[1] = new_label if new_label and fields[1] == "3" else LABELS[fields[1]]
+        fields += [f"{20 + k % 5 / 10:.1f}", "0.015", f"2015-03-02 09:{k % 60:02d}:00"]
+        out.append(";".join(f.replace(".", ",") for f in fields))
+    path.write_text("\n".join(out) + "\n")
+    return path
+
+
+def _numeric_copy(path: Path, poses: range, new_label: str | None = None) -> Path:
+    """The Wu set's poses ``poses`` as shipped (``new_label`` for marker 3)."""
+    lines = WU2015.read_text().splitlines()
+    rows = [r for r in lines[5:] if int(r.split(",")[0]) in poses]
+    if new_label:
+        rows = [r.replace(",3,", f",{new_label},", 1) for r in rows]
+    path.write_text("\n".join(lines[:5] + rows) + "\n")
+    return path
+
+
+def test_string_labels_and_european_csv_calibrate_to_the_same_numbers(tmp_path):
+    """The Wu set with string labels, extra columns and ';'/decimal commas calibrates to the
+    numbers of the original file (1e-9 mm); predict and the markers keep the labels."""
+    original = cp.calibrate("irb120", WU2015, method="lm")
+    real = cp.calibrate("irb120", _real_copy(tmp_path / "real.csv"), method="lm")
+    assert real.data.point_ids.tolist()[:3] == ["SMR1", "T2", "A"]
+    for name, value in original.deviations.items():
+        assert abs(real.deviations[name] - value) < 1e-9, name
+    for split in ("train", "test"):
+        assert abs(real.metrics[split]["after"].rmse_mm - original.metrics[split]["after"].rmse_mm) < 1e-9
+    markers = real.sensor.to_dict()["markers_mm"]
+    assert list(markers) == ["A", "SMR1", "T2"]
+    for label, number in LABELS.items():
+        np.testing.assert_allclose(markers[number], original.sensor.to_dict()["markers_mm"][label], atol=1e-9)
+    q = original.data.q[:4]
+    np.testing.assert_allclose(real.predict(q, ["SMR1", "T2", "A", "SMR1"]), original.predict(q, [1, 2, 3, 1]),
+                               atol=1e-12)
+    assert real.sensor_corrections.keys() >= {"markerSMR1_x_mm", "markerA_z_mm"}
+    with pytest.raises(cp.DataError, match="point_id B is not a marker of this calibration .markers: A, SMR1, T2."):
+        real.predict(q[:1], ["B"])
+    assert any("ignored columns: temp_C, sigma_mm, time" in w for w in real.warnings)
+    report = build_report(real)
+    assert report["ignored_columns"] == ["temp_C", "sigma_mm", "time"] and list(report["markers_mm"]) == list(markers)
+    assert any("ignored columns" in w for w in report["warnings"]) and build_report(original)["ignored_columns"] == []
+
+
+def test_test_data_scores_string_labels_like_numbers(tmp_path):
+    """--test-data on a labelled session (a marker it never saw included) gives the
+    original numbers' test metrics."""
+    original = cp.calibrate("irb120", _numeric_copy(tmp_path / "c.csv", range(24)), method="lm",
+                            test_data=_numeric_copy(tmp_path / "v.csv", range(24, 36)))
+    real = cp.calibrate("irb120", _real_copy(tmp_path / "rc.csv", range(24)), method="lm",
+                        test_data=_real_copy(tmp_path / "rv.csv", range(24, 36)))
+    for stage in ("before", "after"):
+        assert abs(real.metrics["test"][stage].rmse_mm - original.metrics["test"][stage].rmse_mm) < 1e-9
+    original = cp.calibrate("irb120", tmp_path / "c.csv", method="lm",
+                            test_data=_numeric_copy(tmp_path / "n.csv", range(24, 36), new_label="9"))
+    new = cp.calibrate("irb120", tmp_path / "rc.csv", method="lm",
+                       test_data=_real_copy(tmp_path / "nv.csv", range(24, 36), new_label="Z9"))
+    for stage in ("before", "after"):  # marker Z9 (9) is located from its first row
+        assert abs(new.metrics["test"][stage].rmse_mm - original.metrics["test"][stage].rmse_mm) < 1e-9
+    assert new.metrics["test"]["after"].rmse_mm < new.metrics["test"]["before"].rmse_mm / 5
+    assert any("(in nv.csv" in w for w in new.warnings)
+
+
+def test_device_geometry_keeps_label_types():
+    """to_dict/from_dict keep whole-number labels as ints and text labels as text."""
+    for labels in ((1, 2, 3), ("SMR1", "T2", "A")):
+        device = cp.PositionDevice(pin.SE3.Identity(), np.eye(3) * 0.05, labels)
+        back = cp.PositionDevice.from_dict(device.to_dict())
+        assert back.labels == labels and all(type(a) is type(b) for a, b in zip(back.labels, labels, strict=True))
+        np.testing.assert_allclose(back.markers, device.markers)
+
+
+def test_labelled_position_sets_round_trip(tmp_path, chain):
+    """A set with text labels and extra columns is written (standard dialect) and read back unchanged."""
+    data = cp.read_measurements(_real_copy(tmp_path / "real.csv"), chain)
+    cp.write_measurements(tmp_path / "back.csv", data)
+    text = (tmp_path / "back.csv").read_text()
+    assert ";" not in text.split("pose,")[1]
+    back = cp.read_measurements(tmp_path / "back.csv", chain)
+    assert back.point_ids.tolist() == data.point_ids.tolist()
+    np.testing.assert_allclose(back.positions, data.positions, atol=1e-12)
+    assert back.extra["time"].tolist() == data.extra["time"].tolist()
+
+
+def test_hand_made_sets_may_use_text_labels_but_not_mixed(chain, params, position_session):
+    """A MeasurementSet built in memory with text labels calibrates; numbers mixed with text are refused."""
+    data, _ = position_session
+    text = dataclasses.replace(data, point_ids=np.array([f"P{v}" for v in data.point_ids], dtype=object))
+    result = cp.calibrate("irb120", text, method="lm")
+    assert result.sensor.labels == ("P1", "P2", "P3")
+    mixed = dataclasses.replace(data, point_ids=np.array([v if v < 3 else "P3" for v in data.point_ids], dtype=object))
+    with pytest.raises(cp.DataError, match=r"point_id: mixes whole numbers \(1\) and text labels \(P3\)"):
+        cp.calibrate("irb120", mixed, method="lm")

@@ -90,3 +90,20 @@ def test_truth_file_round_trip(tmp_path, params, session):
     (tmp_path / "bad.json").write_text("{}")
     with pytest.raises(cp.DataError, match="bad.json: not a calib-pin truth file"):
         cp.Truth.from_json(tmp_path / "bad.json", params)
+
+
+def test_noise_free_sets_read_back(tmp_path, chain, params):
+    """noise_mm=0 (the README's dry run): exact values of the true robot, and the written
+    set reads back (no '# noise_mm: 0', which a reader refuses as a sensor sigma)."""
+    from calib_pin.measurements import read_measurements, write_measurements
+    from calib_pin.sensors import PositionModel
+    from calib_pin.simulation import simulate_positions
+
+    data, truth = cp.simulate(chain, params, 20, seed=1, noise_mm=0)
+    np.testing.assert_allclose(data.values, CableModel(chain, params, truth.sensor).predict(truth.x, data.q), atol=1e-15)
+    points, ptruth = simulate_positions(chain, params, 5, seed=1, noise_mm=0)
+    exact = PositionModel(chain, params, ptruth.sensor, estimate=()).predict(ptruth.x, points.q, points.point_ids - 1)
+    np.testing.assert_allclose(points.values, exact, atol=1e-15)
+    for name, kind in (("c.csv", data), ("p.csv", points)):
+        write_measurements(tmp_path / name, kind)
+        assert len(read_measurements(tmp_path / name, chain)) == len(kind)

@@ -73,7 +73,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if argv and argv[0] in ("-h", "--help"):
             print(text)
             return 0
-        what = f"unknown command '{argv[0][:40]}'" if argv else "give a command"
+        from .common import one_line
+
+        what = f"unknown command '{one_line(argv[0][:40])}'" if argv else "give a command"
         print(f"calib-pin: error: {what} (commands: {', '.join(COMMANDS)}; see calib-pin --help)", file=sys.stderr)
         return 2
     return command(argv[0])(argv[1:])

@@ -4,8 +4,9 @@ The corrected robot goes out in the formats ``--export`` names (default ``urdf``
 ``urdf`` (the input URDF with corrected joint origins), ``yaml`` (the corrected joint
 origins for a xacro's ``xacro.load_yaml``; for ``ur*`` robots also ur_description's
 ``default_kinematics.yaml`` layout) and ``dh`` (the corrected DH table, dh and hayati
-models). report.html is drawn from the report dict alone; without matplotlib (the
-``plots`` extra) a warning line on stderr says so and the run goes on without it.
+models). report.html is drawn from the report dict alone; without a working matplotlib
+(the ``plots`` extra; a bad ``MPLBACKEND`` is replaced by Agg) a warning line on stderr
+says so and the run writes everything else.
 """
 
 from __future__ import annotations
@@ -51,6 +52,20 @@ def export_formats(text: str) -> tuple[str, ...]:
     return names
 
 
+def assumed_noise(text: str) -> float:
+    """The sensor sigma the Kalman filters assume, mm, in (0, 100]: 0 is refused with the
+    reason (a filter that trusts a reading exactly divides by it; ``simulate --noise-mm 0``
+    makes a noise-free set, which calibrates with the default sigma)."""
+    try:
+        if float(text) == 0:
+            raise argparse.ArgumentTypeError(
+                "0 is not a sensor sigma the Kalman filters can assume (they weigh each reading by 1/sigma^2): "
+                "give the sensor's noise, e.g. 0.01, or leave it out for the file's (else 0.05)")
+    except ValueError:
+        pass
+    return positive_float(100.0)(text)
+
+
 def calibrate_parser() -> argparse.ArgumentParser:
     p = OneLineParser(
         prog="calibrate.py",
@@ -64,8 +79,8 @@ def calibrate_parser() -> argparse.ArgumentParser:
     p.add_argument("--test-fraction", type=fraction, default=0.2, help="share of poses held out for testing (default 0.2)")
     p.add_argument("--out", default="out", help="output folder (default ./out)")
     p.add_argument("--length-offset-mm", type=finite, help="sensor zero offset, mm")
-    p.add_argument("--noise-mm", type=positive_float(100.0),
-                   help="sensor noise (1 sigma) for the Kalman filters, mm (default: the file's, else 0.05)")
+    p.add_argument("--noise-mm", type=assumed_noise,
+                   help="sensor noise (1 sigma) for the Kalman filters, mm, > 0 (default: the file's, else 0.05)")
     p.add_argument("--loss", default="linear", help="linear (default), or a robust loss: huber, soft_l1, cauchy")
     p.add_argument("--model", choices=MODELS,
                    help="parameter model: dh (default with a DH table), hayati (dh with a tilt beta for parallel "
@@ -161,20 +176,22 @@ def _add_exports(out: Outputs, result: Any, formats: Sequence[str], notes: list[
 
 
 def _add_html(out: Outputs, report: dict[str, Any], no_html: bool) -> bool:
-    """Queue report.html unless ``--no-html``; without matplotlib warn on stderr and skip it."""
+    """Queue report.html unless ``--no-html``. The page is drawn now, before any file is
+    written: if matplotlib is missing, broken or fails while drawing, one warning line on
+    stderr says so and the other outputs are written without it."""
     if no_html:
         return False
-    from ..exceptions import CalibPinError
-    from ..optional import require
+    from ..optional import figures_or_warn
 
-    try:
-        require("matplotlib")
-    except CalibPinError as e:
-        print(f"warning: no report.html: {e} (--no-html silences this)", file=sys.stderr)
+    def draw() -> str:
+        from ..html_report import render_html
+
+        return render_html(report)
+
+    page = figures_or_warn("report.html", draw, "--no-html silences this")
+    if page is None:
         return False
-    from ..html_report import write_html_report
-
-    out.add(out.folder / "report.html", lambda tmp: write_html_report(report, tmp))
+    out.add(out.folder / "report.html", lambda tmp: tmp.write_text(page, encoding="utf-8"))
     return True
 
 
@@ -192,7 +209,7 @@ def _calibrate(args: argparse.Namespace) -> int:
                        progress=_announce, **_setup_options(args))
     out = Outputs(Path(args.out))
     report = build_report(result)
-    refused = (_unsupported(report) or result.sanity_error()) if result.kinematic else None
+    refused = (_unsupported(result, report) or result.sanity_error()) if result.kinematic else None
     notes: list[str] = []
     exports = _add_exports(out, result, args.export, notes) if result.kinematic and not refused else {}
     report["urdf"] = exports.get("urdf")
@@ -228,16 +245,31 @@ def _announce(setup: Any) -> None:
               "this can take minutes (Ctrl-C stops, writing nothing)", file=sys.stderr, flush=True)
 
 
-def _unsupported(report: dict[str, Any]) -> str | None:
-    """Why the training poses cannot support a URDF (their rank is below half the unknowns), or None;
-    the reason is added to ``report["warnings"]``."""
-    ident = report["identifiability"]
-    if 2 * ident["rank"] >= ident["unknowns"]:
-        return None
-    why = (f"the training poses identify only {ident['rank']} of {ident['unknowns']} directions "
-           "(identical or too few distinct poses?): no URDF written; measure more varied poses")
-    report["warnings"].append(why)
+def _unsupported(result: Any, report: dict[str, Any]) -> str | None:
+    """Why the training poses cannot calibrate anything (:func:`calib_pin.identifiability.support_error`),
+    or None; the reason is added to ``report["warnings"]``. A rank-deficient set is not refused."""
+    from ..identifiability import support_error
+
+    why = support_error(result.problem.subset(result.train))
+    if why:
+        report["warnings"].append(why)
     return why
+
+
+#: A stiffness beyond this [Nm/rad] (a compliance below 0.001 urad/Nm) prints as rigid.
+RIGID_NM_PER_RAD = 1e9
+
+
+def compliance_cells(soft: dict[str, Any]) -> str:
+    """The compliances of report.json's ``compliance`` section for people: urad/Nm and the
+    stiffness in Nm/rad; a joint at zero is rigid (its stiffness is infinite, JSON null)."""
+    bounded = set(soft.get("bounded_at_zero", ()))
+    cells = []
+    for joint, c in soft["compliance_rad_per_Nm"].items():
+        k = soft["stiffness_Nm_per_rad"].get(joint)
+        stiff = f"stiffness {k:.3g} Nm/rad" if k is not None and k < RIGID_NM_PER_RAD else "rigid"
+        cells.append(f"{joint} {c * 1e6:.1f} urad/Nm ({stiff}{', bounded at zero' if joint in bounded else ''})")
+    return ", ".join(cells)
 
 
 def _summary(result: Any, report: dict[str, Any]) -> None:
@@ -252,9 +284,7 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
     soft = report.get("compliance")
     if soft:
-        cells = ", ".join(f"{j} {c * 1e6:.1f} urad/Nm (stiffness {k:.3g} Nm/rad)" for (j, c), k
-                          in zip(soft["compliance_rad_per_Nm"].items(), soft["stiffness_Nm_per_rad"].values(), strict=True))
-        print(f"joint compliance: {cells}; deflection is not in the URDF")
+        print(f"joint compliance: {compliance_cells(soft)}; deflection is not in the URDF")
     est = result.estimate
     print(f"estimation: {est.time_s:.3f} s, {est.iterations} iterations ({est.message})")
     u = report["uncertainty"]
@@ -272,7 +302,7 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     after, before = result.metrics["train"]["after"], result.metrics["train"]["before"]
     if after.rmse_mm > before.rmse_mm:
         print("warning: the calibrated model fits the training poses worse than the nominal one")
-    for warning in result.warnings:
+    for warning in report["warnings"]:  # the result's own, and the report's (rank, bounded compliances)
         print(f"warning: {warning}")
     if not result.kinematic:
         print(f"no URDF written: {result.method} learns a correction of the measured values, which a URDF cannot hold")

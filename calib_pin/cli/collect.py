@@ -12,15 +12,18 @@ import dataclasses
 import sys
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..progress import quiet_progress
-from .common import SENSOR_FAULT_EXIT, OneLineParser, count, fail, non_negative, run, xyz_mm
+from .common import SENSOR_FAULT_EXIT, OneLineParser, count, fail, non_negative, one_line, run, xyz_mm
+from .outputs import Outputs, add_force_argument, refuse_input, robot_file
 
 if TYPE_CHECKING:
     from ..hardware.reader import SensorProfile
+    from ..hardware.session import Session
 
 #: Command-line flag -> SensorProfile field (flags default to None: "not given").
 _PROFILE_FLAGS = {
@@ -64,15 +67,31 @@ def _add_sensor_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _profile(args: argparse.Namespace) -> SensorProfile:
+    """The sensor settings: the --profile file, then the flags; checked, nothing written."""
     from ..hardware.reader import SensorProfile
 
     profile = SensorProfile.load(args.profile) if args.profile else SensorProfile()
     given = {field: getattr(args, flag) for flag, field in _PROFILE_FLAGS.items() if getattr(args, flag) is not None}
-    profile = dataclasses.replace(profile, **given).check()
+    return dataclasses.replace(profile, **given).check()
+
+
+def _outputs(args: argparse.Namespace, profile: SensorProfile) -> Outputs:
+    """The --save-profile file, refused now if it may not be written (an existing file
+    without --force; an input, or the session, even with it); written by the caller last."""
+    inputs = {"ROBOT": robot_file(args.robot), "--poses": args.poses, "--profile": args.profile,
+              "--port": args.port}
+    if args.out:
+        refuse_input(args.out, inputs)
+        inputs["--out, the session"] = args.out
+    out = Outputs(Path(args.save_profile or ".").parent, force=args.force, inputs=inputs)
     if args.save_profile:
-        profile.save(args.save_profile)
+        out.add(args.save_profile, profile.save)
+    return out
+
+
+def _save(outputs: Outputs, args: argparse.Namespace) -> None:
+    if outputs.commit():
         print(f"saved sensor profile {args.save_profile}")
-    return profile
 
 
 def collect_parser() -> argparse.ArgumentParser:
@@ -93,6 +112,7 @@ def collect_parser() -> argparse.ArgumentParser:
     p.add_argument("--anchor-mm", type=xyz_mm, help="sensor point P0 in the base frame, x,y,z mm (written to the file)")
     p.add_argument("--tool-mm", type=xyz_mm, help="hook point in the end frame, x,y,z mm (written to the file)")
     _add_sensor_arguments(p)
+    add_force_argument(p, "--save-profile file")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
     return p
 
@@ -114,7 +134,13 @@ def _probe(args: argparse.Namespace) -> int:
     from ..hardware.reader import SensorFault, open_reader, read_with_retries
 
     profile = _profile(args)
+    outputs = _outputs(args, profile)
     reader = open_reader(args.port, profile)
+    try:
+        _save(outputs, args)
+    except BaseException:
+        reader.close()
+        raise
     print(f"probing {args.port}: {profile.describe()}")
     try:
         reader.flush()
@@ -145,31 +171,49 @@ def _wait(auto: float | None):
     return wait
 
 
+def _start(session: Session, outputs: Outputs, args: argparse.Namespace) -> None:
+    """Write what the checks allowed: the session's header or cut, the --save-profile file
+    (if that fails, a session file this run created is removed again)."""
+    new = session.new
+    session.start()
+    try:
+        _save(outputs, args)
+    except BaseException:
+        if new:
+            session.discard()
+        raise
+    if session.dropped:
+        print(f"dropped an incomplete last line of {args.out} (a write cut short): {session.dropped!r}")
+
+
 def _collect(args: argparse.Namespace) -> int:
     from ..hardware.reader import SensorFault, open_reader
-    from ..hardware.session import collect, open_session, read_pose_list
+    from ..hardware.session import collect, prepare_session, read_pose_list
     from ..robot import load_chain
 
+    # Everything is checked before anything is written: a refused run leaves no header,
+    # no cut, no profile.
     profile = _profile(args)
     chain = load_chain(args.robot, args.end_frame)
     poses = read_pose_list(args.poses, chain)
-    session = open_session(args.out, poses, chain, profile, anchor_mm=args.anchor_mm, tool_mm=args.tool_mm)
-    if session.dropped:
-        print(f"dropped an incomplete last line of {args.out} (a write cut short): {session.dropped!r}")
-    if not session.remaining:
-        print(f"all {len(poses)} poses are already in {args.out}")
-        return 0
-    if session.done:
-        print(f"resuming {args.out}: {session.done} of {len(poses)} poses done")
-    reader = open_reader(args.port, profile)
-    try:
-        written = collect(session, reader, _wait(args.auto))
-    except SensorFault as e:
-        print(f"error: sensor: {e}; {session.done} of {len(poses)} poses are saved in {args.out}; "
-              "fix the fault and run the same command to resume", file=sys.stderr)
-        return SENSOR_FAULT_EXIT
-    finally:
-        reader.close()
+    outputs = _outputs(args, profile)
+    with prepare_session(args.out, poses, chain, profile, anchor_mm=args.anchor_mm, tool_mm=args.tool_mm) as session:
+        if not session.remaining:
+            _start(session, outputs, args)
+            print(f"all {len(poses)} poses are already in {args.out}")
+            return 0
+        reader = open_reader(args.port, profile)
+        try:
+            _start(session, outputs, args)
+            if session.done:
+                print(f"resuming {args.out}: {session.done} of {len(poses)} poses done")
+            written = collect(session, reader, _wait(args.auto))
+        except SensorFault as e:
+            print(f"error: {one_line(f'sensor: {e}; {session.done} of {len(poses)} poses are saved in {args.out}')}; "
+                  "fix the fault and run the same command to resume", file=sys.stderr)
+            return SENSOR_FAULT_EXIT
+        finally:
+            reader.close()
     state = "complete" if not session.remaining else f"{len(session.remaining)} poses left"
     print(f"wrote {written} rows to {args.out} ({session.done} of {len(poses)}, {state})")
     return 0

@@ -25,12 +25,20 @@ class OneLineParser(argparse.ArgumentParser):
     """ArgumentParser whose errors are one line and exit 2."""
 
     def error(self, message: str) -> NoReturn:
-        self.exit(BAD_INPUT_EXIT, f"{self.prog}: error: {message} (see --help)\n")
+        self.exit(BAD_INPUT_EXIT, f"{self.prog}: error: {one_line(message)} (see --help)\n")
+
+
+def one_line(text: str) -> str:
+    """``text`` with every control character escaped as ``repr`` does (``\\n``, ``\\x1b``):
+    a file name or a field may hold them, and an error message stays one line."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def fail(message: str) -> int:
-    """Print one error line on stderr; the bad-input exit status."""
-    print(f"error: {message}", file=sys.stderr)
+    """Print one error line on stderr (control characters escaped); the bad-input exit status."""
+    print(f"error: {one_line(message)}", file=sys.stderr)
     return BAD_INPUT_EXIT
 
 
@@ -47,7 +55,7 @@ def run(action: Callable[[], int], interrupted: str = "stopped by Ctrl-C: nothin
     except BrokenPipeError:
         return fail("standard output was closed (files already written are kept)")
     except MemoryError:
-        return fail("not enough memory for this size: ask for fewer poses or candidates")
+        return fail("not enough memory for this size: ask for fewer poses or candidates, or give a smaller file")
     except OSError as e:
         where = f"{e.filename}: " if getattr(e, "filename", None) else ""
         return fail(f"{where}{e.strerror or e}")

@@ -16,7 +16,7 @@ import numpy as np
 from ..compensation import CalibratedRobot, Compensation
 from ..exceptions import DataError
 from .common import OneLineParser, run
-from .outputs import Outputs
+from .outputs import Outputs, add_force_argument, robot_file
 
 
 def compensate_parser() -> argparse.ArgumentParser:
@@ -33,6 +33,7 @@ def compensate_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="corrected targets CSV (same columns, plus the remaining error)")
     p.add_argument("--with-cable", action="store_true",
                    help="keep the drawstring's pull of the calibration in the deflection (default: the arm without it)")
+    add_force_argument(p, "--out file")
     return p
 
 
@@ -48,7 +49,11 @@ def _compensate(args: argparse.Namespace) -> int:
     from ..hardware.session import read_pose_list
     from ..measurements.csv_writer import write_compensated
 
+    out = Outputs(Path(args.out).parent, force=args.force,
+                  inputs={"ROBOT": robot_file(args.robot), "--calibration": args.calibration, "--targets": args.targets})
+    out.check(args.out)  # before the work; a calibration folder's file is checked once found
     source = find_calibration(Path(args.calibration))
+    out.inputs["--calibration"] = source
     robot = load_calibration(source, args.robot, cable=args.with_cable)
     chain = robot.chain
     targets = read_pose_list(args.targets, chain)
@@ -65,7 +70,6 @@ def _compensate(args: argparse.Namespace) -> int:
             raise DataError(targets.source, f"pose {pose_ids[rows[k]]}: {problem}", line)
     notes = {"robot": chain.name, "end_frame": chain.end_frame,
              "compensated": f"{source.name} (calib-pin {__version__}), targets {Path(targets.source).name}"}
-    out = Outputs(Path(args.out).parent)
     out.add(Path(args.out), lambda tmp: write_compensated(tmp, result.q, pose_ids[rows],
                                                         result.position_error_m, result.orientation_error_rad, notes))
     written = out.commit()

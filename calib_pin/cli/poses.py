@@ -12,6 +12,7 @@ from ..exceptions import CalibPinError
 from ..parameters import MODELS
 from ..progress import quiet_progress
 from .common import OneLineParser, count, estimate_names, fail, non_negative, run, xyz_mm
+from .outputs import Outputs, add_force_argument, robot_file
 
 #: Most poses or candidates a pose command draws (more would not fit in memory here).
 MAX_POSES = 1_000_000
@@ -26,7 +27,15 @@ def make_poses_parser() -> argparse.ArgumentParser:
                    help="keep this far inside every joint limit, deg (5)")
     p.add_argument("--end-frame", help="end frame (default tool0)")
     p.add_argument("--out", required=True, help="pose list CSV")
+    add_force_argument(p, "--out file")
     return p
+
+
+def _pose_output(args: argparse.Namespace) -> Outputs:
+    """The pose list ``--out``, refused before the work (an existing file without --force, the URDF)."""
+    out = Outputs(Path(args.out).parent, force=args.force, inputs={"ROBOT": robot_file(args.robot)})
+    out.check(args.out)
+    return out
 
 
 def make_poses_main(argv: Sequence[str] | None = None) -> int:
@@ -40,6 +49,7 @@ def _make_poses(args: argparse.Namespace) -> int:
     from ..robot import load_chain
     from ..simulation import random_poses
 
+    out = _pose_output(args)
     chain = load_chain(args.robot, args.end_frame)
     margin = np.deg2rad(args.margin_deg)
     span = np.where(np.isfinite(chain.upper - chain.lower), chain.upper - chain.lower, np.inf)
@@ -50,9 +60,9 @@ def _make_poses(args: argparse.Namespace) -> int:
             f"({np.rad2deg(span[k]):g} deg between its limits)"
         )
     q = random_poses(chain, args.n, np.random.default_rng(args.seed), margin=margin)
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    write_poses(args.out, q, robot=chain.name, end_frame=chain.end_frame,
-                notes={"source": f"make_poses.py seed {args.seed}, margin {args.margin_deg:g} deg"})
+    notes = {"source": f"make_poses.py seed {args.seed}, margin {args.margin_deg:g} deg"}
+    out.add(args.out, lambda tmp: write_poses(tmp, q, robot=chain.name, end_frame=chain.end_frame, notes=notes))
+    out.commit()
     print(f"{chain.name}: {args.n} poses within the joint limits less {args.margin_deg:g} deg (seed {args.seed})")
     print(f"wrote {args.out}")
     return 0
@@ -75,6 +85,7 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--estimate", type=estimate_names, default=(),
                    help="sensor geometry that will be estimated too: anchor, offset or anchor,offset")
     p.add_argument("--out", required=True, help="pose list CSV")
+    add_force_argument(p, "--out file")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
     args = p.parse_args(argv)
     if args.candidates < args.n:
@@ -91,6 +102,7 @@ def _plan_poses(args: argparse.Namespace) -> int:
     from ..sensors import CableModel, Drawstring
     from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
 
+    out = _pose_output(args)
     chain = load_chain(args.robot, args.end_frame)
     sensor = Drawstring(np.array(args.anchor_mm or DEFAULT_ANCHOR_MM) * 1e-3,
                         np.array(args.tool_mm or DEFAULT_TOOL_MM) * 1e-3)
@@ -101,11 +113,11 @@ def _plan_poses(args: argparse.Namespace) -> int:
         plan = plan_poses(model, args.n, args.candidates, seed=args.seed, margin=np.deg2rad(args.margin_deg))
     except ValueError as e:
         raise CalibPinError(str(e)) from None
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    write_poses(args.out, plan.q, robot=chain.name, end_frame=chain.end_frame,
-                notes={"source": f"plan_poses.py: {args.n} of {args.candidates} candidates (seed {args.seed}), "
-                                 f"D-optimal for the {name} model and the drawstring sensor"
-                                 + (f" with {' and '.join(args.estimate)} estimated" if args.estimate else "")})
+    notes = {"source": f"plan_poses.py: {args.n} of {args.candidates} candidates (seed {args.seed}), "
+                       f"D-optimal for the {name} model and the drawstring sensor"
+                       + (f" with {' and '.join(args.estimate)} estimated" if args.estimate else "")}
+    out.add(args.out, lambda tmp: write_poses(tmp, plan.q, robot=chain.name, end_frame=chain.end_frame, notes=notes))
+    out.commit()
     print(f"{chain.name}: {args.n} poses chosen from {args.candidates} candidates (seed {args.seed}), "
           f"{name} model" + (f", {' and '.join(args.estimate)} estimated" if args.estimate else ""))
     print(f"observability O1 {plan.o1:.3g} (random poses: {plan.random_o1:.3g}), "

@@ -18,10 +18,9 @@ from .common import (
     count,
     finite,
     non_negative,
-    positive_float,
     run,
 )
-from .outputs import Outputs
+from .outputs import Outputs, add_force_argument, robot_file
 
 #: Most poses one simulated set may hold (a larger one would not fit in memory here).
 MAX_POSES = 1_000_000
@@ -35,7 +34,8 @@ def simulate_parser() -> argparse.ArgumentParser:
     )
     add_robot_arguments(p, "default 600,200,-100", "default 0,0,50")
     p.add_argument("--poses", type=count(MAX_POSES), default=120, help="number of poses (default 120)")
-    p.add_argument("--noise-mm", type=positive_float(100.0), default=0.05, help="reading noise, 1 sigma, mm (default 0.05)")
+    p.add_argument("--noise-mm", type=non_negative(float, 100.0), default=0.05,
+                   help="reading noise, 1 sigma, mm (default 0.05; 0: a noise-free set, e.g. the values of a dry run)")
     p.add_argument("--noise-kind", choices=NOISE_KINDS, default="gauss",
                    help="gauss, student (t, 3 dof, heavy tails) or outliers (gauss + 5%% gross errors "
                    "of 1-3 mm) (default gauss)")
@@ -48,7 +48,8 @@ def simulate_parser() -> argparse.ArgumentParser:
     add_compliance_arguments(p, "simulate")
     p.add_argument("--true-compliance-urad-per-nm", type=_values,
                    help="true compliance of each --compliance joint, comma-separated, urad/Nm (e.g. 25,40)")
-    p.add_argument("--out", required=True, help="output CSV")
+    p.add_argument("--out", required=True, help="output CSV (FILE.truth.json is written beside it)")
+    add_force_argument(p, "FILE.csv or FILE.truth.json")
     return p
 
 
@@ -81,6 +82,10 @@ def _simulate(args: argparse.Namespace) -> int:
     if not out.name or out.is_dir():
         raise OSError(f"--out '{args.out}' is not a file name")
     truth_path = out.with_name(out.name.removesuffix(".csv") + ".truth.json")
+    outputs = Outputs(out.parent, force=args.force, inputs={"ROBOT": robot_file(args.robot),
+                                                            "--poses-file": args.poses_file})
+    for path in (out, truth_path):  # refused before the work, and again when written
+        outputs.check(path)
     chain = load_chain(args.robot, args.end_frame)
     params = parameter_model(chain, args.model)
     kind = {"dh": "DH", "hayati": "Hayati", "placement": "joint-placement"}[params.name]
@@ -96,7 +101,6 @@ def _simulate(args: argparse.Namespace) -> int:
     if not (data.lengths > 0).all():
         raise CalibPinError(f"a simulated length is {data.lengths.min() * 1e3:.3f} mm, not positive: "
                             "--length-offset-mm or the sensor geometry is wrong")
-    outputs = Outputs(out.parent)
     outputs.add(out, lambda tmp: write_measurements(tmp, data))
     outputs.add(truth_path, lambda tmp: truth.to_json(tmp))
     written = outputs.commit()

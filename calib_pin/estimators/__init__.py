@@ -20,6 +20,7 @@ import numpy as np
 from ..exceptions import EstimatorError
 from ..problem import LeastSquares
 from ..progress import progress_bar
+from .active_set import estimate_nonnegative
 from .base import EstimateResult, History
 
 #: Robust losses (scipy.optimize.least_squares names); "linear" is plain least squares.
@@ -137,24 +138,36 @@ def run_estimator(
 ) -> EstimateResult:
     """Run the estimator ``name`` (with ``loss``), recording its convergence history
     (unless ``history`` is False) and its wall time ``time_s``. PSO and DE show a bar
-    over their generations on a terminal (:mod:`calib_pin.progress`)."""
-    estimator = get_estimator(name, loss)
-    recorder = History() if history else None
-    generations = getattr(estimator, "max_iter", 0) if getattr(estimator, "reports_generations", False) else 0
-    with progress_bar(generations + 1, f"{name} generations", quiet=not generations) as bar:
-        def callback(rmse_m: float, evaluations: float) -> None:
-            bar.update()  # type: ignore[union-attr]
-            if recorder is not None:
-                recorder(rmse_m, evaluations)
+    over their generations on a terminal (:mod:`calib_pin.progress`).
 
-        start = time.perf_counter()
-        result = estimator(problem, x0, seed=seed, noise=noise,
-                           callback=recorder if bar is None else callback)
-        elapsed = time.perf_counter() - start
-    if recorder is None:
+    Unknowns the problem names in ``nonnegative`` (the joint compliances) come out >= 0
+    for every method: one fitted negative is fixed at zero and the method runs again
+    without it (:mod:`.active_set`; ``result.bounded`` lists them, ``time_s`` covers
+    every run, ``history`` is the last run's).
+    """
+    estimator = get_estimator(name, loss)
+    recorders: list[History] = []
+    generations = getattr(estimator, "max_iter", 0) if getattr(estimator, "reports_generations", False) else 0
+
+    def once(part: LeastSquares, start: np.ndarray) -> EstimateResult:
+        recorder = History() if history else None
+        recorders[:] = [recorder] if recorder is not None else []
+        with progress_bar(generations + 1, f"{name} generations", quiet=not generations) as bar:
+            def callback(rmse_m: float, evaluations: float) -> None:
+                bar.update()  # type: ignore[union-attr]
+                if recorder is not None:
+                    recorder(rmse_m, evaluations)
+
+            return estimator(part, start, seed=seed, noise=noise, callback=recorder if bar is None else callback)
+
+    nonnegative = tuple(getattr(problem, "nonnegative", ()))
+    start = time.perf_counter()
+    result = estimate_nonnegative(once, problem, x0, nonnegative) if nonnegative else once(problem, x0)
+    elapsed = time.perf_counter() - start
+    if not recorders:
         return dataclasses.replace(result, time_s=elapsed)
-    return dataclasses.replace(result, time_s=elapsed, history=tuple(recorder.history),
-                               evaluations=tuple(recorder.evaluations))
+    return dataclasses.replace(result, time_s=elapsed, history=tuple(recorders[0].history),
+                               evaluations=tuple(recorders[0].evaluations))
 
 
 __all__ = ["DEFAULT_METHOD", "ESTIMATORS", "LOSSES", "METHODS", "PAPER_LABELS", "PAPER_METHODS", "EstimateResult",

@@ -57,7 +57,8 @@ class EstimateResult:
         extras: Method-specific results: ``covariance`` (a Kalman filter's P carried to
             x), ``stages`` (a pipeline's iterations per stage), ``correction`` (RBF: a
             :data:`Correction`, what to add to the predicted values [m]),
-            ``outliers`` (rows a robust method judged outliers).
+            ``outliers`` (rows a robust method judged outliers), ``bounded`` (unknowns
+            fixed at zero because they fitted negative, see :attr:`bounded`).
     """
 
     x: np.ndarray
@@ -91,6 +92,12 @@ class EstimateResult:
     @property
     def outliers(self) -> tuple[int, ...]:
         return tuple(self.extras.get("outliers", ()))
+
+    @property
+    def bounded(self) -> tuple[int, ...]:
+        """Unknowns (indices into x) that must be >= 0, fitted negative and fixed at zero
+        (:mod:`calib_pin.estimators.active_set`)."""
+        return tuple(self.extras.get("bounded", ()))
 
     def predict(self, model: Any, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
         """Values [m] this estimate predicts at joint angles q [rad] with a measurement model,

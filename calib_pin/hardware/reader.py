@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import CalibPinError
+from ..input_files import check_regular
 from ..optional import require
 
 serial = require("serial")
@@ -171,6 +172,7 @@ class SensorProfile:
             CalibPinError: unreadable file, unknown key, or a bad value.
         """
         try:
+            check_regular(path)
             doc = json.loads(Path(path).read_text())
         except OSError as e:
             raise CalibPinError(f"{path}: cannot read sensor profile: {e.strerror or e}") from None

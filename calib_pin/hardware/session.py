@@ -1,27 +1,38 @@
 """Collecting a measurement set from a drawstring sensor, pose by pose, losing nothing.
 
 The output is a measurement CSV in the format of :mod:`calib_pin.measurements` with a
-``pose`` column. It is created atomically (metadata and header written to a temporary
-file, synced, then renamed); every completed pose is then appended as one line with
-one ``write`` on an append-only descriptor followed by ``fsync``. The file is never
-rewritten: a run that is killed at any moment leaves every completed row intact, and at
-worst an incomplete last line, which the next run drops before it resumes at the first
-pose of the pose list not yet in the file.
+``pose`` column. :func:`prepare_session` checks everything and writes nothing: a new
+file's header, or an existing file's cut last line, is only written by
+:meth:`Session.start`, once the caller has checked the rest (the serial port, the other
+outputs). The file is created atomically (metadata and header written to a temporary
+file, synced, then linked to its name); every completed pose is then appended as one
+line on an append-only descriptor, every ``write`` checked, followed by ``fsync``. A row
+that does not reach the disk in full (a full disk) is cut away again and not counted.
+The file is never rewritten: a run that is killed at any moment leaves every completed
+row intact, and at worst an incomplete last line, which the next run drops before it
+resumes at the first pose of the pose list not yet in the file.
+
+One run at a time: a session holds an exclusive lock (``flock``) on its file from
+:func:`prepare_session` until :meth:`Session.close`; a second run on the same file is
+refused with one line.
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime
+import errno
+import fcntl
 import os
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..exceptions import DataError
+from ..exceptions import CalibPinError, DataError
+from ..input_files import check_regular
 from ..measurements import MeasurementSet, read_measurements
 from ..measurements.csv_writer import header, row
 from ..progress import progress_bar
@@ -32,25 +43,80 @@ from .reader import Reader, SensorProfile, StableReading, read_stable
 SAME_POSE_DEG = 1e-6
 
 
+class SessionWriteError(CalibPinError):
+    """A row or the header did not reach the disk in full (a full disk, an I/O error);
+    the message says how many poses are safe."""
+
+
 @dataclass
 class Session:
-    """An output file being filled.
+    """An output file being filled, locked for this run (see :func:`prepare_session`).
 
     Attributes:
         path: The measurement CSV.
         poses: The pose list (``pose_ids`` set).
         remaining: Indices into the pose list still to measure, in order.
-        dropped: Text of an incomplete last line removed when resuming, or "".
+        dropped: Text of an incomplete last line, removed by :meth:`start`, or "".
     """
 
     path: Path
     poses: MeasurementSet
     remaining: list[int]
     dropped: str = ""
+    _fd: int | None = field(default=None, repr=False)
+    _header: str | None = field(default=None, repr=False)  # to write when a new file starts
+    _keep: int | None = field(default=None, repr=False)  # bytes to keep of an existing file
 
     @property
     def done(self) -> int:
         return len(self.poses) - len(self.remaining)
+
+    @property
+    def started(self) -> bool:
+        """Whether :meth:`start` has written what it had to (rows may be appended)."""
+        return self._header is None and self._keep is None and self._fd is not None
+
+    @property
+    def new(self) -> bool:
+        """Whether the file does not exist yet (:meth:`start` creates it)."""
+        return self._header is not None
+
+    def start(self) -> None:
+        """Write what preparing only planned: a new file with its header (created
+        atomically, and locked), or the cut of an incomplete last line.
+
+        Raises:
+            SessionWriteError: the header could not be written (nothing is then left).
+            DataError: another run created the file meanwhile.
+        """
+        if self._header is not None:
+            self._fd = _create(self.path, self._header)
+            self._header = None
+        elif self._keep is not None:
+            assert self._fd is not None
+            os.ftruncate(self._fd, self._keep)
+            os.fsync(self._fd)
+            self._keep = None
+
+    def discard(self) -> None:
+        """Remove a file this run created and has not written a row to (another output
+        of the run failed: all of them or none), and release it."""
+        if self._fd is not None and self.done == 0:
+            with contextlib.suppress(FileNotFoundError):
+                self.path.unlink()
+        self.close()
+
+    def close(self) -> None:
+        """Release the file and its lock."""
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self) -> Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def read_pose_list(path: str | Path, chain: Chain) -> MeasurementSet:
@@ -86,43 +152,140 @@ def _fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
+def _write_all(fd: int, data: bytes) -> None:
+    """Write every byte of ``data`` (a short write is continued; a write that makes no
+    progress is a full disk), then ``fsync``.
+
+    Raises:
+        OSError: the bytes did not all reach the disk.
+    """
+    view = memoryview(data)
+    while view:
+        n = os.write(fd, view)
+        if n <= 0:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        view = view[n:]
+    os.fsync(fd)
+
+
+def _lock(fd: int, path: Path) -> None:
+    """Take the session's exclusive lock, or refuse: another run holds it."""
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise DataError(str(path), "another collect is writing this session now: wait for it to end, "
+                        "then run the same command to resume") from None
+
+
+def _create(path: Path, text: str) -> int:
+    """Create ``path`` holding ``text`` atomically, locked; return its append descriptor.
+
+    Raises:
+        SessionWriteError: the header did not reach the disk (no file is left).
+        DataError: another run created ``path`` meanwhile.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    fd = os.open(tmp, os.O_RDWR | os.O_APPEND | os.O_CREAT | os.O_TRUNC, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        try:
+            _write_all(fd, text.encode("utf-8"))
+        except OSError as e:
+            raise SessionWriteError(f"{path}: cannot write the header: {e.strerror or e}; "
+                                    "no file was created") from None
+        try:
+            os.link(tmp, path)  # never over a file another run created meanwhile
+        except FileExistsError:
+            raise DataError(str(path), "another collect created this session meanwhile: "
+                            "run the same command again to resume") from None
+        except OSError as e:
+            if e.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP):
+                raise
+            os.replace(tmp, path)  # a filesystem without hard links
+        _fsync_dir(path)
+    except BaseException:
+        os.close(fd)
+        raise
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+    return fd
+
+
+def _read_locked(path: Path) -> tuple[int, bytes]:
+    """Open an existing session for appending, lock it, and read it."""
+    check_regular(path)
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_APPEND)
+    except OSError as e:
+        raise DataError(str(path), f"cannot be opened to read and append: {e.strerror or e}") from None
+    _lock(fd, path)
+    try:
+        chunks: list[bytes] = []
+        offset = 0
+        while chunk := os.pread(fd, 1 << 20, offset):
+            chunks.append(chunk)
+            offset += len(chunk)
+    except OSError as e:
+        os.close(fd)
+        raise DataError(str(path), f"cannot be read: {e.strerror or e}") from None
+    return fd, b"".join(chunks)
+
+
+def prepare_session(
+    out: str | Path, poses: MeasurementSet, chain: Chain, profile: SensorProfile,
+    *, anchor_mm=None, tool_mm=None,
+) -> Session:
+    """Check the output file (to create, or to resume) and lock it; write nothing yet.
+
+    :meth:`Session.start` then writes the header of a new file, or cuts an incomplete
+    last line; :meth:`Session.close` releases the lock.
+
+    Raises:
+        DataError: the existing file is not a measurement set of this robot, holds a
+            pose that is not in the pose list or whose joint angles differ from it, or
+            another run is writing it.
+    """
+    path = Path(out)
+    if not os.path.lexists(path):
+        return Session(path, poses, list(range(len(poses))),
+                       _header=_header(chain, profile, poses.source, anchor_mm, tool_mm))
+    fd, data = _read_locked(path)
+    try:
+        # A last line without a line end is a write cut short: it is checked as absent and
+        # cut only once the rest has been accepted (a refused file keeps every byte).
+        keep = len(data) if not data or data.endswith(b"\n") else data.rfind(b"\n") + 1
+        done = read_measurements(path, chain, allow_empty=True, content=data[:keep])
+        _check_resume(path, done, poses, anchor_mm, tool_mm)
+    except BaseException:
+        os.close(fd)
+        raise
+    dropped = data[keep:].decode("utf-8", "replace") if keep < len(data) else ""
+    measured = {int(p) for p in done.pose_ids}  # type: ignore[union-attr]
+    remaining = [k for k, pid in enumerate(poses.pose_ids) if int(pid) not in measured]  # type: ignore[arg-type]
+    return Session(path, poses, remaining, dropped, _fd=fd, _keep=keep if dropped else None)
+
+
 def open_session(
     out: str | Path, poses: MeasurementSet, chain: Chain, profile: SensorProfile,
     *, anchor_mm=None, tool_mm=None,
 ) -> Session:
-    """Create the output file, or reopen it to resume.
+    """Create the output file, or reopen it to resume (:func:`prepare_session`, then
+    :meth:`Session.start`); close the session when done.
 
     Raises:
-        DataError: the existing file is not a measurement set of this robot, or holds a
-            pose that is not in the pose list or whose joint angles differ from it.
+        DataError: as :func:`prepare_session`.
+        SessionWriteError: the header could not be written.
     """
-    path = Path(out)
-    if not path.exists():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp")
-        with tmp.open("w", encoding="utf-8") as f:
-            f.write(_header(chain, profile, poses.source, anchor_mm, tool_mm))
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-        _fsync_dir(path)
-        return Session(path, poses, list(range(len(poses))))
+    session = prepare_session(out, poses, chain, profile, anchor_mm=anchor_mm, tool_mm=tool_mm)
     try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise DataError(str(path), f"cannot be read: {e.strerror or e}") from None
-    # A last line without a line end is a write cut short: it is checked as absent and
-    # cut only once the rest has been accepted (a refused file keeps every byte).
-    keep = len(data) if not data or data.endswith(b"\n") else data.rfind(b"\n") + 1
-    done = read_measurements(path, chain, allow_empty=True, content=data[:keep])
-    _check_resume(path, done, poses, anchor_mm, tool_mm)
-    dropped = ""
-    if keep < len(data):
-        os.truncate(path, keep)
-        dropped = data[keep:].decode("utf-8", "replace")
-    measured = {int(p) for p in done.pose_ids}  # type: ignore[union-attr]
-    remaining = [k for k, pid in enumerate(poses.pose_ids) if int(pid) not in measured]  # type: ignore[arg-type]
-    return Session(path, poses, remaining, dropped)
+        session.start()
+    except BaseException:
+        session.close()
+        raise
+    return session
 
 
 def _check_resume(path: Path, done: MeasurementSet, poses: MeasurementSet, anchor_mm: Any, tool_mm: Any) -> None:
@@ -151,15 +314,34 @@ def _check_resume(path: Path, done: MeasurementSet, poses: MeasurementSet, ancho
 
 
 def append_row(session: Session, k: int, reading: StableReading) -> str:
-    """Append pose ``k``'s row (one write, then fsync); return the line written."""
+    """Append pose ``k``'s row (every byte written, then fsync); return the line written.
+
+    Raises:
+        SessionWriteError: the row did not reach the disk in full. It is cut away
+            again (the file stays a valid session to resume), and the message says how
+            many poses are saved.
+    """
+    if not session.started:
+        raise RuntimeError("Session.start() before append_row")
+    fd = session._fd
+    assert fd is not None
     pid = int(session.poses.pose_ids[k])  # type: ignore[index]
     line = row(session.poses.q[k], [reading.mean_mm * 1e-3], labels=(pid,)) + "\n"
-    fd = os.open(session.path, os.O_WRONLY | os.O_APPEND)
+    size = os.fstat(fd).st_size
     try:
-        os.write(fd, line.encode("utf-8"))
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+        _write_all(fd, line.encode("utf-8"))
+    except BaseException as e:  # a full disk, or Ctrl-C mid-write: the row is not counted
+        try:
+            os.ftruncate(fd, size)
+            os.fsync(fd)
+            left = "the cut row was removed"
+        except OSError:
+            left = "the cut row is left unfinished (the next run drops it)"
+        if not isinstance(e, OSError):
+            raise
+        raise SessionWriteError(
+            f"{session.path}: cannot write pose {pid}: {e.strerror or e}; {left}; {session.done} of "
+            f"{len(session.poses)} poses are saved: free disk space and run the same command to resume") from None
     return line
 
 
@@ -182,7 +364,7 @@ def collect(
     """Measure the remaining poses of a session.
 
     Args:
-        session: From :func:`open_session`.
+        session: From :func:`open_session` (started).
         reader: An open sensor reader.
         wait: Called with (pose id, position in the list 1-based, q [deg]) before each
             pose; it returns when the robot is there, or False to stop.
@@ -193,6 +375,7 @@ def collect(
 
     Raises:
         SensorFault: a fault that outlived its retries (no row is written for that pose).
+        SessionWriteError: a row did not reach the disk (it is not counted).
     """
     n = len(session.poses)
     written = 0

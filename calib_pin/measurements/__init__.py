@@ -2,6 +2,6 @@
 
 from .csv_reader import read_measurements
 from .csv_writer import write_measurements, write_poses
-from .dataset import MeasurementSet
+from .dataset import MeasurementSet, PointLabel, point_label
 
-__all__ = ["MeasurementSet", "read_measurements", "write_measurements", "write_poses"]
+__all__ = ["MeasurementSet", "PointLabel", "point_label", "read_measurements", "write_measurements", "write_poses"]

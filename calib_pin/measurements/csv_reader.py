@@ -13,15 +13,23 @@ Format (one row a pose, or a marker at a pose)::
   (a name or the URDF path given to the command), ``end_frame``, ``anchor_mm`` /
   ``anchor_m`` (P0 in the base frame), ``tool_mm`` / ``tool_m`` (the tool point in the end
   frame), ``length_offset_mm`` / ``length_offset_m`` (sensor zero offset), ``noise_mm`` /
-  ``noise_m`` (the sensor's noise, 1 sigma). Other keys are kept as notes. A ``# key:``
-  line after the header is refused (it would be ignored); other ``#`` lines are comments.
+  ``noise_m`` (the sensor's noise, 1 sigma), ``csv`` (the dialect, below). Other keys are
+  kept as notes. A ``# key:`` line after the header is refused (it would be ignored); other
+  ``#`` lines are comments.
 - Every column names its unit: ``q<i>_deg`` or ``q<i>_rad`` for each revolute joint of the
   chain (``q<i>_mm`` or ``q<i>_m`` for a prismatic one), ``length_mm`` or ``length_m``; an
   optional integer ``pose`` column labels rows.
 - A *position* set (laser tracker, CMM) has ``x_mm, y_mm, z_mm`` (or ``_m``) instead of
   the length: a marker's position in the measuring device's frame, and an optional
-  integer ``point_id`` naming the marker. Each (pose, point_id) pair appears once.
-- Numbers are plain decimals (``1e-3`` allowed; ``1_0``, ``inf``, ``nan`` are not).
+  ``point_id`` naming the marker: whole numbers (``1``, ``2``) or text labels (``SMR1``,
+  ``T2``, ``A``: up to 40 characters), one kind in a file. Each (pose, point_id) pair
+  appears once.
+- Other columns (a temperature, a standard deviation, a time stamp, a comment) are read
+  and kept in :attr:`MeasurementSet.extra`, not used; a column that looks like one of
+  calib-pin's but is not one is refused (the rule: :mod:`calib_pin.measurements.columns`).
+- The separator is ``,``, ``;`` or a tab, and with ``;`` or a tab the decimal mark may be
+  ``,`` (detected; the rule and the ``# csv:`` line: :mod:`calib_pin.measurements.dialect`).
+  Numbers are plain decimals (``1e-3`` allowed; ``1_0``, ``inf``, ``nan`` are not).
 - Any problem raises :class:`~calib_pin.exceptions.DataError` naming the file, the line
   and the field, before anything is fitted.
 """
@@ -38,41 +46,22 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import DataError
+from ..input_files import check_regular
 from ..robot.chain import Chain
-from .dataset import MeasurementSet
+from . import dialect
+from .columns import ANNOTATIONS, Columns, check_columns, check_near_misses, classify
+from .dataset import MeasurementSet, point_label
+from .dialect import Dialect, Override, number, quote, shown_separator
 
-#: Columns a compensated pose list carries beside the joints (calib-pin compensate); read past.
-ANNOTATIONS = ("position_error_mm", "orientation_error_urad")
-_JOINT = re.compile(r"^q(\d+)_(deg|rad|mm|m)$")
-_LENGTH = re.compile(r"^length_(mm|m)$")
-_COORD = re.compile(r"^([xyz])_(mm|m)$")
-_NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+__all__ = ["ANNOTATIONS", "number", "quote", "read_measurements"]
+
 _INTEGER = re.compile(r"^[-+]?\d+$")
 _VECTOR_KEYS = ("anchor", "tool")
 _SCALAR_KEYS = ("length_offset", "noise")
-#: Longest text quoted back in a message.
-_QUOTE = 40
 #: Largest field accepted, characters.
 _FIELD_LIMIT = 1000
-
-
-def quote(text: str) -> str:
-    """Text for a message: control characters shown escaped, long text cut."""
-    shown = repr(text.strip())[1:-1]
-    return shown if len(shown) <= _QUOTE else shown[:_QUOTE] + "..."
-
-
-def number(text: str, path: Path | str, line: int | None, name: str) -> float:
-    """A finite decimal number, or a DataError naming the place."""
-    t = text.strip()
-    if t.lower().lstrip("+-") in ("nan", "inf", "infinity"):
-        raise DataError(str(path), f"'{quote(text)}' is not a finite number", line, name)
-    if not _NUMBER.match(t):
-        raise DataError(str(path), f"'{quote(text)}' is not a number", line, name)
-    value = float(t)
-    if not math.isfinite(value) or abs(value) > 1e12:
-        raise DataError(str(path), f"'{quote(text)}' is out of range", line, name)
-    return value
+#: Longest text label of a marker, characters.
+_LABEL_LIMIT = 40
 
 
 def _integer(text: str, path: Path, line: int, name: str) -> int:
@@ -82,17 +71,17 @@ def _integer(text: str, path: Path, line: int, name: str) -> int:
     return int(t)
 
 
-def _metadata_value(key: str, text: str, path: Path, line: int) -> tuple[str, Any] | None:
+def _metadata_value(key: str, text: str, path: Path, line: int, decimal: str) -> tuple[str, Any] | None:
     """Convert one metadata value to SI; (name, value) or None for a note."""
     base, _, unit = key.rpartition("_")
     scale = {"mm": 1e-3, "m": 1.0}.get(unit)
     if base in _VECTOR_KEYS and scale:
-        parts = [p for p in re.split(r"[,\s]+", text.strip()) if p]
+        parts = dialect.vector_parts(text, decimal)
         if len(parts) != 3:
             raise DataError(str(path), f"needs 3 numbers (x, y, z), got '{quote(text)}'", line, key)
-        return base, np.array([number(p, path, line, key) for p in parts]) * scale
+        return base, np.array([number(p, path, line, key, mark) for p, mark in parts]) * scale
     if base in _SCALAR_KEYS and scale:
-        value = number(text, path, line, key) * scale
+        value = number(text, path, line, key, decimal) * scale
         if base == "noise" and value <= 0:
             raise DataError(str(path), f"{text.strip()} must be positive", line, key)
         return base, value
@@ -102,29 +91,21 @@ def _metadata_value(key: str, text: str, path: Path, line: int) -> tuple[str, An
 
 
 @dataclass
-class _Columns:
-    joints: dict[int, tuple[int, str]] = field(default_factory=dict)
-    length: tuple[int, str] | None = None
-    coords: dict[str, tuple[int, str]] = field(default_factory=dict)
-    pose: int | None = None
-    point: int | None = None
-
-    @property
-    def position(self) -> bool:
-        return bool(self.coords) or self.point is not None
-
-
-@dataclass
 class _Parsed:
     meta: dict[str, Any] = field(default_factory=dict)
     notes: dict[str, str] = field(default_factory=dict)
+    raw_meta: list[tuple[int, str, str]] = field(default_factory=list)
+    override: Override = field(default_factory=Override)
     header: list[str] | None = None
     header_line: int = 0
+    raw_rows: list[tuple[int, str]] = field(default_factory=list)
     rows: list[tuple[int, list[str]]] = field(default_factory=list)
-
+    dialect: Dialect = field(default_factory=Dialect)
 
 def _read_text(path: Path, data: bytes | None = None) -> str:
     try:
+        if data is None:
+            check_regular(path)  # /dev/zero would be read for ever
         data = path.read_bytes() if data is None else data
     except FileNotFoundError:
         raise DataError(str(path), "no such file") from None
@@ -146,17 +127,24 @@ def _metadata_line(parsed: _Parsed, stripped: str, path: Path, number_: int) -> 
     if parsed.header is not None:
         raise DataError(str(path), "metadata after the header line is not read: move it above the header",
                         number_, key)
-    converted = _metadata_value(key, value, path, number_)
-    name = converted[0] if converted else key
-    if name in parsed.meta or key in parsed.notes:
+    if key == dialect.KEY:
+        if parsed.override.line is not None:
+            raise DataError(str(path), "metadata given twice", number_, key)
+        parsed.override = dialect.parse_override(value, path, number_)
+        return
+    if _meta_name(key) in {_meta_name(seen) for _, seen, _ in parsed.raw_meta}:  # anchor_mm and anchor_m too
         raise DataError(str(path), "metadata given twice", number_, key)
-    if converted is None:
-        parsed.notes[key] = value.strip()
-    else:
-        parsed.meta[name] = converted[1]
+    parsed.raw_meta.append((number_, key, value))
+
+
+def _meta_name(key: str) -> str:
+    """What a metadata key sets: ``anchor`` for ``anchor_mm`` and ``anchor_m``, else the key."""
+    base, _, unit = key.rpartition("_")
+    return base if base in (*_VECTOR_KEYS, *_SCALAR_KEYS) and unit in ("mm", "m") else key
 
 
 def _split(text: str, path: Path) -> _Parsed:
+    """Metadata, the header line and the data lines, as text (the dialect is not known yet)."""
     parsed = _Parsed()
     for number_, raw in enumerate(text.splitlines(), start=1):
         stripped = raw.strip()
@@ -168,75 +156,80 @@ def _split(text: str, path: Path) -> _Parsed:
             continue
         if len(raw) > _FIELD_LIMIT * 20:
             raise DataError(str(path), f"line of {len(raw)} characters is too long for a measurement row", number_)
-        try:
-            fields = next(csv.reader([raw]))
-        except csv.Error as e:
-            raise DataError(str(path), f"not a CSV row ({e})", number_) from None
         if parsed.header is None:
-            parsed.header, parsed.header_line = [f.strip() for f in fields], number_
+            parsed.header, parsed.header_line = [raw], number_
         else:
-            parsed.rows.append((number_, fields))
+            parsed.raw_rows.append((number_, raw))
     return parsed
 
 
-def _columns(header: list[str], path: Path, line: int) -> _Columns:
-    cols = _Columns()
-    for col, name in enumerate(header):
-        if name in header[:col]:
-            raise DataError(str(path), "column appears twice", line, quote(name))
-        if m := _JOINT.match(name):
-            if int(m.group(1)) in cols.joints:
-                raise DataError(str(path), f"joint {m.group(1)} has two columns ({header[cols.joints[int(m.group(1))][0]]} "
-                                f"and {name}): keep one", line, name)
-            cols.joints[int(m.group(1))] = (col, m.group(2))
-        elif m := _LENGTH.match(name):
-            if cols.length is not None:
-                raise DataError(str(path), "two length columns (length_mm and length_m): keep one", line, name)
-            cols.length = (col, m.group(1))
-        elif m := _COORD.match(name):
-            if m.group(1) in cols.coords:
-                raise DataError(str(path), f"two {m.group(1)} columns (mm and m): keep one", line, name)
-            cols.coords[m.group(1)] = (col, m.group(2))
-        elif name in ANNOTATIONS:
-            continue  # what calib-pin compensate adds to the joint targets; not data
-        elif name == "pose":
-            cols.pose = col
-        elif name == "point_id":
-            cols.point = col
+def _fields(raw: str, sep: str, path: Path, line: int) -> list[str]:
+    try:
+        return next(csv.reader([raw], delimiter=sep))
+    except csv.Error as e:
+        raise DataError(str(path), f"not a CSV row ({e})", line) from None
+
+
+def _tokenize_header(parsed: _Parsed, path: Path) -> list[str]:
+    """Split the header with the file's separator (found on it, or stated by ``# csv:``)."""
+    assert parsed.header is not None
+    raw_header = parsed.header[0]
+    sep = dialect.separator(raw_header, parsed.override, path, parsed.header_line)
+    parsed.header = [f.strip() for f in _fields(raw_header, sep, path, parsed.header_line)]
+    parsed.dialect = Dialect(sep, ".")
+    return parsed.header
+
+
+def _tokenize_rows(parsed: _Parsed, path: Path) -> None:
+    """Split the rows with the header's separator (trailing blank fields beyond the
+    header's are a trailing separator, dropped)."""
+    header, sep = parsed.header, parsed.dialect.sep
+    assert header is not None
+    others = [s for s in dialect.SEPARATORS.values() if s != sep]
+    for number_, raw in parsed.raw_rows:
+        fields = _fields(raw, sep, path, number_)
+        if len(fields) > len(header) and not any(f.strip() for f in fields[len(header):]):
+            fields = fields[: len(header)]
+        if len(fields) != len(header):
+            plural = "s" if len(fields) != 1 else ""
+            looks = [o for o in others if o in raw and (o != "," or sep == "\t" or len(fields) == 1)]
+            if len(fields) == 1 and len(header) > 1 and looks:
+                raise DataError(str(path), f"has {len(fields)} field{plural} separated by {shown_separator(sep)} as the "
+                                f"header, which has {len(header)}: the row looks {shown_separator(looks[0])}-separated; "
+                                "use one separator", number_)
+            raise DataError(str(path), f"has {len(fields)} field{plural}, the header has {len(header)}", number_)
+        parsed.rows.append((number_, fields))
+
+
+def _numeric_fields(parsed: _Parsed, cols: Columns):
+    """(text, line, name) of every numeric field: the scalar metadata, then the rows' joints,
+    lengths and coordinates (what tells the decimal mark)."""
+    assert parsed.header is not None
+    for number_, key, value in parsed.raw_meta:
+        if _meta_name(key) in _SCALAR_KEYS:
+            yield value, number_, key
+    numeric = [c for c, _ in cols.joints.values()] + [c for c, _ in cols.coords.values()]
+    numeric += [cols.length[0]] if cols.length is not None else []
+    for number_, fields in parsed.rows:
+        for col in numeric:
+            yield fields[col], number_, parsed.header[col]
+
+
+def _metadata(parsed: _Parsed, path: Path) -> None:
+    for number_, key, value in parsed.raw_meta:
+        converted = _metadata_value(key, value, path, number_, parsed.dialect.decimal)
+        if converted is None:
+            parsed.notes[key] = value.strip()
         else:
-            raise DataError(
-                str(path), "unknown column (expected q<i>_deg or q<i>_rad, length_mm or length_m, "
-                "x_mm/y_mm/z_mm, pose, point_id)", line, quote(name) or f"column {col + 1}")
-    return cols
+            parsed.meta[converted[0]] = converted[1]
 
 
-def _check_columns(cols: _Columns, chain: Chain | None, path: Path, line: int, readings: bool) -> int:
-    n_joints = chain.n_joints if chain is not None else len(cols.joints)
-    expected = set(range(1, n_joints + 1))
-    if chain is not None and set(cols.joints) - expected:
-        extra = sorted(set(cols.joints) - expected)
-        raise DataError(str(path), f"has joint column q{extra[0]} but robot '{chain.name}' has {n_joints} "
-                        f"joints to '{chain.end_frame}'", line)
-    for i in sorted(expected):
-        if i not in cols.joints:
-            raise DataError(str(path), f"missing column q{i}_deg (or q{i}_rad; q{i}_mm for a prismatic joint)", line)
-    if cols.position and cols.length is not None:
-        raise DataError(str(path), "has both length and x/y/z columns: one set holds one sensor's data", line)
-    if cols.position:
-        for axis in "xyz":
-            if axis not in cols.coords:
-                raise DataError(str(path), f"missing column {axis}_mm (or {axis}_m) of a position set", line)
-    if cols.length is None and readings and not cols.position:
-        raise DataError(str(path), "missing column length_mm (or length_m)", line)
-    return n_joints
-
-
-def _angles(fields: list[str], header: list[str], cols: _Columns, chain: Chain | None, n_joints: int,
-            path: Path, line: int) -> np.ndarray:
+def _angles(fields: list[str], header: list[str], cols: Columns, chain: Chain | None, n_joints: int,
+            path: Path, line: int, decimal: str) -> np.ndarray:
     q = np.empty(n_joints)
     for i in range(1, n_joints + 1):
         col, unit = cols.joints[i]
-        value = number(fields[col], path, line, header[col])
+        value = number(fields[col], path, line, header[col], decimal)
         if chain is not None:
             prismatic = chain.joint_kinds[i - 1].startswith("JointModelP")
             if prismatic != (unit in ("m", "mm")):
@@ -254,26 +247,65 @@ def _angles(fields: list[str], header: list[str], cols: _Columns, chain: Chain |
     return q
 
 
-def _values(fields: list[str], header: list[str], cols: _Columns, path: Path, line: int) -> np.ndarray:
+def _values(fields: list[str], header: list[str], cols: Columns, path: Path, line: int, decimal: str) -> np.ndarray:
     if cols.position:
         out = np.empty(3)
         for a, axis in enumerate("xyz"):
             col, unit = cols.coords[axis]
-            out[a] = number(fields[col], path, line, header[col]) * (1e-3 if unit == "mm" else 1.0)
+            out[a] = number(fields[col], path, line, header[col], decimal) * (1e-3 if unit == "mm" else 1.0)
         return out
     if cols.length is None:
         return np.array([np.nan])
     col, unit = cols.length
-    length = number(fields[col], path, line, header[col])
+    length = number(fields[col], path, line, header[col], decimal)
     if length < 0:
         raise DataError(str(path), f"{length:g} is negative", line, header[col])
     return np.array([length * (1e-3 if unit == "mm" else 1.0)])
 
 
+def _point_ids(parsed: _Parsed, col: int, path: Path) -> np.ndarray:
+    """The ``point_id`` column: ints when every label is a whole number, else text.
+
+    Raises:
+        DataError: an empty or over-long label, or whole numbers mixed with text labels.
+    """
+    texts = [(number_, fields[col].strip()) for number_, fields in parsed.rows]
+    whole = [(n, t) for n, t in texts if _INTEGER.match(t) and len(t) <= 15]
+    if len(whole) == len(texts):
+        return np.array([int(t) for _, t in texts], dtype=int)
+    for number_, text in texts:
+        if not text:
+            raise DataError(str(path), "empty: each row of a position set names its marker", number_, "point_id")
+        if len(text) > _LABEL_LIMIT or any(ord(c) < 32 or ord(c) == 127 for c in text):
+            raise DataError(str(path), f"'{quote(text)}' is not a marker label (a whole number, or text of up to "
+                            f"{_LABEL_LIMIT} printable characters)", number_, "point_id")
+    if whole:
+        label = next((n, t) for n, t in texts if not (_INTEGER.match(t) and len(t) <= 15))
+        raise DataError(str(path), f"mixes whole numbers ({whole[0][1]} on line {whole[0][0]}) and text labels "
+                        f"({quote(label[1])} on line {label[0]}): use one kind (1, 2, ... or P1, P2, ...)",
+                        whole[0][0] if whole[0][0] > label[0] else label[0], "point_id")
+    return np.array([t for _, t in texts], dtype=str)
+
+
+def _extra(parsed: _Parsed, cols: Columns) -> dict[str, np.ndarray]:
+    """The extra columns: numbers (empty fields NaN) when every field is one, else text."""
+    named = dict(cols.extra)
+    for col in cols.unnamed:
+        if any(fields[col].strip() for _, fields in parsed.rows):
+            named[col] = f"column {col + 1}"
+    out: dict[str, np.ndarray] = {}
+    for col in sorted(named):
+        texts = [fields[col].strip() for _, fields in parsed.rows]
+        values = [dialect.as_number(t, parsed.dialect.decimal) if t else np.nan for t in texts]
+        numeric = all(v is not None for v in values) and any(t for t in texts)
+        out[named[col]] = np.array(values, dtype=float) if numeric else np.array(texts, dtype=str)
+    return out
+
+
 def _check_unique(pose_ids: np.ndarray, point_ids: np.ndarray | None, lines: list[int], path: Path) -> None:
     seen: set = set()
     for r, line in enumerate(lines):
-        key = (int(pose_ids[r]), int(point_ids[r])) if point_ids is not None else int(pose_ids[r])
+        key = (int(pose_ids[r]), point_label(point_ids[r])) if point_ids is not None else int(pose_ids[r])
         if key in seen:
             what = f"pose {key[0]} point {key[1]}" if isinstance(key, tuple) else f"pose {key}"
             raise DataError(str(path), f"{what} appears twice", line, "pose")
@@ -302,27 +334,30 @@ def read_measurements(
     """
     path = Path(path)
     parsed = _split(_read_text(path, content), path)
-    header, line = parsed.header, parsed.header_line
-    if header is None:
+    if parsed.header is None:
         raise DataError(str(path), "no header line (q1_deg, ..., length_mm) and no data")
-    cols = _columns(header, path, line)
-    n_joints = _check_columns(cols, chain, path, line, readings)
+    header, line = _tokenize_header(parsed, path), parsed.header_line
+    cols = classify(header, path, line)
+    n_joints = chain.n_joints if chain is not None else len(cols.joints)
+    check_near_misses(cols, header, max(n_joints, *cols.joints, 0), readings, path, line)
+    check_columns(cols, n_joints, chain.name if chain else None, chain.end_frame if chain else None, path, line,
+                  readings)
+    _tokenize_rows(parsed, path)
+    decimal = dialect.decimal_mark(parsed.dialect.sep, parsed.override, _numeric_fields(parsed, cols), path)
+    parsed.dialect = Dialect(parsed.dialect.sep, decimal)
+    _metadata(parsed, path)
     if not parsed.rows and not allow_empty:
         raise DataError(str(path), "has a header but no data rows")
     n = len(parsed.rows)
     q = np.empty((n, n_joints))
     values = np.empty((n, 3 if cols.position else 1))
     pose_ids = np.empty(n, dtype=int)
-    point_ids = np.ones(n, dtype=int)
     for r, (number_, fields) in enumerate(parsed.rows):
-        if len(fields) != len(header):
-            raise DataError(str(path), f"has {len(fields)} fields, the header has {len(header)}", number_)
-        q[r] = _angles(fields, header, cols, chain, n_joints, path, number_)
-        values[r] = _values(fields, header, cols, path, number_)
+        q[r] = _angles(fields, header, cols, chain, n_joints, path, number_, decimal)
+        values[r] = _values(fields, header, cols, path, number_, decimal)
         if cols.pose is not None:
             pose_ids[r] = _integer(fields[cols.pose], path, number_, "pose")
-        if cols.point is not None:
-            point_ids[r] = _integer(fields[cols.point], path, number_, "point_id")
+    point_ids = _point_ids(parsed, cols.point, path) if cols.point is not None else np.ones(n, dtype=int)
     lines = [number_ for number_, _ in parsed.rows]
     if cols.pose is not None:
         _check_unique(pose_ids, point_ids if cols.position else None, lines, path)
@@ -336,5 +371,5 @@ def read_measurements(
         noise=meta.get("noise"), robot=meta.get("robot"), end_frame=meta.get("end_frame"),
         lines=np.array(lines, dtype=int), source=str(path), notes=parsed.notes,
         pose_ids=pose_ids if cols.pose is not None else None,
-        point_ids=point_ids if cols.position else None,
+        point_ids=point_ids if cols.position else None, extra=_extra(parsed, cols),
     )

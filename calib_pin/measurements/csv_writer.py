@@ -1,7 +1,9 @@
 """Writing measurement sets and pose lists as CSV, in degrees and millimetres.
 
 The one place that knows the row format written by calib-pin (the simulator, the
-collector and the pose tools all write through here).
+collector and the pose tools all write through here). Always the standard dialect:
+``,`` between fields, ``.`` as the decimal mark, whatever the file read used; a text
+field holding ``,`` or ``"`` is quoted.
 """
 
 from __future__ import annotations
@@ -11,7 +13,28 @@ from pathlib import Path
 
 import numpy as np
 
-from .dataset import MeasurementSet
+from .dataset import MeasurementSet, PointLabel, point_label
+
+
+def text_field(text: str) -> str:
+    """``text`` as one CSV field (quoted when it holds a separator, a quote or a line break)."""
+    return '"' + text.replace('"', '""') + '"' if any(c in text for c in ',"\n\r;') else text
+
+
+def _label(value: PointLabel) -> str:
+    return text_field(value) if isinstance(value, str) else str(int(value))
+
+
+def _extra_fields(data: MeasurementSet, k: int) -> list[str]:
+    """Row k's extra columns: numbers as the shortest text that reads back the same, NaN empty."""
+    out = []
+    for column in data.extra.values():
+        v = column[k]
+        if isinstance(v, str):
+            out.append(text_field(v))
+        else:
+            out.append("" if np.isnan(v) else repr(float(v)))
+    return out
 
 
 def _mm(v: np.ndarray) -> str:
@@ -40,25 +63,29 @@ def header(n_joints: int, kind: str, with_pose: bool = False) -> str:
     return ",".join((["pose"] if with_pose else []) + joints + (["length_mm"] if kind == "cable" else []))
 
 
-def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[int] = ()) -> str:
-    """One data row: labels, angles [rad] written in degrees (9 decimals), values [m]
-    written in mm (6 decimals: 1 nm, far below any sensor's resolution)."""
-    return ",".join([str(int(v)) for v in labels] + [f"{v:.9f}" for v in np.rad2deg(q)]
+def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[PointLabel] = ()) -> str:
+    """One data row: labels (whole numbers, or text), angles [rad] written in degrees (9
+    decimals), values [m] written in mm (6 decimals: 1 nm, far below any sensor's resolution)."""
+    return ",".join([_label(v) for v in labels] + [f"{v:.9f}" for v in np.rad2deg(q)]
                     + [f"{v * 1e3:.6f}" for v in values])
 
 
 def write_measurements(path: str | Path, data: MeasurementSet) -> None:
     """Write a measurement set, metadata first; a position set gets ``pose`` and
-    ``point_id`` columns."""
-    lines = metadata_lines(data) + [header(data.q.shape[1], data.kind)]
+    ``point_id`` columns (labels as they are: numbers or text); the set's extra columns
+    follow calib-pin's, so nothing read is lost."""
+    lines = metadata_lines(data)
+    if any(";" in name or "\t" in name for name in data.extra):  # the header alone would look ';'-separated
+        lines.append("# csv: sep=,")
+    lines.append(",".join([header(data.q.shape[1], data.kind), *map(text_field, data.extra)]))
     values = np.asarray(data.values, dtype=float).reshape(len(data), -1)
     for k in range(len(data)):
-        labels: tuple[int, ...] = ()
+        labels: tuple[PointLabel, ...] = ()
         if data.kind == "position":
             pose = data.pose_ids[k] if data.pose_ids is not None else k + 1
             point = data.point_ids[k] if data.point_ids is not None else 1
-            labels = (int(pose), int(point))
-        lines.append(row(data.q[k], values[k], labels))
+            labels = (int(pose), point_label(point))
+        lines.append(",".join([row(data.q[k], values[k], labels), *_extra_fields(data, k)]))
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 

@@ -3,10 +3,33 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..exceptions import CalibPinError
+
+#: A marker's ``point_id``: a whole number, or a text label (``SMR1``, ``T2``, ``A``).
+PointLabel = int | str
+
+
+def point_label(value: Any) -> PointLabel:
+    """A marker label as a plain ``int`` (numpy integers and whole floats too) or ``str``
+    (text stripped; text that is a whole number, ``"2"``, stays text).
+
+    Raises:
+        CalibPinError: anything else (a fraction, NaN, None, a list).
+    """
+    if isinstance(value, bool | np.bool_):
+        raise CalibPinError(f"point_id {value} is not a marker label (a whole number or a text label)")
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating) and float(value).is_integer():
+        return int(value)
+    if isinstance(value, str) and value.strip():
+        return str(value).strip()
+    raise CalibPinError(f"point_id {value} is not a marker label (a whole number or a text label)")
 
 
 @dataclass
@@ -30,7 +53,11 @@ class MeasurementSet:
         notes: Other metadata, key to text.
         pose_ids: The ``pose`` column's labels, shape (n_rows,), or None without one.
         point_ids: The ``point_id`` column's labels (which marker a row measured),
-            shape (n_rows,), or None.
+            shape (n_rows,): int when every label in the file is a whole number, else
+            str (``SMR1``, ``T2``); or None.
+        extra: The file's other columns, name to shape (n_rows,): float when every field
+            is a number (empty ones NaN), else the text as written; values in the file's
+            own units, unused by calib-pin (see :meth:`ignored_note`).
     """
 
     q: np.ndarray
@@ -47,6 +74,7 @@ class MeasurementSet:
     notes: dict[str, str] = field(default_factory=dict)
     pose_ids: np.ndarray | None = None
     point_ids: np.ndarray | None = None
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.q)
@@ -85,9 +113,18 @@ class MeasurementSet:
             return f"{len(self)} rows at {len(np.unique(self.pose_ids))} poses"
         return f"{len(self)} poses"
 
+    def ignored_note(self) -> str | None:
+        """``ignored columns: temp_C, sigma_mm (in s.csv; read and kept, not used)``, or
+        None when the set has no extra columns."""
+        if not self.extra:
+            return None
+        where = f"in {Path(self.source).name}; " if self.source else ""
+        return f"ignored columns: {', '.join(self.extra)} ({where}read and kept, not used)"
+
     def subset(self, rows: np.ndarray) -> MeasurementSet:
         """The same set restricted to some rows."""
         def pick(a):
             return (None if a is None else a[rows])
         return replace(self, q=self.q[rows], values=self.values[rows], lines=pick(self.lines),
-                       pose_ids=pick(self.pose_ids), point_ids=pick(self.point_ids))
+                       pose_ids=pick(self.pose_ids), point_ids=pick(self.point_ids),
+                       extra={name: column[rows] for name, column in self.extra.items()})

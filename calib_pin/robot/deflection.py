@@ -112,14 +112,21 @@ class ComplianceSpec:
         return cls(tuple(doc["joints"]), payload, float(doc.get("cable_tension_n", 0.0)))
 
 
-def compliance_report(spec: ComplianceSpec, compliance: np.ndarray) -> dict:
+def compliance_report(spec: ComplianceSpec, compliance: np.ndarray, bounded: Sequence[str] = ()) -> dict:
     """The compliances [rad/Nm] and stiffnesses [Nm/rad] of the joints of ``spec``, its
-    loads, and that the URDF does not hold them (for report.json)."""
+    loads, and that the URDF does not hold them (for report.json).
+
+    Args:
+        bounded: Joints whose compliance fitted negative and was fixed at zero (a
+            compliance is >= 0); their stiffness is infinite (JSON null).
+    """
     c = np.asarray(compliance, dtype=float)
     return {
         **spec.to_dict(),
         "compliance_rad_per_Nm": dict(zip(spec.joints, c.tolist(), strict=True)),
         "stiffness_Nm_per_rad": dict(zip(spec.joints, stiffness(c).tolist(), strict=True)),
+        "bounded_at_zero": list(bounded),
+        "bound": "a compliance is >= 0: a joint that fits negative is fixed at zero (rigid) and the fit repeated",
         "model": "q_link = q - c tau(q): static joint torques tau from gravity on the URDF's inertias, "
                  "payload and cable pull, evaluated at the commanded q",
         "in_urdf": False,

@@ -133,9 +133,10 @@ class MeasurementModel(ABC):
         it above the mounting plane)."""
         return np.zeros(3)
 
-    def point_index(self, data: MeasurementSet, labels: np.ndarray | None) -> np.ndarray | None:
-        """Indices of the measured points for rows labelled ``labels`` (a file's
-        ``point_id``); None for a sensor that measures one point."""
+    def point_index(self, labels: Any, n_rows: int, source: str = "") -> np.ndarray | None:
+        """Indices of the measured points for ``n_rows`` rows labelled ``labels`` (a file's
+        ``point_id`` values, numbers or text; None: not given), named ``source`` in
+        messages; None for a sensor that measures one point."""
         return None
 
     def grid_points(self, n_poses: int) -> tuple[np.ndarray, np.ndarray | None]:
@@ -149,7 +150,7 @@ class MeasurementModel(ABC):
         """Each row's error [m] predicting a separate session at x (None: nominal), with
         an optional learnt ``correction(q, points)`` of the values; rows of points this
         model does not know are refused (a sensor that can locate new points overrides this)."""
-        points = self.point_index(data, data.point_ids)
+        points = self.point_index(data.point_ids, len(data), data.source)
         predicted = self.predict(x, data.q, points)
         if correction is not None:
             predicted = predicted + correction(data.q, points).reshape(predicted.shape)
@@ -160,6 +161,12 @@ class MeasurementModel(ABC):
     @property
     def n_params(self) -> int:
         return len(self.names)
+
+    @property
+    def nonnegative(self) -> tuple[int, ...]:
+        """Indices of the unknowns that must be >= 0: the joint compliances (a spring gives
+        way along its load, never against it); every estimator keeps them so."""
+        return tuple(range(self.n_robot, self.sensor_start))
 
     def robot(self, x: np.ndarray) -> np.ndarray:
         """The robot's deviations within x, shape (n_robot,)."""

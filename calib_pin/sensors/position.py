@@ -19,6 +19,7 @@ only (:mod:`calib_pin.subspace`), so the overlap is harmless, and ``--analyze`` 
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -27,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import CalibPinError, DataError
+from ..measurements.dataset import PointLabel, point_label
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
@@ -37,6 +39,8 @@ if TYPE_CHECKING:
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
 
+#: A whole-number label, as text.
+_WHOLE = re.compile(r"^[-+]?\d{1,15}$")
 #: What a position model can estimate with the robot's deviations.
 POSITION_EXTRAS = ("device", "markers")
 
@@ -48,12 +52,33 @@ class PositionDevice:
     Attributes:
         frame: T_DB, maps base-frame points to device-frame points (pin.SE3, [m]).
         markers: Marker points in the end frame, shape (n_markers, 3), [m].
-        labels: The data's ``point_id`` of each marker, shape (n_markers,).
+        labels: The data's ``point_id`` of each marker, shape (n_markers,): whole numbers
+            (``int``) or text labels (``str``, as the file wrote them).
     """
 
     frame: pin.SE3
     markers: np.ndarray
-    labels: tuple[int, ...]
+    labels: tuple[PointLabel, ...]
+
+    def index_of(self, labels: Any, source: str = "", field: str | None = "point_id") -> np.ndarray:
+        """Marker indices of labels (a file's ``point_id`` values, or a caller's: numbers
+        or text; ``2`` and ``"2"`` name the same marker), shape (n,).
+
+        Raises:
+            DataError: a label that is not one of :attr:`labels` (the markers are named).
+            CalibPinError: a value that is no label.
+        """
+        known = {label: k for k, label in enumerate(self.labels)}
+        index = np.empty(len(labels), dtype=int)
+        for r, value in enumerate(labels):
+            label = point_label(value)
+            other = _other_form(label)
+            k = known.get(label, -1 if other is None else known.get(other, -1))
+            if k < 0:
+                raise DataError(source, f"point_id {label} is not a marker of this calibration "
+                                f"(markers: {', '.join(map(str, self.labels))})", None, field)
+            index[r] = k
+        return index
 
     def to_dict(self) -> dict:
         """In mm and degrees."""
@@ -71,8 +96,9 @@ class PositionDevice:
         """Inverse of :meth:`to_dict`."""
         frame = doc["device_frame"]
         rot = pin.rpy.rpyToMatrix(*np.deg2rad(np.asarray(frame["rpy_deg"], dtype=float)))
-        labels = tuple(int(k) for k in doc["markers_mm"])
-        markers = np.array([doc["markers_mm"][str(k)] for k in labels], dtype=float).reshape(-1, 3) * 1e-3
+        keys = list(doc["markers_mm"])
+        labels: tuple[PointLabel, ...] = tuple(int(k) for k in keys) if all(_WHOLE.match(k) for k in keys) else tuple(keys)
+        markers = np.array([doc["markers_mm"][k] for k in keys], dtype=float).reshape(-1, 3) * 1e-3
         return cls(pin.SE3(rot, np.asarray(frame["translation_mm"], dtype=float) * 1e-3), markers, labels)
 
 
@@ -109,32 +135,30 @@ class PositionModel(MeasurementModel):
                 f"--estimate {','.join(options['estimate'])} is for drawstring data; with positions "
                 f"({data.source}) the device frame and the marker points are always estimated")
         assert data.point_ids is not None
-        labels = tuple(int(v) for v in np.unique(data.point_ids))
-        points = np.searchsorted(labels, data.point_ids)
+        labels, points = marker_labels(data.point_ids, data.source or "the measurement set")
         fit_rows = np.asarray(fit_rows, dtype=int)
-        missing = sorted(set(labels) - {int(v) for v in data.point_ids[fit_rows]})
+        seen = set(points[fit_rows].tolist())
+        missing = [label for k, label in enumerate(labels) if k not in seen]
         if missing:
             raise DataError(data.source, f"point_id {missing[0]} is only in held-out rows: nothing locates it", None, "point_id")
         device = fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels)
         model = cls(chain, params, device, compliance=options.get("compliance"))
         return CalibrationProblem(model, data.q, data.values, points)
 
-    def point_index(self, data: MeasurementSet, labels: np.ndarray | None) -> np.ndarray | None:
-        """Marker indices of the file's ``point_id`` labels.
+    def point_index(self, labels: Any, n_rows: int, source: str = "") -> np.ndarray:
+        """Marker indices of ``n_rows`` rows labelled ``labels`` (the file's ``point_id``
+        values, numbers or text; None: every row measures the one marker).
 
         Raises:
+            CalibPinError: no labels with several markers.
             DataError: a label this calibration has no marker for.
         """
         if labels is None:
-            labels = np.full(len(data), self.device.labels[0]) if len(self.device.labels) == 1 else None
-        if labels is None:
-            raise CalibPinError("positions of several markers need each row's point_id")
-        known = {label: k for k, label in enumerate(self.device.labels)}
-        unknown = sorted({int(v) for v in labels} - set(known))
-        if unknown:
-            raise DataError(data.source, f"point_id {unknown[0]} is not a marker of this calibration "
-                            f"(markers: {', '.join(map(str, self.device.labels))})", None, "point_id")
-        return np.array([known[int(v)] for v in labels], dtype=int)
+            if len(self.device.labels) == 1:
+                return np.zeros(n_rows, dtype=int)
+            raise CalibPinError(f"point_ids: this calibration has {len(self.device.labels)} markers "
+                                f"({', '.join(map(str, self.device.labels))}): give each pose's marker label")
+        return self.device.index_of(labels, source or "point_ids", "point_id" if source else None)
 
     def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
                        correction: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
@@ -151,13 +175,15 @@ class PositionModel(MeasurementModel):
         assert data.point_ids is not None
         device = self.geometry_at(x)
         errors = []
-        for label in np.unique(data.point_ids):
-            rows = np.flatnonzero(data.point_ids == label)
-            if int(label) in device.labels:
-                index = device.labels.index(int(label))
+        known = set(device.labels)
+        session_labels, session_points = marker_labels(data.point_ids, data.source or "the measurement set")
+        for k, label in enumerate(session_labels):
+            rows = np.flatnonzero(session_points == k)
+            if label in known or _other_form(label) in known:
+                index = int(device.index_of([label])[0])
                 point = device.markers[index]
             elif correction is not None:
-                raise CalibPinError(f"{data.source}: point_id {int(label)} is not a marker of this calibration, "
+                raise CalibPinError(f"{data.source}: point_id {label} is not a marker of this calibration, "
                                     "and its learnt correction knows only those "
                                     f"({', '.join(map(str, device.labels))})")
             else:
@@ -260,6 +286,32 @@ _EYE3 = np.eye(3)
 _EYE3.setflags(write=False)
 
 
+def marker_labels(point_ids: np.ndarray, source: str = "") -> tuple[tuple[PointLabel, ...], np.ndarray]:
+    """The distinct marker labels of rows labelled ``point_ids`` (sorted) and each row's
+    index into them, shape (n_rows,).
+
+    Raises:
+        DataError: a value that is no label, or whole numbers mixed with text labels.
+    """
+    values = [point_label(v) for v in np.asarray(point_ids, dtype=object).reshape(-1)]
+    kinds = {type(v) for v in values}
+    if len(kinds) > 1:
+        number = next(v for v in values if isinstance(v, int))
+        text = next(v for v in values if isinstance(v, str))
+        raise DataError(source, f"mixes whole numbers ({number}) and text labels ({text}): use one kind",
+                        None, "point_id")
+    labels: list = sorted(set(values), key=lambda v: v)  # one kind: all int or all str
+    index = {label: k for k, label in enumerate(labels)}
+    return tuple(labels), np.array([index[v] for v in values], dtype=int)
+
+
+def _other_form(label: PointLabel) -> PointLabel | None:
+    """``"2"`` for 2 and 2 for ``"2"`` (None for text that is no whole number)."""
+    if isinstance(label, int):
+        return str(label)
+    return int(label) if _WHOLE.match(label) else None
+
+
 def _index(points: np.ndarray | None, n_rows: int) -> np.ndarray:
     """Each row's marker index; rows of a one-marker set may leave it out."""
     return np.zeros(n_rows, dtype=int) if points is None else np.asarray(points, dtype=int)
@@ -275,7 +327,7 @@ def _kabsch(source: np.ndarray, target: np.ndarray) -> pin.SE3:
 
 
 def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: np.ndarray,
-               markers: np.ndarray, labels: tuple[int, ...]) -> PositionDevice:
+               markers: np.ndarray, labels: tuple[PointLabel, ...]) -> PositionDevice:
     """Best-fit device frame and marker points for the nominal robot.
 
     Alternates a rigid (Kabsch) fit of the frame with a linear fit of the markers until

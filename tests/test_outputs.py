@@ -1,0 +1,162 @@
+"""Outputs (calib_pin/cli/outputs.py): never overwritten without --force, never an input,
+never cut or half-moved: a full disk and a failed rename leave every file as it was."""
+
+from __future__ import annotations
+
+import os
+import resource
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from calib_pin.cli import command
+from calib_pin.cli.outputs import OutputError, Outputs
+
+#: Run ``calib-pin ARGS`` in a process whose files may not grow past ``limit`` bytes.
+ENTRY = "import sys; from calib_pin.cli import main; sys.exit(main(sys.argv[1:]))"
+
+
+def _full_disk(limit: int):
+    """A preexec function: files of at most ``limit`` bytes, and a write past it fails
+    (EFBIG, after a short write) instead of killing the process, as on a full disk."""
+    def apply() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return apply
+
+
+def _run_full(args: list[str], cwd: Path, limit: int = 2000) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", ENTRY, *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=120, preexec_fn=_full_disk(limit))
+
+
+FULL_DISK = {
+    "make-poses": (["make-poses", "irb120", "--n", "200", "--out", "p.csv"], ["p.csv"]),
+    "plan-poses": (["plan-poses", "irb120", "--n", "100", "--candidates", "200", "--out", "p.csv", "--quiet"],
+                   ["p.csv"]),
+    "simulate": (["simulate", "irb120", "--poses", "200", "--out", "s.csv"], ["s.csv", "s.truth.json"]),
+}
+
+
+@pytest.mark.parametrize("name", FULL_DISK)
+def test_full_disk_leaves_no_cut_file(name, tmp_path):
+    """On a full disk a command fails with one line, and leaves no file of its own: an
+    earlier output given --force to replace is kept whole, a new one never appears."""
+    args, outputs = FULL_DISK[name]
+    for out in outputs:
+        (tmp_path / out).write_text("earlier run, kept\n")
+    done = _run_full([*args, "--force"], tmp_path)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1, done.stderr
+    assert "cannot write" in lines[0] and outputs[0] in lines[0], lines[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(outputs)
+    assert all((tmp_path / out).read_text() == "earlier run, kept\n" for out in outputs)
+    for out in outputs:
+        (tmp_path / out).unlink()
+    done = _run_full(args, tmp_path)
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def _set(folder: Path, force: bool, break_second) -> Outputs:
+    """Three outputs a, b, c; writing b's temporary file also calls ``break_second`` (b's
+    final name turns into a folder, so renaming b into place fails for real)."""
+    out = Outputs(folder, force=force)
+    out.add(folder / "a.txt", lambda tmp: tmp.write_text("new a"))
+
+    def write_b(tmp: Path) -> None:
+        tmp.write_text("new b")
+        break_second()
+
+    out.add(folder / "b.txt", write_b)
+    out.add(folder / "c.txt", lambda tmp: tmp.write_text("new c"))
+    return out
+
+
+def test_failed_rename_mid_commit_restores_the_earlier_set(tmp_path):
+    """With --force: a renamed, b's rename fails: a is the earlier a again, c untouched,
+    no temporary or backup file is left."""
+    for name in "ac":
+        (tmp_path / f"{name}.txt").write_text(f"old {name}")
+
+    def folder_at_b() -> None:
+        (tmp_path / "b.txt").mkdir()
+        (tmp_path / "b.txt" / "inside").write_text("x")
+
+    with pytest.raises(OutputError, match=r"b\.txt: cannot rename into place: .*no output was changed"):
+        _set(tmp_path, True, folder_at_b).commit()
+    assert (tmp_path / "a.txt").read_text() == "old a" and (tmp_path / "c.txt").read_text() == "old c"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.txt", "c.txt"]
+    assert [p.name for p in (tmp_path / "b.txt").iterdir()] == ["inside"]
+
+
+def test_output_appearing_mid_commit_is_not_replaced(tmp_path):
+    """Without --force: b appears while the set is written (another program): it is kept,
+    and a, already moved into place, is removed again: none of the set is left."""
+    def other_writes_b() -> None:
+        (tmp_path / "b.txt").write_text("someone else's")
+
+    with pytest.raises(OutputError, match=r"b\.txt exists: give --force"):
+        _set(tmp_path, False, other_writes_b).commit()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.txt"]
+    assert (tmp_path / "b.txt").read_text() == "someone else's"
+
+
+def test_commit_replaces_with_force_and_lists_the_files(tmp_path):
+    (tmp_path / "a.txt").write_text("old a")
+    written = _set(tmp_path, True, lambda: None).commit()
+    assert written == [tmp_path / f"{n}.txt" for n in "abc"]
+    assert [(tmp_path / f"{n}.txt").read_text() for n in "abc"] == ["new a", "new b", "new c"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.txt", "c.txt"]
+
+
+def test_an_input_is_refused_by_any_name(tmp_path):
+    """./p.csv, a symbolic link and a hard link to an input are that input."""
+    poses = tmp_path / "p.csv"
+    poses.write_text("x")
+    os.symlink(poses, tmp_path / "sym.csv")
+    os.link(poses, tmp_path / "hard.csv")
+    out = Outputs(tmp_path, force=True, inputs={"--poses": poses, "ROBOT": None})
+    for name in ("p.csv", "./p.csv", "sym.csv", "hard.csv"):
+        with pytest.raises(OutputError, match=r"is an input of this command \(--poses\)"):
+            out.check(tmp_path / name)
+    assert out.check(tmp_path / "other.csv") == tmp_path / "other.csv"
+
+
+@pytest.fixture(scope="module")
+def calibration(tmp_path_factory):
+    """A calibrate --out folder of the shipped IRB120 set (dh model)."""
+    folder = tmp_path_factory.mktemp("cal")
+    assert command("calibrate")(["irb120", "--out", str(folder), "--no-html", "--method", "lm"]) == 0
+    return folder
+
+
+def test_compensate_replaces_only_with_force(calibration, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert command("make-poses")(["irb120", "--n", "4", "--out", "t.csv"]) == 0
+    Path("x.csv").write_text("old")
+    args = ["irb120", "--calibration", str(calibration), "--targets", "t.csv", "--out", "x.csv"]
+    assert command("compensate")(args) == 2
+    assert Path("x.csv").read_text() == "old"
+    assert command("compensate")([*args, "--force"]) == 0
+    assert "position_error_mm" in Path("x.csv").read_text()
+    capsys.readouterr()
+
+
+def test_compensate_hint_names_only_its_own_options(calibration, tmp_path, capsys):
+    """A URDF path loses the robot's DH table: the message says to name the robot, and
+    names no option compensate does not have (it has no --model)."""
+    urdf = Path(__file__).resolve().parent.parent / "robots" / "irb120.urdf"
+    targets = tmp_path / "t.csv"
+    assert command("make-poses")(["irb120", "--n", "4", "--out", str(targets)]) == 0
+    capsys.readouterr()
+    code = command("compensate")([str(urdf), "--calibration", str(calibration), "--targets", str(targets),
+                                  "--out", str(tmp_path / "x.csv")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "give the robot by its name 'irb120'" in err[0] and "--model" not in err[0], err[0]
+    assert not (tmp_path / "x.csv").exists()
