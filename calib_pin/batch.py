@@ -143,7 +143,7 @@ def _urdf(result, report: dict[str, Any]) -> tuple[str | None, str | None, str]:
 
     if not result.kinematic:
         return None, None, ""
-    refused = _unsupported(report) or result.sanity_error()
+    refused = _unsupported(result, report) or result.sanity_error()
     if refused:
         report["urdf_refused"] = refused
         return None, None, refused
@@ -282,14 +282,14 @@ def run_batch(
                               decode=_outcome_from_json, jobs=jobs, scheduler=scheduler, notify=notify)
     files = Outputs(out)
     stale = [path for outcome in outcomes for path in _earlier_files(out, outcome.name)]
-    for outcome in outcomes:
-        _add_outcome(files, outcome)
-    files.add(out / "summary.csv", lambda tmp: write_summary(outcomes, tmp))
     try:
+        for outcome in outcomes:
+            _add_outcome(files, outcome)
+        files.add(out / "summary.csv", lambda tmp: write_summary(outcomes, tmp))
         _remove_stale(stale, files.commit())  # all sets' outputs and the summary together, or none
     except KeyboardInterrupt:
         raise Interrupted(f"stopped by Ctrl-C: {checkpoint.kept(len(outcomes), len(outcomes))}") from None
-    except OSError as e:  # a full disk: no output changed, every set is kept
+    except (OSError, CalibPinError) as e:  # a full disk: no output changed, every set is kept
         raise checkpoint.unwritten(e, len(outcomes)) from None
     checkpoint.clear()
     return outcomes

@@ -27,6 +27,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
+from .exceptions import CalibPinError
 from .parallel import ParallelFault, parallel_completed
 
 T = TypeVar("T")
@@ -118,13 +119,19 @@ class Checkpoint:
             return f"no {self.noun} was finished, nothing was kept"
         return f"{done} of {total} {self.noun}(s) kept in {self.out}; run the same command to resume"
 
-    def unwritten(self, error: OSError, total: int) -> OSError:
+    def unwritten(self, error: Exception, total: int) -> Exception:
         """``error`` (the outputs could not be written, so none was) saying that all
-        ``total`` items are kept: ``OUT: File too large: nothing was written; 3 of 3 ...``."""
+        ``total`` items are kept: ``...: cannot write: File too large; no output was
+        changed; 3 of 3 set(s) kept in OUT; run the same command to resume``."""
         if not self.folder.is_dir():
             return error
-        why = error.strerror or str(error)
-        return OSError(error.errno, f"{why}: nothing was written; {self.kept(total, total)}", str(self.out))
+        kept = self.kept(total, total)
+        if isinstance(error, CalibPinError):
+            return CalibPinError(f"{error}; {kept}")
+        if isinstance(error, OSError):
+            where = f"{error.filename}: " if error.filename else ""
+            return CalibPinError(f"{where}cannot write: {error.strerror or error}; nothing was written; {kept}")
+        return error
 
     def map(
         self,

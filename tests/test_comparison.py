@@ -96,17 +96,30 @@ def _compare_cli(tmp_path, env_extra=None, limit_bytes=None):
 
 def test_compare_writes_all_outputs_or_none_and_the_figures_are_optional(tmp_path):
     """A full disk with room for the tables but not the figures: nothing is written (the
-    trial is kept for the rerun). A broken matplotlib (a bad MPLBACKEND): one warning, the tables."""
+    trial is kept for the rerun). A broken matplotlib: one warning, the tables. A bad
+    MPLBACKEND: one warning, and the figures drawn off-screen."""
+    fake = tmp_path / "fake"
+    (fake / "matplotlib").mkdir(parents=True)
+    (fake / "matplotlib" / "__init__.py").write_text("raise ImportError('a broken matplotlib')\n")
     full = _compare_cli(tmp_path / "full", limit_bytes=20_000)
-    broken = _compare_cli(tmp_path / "broken", env_extra={"MPLBACKEND": "nonsense"})
-    _, err = full.communicate(timeout=60)
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert full.returncode == 2 and len(lines) == 1 and "Traceback" not in err, err
-    assert "File too large: nothing was written; 1 of 1 trial(s) kept in out" in lines[0], err
+    broken = _compare_cli(tmp_path / "broken", env_extra={"PYTHONPATH": str(fake)})
+    backend = _compare_cli(tmp_path / "backend", env_extra={"MPLBACKEND": "nonsense"})
+    results = {}
+    for name, proc in (("full", full), ("broken", broken), ("backend", backend)):
+        _, err = proc.communicate(timeout=60)
+        results[name] = proc.returncode, [line for line in err.splitlines() if line.strip()], err
+    tables = ["table1.csv", "table1.md"]
+
+    code, lines, err = results["full"]
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err, err
+    assert "File too large" in lines[0] and "1 of 1 trial(s) kept in out; run the same command" in lines[0], err
     assert [p.name for p in (tmp_path / "full" / "out").iterdir()] == [".calib-pin-checkpoint"]
 
-    _, err = broken.communicate(timeout=60)
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert broken.returncode == 0, err
-    assert len(lines) == 1 and lines[0].startswith("warning: no figures") and "MPLBACKEND" in lines[0], err
-    assert sorted(p.name for p in (tmp_path / "broken" / "out").iterdir()) == ["table1.csv", "table1.md"]
+    code, lines, err = results["broken"]
+    assert code == 0 and len(lines) == 1 and lines[0].startswith("warning: no figures") and "broken" in lines[0], err
+    assert sorted(p.name for p in (tmp_path / "broken" / "out").iterdir()) == tables
+
+    code, lines, err = results["backend"]
+    assert code == 0 and len(lines) == 1 and "MPLBACKEND='nonsense'" in lines[0], err
+    assert sorted(p.name for p in (tmp_path / "backend" / "out").iterdir()) == \
+        ["fig2_residuals.png", "fig3_convergence.png", *tables]

@@ -94,17 +94,18 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
             noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
             checkpoint=out, notify=lambda line: print(line, flush=True), **compliance_options(args),
         )
-        command = "python scripts/compare.py " + " ".join(argv)
-        written = _write(result, out, command)  # before printing: a closed pipe loses no file
     except Interrupted as e:
         print(f"\n{e}", file=sys.stderr)
         return INTERRUPTED_EXIT
-    except KeyboardInterrupt:  # after the trials: while writing, which leaves nothing
-        kept = Checkpoint(out, "trial").kept(args.trials, args.trials)
-        print(f"\nstopped by Ctrl-C while writing: nothing was written; {kept}", file=sys.stderr)
+    kept = Checkpoint(out, "trial")
+    try:  # written before the table is printed: a closed pipe loses no file
+        written = _write(result, out, "python scripts/compare.py " + " ".join(argv))
+    except KeyboardInterrupt:  # while writing, which leaves nothing
+        print(f"\nstopped by Ctrl-C while writing: nothing was written; {kept.kept(args.trials, args.trials)}",
+              file=sys.stderr)
         return INTERRUPTED_EXIT
-    except OSError as e:  # a full disk while writing: nothing was written, the trials are kept
-        raise Checkpoint(out, "trial").unwritten(e, args.trials) from None
+    except (OSError, CalibPinError) as e:  # a full disk: nothing was written, the trials are kept
+        raise kept.unwritten(e, args.trials) from None
     Checkpoint(out).clear()
     print(result.format_table())
     for path in written:
@@ -113,32 +114,38 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
 
 
 def _write(result: Any, out: Path, command: str) -> list[Path]:
-    """Write the tables and the figures together, or none; without a working matplotlib
-    (not installed, broken, a bad MPLBACKEND) warn in one line and write the tables."""
+    """Write the tables and the figures together, or none. The figures are optional
+    (:func:`calib_pin.optional.figures_or_warn`): without a working matplotlib, or when
+    drawing fails, one warning line and the tables alone."""
+    from ..exceptions import CalibPinError
+    from ..optional import figures_or_warn
+
     tables = [(out / "table1.csv", lambda tmp: result.write_csv(tmp)),
               (out / "table1.md", lambda tmp: result.write_markdown(tmp, command))]
-    try:
-        from ..figures import convergence_figure, residual_figure
-    except Exception as e:  # noqa: BLE001 - the figures are optional: whatever breaks matplotlib, say it
-        _no_figures(e)
+    drawers = figures_or_warn("figures", _figure_functions, FIGURES_HINT)
+    if drawers is None:
         return _commit(out, tables)
+    residual_figure, convergence_figure = drawers
     figures = [(out / "fig2_residuals.png", lambda tmp: residual_figure(result, tmp)),
                (out / "fig3_convergence.png", lambda tmp: convergence_figure(result, tmp))]
     try:
         return _commit(out, tables + figures)
-    except (OSError, MemoryError):
-        raise  # a full disk: nothing was written (one line from run)
+    except (OSError, MemoryError, CalibPinError):
+        raise  # a full disk (Outputs' OutputError): nothing was written
     except Exception as e:  # noqa: BLE001 - drawing failed: the tables alone
-        _no_figures(e)
+        print(f"warning: no figures: drawing failed ({type(e).__name__}: {e}) ({FIGURES_HINT})", file=sys.stderr)
         return _commit(out, tables)
 
 
-def _no_figures(error: BaseException) -> None:
-    """The one warning line for figures that cannot be drawn."""
-    from ..parallel import one_line
+#: What the figures' warning line adds.
+FIGURES_HINT = "the tables are written"
 
-    print(f"warning: no figures: matplotlib does not work here ({one_line(error)}); check MPLBACKEND "
-          "or pip install 'calib-pin[plots]'; the tables are written", file=sys.stderr)
+
+def _figure_functions() -> tuple[Any, Any]:
+    """Fig. 2 and Fig. 3's drawing functions (importing matplotlib)."""
+    from ..figures import convergence_figure, residual_figure
+
+    return residual_figure, convergence_figure
 
 
 def _commit(out: Path, files: list) -> list[Path]:
