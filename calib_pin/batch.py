@@ -87,6 +87,8 @@ class TaskOutcome:
         row: Its ``summary.csv`` row (keys of :data:`SUMMARY_COLUMNS`).
         report: The calibration report (``report.json``), or None if it did not run.
         urdf_name, urdf_text: File name and text of the corrected URDF, or None.
+        retry: The set failed on a fault of the machine (an OSError: a full disk, a
+            permission), not of its data: its outcome is not kept, the next run tries again.
     """
 
     name: str
@@ -96,6 +98,7 @@ class TaskOutcome:
     report: dict | None = None
     urdf_name: str | None = None
     urdf_text: str | None = None
+    retry: bool = False
 
 
 def run_task(task: BatchTask) -> TaskOutcome:
@@ -118,10 +121,13 @@ def run_task(task: BatchTask) -> TaskOutcome:
         urdf_name, urdf_text, error = _urdf(result, report)
     except Exception as e:  # noqa: BLE001 - a failing set must not stop the others
         report, urdf_name, urdf_text, error = None, None, None, one_line(e)
+        retry = isinstance(e, OSError)
+    else:
+        retry = False
     row["time_s"] = f"{time.perf_counter() - start:.3f}"
     status = "failed" if error else "ok"
     row.update(status=status, error=error)
-    return TaskOutcome(task.name, status, error, row, report, urdf_name, urdf_text)
+    return TaskOutcome(task.name, status, error, row, report, urdf_name, urdf_text, retry)
 
 
 def _robot(task: BatchTask) -> str:
@@ -279,7 +285,8 @@ def run_batch(
         raise CalibPinError(f"{out}: the output folder is a file")
     checkpoint = Checkpoint(out, "set")
     outcomes = checkpoint.map(limited(run_task), tasks, [task_key(t) for t in tasks], encode=dataclasses.asdict,
-                              decode=_outcome_from_json, jobs=jobs, scheduler=scheduler, notify=notify)
+                              decode=_outcome_from_json, keep=lambda o: not o.retry, jobs=jobs, scheduler=scheduler,
+                              notify=notify)
     files = Outputs(out)
     stale = [path for outcome in outcomes for path in _earlier_files(out, outcome.name)]
     try:

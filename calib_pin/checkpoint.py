@@ -141,6 +141,7 @@ class Checkpoint:
         *,
         encode: Callable[[R], Any],
         decode: Callable[[Any], R],
+        keep: Callable[[R], bool] | None = None,
         jobs: int = 1,
         scheduler: str | None = None,
         notify: Callable[[str], Any] | None = None,
@@ -152,13 +153,15 @@ class Checkpoint:
             fn, items, jobs, scheduler: As :func:`calib_pin.parallel.parallel_map`.
             keys: Each item's :func:`fingerprint`.
             encode, decode: A result to a JSON-able value and back (exactly).
+            keep: Whether a result is kept (default all); one that is not (a fault of the
+                machine, say) runs again in the next run.
             notify: Called with one line when kept results are reused
                 (``resuming OUT: 3 of 8 set(s) already done``).
 
         Raises:
             Interrupted: Ctrl-C; the message says how many items are kept.
             ParallelFault: a worker or the scheduler failed; the same, in one line.
-            OSError: a result could not be kept (a full disk).
+            CalibPinError: a result could not be kept (a full disk); the same.
         """
         items = list(items)
         results: dict[int, R] = {}
@@ -170,15 +173,23 @@ class Checkpoint:
         if results and notify is not None:
             notify(f"resuming {self.out}: {len(results)} of {len(items)} {self.noun}(s) already done")
         todo = [i for i in range(len(items)) if i not in results]
+        saved = len(results)  # results on disk
         try:
             for j, result in parallel_completed(fn, [items[i] for i in todo], jobs, scheduler):
                 i = todo[j]
-                self.save(keys[i], encode(result))
                 results[i] = result
+                if keep is not None and not keep(result):
+                    continue
+                try:
+                    self.save(keys[i], encode(result))
+                except OSError as e:
+                    raise CalibPinError(f"{self.folder}: cannot keep a finished {self.noun} ({e.strerror or e}); "
+                                        f"{self.kept(saved, len(items))}") from None
+                saved += 1
         except KeyboardInterrupt:
-            raise Interrupted(f"stopped by Ctrl-C: {self.kept(len(results), len(items))}") from None
+            raise Interrupted(f"stopped by Ctrl-C: {self.kept(saved, len(items))}") from None
         except ParallelFault as e:
-            if not results:
+            if not saved:
                 raise
-            raise ParallelFault(f"{e}; {self.kept(len(results), len(items))}") from None
+            raise ParallelFault(f"{e}; {self.kept(saved, len(items))}") from None
         return [results[i] for i in range(len(items))]

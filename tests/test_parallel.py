@@ -289,3 +289,27 @@ def test_dask_scheduler_without_workers_and_killed_scheduler_are_one_line(sets, 
         scheduler.kill()
     assert code == 2 and len(_lines(err)) == 1, err
     assert f"the Dask scheduler at {scheduler.address} died or is unreachable" in err, err
+
+
+def test_checkpoint_keeps_whole_results_under_their_keys_and_resumes_only_the_rest(tmp_path):
+    from calib_pin.checkpoint import Checkpoint, fingerprint
+
+    calls: list[int] = []
+
+    def square(x: int) -> int:
+        calls.append(x)
+        return x * x
+
+    store = Checkpoint(tmp_path, "item")
+    keys = [fingerprint("square", x) for x in (1, 2, 3)]
+    assert len(set(keys)) == 3 and fingerprint("square", 1) == keys[0] != fingerprint("square", 1.5)
+    lines: list[str] = []
+    assert store.map(square, [1, 2, 3], keys, encode=int, decode=int, keep=lambda r: r != 4, notify=lines.append) \
+        == [1, 4, 9]
+    assert lines == [] and len(list(store.folder.glob("*.json"))) == 2  # the result not to keep: not on disk
+    (store.folder / f"item-{keys[2]}.json").write_text('{"format": 1, "key": "other", "result": 0}')
+    assert store.map(square, [1, 2, 3], keys, encode=int, decode=int, notify=lines.append) == [1, 4, 9]
+    assert calls == [1, 2, 3, 2, 3] and lines == [f"resuming {tmp_path}: 1 of 3 item(s) already done"]
+    assert not list(store.folder.glob(".*.tmp"))
+    store.clear()
+    assert not store.folder.exists()
