@@ -35,7 +35,7 @@ from typing import Any
 
 from .checkpoint import Checkpoint, Interrupted, file_digest, fingerprint
 from .exceptions import CalibPinError
-from .parallel import ParallelFault, limited, one_line, parallel_completed, parallel_map
+from .parallel import ParallelFault, error_line, limited, parallel_completed, parallel_map
 from .report import build_report
 
 __all__ = ["SUMMARY_COLUMNS", "BatchTask", "ParallelFault", "TaskOutcome", "parallel_completed", "parallel_map",
@@ -120,7 +120,7 @@ def run_task(task: BatchTask) -> TaskOutcome:
                     row[f"{split}_{stat.removesuffix('_mm')}_{stage}_mm"] = f"{value:.6f}"
         urdf_name, urdf_text, error = _urdf(result, report)
     except Exception as e:  # noqa: BLE001 - a failing set must not stop the others
-        report, urdf_name, urdf_text, error = None, None, None, one_line(e)
+        report, urdf_name, urdf_text, error = None, None, None, error_line(e)
         retry = isinstance(e, OSError)
     else:
         retry = False

@@ -42,7 +42,7 @@ class ParallelFault(CalibPinError):
     """The machinery that runs the items failed (a worker or the scheduler), not an item."""
 
 
-def one_line(error: BaseException) -> str:
+def error_line(error: BaseException) -> str:
     """An exception as one line: its message's first line, with its type unless it is a CalibPinError."""
     text = str(error).strip().splitlines()
     first = text[0] if text else ""
@@ -153,7 +153,7 @@ def _dask_completed(fn: Callable, items: list, scheduler: str, worker_wait_s: fl
         try:
             client = distributed.Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s", set_as_default=False)
         except (OSError, TimeoutError) as e:
-            raise ParallelFault(f"cannot reach the Dask scheduler at {scheduler}: {one_line(e)}") from None
+            raise ParallelFault(f"cannot reach the Dask scheduler at {scheduler}: {error_line(e)}") from None
         with client:
             futures = client.map(fn, items, pure=False)
             index = {future.key: i for i, future in enumerate(futures)}
@@ -200,9 +200,9 @@ def _dask_result(distributed: Any, future: Any, scheduler: str) -> Any:
     except Exception as e:  # noqa: BLE001 - a cluster's failure is one line, not a traceback
         if future.status == "cancelled":
             raise ParallelFault(f"the Dask scheduler at {scheduler} died or is unreachable: "
-                                f"the connection to it was lost ({one_line(e)})") from None
+                                f"the connection to it was lost ({error_line(e)})") from None
         raise ParallelFault(
-            f"the Dask cluster at {scheduler} could not run the tasks ({one_line(e)}): the scheduler and every "
+            f"the Dask cluster at {scheduler} could not run the tasks ({error_line(e)}): the scheduler and every "
             "worker must import the same calib-pin as this process"
         ) from None
 
@@ -221,7 +221,7 @@ def _check_scheduler(scheduler: str) -> None:
         socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S).close()
     except OSError as e:
         raise ParallelFault(f"cannot reach the Dask scheduler at {scheduler}: "
-                            f"{e.strerror or one_line(e)} (is it running?)") from None
+                            f"{e.strerror or error_line(e)} (is it running?)") from None
     if parse_address(scheduler)[0] != "tcp":
         return  # tls and others need the security settings the Client reads; it checks them
 
@@ -240,7 +240,7 @@ def _check_scheduler(scheduler: str) -> None:
         raise ParallelFault(f"{scheduler} is not a Dask scheduler: it accepts connections but gave no Dask answer "
                             f"within {ANSWER_TIMEOUT_S:g} s") from None
     except Exception as e:  # noqa: BLE001 - whatever the server sent, it is not a scheduler
-        raise ParallelFault(f"{scheduler} is not a Dask scheduler: its answer is not Dask's ({one_line(e)})") from None
+        raise ParallelFault(f"{scheduler} is not a Dask scheduler: its answer is not Dask's ({error_line(e)})") from None
     if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
         kind = answer.get("type") if isinstance(answer, dict) else type(answer).__name__
         raise ParallelFault(f"{scheduler} is not a Dask scheduler: it answers as {kind}")

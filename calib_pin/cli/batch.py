@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ..estimators import ESTIMATORS
 from ..parameters import MODELS
-from .common import BAD_INPUT_EXIT, INTERRUPTED_EXIT, OneLineParser, count, fraction, non_negative, run
+from .common import INTERRUPTED_EXIT, OneLineParser, count, fail, fraction, non_negative, one_line, run
 
 
 def batch_parser() -> argparse.ArgumentParser:
@@ -62,7 +62,7 @@ def _batch(args: argparse.Namespace) -> int:
         outcomes = run_batch(tasks, out=args.out, jobs=args.jobs, scheduler=args.scheduler,
                              notify=lambda line: print(line, flush=True))
     except Interrupted as e:
-        print(f"\n{e}", file=sys.stderr)
+        print(f"\n{one_line(str(e))}", file=sys.stderr)
         return INTERRUPTED_EXIT
     width = max(len(o.name) for o in outcomes)
     for o in outcomes:
@@ -75,7 +75,5 @@ def _batch(args: argparse.Namespace) -> int:
     print(f"wrote {Path(args.out) / 'summary.csv'}")
     failed = [o for o in outcomes if o.status != "ok"]
     if failed:
-        print(f"error: {len(failed)} of {len(outcomes)} set(s) failed, first {failed[0].name}: "
-              f"{failed[0].error}", file=sys.stderr)
-        return BAD_INPUT_EXIT
+        return fail(f"{len(failed)} of {len(outcomes)} set(s) failed, first {failed[0].name}: {failed[0].error}")
     return 0

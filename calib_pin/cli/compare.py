@@ -28,6 +28,7 @@ from .common import (
     fraction,
     methods,
     non_negative,
+    one_line,
     positive_float,
     run,
 )
@@ -95,13 +96,13 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
             checkpoint=out, notify=lambda line: print(line, flush=True), **compliance_options(args),
         )
     except Interrupted as e:
-        print(f"\n{e}", file=sys.stderr)
+        print(f"\n{one_line(str(e))}", file=sys.stderr)
         return INTERRUPTED_EXIT
     kept = Checkpoint(out, "trial")
     try:  # written before the table is printed: a closed pipe loses no file
         written = _write(result, out, "python scripts/compare.py " + " ".join(argv))
     except KeyboardInterrupt:  # while writing, which leaves nothing
-        print(f"\nstopped by Ctrl-C while writing: nothing was written; {kept.kept(args.trials, args.trials)}",
+        print(f"\nstopped by Ctrl-C while writing: nothing was written; {one_line(kept.kept(args.trials, args.trials))}",
               file=sys.stderr)
         return INTERRUPTED_EXIT
     except (OSError, CalibPinError) as e:  # a full disk: nothing was written, the trials are kept
