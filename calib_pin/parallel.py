@@ -19,6 +19,7 @@ import re
 import socket
 import time
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any, TypeVar
 
 from .exceptions import CalibPinError
@@ -233,9 +234,12 @@ def _check_scheduler(scheduler: str) -> None:
         finally:
             comm.abort()
 
+    def ask() -> Any:  # in a thread of its own: the caller may run an event loop already (Jupyter)
+        return asyncio.run(asyncio.wait_for(identity(), ANSWER_TIMEOUT_S))
+
     try:
-        with _quiet_dask_logs():
-            answer = asyncio.run(asyncio.wait_for(identity(), ANSWER_TIMEOUT_S))
+        with _quiet_dask_logs(), ThreadPoolExecutor(1) as pool:
+            answer = pool.submit(ask).result()
     except TimeoutError:
         raise ParallelFault(f"{scheduler} is not a Dask scheduler: it accepts connections but gave no Dask answer "
                             f"within {ANSWER_TIMEOUT_S:g} s") from None
