@@ -13,24 +13,33 @@ what a full machine wants: N tasks on N cores, no oversubscription.
 
 The measurement files must be readable at the same path by every worker (a shared
 filesystem, as for any Dask file input); the outputs are written by the calling process.
+
+Nothing finished is lost: each set's outcome is kept in ``<out>/.calib-pin-checkpoint``
+as soon as it is done (:mod:`calib_pin.checkpoint`), so after Ctrl-C, a killed worker or
+a lost scheduler the same command runs only the sets not yet done. The outputs are
+written at the end, all together (:class:`calib_pin.cli.outputs.Outputs`), and no file
+of an earlier run is left beside a set that now fails.
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
+import json
 import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
+from .checkpoint import Checkpoint, Interrupted, file_digest, fingerprint
 from .exceptions import CalibPinError
-from .optional import require
+from .parallel import ParallelFault, error_line, limited, parallel_completed, parallel_map
 from .report import build_report
 
-T = TypeVar("T")
-R = TypeVar("R")
+__all__ = ["SUMMARY_COLUMNS", "BatchTask", "ParallelFault", "TaskOutcome", "parallel_completed", "parallel_map",
+           "run_batch", "run_task", "task_key", "write_outcome", "write_summary"]
 
 #: Columns of ``summary.csv``; errors in [mm], time in [s].
 SUMMARY_COLUMNS = (
@@ -78,6 +87,8 @@ class TaskOutcome:
         row: Its ``summary.csv`` row (keys of :data:`SUMMARY_COLUMNS`).
         report: The calibration report (``report.json``), or None if it did not run.
         urdf_name, urdf_text: File name and text of the corrected URDF, or None.
+        retry: The set failed on a fault of the machine (an OSError: a full disk, a
+            permission), not of its data: its outcome is not kept, the next run tries again.
     """
 
     name: str
@@ -87,84 +98,7 @@ class TaskOutcome:
     report: dict | None = None
     urdf_name: str | None = None
     urdf_text: str | None = None
-
-
-def _one_line(error: BaseException) -> str:
-    text = str(error).strip().splitlines()
-    first = text[0] if text else ""
-    if isinstance(error, CalibPinError):
-        return first or type(error).__name__
-    return f"{type(error).__name__}: {first}" if first else type(error).__name__
-
-
-def _limited(fn: Callable[[T], R]) -> Callable[[T], R]:
-    return _Limited(fn)
-
-
-class _Limited:
-    """``fn`` run with one BLAS/OpenMP thread (picklable, unlike a closure)."""
-
-    def __init__(self, fn: Callable) -> None:
-        self.fn = fn
-
-    def __call__(self, item):
-        from threadpoolctl import threadpool_limits
-
-        with threadpool_limits(limits=1):
-            return self.fn(item)
-
-
-def parallel_map(
-    fn: Callable[[T], R], items: Sequence[T], jobs: int = 1, scheduler: str | None = None
-) -> list[R]:
-    """``[fn(item) for item in items]``, in order, here or on workers.
-
-    Args:
-        fn: A picklable function (module level) of one item.
-        items: Its arguments (picklable).
-        jobs: Local worker processes (joblib, ``loky``); 1 runs in this process as a
-            plain loop, with the BLAS threads left as they are.
-        scheduler: Address of a running Dask scheduler (``tcp://host:8786``); when
-            given, ``jobs`` is ignored and the items run on the cluster's workers.
-
-    Workers run ``fn`` with one BLAS thread. An exception in ``fn`` propagates; catch it
-    inside ``fn`` to keep the other items going (as :func:`run_task` does).
-
-    Raises:
-        CalibPinError: jobs below 1, or the scheduler cannot be reached.
-    """
-    items = list(items)
-    if jobs < 1:
-        raise CalibPinError(f"jobs must be at least 1, got {jobs}")
-    if scheduler:
-        return _dask_map(_limited(fn), items, scheduler)
-    if jobs == 1 or len(items) <= 1:
-        return [fn(item) for item in items]
-    joblib = require("joblib")
-    limited = _limited(fn)
-    return list(joblib.Parallel(n_jobs=min(jobs, len(items)), backend="loky")(joblib.delayed(limited)(i) for i in items))
-
-
-def _dask_map(fn: Callable, items: list, scheduler: str) -> list:
-    distributed = require("distributed")
-    from distributed.comm.addressing import get_address_host_port
-
-    try:  # a malformed address would otherwise fail inside Client and leave it hanging 20 s
-        get_address_host_port(scheduler)
-    except ValueError as e:
-        raise CalibPinError(f"'{scheduler}' is not a Dask scheduler address ({e}); give tcp://host:port") from None
-    try:
-        client = distributed.Client(scheduler, timeout="10s", set_as_default=False)
-    except (OSError, TimeoutError) as e:
-        raise CalibPinError(f"cannot reach the Dask scheduler at {scheduler}: {_one_line(e)}") from None
-    with client:
-        try:
-            return client.gather(client.map(fn, items, pure=False))
-        except Exception as e:  # noqa: BLE001 - a cluster's failure is one line, not a traceback
-            raise CalibPinError(
-                f"the Dask cluster at {scheduler} could not run the tasks ({_one_line(e)}): the "
-                "scheduler and every worker must import the same calib-pin as this process"
-            ) from None
+    retry: bool = False
 
 
 def run_task(task: BatchTask) -> TaskOutcome:
@@ -184,13 +118,16 @@ def run_task(task: BatchTask) -> TaskOutcome:
             for stage, m in stages.items():
                 for stat, value in m.as_dict().items():
                     row[f"{split}_{stat.removesuffix('_mm')}_{stage}_mm"] = f"{value:.6f}"
-        urdf_name, urdf_text, error = _urdf(result)
+        urdf_name, urdf_text, error = _urdf(result, report)
     except Exception as e:  # noqa: BLE001 - a failing set must not stop the others
-        report, urdf_name, urdf_text, error = None, None, None, _one_line(e)
+        report, urdf_name, urdf_text, error = None, None, None, error_line(e)
+        retry = isinstance(e, OSError)
+    else:
+        retry = False
     row["time_s"] = f"{time.perf_counter() - start:.3f}"
     status = "failed" if error else "ok"
     row.update(status=status, error=error)
-    return TaskOutcome(task.name, status, error, row, report, urdf_name, urdf_text)
+    return TaskOutcome(task.name, status, error, row, report, urdf_name, urdf_text, retry)
 
 
 def _robot(task: BatchTask) -> str:
@@ -204,13 +141,17 @@ def _robot(task: BatchTask) -> str:
     return robot
 
 
-def _urdf(result) -> tuple[str | None, str | None, str]:
-    """(file name, text, error) of the corrected URDF; no URDF for ``rbf``, an error
-    line for a deviation beyond the sanity bound."""
+def _urdf(result, report: dict[str, Any]) -> tuple[str | None, str | None, str]:
+    """(file name, text, error) of the corrected URDF; no URDF for ``rbf``; what
+    ``calibrate`` refuses (poses that cannot support a URDF, a deviation beyond the
+    sanity bound) is refused here too, with the same line, also in ``report["urdf_refused"]``."""
+    from .cli.calibrate import _unsupported  # calibrate's own rule, so that the two never differ
+
     if not result.kinematic:
         return None, None, ""
-    refused = result.sanity_error()
+    refused = _unsupported(result, report) or result.sanity_error()
     if refused:
+        report["urdf_refused"] = refused
         return None, None, refused
     name = f"{result.chain.name}_calibrated.urdf"
     with tempfile.TemporaryDirectory() as tmp:
@@ -218,22 +159,58 @@ def _urdf(result) -> tuple[str | None, str | None, str]:
 
 
 def write_outcome(outcome: TaskOutcome, out: Path) -> None:
-    """Write a set's ``report.json`` (even when its URDF was refused) and URDF under ``out/<set>/``."""
-    import json
-
+    """Write a set's ``report.json`` (even when its URDF was refused) and URDF under
+    ``out/<set>/``, together, and remove what an earlier run left there (all of a set
+    that now fails without a report)."""
     from .cli.outputs import Outputs
 
+    files = Outputs(Path(out))
+    stale = _earlier_files(Path(out), outcome.name)
+    _add_outcome(files, outcome)
+    _remove_stale(stale, files.commit())
+
+
+def _add_outcome(files: Any, outcome: TaskOutcome) -> None:
+    """Queue a set's report.json and URDF in ``files`` (an Outputs of the batch folder)."""
     if outcome.report is None:
         return
-    files = Outputs(out / outcome.name)
+    folder = files.folder / outcome.name
     report = dict(outcome.report)
-    report["urdf"] = str(files.folder / outcome.urdf_name) if outcome.urdf_name else None
+    report["urdf"] = str(folder / outcome.urdf_name) if outcome.urdf_name else None
+    report.setdefault("urdf_refused", outcome.error or None)
     text = json.dumps(report, indent=2, allow_nan=False) + "\n"
-    files.add(files.folder / "report.json", lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    files.add(folder / "report.json", lambda tmp: tmp.write_text(text, encoding="utf-8"))
     if outcome.urdf_name and outcome.urdf_text is not None:
         urdf = outcome.urdf_text
-        files.add(files.folder / outcome.urdf_name, lambda tmp: tmp.write_text(urdf, encoding="utf-8"))
-    files.commit()
+        files.add(folder / outcome.urdf_name, lambda tmp: tmp.write_text(urdf, encoding="utf-8"))
+
+
+def _earlier_files(out: Path, name: str) -> list[Path]:
+    """The files an earlier batch run wrote for set ``name``: its report.json and the URDF that report names."""
+    folder = out / name
+    report = folder / "report.json"
+    if not report.is_file():
+        return []
+    files = [report]
+    try:
+        urdf = json.loads(report.read_text(encoding="utf-8")).get("urdf")
+    except (OSError, ValueError, AttributeError):
+        urdf = None
+    if isinstance(urdf, str) and Path(urdf).name:
+        files.append(folder / Path(urdf).name)
+    return files
+
+
+def _remove_stale(stale: Sequence[Path], written: Sequence[Path]) -> None:
+    """Remove the earlier run's files this run did not write, and a set folder left empty."""
+    kept = {Path(p).resolve() for p in written}
+    for path in stale:
+        if path.resolve() not in kept:
+            path.unlink(missing_ok=True)
+            try:
+                path.parent.rmdir()  # only when empty
+            except OSError:
+                pass
 
 
 def write_summary(outcomes: Sequence[TaskOutcome], path: Path) -> Path:
@@ -245,6 +222,19 @@ def write_summary(outcomes: Sequence[TaskOutcome], path: Path) -> Path:
         for outcome in outcomes:
             writer.writerow(outcome.row)
     return path
+
+
+def task_key(task: BatchTask) -> str:
+    """The fingerprint of what a task's outcome depends on: the data file's bytes, the
+    robot (and its URDF's bytes), the method, the seed and the options (see
+    :func:`calib_pin.checkpoint.fingerprint`)."""
+    data = Path(task.data)
+    return fingerprint("batch-set", task.robot, file_digest(task.robot), str(data.resolve()), file_digest(data),
+                       task.method, task.seed, task.options)
+
+
+def _outcome_from_json(value: dict[str, Any]) -> TaskOutcome:
+    return TaskOutcome(**value)
 
 
 def _check_names(tasks: Sequence[BatchTask]) -> None:
@@ -259,9 +249,16 @@ def _check_names(tasks: Sequence[BatchTask]) -> None:
 
 
 def run_batch(
-    tasks: Sequence[BatchTask], *, out: str | Path = "out/batch", jobs: int = 1, scheduler: str | None = None
+    tasks: Sequence[BatchTask], *, out: str | Path = "out/batch", jobs: int = 1, scheduler: str | None = None,
+    notify: Callable[[str], Any] | None = None,
 ) -> list[TaskOutcome]:
     """Calibrate many sets; write their outputs and ``<out>/summary.csv``.
+
+    Each set's outcome is kept in ``<out>/.calib-pin-checkpoint`` as soon as it is done;
+    a run of the same tasks into the same folder reuses the kept ones (a task whose data
+    file, robot, method, seed or options changed runs again). After the outputs are
+    written the checkpoint is removed. The outputs are written all together or none;
+    no earlier run's report or URDF is left beside a set that now fails.
 
     Args:
         tasks: One task per measurement set (set names, the file stems, must differ).
@@ -269,18 +266,37 @@ def run_batch(
             and ``<out>/summary.csv``.
         jobs: Local worker processes (1: this process).
         scheduler: Address of a running Dask scheduler, instead of local processes.
+        notify: Called with one line when kept outcomes are reused.
 
     Returns:
         One outcome per task, in the tasks' order.
 
     Raises:
-        CalibPinError: duplicate set names, jobs below 1, an unreachable scheduler.
+        CalibPinError: duplicate set names, jobs below 1, a malformed scheduler address.
+        ParallelFault: a worker or the scheduler failed; the finished sets are kept.
+        calib_pin.checkpoint.Interrupted: Ctrl-C; the finished sets are kept.
     """
+    from .cli.outputs import Outputs
+
     tasks = list(tasks)
     _check_names(tasks)
-    outcomes = parallel_map(_limited(run_task), tasks, jobs=jobs, scheduler=scheduler)
     out = Path(out)
-    for outcome in outcomes:
-        write_outcome(outcome, out)
-    write_summary(outcomes, out / "summary.csv")
+    if out.exists() and not out.is_dir():
+        raise CalibPinError(f"{out}: the output folder is a file")
+    checkpoint = Checkpoint(out, "set")
+    outcomes = checkpoint.map(limited(run_task), tasks, [task_key(t) for t in tasks], encode=dataclasses.asdict,
+                              decode=_outcome_from_json, keep=lambda o: not o.retry, jobs=jobs, scheduler=scheduler,
+                              notify=notify)
+    files = Outputs(out)
+    stale = [path for outcome in outcomes for path in _earlier_files(out, outcome.name)]
+    try:
+        for outcome in outcomes:
+            _add_outcome(files, outcome)
+        files.add(out / "summary.csv", lambda tmp: write_summary(outcomes, tmp))
+        _remove_stale(stale, files.commit())  # all sets' outputs and the summary together, or none
+    except KeyboardInterrupt:
+        raise Interrupted(f"stopped by Ctrl-C: {checkpoint.kept(len(outcomes), len(outcomes))}") from None
+    except (OSError, CalibPinError) as e:  # a full disk: no output changed, every set is kept
+        raise checkpoint.unwritten(e, len(outcomes)) from None
+    checkpoint.clear()
     return outcomes

@@ -9,11 +9,16 @@ residual of a good calibration is mostly sensor noise, the fresh-pose error is n
 
 :meth:`Comparison.rows` aggregates over trials (mean and standard deviation), and the
 writers give ``table1.csv`` and ``table1.md`` (with the paper's numbers beside ours).
+
+With a ``checkpoint`` folder each finished trial is kept there as it finishes
+(:mod:`calib_pin.checkpoint`): after Ctrl-C or a worker fault the same comparison runs
+only the trials not yet done, with the same results.
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
@@ -22,10 +27,11 @@ from typing import Any
 
 import numpy as np
 
-from .batch import parallel_map
+from .checkpoint import Checkpoint, file_digest, fingerprint
 from .estimators import PAPER_LABELS, PAPER_METHODS, get_method, run_estimator
 from .exceptions import CalibPinError
 from .metrics import Metrics
+from .parallel import parallel_map
 from .parameters import ParameterModel, parameter_model
 from .pipeline import CalibrationSetup, prepare
 from .problem import CalibrationProblem
@@ -105,6 +111,33 @@ class Trial:
     before_fresh_rmse_mm: float | None
     before_residual_mm: np.ndarray
     runs: dict[str, MethodRun]
+
+    def to_json(self) -> dict[str, Any]:
+        """The trial as JSON-able values (arrays as lists); :meth:`from_json` gives it back exactly."""
+        return _plain(dataclasses.asdict(self))
+
+    @classmethod
+    def from_json(cls, value: dict[str, Any]) -> Trial:
+        """The trial of :meth:`to_json`."""
+        runs = {name: MethodRun(**{**run, "train": Metrics(**run["train"]), "test": Metrics(**run["test"]),
+                                   "test_residual_mm": np.array(run["test_residual_mm"], dtype=float)})
+                for name, run in value["runs"].items()}
+        return cls(seed=value["seed"], source=value["source"], before=Metrics(**value["before"]),
+                   before_fresh_rmse_mm=value["before_fresh_rmse_mm"],
+                   before_residual_mm=np.array(value["before_residual_mm"], dtype=float), runs=runs)
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with numpy arrays and scalars as lists and Python numbers (exact)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
 
 
 @dataclass
@@ -310,6 +343,8 @@ def compare(
     cable_tension_n: float | None = None,
     jobs: int = 1,
     scheduler: str | None = None,
+    checkpoint: str | Path | None = None,
+    notify: Callable[[str], Any] | None = None,
 ) -> Comparison:
     """Run estimators side by side.
 
@@ -328,11 +363,20 @@ def compare(
         compliance, payload_kg, payload_com_mm, cable_tension_n: Joint compliances to
             estimate with the geometry, and their loads (as :func:`calib_pin.calibrate`).
         jobs, scheduler: Run the trials in ``jobs`` local processes, or on the Dask
-            cluster at ``scheduler`` (see :func:`calib_pin.batch.parallel_map`); the
+            cluster at ``scheduler`` (see :func:`calib_pin.parallel.parallel_map`); the
             results do not depend on it (each trial is seeded), only the time does.
+        checkpoint: Folder in which each finished trial is kept as it finishes
+            (``<checkpoint>/.calib-pin-checkpoint``), and from which a comparison of the
+            same data and settings takes the trials already done; None keeps nothing.
+            The caller removes it (:meth:`calib_pin.checkpoint.Checkpoint.clear`) once
+            the outputs are written.
+        notify: Called with one line when kept trials are reused.
 
     Raises:
         CalibPinError: bad method, robot, data or settings.
+        calib_pin.parallel.ParallelFault: a worker or the scheduler failed (the finished
+            trials are kept when ``checkpoint`` is given).
+        calib_pin.checkpoint.Interrupted: Ctrl-C with a ``checkpoint``; the finished trials are kept.
     """
     methods = list(PAPER_METHODS) if methods is None else list(methods)
     for m in methods:
@@ -345,15 +389,18 @@ def compare(
         local = jobs == 1 and scheduler is None  # a bar follows only the trials run here
         tick = bar.update if bar is not None and local else None
         out, what = _trials(robot, data, methods, trials, seed, test_fraction, simulate_noise, noise_mm, poses,
-                            soft, (jobs, scheduler), tick)
+                            soft, (jobs, scheduler), tick, (checkpoint, notify))
     return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(compliance))
 
 
 def _trials(robot: str, data: str | Path | None, methods: list[str], trials: int, seed: int, test_fraction: float,
             simulate_noise: str | None, noise_mm: float, poses: int, soft: dict[str, Any],
-            where: tuple[int, str | None], tick: Callable[[], Any] | None) -> tuple[list[Trial], str]:
-    """The trials of :func:`compare` (in ``where`` = (jobs, scheduler)) and what they ran on."""
+            where: tuple[int, str | None], tick: Callable[[], Any] | None,
+            keep: tuple[str | Path | None, Callable[[str], Any] | None] = (None, None)) -> tuple[list[Trial], str]:
+    """The trials of :func:`compare` (in ``where`` = (jobs, scheduler), kept in
+    ``keep`` = (checkpoint folder, notify)) and what they ran on."""
     seeds = range(seed, seed + trials)
+    settings = [robot, file_digest(robot), methods, test_fraction, soft]
     if simulate_noise is None:
         setup = prepare(robot, data, **soft)
         for m in methods:
@@ -364,13 +411,27 @@ def _trials(robot: str, data: str | Path | None, methods: list[str], trials: int
         one = partial(_trial, setup, truth, methods, test_fraction=test_fraction, tick=tick)
         what = f"{setup.data.describe_rows()} from {Path(setup.data.source).name}"
         what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
-        return parallel_map(one, seeds, *where), what
+        settings += ["data", setup.data.source, file_digest(setup.data.source), file_digest(truth_file)]
+        return _run_trials(one, seeds, settings, where, keep), what
     chain = load_chain(robot)
     params = parameter_model(chain)
     one = partial(_simulated_trial, robot, chain, params, methods, test_fraction, poses, noise_mm, simulate_noise,
                   soft, tick=tick)
     what = f"simulated sets of {poses} poses, {simulate_noise} noise {noise_mm:g} mm, seed(s) {seed}..{seed + trials - 1}"
-    return parallel_map(one, seeds, *where), what
+    settings += ["simulated", poses, noise_mm, simulate_noise]
+    return _run_trials(one, seeds, settings, where, keep), what
+
+
+def _run_trials(one: Callable[[int], Trial], seeds: range, settings: list, where: tuple[int, str | None],
+                keep: tuple[str | Path | None, Callable[[str], Any] | None]) -> list[Trial]:
+    """``one(seed)`` for each seed; with a checkpoint folder, each trial kept as it finishes,
+    under the fingerprint of ``settings`` (what a trial depends on) and its seed."""
+    folder, notify = keep
+    if folder is None:
+        return parallel_map(one, seeds, *where)
+    keys = [fingerprint("compare-trial", *settings, s) for s in seeds]
+    return Checkpoint(folder, "trial").map(one, list(seeds), keys, encode=Trial.to_json, decode=Trial.from_json,
+                                           jobs=where[0], scheduler=where[1], notify=notify)
 
 
 def _compliance_words(compliance: str | tuple[str, ...] | None) -> str:

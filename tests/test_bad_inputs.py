@@ -303,6 +303,22 @@ R3_OUTPUTS: list[Case] = [
 # round 3 (issue 20), 1 and 4: batch and compare keep finished work; Dask and joblib faults in one line
 # ---------------------------------------------------------------------------
 R3_PARALLEL: list[Case] = [
+    # batch refuses what calibrate refuses: identical poses give no URDF, and the set fails
+    ("batch", ["d.csv", "--out", "o", "--method", "lm"], {"d.csv": IDENTICAL}, 2, "1 of 1 set(s) failed, first d"),
+    # nothing listens on the scheduler port: one line at once, not a 10 s wait
+    ("batch", ["d.csv", "--out", "o", "--scheduler", "tcp://127.0.0.1:1"], {"d.csv": data()}, 2,
+     "cannot reach the Dask scheduler at tcp://127.0.0.1:1"),
+    (CMP, ["irb120", "--methods", "lm", "--scheduler", "tcp://127.0.0.1:1"], {}, 2,
+     "cannot reach the Dask scheduler at tcp://127.0.0.1:1"),
+    # the output folder is a file: one line naming it, before any set runs
+    ("batch", ["d.csv", "--out", "o"], {"d.csv": data(), "o": "x"}, 2, "o"),
+    (CMP, ["irb120", "--methods", "lm", "--out", "o"], {"o": "x"}, 2, "o"),
+    # an earlier run's unreadable report beside the set is replaced, not read
+    ("batch", ["d.csv", "--out", "o", "--method", "lm"], {"d.csv": data(), "o/d/report.json": "{cut"}, 0,
+     "wrote o/summary.csv"),
+    # an unreadable checkpoint file is not a finished set: the set runs again
+    ("batch", ["d.csv", "--out", "o", "--method", "lm"], {"d.csv": data(), "o/.calib-pin-checkpoint/set-0.json": "{"},
+     0, "wrote o/summary.csv"),
 ]
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -163,3 +164,54 @@ def test_compare_trials_in_processes_match_the_serial_trials():
     # Against the simulator's truth: each calibration beats the nominal model on fresh poses.
     for t in serial.trials:
         assert all(r.fresh_rmse_mm < 0.3 * t.before_fresh_rmse_mm for r in t.runs.values())
+
+
+def test_a_rerun_leaves_no_earlier_output_beside_a_set_that_now_fails(sets, tmp_path, capsys):
+    """Two sets that calibrated, then fail (a broken file; identical poses, which calibrate
+    refuses): no earlier report or URDF is left beside them, and the summary says failed."""
+    from calib_pin.cli.batch import batch_main
+
+    broken, refused = tmp_path / "arm.csv", tmp_path / "arm_b.csv"
+    text = Path(sets[0][0].data).read_text()
+    broken.write_text(text)
+    refused.write_text(text)
+    out = tmp_path / "out"
+    assert batch_main([str(broken), str(refused), "--out", str(out)]) == 0
+    for name in ("arm", "arm_b"):
+        assert {p.name for p in (out / name).iterdir()} == {"irb120_calibrated.urdf", "report.json"}
+    broken.write_text("q1_deg,q2_deg\n1,2\n")
+    lines = text.splitlines()
+    meta = [line for line in lines if line.startswith("#")]
+    rows = [line for line in lines if line and not line.startswith("#")]
+    refused.write_text("\n".join([*meta, rows[0], *[rows[1]] * 40]) + "\n")
+    capsys.readouterr()
+    assert batch_main([str(broken), str(refused), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "2 of 2 set(s) failed" in err[0]
+    assert not (out / "arm").exists()
+    assert not (out / "arm_b" / "irb120_calibrated.urdf").exists()
+    if (out / "arm_b").exists():  # the refused set's report of this run, which says why
+        assert [p.name for p in (out / "arm_b").iterdir()] == ["report.json"]
+        report = json.loads((out / "arm_b" / "report.json").read_text())
+        assert report["urdf"] is None and report["urdf_refused"]
+    with (out / "summary.csv").open() as f:
+        summary = list(csv.DictReader(f))
+    assert [(r["set"], r["status"]) for r in summary] == [("arm", "failed"), ("arm_b", "failed")]
+    assert "arm.csv" in summary[0]["error"] and summary[1]["error"]
+
+
+def test_rerun_keys_depend_on_inputs_and_options(sets, tmp_path):
+    """A finished set is reused only for the same file content, robot, method, seed and options."""
+    from calib_pin.batch import task_key
+
+    path = tmp_path / "k.csv"
+    path.write_bytes(Path(sets[0][0].data).read_bytes())
+    task = BatchTask("irb120", str(path), "lm", 0, {"test_fraction": 0.2})
+    key = task_key(task)
+    assert task_key(BatchTask("irb120", str(path), "lm", 0, {"test_fraction": 0.2})) == key
+    assert task_key(BatchTask("irb120", str(path), "lm", 1, {"test_fraction": 0.2})) != key
+    assert task_key(BatchTask("irb120", str(path), "pso", 0, {"test_fraction": 0.2})) != key
+    assert task_key(BatchTask("irb120", str(path), "lm", 0, {"test_fraction": 0.3})) != key
+    assert task_key(BatchTask(None, str(path), "lm", 0, {"test_fraction": 0.2})) != key
+    path.write_bytes(path.read_bytes() + b"\n")
+    assert task_key(task) != key

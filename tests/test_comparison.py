@@ -72,3 +72,54 @@ def test_bad_settings():
         cp.compare("irb120", methods=["lm"], trials=0)
     with pytest.raises(cp.CalibPinError, match="unknown noise kind 'pink'"):
         cp.compare("irb120", methods=["lm"], simulate_noise="pink")
+
+
+def _compare_cli(tmp_path, env_extra=None, limit_bytes=None):
+    """``calib-pin compare`` on 30 simulated poses with lm into tmp_path/out, started in a subprocess."""
+    import os
+    import resource
+    import signal
+    import subprocess
+    import sys
+
+    def full_disk():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
+
+    tmp_path.mkdir()
+    env = {**os.environ, **(env_extra or {})}
+    return subprocess.Popen([sys.executable, "-c", "import sys; from calib_pin.cli import main; sys.exit(main(sys.argv[1:]))",
+                             "compare", "irb120", "--simulate", "gauss", "--poses", "30", "--methods", "lm", "--out", "out"],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=full_disk if limit_bytes else None)
+
+
+def test_compare_writes_all_outputs_or_none_and_the_figures_are_optional(tmp_path):
+    """A full disk with room for the tables but not the figures: nothing is written (the
+    trial is kept for the rerun). A broken matplotlib: one warning, the tables. A bad
+    MPLBACKEND: one warning, and the figures drawn off-screen."""
+    fake = tmp_path / "fake"
+    (fake / "matplotlib").mkdir(parents=True)
+    (fake / "matplotlib" / "__init__.py").write_text("raise ImportError('a broken matplotlib')\n")
+    full = _compare_cli(tmp_path / "full", limit_bytes=20_000)
+    broken = _compare_cli(tmp_path / "broken", env_extra={"PYTHONPATH": str(fake)})
+    backend = _compare_cli(tmp_path / "backend", env_extra={"MPLBACKEND": "nonsense"})
+    results = {}
+    for name, proc in (("full", full), ("broken", broken), ("backend", backend)):
+        _, err = proc.communicate(timeout=60)
+        results[name] = proc.returncode, [line for line in err.splitlines() if line.strip()], err
+    tables = ["table1.csv", "table1.md"]
+
+    code, lines, err = results["full"]
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err, err
+    assert "File too large" in lines[0] and "1 of 1 trial(s) kept in out; run the same command" in lines[0], err
+    assert [p.name for p in (tmp_path / "full" / "out").iterdir()] == [".calib-pin-checkpoint"]
+
+    code, lines, err = results["broken"]
+    assert code == 0 and len(lines) == 1 and lines[0].startswith("warning: no figures") and "broken" in lines[0], err
+    assert sorted(p.name for p in (tmp_path / "broken" / "out").iterdir()) == tables
+
+    code, lines, err = results["backend"]
+    assert code == 0 and len(lines) == 1 and "MPLBACKEND='nonsense'" in lines[0], err
+    assert sorted(p.name for p in (tmp_path / "backend" / "out").iterdir()) == \
+        ["fig2_residuals.png", "fig3_convergence.png", *tables]

@@ -1,7 +1,10 @@
 """``batch``: one calibration per measurement set, here (``--jobs``) or on a Dask cluster.
 
-Exit status 0 when every set calibrated, 2 on bad options or when any set failed (each
-failed set's one-line error is in ``summary.csv`` and on stderr).
+Exit status 0 when every set calibrated, 2 on bad options, when any set failed (each
+failed set's one-line error is in ``summary.csv`` and on stderr) or when a worker or the
+scheduler failed (one line naming which). Finished sets are kept in
+``OUT/.calib-pin-checkpoint`` as they finish: after Ctrl-C (exit 130) or a fault the
+same command runs only the rest, and says so.
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ from pathlib import Path
 
 from ..estimators import ESTIMATORS
 from ..parameters import MODELS
-from .common import BAD_INPUT_EXIT, OneLineParser, count, fraction, non_negative, run
+from .common import INTERRUPTED_EXIT, OneLineParser, count, fail, fraction, non_negative, one_line, run
 
 
 def batch_parser() -> argparse.ArgumentParser:
@@ -24,7 +27,8 @@ def batch_parser() -> argparse.ArgumentParser:
         "OUT/summary.csv with one row per set.",
     )
     p.add_argument("sessions", nargs="+", metavar="SESSION", help="measurement set CSVs (file stems must differ)")
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--out", required=True, help="output folder (each finished set is kept in OUT/.calib-pin-checkpoint "
+                   "until the run completes: after Ctrl-C or a fault the same command resumes)")
     p.add_argument("--robot", help="robot name or URDF path (default: each file's '# robot:' line)")
     p.add_argument("--method", default="lm", choices=ESTIMATORS, metavar="METHOD",
                    help=f"estimator: {', '.join(ESTIMATORS)} (default lm)")
@@ -46,14 +50,20 @@ def batch_main(argv: Sequence[str] | None = None) -> int:
 
 def _batch(args: argparse.Namespace) -> int:
     from ..batch import BatchTask, run_batch
+    from ..checkpoint import Interrupted
     from ..estimators import get_method
 
     get_method(args.method).check(args.loss)  # a bad --loss fails once, not once per set
     options = {"test_fraction": args.test_fraction, "loss": args.loss, "parameters": args.model}
     tasks = [BatchTask(args.robot, str(s), args.method, args.seed, options) for s in args.sessions]
     where = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} local process(es)"
-    print(f"{len(tasks)} set(s), method {args.method}, seed {args.seed}, on {where}")
-    outcomes = run_batch(tasks, out=args.out, jobs=args.jobs, scheduler=args.scheduler)
+    print(f"{len(tasks)} set(s), method {args.method}, seed {args.seed}, on {where}", flush=True)
+    try:
+        outcomes = run_batch(tasks, out=args.out, jobs=args.jobs, scheduler=args.scheduler,
+                             notify=lambda line: print(line, flush=True))
+    except Interrupted as e:
+        print(f"\n{one_line(str(e))}", file=sys.stderr)
+        return INTERRUPTED_EXIT
     width = max(len(o.name) for o in outcomes)
     for o in outcomes:
         if o.status == "ok":
@@ -65,7 +75,5 @@ def _batch(args: argparse.Namespace) -> int:
     print(f"wrote {Path(args.out) / 'summary.csv'}")
     failed = [o for o in outcomes if o.status != "ok"]
     if failed:
-        print(f"error: {len(failed)} of {len(outcomes)} set(s) failed, first {failed[0].name}: "
-              f"{failed[0].error}", file=sys.stderr)
-        return BAD_INPUT_EXIT
+        return fail(f"{len(failed)} of {len(outcomes)} set(s) failed, first {failed[0].name}: {failed[0].error}")
     return 0

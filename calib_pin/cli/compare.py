@@ -1,4 +1,11 @@
-"""``compare``: the estimators side by side (the paper's Table I, Fig. 2 and Fig. 3)."""
+"""``compare``: the estimators side by side (the paper's Table I, Fig. 2 and Fig. 3).
+
+Writes table1.csv, table1.md, fig2_residuals.png and fig3_convergence.png all together
+or none (:class:`~calib_pin.cli.outputs.Outputs`); the figures are optional: without a
+working matplotlib one warning line, and the tables. Each finished trial is kept in
+``OUT/.calib-pin-checkpoint`` as it finishes: after Ctrl-C (exit 130, one line) or a
+worker fault the same command runs only the trials not yet done, and says so.
+"""
 
 from __future__ import annotations
 
@@ -6,11 +13,13 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from ..estimators import PAPER_METHODS
 from ..progress import quiet_progress
 from ..simulation import NOISE_KINDS
 from .common import (
+    INTERRUPTED_EXIT,
     OneLineParser,
     add_compliance_arguments,
     compliance_options,
@@ -19,9 +28,11 @@ from .common import (
     fraction,
     methods,
     non_negative,
+    one_line,
     positive_float,
     run,
 )
+from .outputs import Outputs
 
 #: Most trials one comparison may run.
 MAX_TRIALS = 100_000
@@ -37,7 +48,8 @@ def compare_parser() -> argparse.ArgumentParser:
     p.add_argument("--data", help="measurement set CSV (default: the robot's shipped set)")
     p.add_argument("--trials", type=count(MAX_TRIALS), default=1,
                    help="repeat over N seeded splits (or simulated sets): mean ± sd (default 1)")
-    p.add_argument("--out", default="out/compare", help="output folder (default ./out/compare)")
+    p.add_argument("--out", default="out/compare", help="output folder (default ./out/compare); each finished trial is "
+                   "kept in OUT/.calib-pin-checkpoint until the run completes: after Ctrl-C or a fault the same command resumes")
     p.add_argument("--methods", type=methods, default=list(PAPER_METHODS),
                    help=f"comma-separated methods (default the paper's nine: {','.join(PAPER_METHODS)})")
     p.add_argument("--seed", type=non_negative(int), default=0, help="first seed (default 0)")
@@ -66,27 +78,80 @@ def compare_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _compare(args: argparse.Namespace, argv: list[str]) -> int:
+    from ..checkpoint import Checkpoint, Interrupted
     from ..comparison import compare
-    from ..figures import convergence_figure, residual_figure
+    from ..exceptions import CalibPinError
 
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CalibPinError(f"{out}: the output folder is a file")
     if args.trials >= 10:
         print(f"comparing {len(args.methods)} methods over {args.trials} trials; this can take long "
-              "(Ctrl-C stops, writing nothing)", file=sys.stderr, flush=True)
-    result = compare(
-        args.robot, args.data, methods=args.methods, trials=args.trials, seed=args.seed,
-        test_fraction=args.test_fraction, simulate_noise=args.simulate,
-        noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
-        **compliance_options(args),
-    )
-    out = Path(args.out)
+              "(Ctrl-C stops; the finished trials are kept and the same command resumes)", file=sys.stderr, flush=True)
+    try:
+        result = compare(
+            args.robot, args.data, methods=args.methods, trials=args.trials, seed=args.seed,
+            test_fraction=args.test_fraction, simulate_noise=args.simulate,
+            noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
+            checkpoint=out, notify=lambda line: print(line, flush=True), **compliance_options(args),
+        )
+    except Interrupted as e:
+        print(f"\n{one_line(str(e))}", file=sys.stderr)
+        return INTERRUPTED_EXIT
+    kept = Checkpoint(out, "trial")
+    try:  # written before the table is printed: a closed pipe loses no file
+        written = _write(result, out, "python scripts/compare.py " + " ".join(argv))
+    except KeyboardInterrupt:  # while writing, which leaves nothing
+        print(f"\nstopped by Ctrl-C while writing: nothing was written; {one_line(kept.kept(args.trials, args.trials))}",
+              file=sys.stderr)
+        return INTERRUPTED_EXIT
+    except (OSError, CalibPinError) as e:  # a full disk: nothing was written, the trials are kept
+        raise kept.unwritten(e, args.trials) from None
+    Checkpoint(out).clear()
     print(result.format_table())
-    command = "python scripts/compare.py " + " ".join(argv)
-    written = [
-        result.write_csv(out / "table1.csv"),
-        result.write_markdown(out / "table1.md", command),
-        residual_figure(result, out / "fig2_residuals.png"),
-        convergence_figure(result, out / "fig3_convergence.png"),
-    ]
     for path in written:
         print(f"wrote {path}")
     return 0
+
+
+def _write(result: Any, out: Path, command: str) -> list[Path]:
+    """Write the tables and the figures together, or none. The figures are optional
+    (:func:`calib_pin.optional.figures_or_warn`): without a working matplotlib, or when
+    drawing fails, one warning line and the tables alone."""
+    from ..exceptions import CalibPinError
+    from ..optional import figures_or_warn
+
+    tables = [(out / "table1.csv", lambda tmp: result.write_csv(tmp)),
+              (out / "table1.md", lambda tmp: result.write_markdown(tmp, command))]
+    drawers = figures_or_warn("figures", _figure_functions, FIGURES_HINT)
+    if drawers is None:
+        return _commit(out, tables)
+    residual_figure, convergence_figure = drawers
+    figures = [(out / "fig2_residuals.png", lambda tmp: residual_figure(result, tmp)),
+               (out / "fig3_convergence.png", lambda tmp: convergence_figure(result, tmp))]
+    try:
+        return _commit(out, tables + figures)
+    except (OSError, MemoryError, CalibPinError):
+        raise  # a full disk (Outputs' OutputError): nothing was written
+    except Exception as e:  # noqa: BLE001 - drawing failed: the tables alone
+        print(f"warning: no figures: drawing failed ({type(e).__name__}: {e}) ({FIGURES_HINT})", file=sys.stderr)
+        return _commit(out, tables)
+
+
+#: What the figures' warning line adds.
+FIGURES_HINT = "the tables are written"
+
+
+def _figure_functions() -> tuple[Any, Any]:
+    """Fig. 2 and Fig. 3's drawing functions (importing matplotlib)."""
+    from ..figures import convergence_figure, residual_figure
+
+    return residual_figure, convergence_figure
+
+
+def _commit(out: Path, files: list) -> list[Path]:
+    """Write ``files`` ((path, write(tmp)) pairs) all together, or none."""
+    outputs = Outputs(out)
+    for path, write in files:
+        outputs.add(path, write)
+    return outputs.commit()
