@@ -142,14 +142,13 @@ def _robot(task: BatchTask) -> str:
 
 
 def _urdf(result, report: dict[str, Any]) -> tuple[str | None, str | None, str]:
-    """(file name, text, error) of the corrected URDF; no URDF for ``rbf``; what
-    ``calibrate`` refuses (poses that cannot support a URDF, a deviation beyond the
-    sanity bound) is refused here too, with the same line, also in ``report["urdf_refused"]``."""
-    from .cli.calibrate import _unsupported  # calibrate's own rule, so that the two never differ
-
+    """(file name, text, error) of the corrected URDF; no URDF for ``rbf``; a fit beyond
+    the sanity bound (:meth:`CalibrationResult.sanity_error`, calibrate's own rule) is
+    refused with the same line, also in ``report["urdf_refused"]``. Poses that cannot
+    calibrate anything are refused before the estimate, by the library."""
     if not result.kinematic:
         return None, None, ""
-    refused = _unsupported(result, report) or result.sanity_error()
+    refused = result.sanity_error()
     if refused:
         report["urdf_refused"] = refused
         return None, None, refused

@@ -201,5 +201,5 @@ def support_error(problem: CalibrationProblem, rcond: float = RCOND) -> str | No
                       f"({sensor}): none is the robot's")
     if reason is None:
         return None
-    return (f"the training poses identify only {space.rank} of {n} directions: {reason}; no URDF written; "
-            "measure more varied poses")
+    return (f"the training poses identify only {space.rank} of {n} directions: {reason}; nothing can be "
+            "calibrated from them: measure more varied poses")

@@ -31,6 +31,7 @@ from .arguments import (
 )
 from .estimators import DEFAULT_METHOD, get_method, run_estimator
 from .exceptions import ArgumentError, CalibPinError, DataError
+from .identifiability import support_error
 from .measurements import MeasurementSet, read_measurements
 from .measurements.checks import check_measurements, check_same_setup
 from .metrics import Metrics, split_rows
@@ -145,6 +146,9 @@ class CalibrationSetup:
         if training.n_values < problem.n_params:
             raise DataError(self.data.source, f"{len(train)} training rows give {training.n_values} values, "
                             f"fewer than the {problem.n_params} unknowns to estimate")
+        unsupported = support_error(training)  # rank deficiency is normal; a set that calibrates nothing is not
+        if unsupported:
+            raise DataError(self.data.source, unsupported)
         x0 = np.zeros(problem.n_params)
         estimate = run_estimator(method, training, x0, seed=seed, noise=self.noise, loss=loss)
         metrics = {}

@@ -477,6 +477,10 @@ R3_COMPLIANCE: list[Case] = [
     # ... but a set that cannot calibrate anything is refused: one distinct pose
     (CAL, ["irb120", "--data", "same.csv", "--method", "lm", "--estimate", "anchor,offset"], {"same.csv": IDENTICAL},
      2, "1 distinct pose"),
+    # ... before any estimate, by every method (the default ekf-qibas divided by its zero cost; rbf wrote a report)
+    (CAL, ["irb120", "--data", "same.csv"], {"same.csv": IDENTICAL}, 2, "1 distinct pose"),
+    (CAL, ["irb120", "--data", "same.csv", "--method", "rbf"], {"same.csv": IDENTICAL}, 2, "1 distinct pose"),
+    (CAL, ["irb120", "--data", "same.csv", "--method", "lm+rbf"], {"same.csv": IDENTICAL}, 2, "1 distinct pose"),
     # noise 0: a noise-free simulation is fine; a Kalman filter's assumed sigma of 0 is not
     (SIM, ["irb120", "--poses-file", "p.csv", "--seed", "1", "--noise-mm", "0", "--out", "truth.csv"],
      {"p.csv": POSES}, 0, "noise 0 mm"),  # the README's dry run

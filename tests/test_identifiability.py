@@ -1,10 +1,15 @@
 """The identifiability report names what one cable can and cannot see."""
 
-import pytest
+import dataclasses
+from pathlib import Path
+
 import numpy as np
+import pytest
 
 import calib_pin as cp
 from calib_pin.identifiability import analyze
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_shipped_set_report():
@@ -87,3 +92,15 @@ def test_support_error_refuses_only_what_cannot_calibrate():
     assert support_error(setup.problem.subset(np.array([0, 1] * 20))) is None
     sensor = cp.prepare("irb120", estimate=("anchor", "offset")).problem.subset(np.arange(3))
     assert "the sensor's own unknowns" in support_error(sensor)
+
+
+@pytest.mark.parametrize("method", ["ekf-qibas", "rbf", "pso"])
+def test_a_set_that_calibrates_nothing_is_refused_by_the_library_before_any_estimate(method):
+    """Identical poses: every method, through the library, refuses before it estimates (the
+    search methods used to divide by the zero cost of a perfect fit; rbf returned a result)."""
+    import calib_pin as cp
+
+    data = cp.read_measurements(ROOT / "robots" / "irb120_default.csv")
+    same = dataclasses.replace(data, q=np.repeat(data.q[:1], len(data), axis=0), values=np.repeat(data.values[:1], len(data)))
+    with pytest.raises(cp.CalibPinError, match="1 distinct pose"):
+        cp.calibrate("irb120", same, method=method)

@@ -209,7 +209,7 @@ def _calibrate(args: argparse.Namespace) -> int:
                        progress=_announce, **_setup_options(args))
     out = Outputs(Path(args.out))
     report = build_report(result)
-    refused = (_unsupported(result, report) or result.sanity_error()) if result.kinematic else None
+    refused = result.sanity_error() if result.kinematic else None
     notes: list[str] = []
     exports = _add_exports(out, result, args.export, notes) if result.kinematic and not refused else {}
     report["urdf"] = exports.get("urdf")
@@ -243,17 +243,6 @@ def _announce(setup: Any) -> None:
     if len(setup.data) >= LONG_ROWS:
         print(f"calibrating {len(setup.data)} rows with {setup.problem.n_params} unknowns; "
               "this can take minutes (Ctrl-C stops, writing nothing)", file=sys.stderr, flush=True)
-
-
-def _unsupported(result: Any, report: dict[str, Any]) -> str | None:
-    """Why the training poses cannot calibrate anything (:func:`calib_pin.identifiability.support_error`),
-    or None; the reason is added to ``report["warnings"]``. A rank-deficient set is not refused."""
-    from ..identifiability import support_error
-
-    why = support_error(result.problem.subset(result.train))
-    if why:
-        report["warnings"].append(why)
-    return why
 
 
 #: A stiffness beyond this [Nm/rad] (a compliance below 0.001 urad/Nm) prints as rigid.

@@ -52,7 +52,8 @@ def interpolated_point(
     Normalised coordinates (z - z_best) / m and costs f / f_best keep the vertex
     well-conditioned whatever the units.
     """
-    vertex, valid = parabola_vertex(-b, b, np.zeros_like(z), f_l / f, f_r / f, 1.0)
+    unit = f if f > 0 else 1.0  # a perfect fit (f = 0) keeps the costs as they are
+    vertex, valid = parabola_vertex(-b, b, np.zeros_like(z), f_l / unit, f_r / unit, f / unit)
     return np.where(valid, z + m * vertex, z_bas)
 
 

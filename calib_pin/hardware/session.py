@@ -152,18 +152,20 @@ def _fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
-def _write_all(fd: int, data: bytes) -> None:
+def _write_all(fd: int, data: bytes, written: list[int] | None = None) -> None:
     """Write every byte of ``data`` (a short write is continued; a write that makes no
-    progress is a full disk), then ``fsync``.
+    progress is a full disk), then ``fsync``; ``written[0]`` counts the bytes written.
 
     Raises:
         OSError: the bytes did not all reach the disk.
     """
+    written = [0] if written is None else written
     view = memoryview(data)
     while view:
         n = os.write(fd, view)
         if n <= 0:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        written[0] += n
         view = view[n:]
     os.fsync(fd)
 
@@ -328,9 +330,14 @@ def append_row(session: Session, k: int, reading: StableReading) -> str:
     pid = int(session.poses.pose_ids[k])  # type: ignore[index]
     line = row(session.poses.q[k], [reading.mean_mm * 1e-3], labels=(pid,)) + "\n"
     size = os.fstat(fd).st_size
+    data, written = line.encode("utf-8"), [0]
     try:
-        _write_all(fd, line.encode("utf-8"))
+        _write_all(fd, data, written)
     except BaseException as e:  # a full disk, or Ctrl-C mid-write: the row is not counted
+        if not isinstance(e, OSError) and written[0] == len(data):  # Ctrl-C after the whole row was written: kept
+            with contextlib.suppress(OSError):
+                os.fsync(fd)
+            raise
         try:
             os.ftruncate(fd, size)
             os.fsync(fd)
