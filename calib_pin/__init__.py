@@ -30,7 +30,7 @@ _API = {
     "DHModel": "parameters", "HayatiModel": "parameters", "PlacementModel": "parameters",
     "parameter_model": "parameters",
     "CableModel": "sensors", "Drawstring": "sensors", "PositionModel": "sensors", "PositionDevice": "sensors",
-    "MeasurementSet": "measurements", "read_measurements": "measurements", "write_measurements": "measurements",
+    "MeasurementSet": "measurements", "check_measurements": "measurements.checks", "read_measurements": "measurements", "write_measurements": "measurements",
     "simulate": "simulation", "simulate_positions": "simulation", "Truth": "simulation",
     "ESTIMATORS": "estimators", "EstimateResult": "estimators", "run_estimator": "estimators",
     "ArgumentError": "exceptions", "CalibPinError": "exceptions", "DataError": "exceptions", "EstimatorError": "exceptions",
@@ -63,6 +63,7 @@ __all__ = [
     "Truth",
     "analyze",
     "calibrate",
+    "check_measurements",
     "compare",
     "load_calibration",
     "load_chain",
@@ -97,6 +98,7 @@ if TYPE_CHECKING:
     from .exceptions import ArgumentError, CalibPinError, DataError, EstimatorError, RobotError
     from .identifiability import analyze
     from .measurements import MeasurementSet, read_measurements, write_measurements
+    from .measurements.checks import check_measurements
     from .parameters import DHModel, HayatiModel, PlacementModel, parameter_model
     from .pipeline import CalibrationSetup, calibrate, prepare
     from .problem import CalibrationProblem

@@ -55,6 +55,9 @@ def q_deg(chain):
 
 #: (entry point, argument named, call): the call is made with the fixtures below.
 CASES = [
+    # check_measurements: what calibrate, prepare and CalibrationSetup.run call on any set
+    ("check_measurements", "chain", lambda f: cp.check_measurements("irb120", f.small)),
+    ("check_measurements", "data", lambda f: cp.check_measurements(f.chain, [[0.0] * 6])),
     # calibrate / prepare
     ("calibrate", "robot", lambda f: cp.calibrate(123, f.small)),
     ("calibrate", "data", lambda f: cp.calibrate("irb120", 42)),

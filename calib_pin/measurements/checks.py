@@ -145,10 +145,11 @@ def check_measurements(chain: Chain, data: Any, robot_label: str | None = None) 
         ``data``, unchanged.
 
     Raises:
-        ArgumentError: ``data`` is not a MeasurementSet.
+        ArgumentError: ``chain`` is not a Chain, or ``data`` not a MeasurementSet.
         DataError: naming the set's source (or ``data``), the file line (or the 0-based
             row) and the field (``q3``, ``length``, ``robot``, ...).
     """
+    as_instance(chain, "chain", Chain, "a Chain (calib_pin.load_chain)")
     as_instance(data, "data", MeasurementSet, "a MeasurementSet (calib_pin.read_measurements or simulate)")
     _check_shapes(chain, data)
     _check_angles(chain, data)
