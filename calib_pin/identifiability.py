@@ -26,6 +26,7 @@ from scipy.linalg import qr
 
 from .arguments import as_array, as_float, as_instance
 from .problem import CalibrationProblem
+from .stacked import StackedProblem
 from .subspace import RCOND, Subspace
 
 
@@ -117,7 +118,7 @@ def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list
     return out
 
 
-def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: float = RCOND) -> Identifiability:
+def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None = None, rcond: float = RCOND) -> Identifiability:
     """Identifiability of ``problem``'s unknowns at x (default zero).
 
     Args:
@@ -128,7 +129,7 @@ def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: flo
         ArgumentError: not a problem, x not of shape (n_params,) or not finite, rcond
             not in (0, 1).
     """
-    as_instance(problem, "problem", CalibrationProblem, "a CalibrationProblem (setup.problem)")
+    as_instance(problem, "problem", (CalibrationProblem, StackedProblem), "a CalibrationProblem (setup.problem)")
     model = problem.model
     names = list(model.names)
     x = np.zeros(len(names)) if x is None else as_array(x, "x", (len(names),))
@@ -164,7 +165,7 @@ def analyze(problem: CalibrationProblem, x: np.ndarray | None = None, rcond: flo
     )
 
 
-def support_error(problem: CalibrationProblem, rcond: float = RCOND) -> str | None:
+def support_error(problem: CalibrationProblem | StackedProblem, rcond: float = RCOND) -> str | None:
     """Why the rows of ``problem`` (the training rows) cannot calibrate anything, or None.
 
     Rank deficiency alone is normal (the blind directions stay at zero); refused are only

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, cast, overload
 
 import numpy as np
 
@@ -35,6 +35,7 @@ from .identifiability import support_error
 from .measurements import MeasurementSet, read_measurements
 from .measurements.checks import check_measurements, check_same_setup
 from .metrics import Metrics, split_rows
+from .multiset import FitSet, StackedSetup, check_sets, fit_sets, labelled, set_sigma
 from .parameters import MODELS, ParameterModel, parameter_model
 from .problem import CalibrationProblem
 from .result import CalibrationResult
@@ -171,7 +172,7 @@ def score_session(result: CalibrationResult, session: MeasurementSet) -> Calibra
     located from its first row with the model being scored, and the session's other rows
     are predicted (see :meth:`calib_pin.sensors.base.MeasurementModel.session_errors`).
     """
-    model = result.problem.model
+    model: Any = result.problem.model
     before = model.session_errors(None, session)
     after = model.session_errors(result.x, session, result.estimate.correction)
     metrics = {**result.metrics, "test": {"before": Metrics.of(before), "after": Metrics.of(after)}}
@@ -209,28 +210,58 @@ def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_labe
     return chain, check_measurements(chain, loaded, robot_label)
 
 
+@overload
+def prepare(robot: str | RobotDescription, data: str | Path | MeasurementSet | None = None,
+            *, end_frame: str | None = None, anchor_mm: Any = None, tool_mm: Any = None,
+            length_offset_mm: float | None = None, noise_mm: Any = None, parameters: str | None = None,
+            estimate: tuple[str, ...] = (), compliance: str | tuple[str, ...] | None = None,
+            payload_kg: float | None = None, payload_com_mm: Any = None,
+            cable_tension_n: float | None = None) -> CalibrationSetup: ...
+
+
+@overload
+def prepare(robot: str | RobotDescription, data: list[Any] | tuple[Any, ...],
+            *, end_frame: str | None = None, anchor_mm: Any = None, tool_mm: Any = None,
+            length_offset_mm: float | None = None, noise_mm: Any = None, parameters: str | None = None,
+            estimate: tuple[str, ...] = (), compliance: str | tuple[str, ...] | None = None,
+            payload_kg: float | None = None, payload_com_mm: Any = None,
+            cable_tension_n: float | None = None) -> CalibrationSetup | StackedSetup: ...
+
+
 def prepare(
     robot: str | RobotDescription,
-    data: str | Path | MeasurementSet | None = None,
+    data: Any = None,
     *,
     end_frame: str | None = None,
     anchor_mm: Any = None,
     tool_mm: Any = None,
     length_offset_mm: float | None = None,
-    noise_mm: float | None = None,
+    noise_mm: Any = None,
     parameters: str | None = None,
     estimate: tuple[str, ...] = (),
     compliance: str | tuple[str, ...] | None = None,
     payload_kg: float | None = None,
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
-) -> CalibrationSetup:
+) -> CalibrationSetup | StackedSetup:
     """Load a robot and a measurement set for calibration (arguments as :func:`calibrate`).
+
+    With several sets (``data`` a list or tuple of paths, MeasurementSets or
+    :class:`~calib_pin.multiset.FitSet`), a :class:`~calib_pin.multiset.StackedSetup`;
+    a list of one set is that set.
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
     """
     estimate = check_estimate(estimate)
+    sets = fit_sets(data)
+    if sets is not None and len(sets) == 1:
+        data, noise_mm = _single(sets[0], noise_mm)
+    elif sets is not None:  # several sets
+        return _prepare_sets(robot, sets, end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
+                             length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters,
+                             estimate=estimate, compliance=compliance, payload_kg=payload_kg,
+                             payload_com_mm=payload_com_mm, cable_tension_n=cable_tension_n)
     _check_data(data, "data")
     end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
     anchor_mm = as_optional(as_xyz_mm, anchor_mm, "anchor_mm")
@@ -254,9 +285,51 @@ def prepare(
     return setup
 
 
+def _single(given: FitSet, noise_mm: Any) -> tuple[Any, Any]:
+    """The data and noise of a list of one set (its role must be ``split``)."""
+    if given.role != "split":
+        raise ArgumentError("role", f"'{given.role}' for the only set: use test_fraction (0: all train) or test_data")
+    return given.data, given.noise_mm if given.noise_mm is not None else noise_mm
+
+
+def _prepare_sets(robot: str | RobotDescription, sets: list[FitSet], *, end_frame: str | None, anchor_mm: Any,
+                  tool_mm: Any, length_offset_mm: Any, noise_mm: Any, parameters: str | None,
+                  estimate: tuple[str, ...], compliance: Any, payload_kg: Any, payload_com_mm: Any,
+                  cable_tension_n: Any) -> StackedSetup:
+    """:func:`prepare` of several sets (:mod:`calib_pin.multiset`)."""
+    check_sets(sets, {"anchor_mm": anchor_mm, "tool_mm": tool_mm, "length_offset_mm": length_offset_mm})
+    for s in sets:
+        _check_data(s.data, "data")
+    end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
+    payload_com_mm = as_optional(as_xyz_mm, payload_com_mm, "payload_com_mm")
+    if isinstance(noise_mm, list | tuple):
+        if len(noise_mm) != len(sets):
+            raise ArgumentError("noise_mm", f"{len(noise_mm)} values for {len(sets)} sets (give one, or one per set)")
+        sets = [s if s.noise_mm is not None or n is None else dataclasses.replace(s, noise_mm=n)
+                for s, n in zip(sets, noise_mm, strict=True)]
+        noise_mm = None
+    noise_mm = as_optional(as_float, noise_mm, "noise_mm", 0.0, MAX_MM, low_open=True, unit="mm")
+    payload_kg = as_optional(as_float, payload_kg, "payload_kg", 0.0, 1e6, unit="kg")
+    cable_tension_n = as_optional(as_float, cable_tension_n, "cable_tension_n", 0.0, 1e6, unit="N")
+    parameters = as_optional(as_choice, parameters, "parameters", MODELS)
+    compliance = as_names(compliance, "compliance")
+    chain = _load_robot(robot, sets[0].data, end_frame)
+    parameter_model(chain, parameters)
+    chain, first = load_data(chain, sets[0].data, str(robot), end_frame)
+    loaded = [first] + [load_data(chain, s.data, str(robot), chain.end_frame)[1] for s in sets[1:]]
+    labels = labelled(sets, loaded)
+    known = [set_sigma(s, noise_mm, d) for s, d in zip(sets, loaded, strict=True)]
+    soft = compliance_spec(chain, compliance, payload_kg, payload_com_mm, cable_tension_n)
+    setup = StackedSetup(chain, parameter_model(chain, parameters), tuple(loaded), labels,
+                         tuple(s.role for s in sets), tuple(k[0] for k in known), tuple(k[1] for k in known),
+                         {"estimate": estimate, "compliance": soft})
+    setup.problem  # noqa: B018 (refuse options a sensor does not take now)
+    return setup
+
+
 def calibrate(
     robot: str | RobotDescription,
-    data: str | Path | MeasurementSet | None = None,
+    data: str | Path | MeasurementSet | list[Any] | tuple[Any, ...] | None = None,
     *,
     method: str = DEFAULT_METHOD,
     seed: int = 0,
@@ -266,7 +339,7 @@ def calibrate(
     anchor_mm: Any = None,
     tool_mm: Any = None,
     length_offset_mm: float | None = None,
-    noise_mm: float | None = None,
+    noise_mm: Any = None,
     loss: str = "linear",
     parameters: str | None = None,
     estimate: tuple[str, ...] = (),
@@ -274,14 +347,17 @@ def calibrate(
     payload_kg: float | None = None,
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
-    progress: Callable[[CalibrationSetup], object] | None = None,
+    progress: Callable[[Any], object] | None = None,
 ) -> CalibrationResult:
     """Calibrate a robot's kinematic deviations from drawstring readings or positions.
 
     Args:
         robot: Robot name or URDF path (``irb120``).
         data: Measurement CSV or set (cable readings or marker positions); None uses
-            the robot's shipped default set.
+            the robot's shipped default set. Several sets (a list of paths, sets or
+            :class:`~calib_pin.multiset.FitSet`) are fitted together, one robot and each
+            set's own sensor set-up (its file's), split by pose each, weighted by their
+            noise (:mod:`calib_pin.multiset`); ``result.sets`` scores each.
         method: Estimator name (see ``calib_pin.ESTIMATORS``; default ``ekf-qibas``).
         seed: Seed of the train/test split and of the estimator.
         test_fraction: Share of poses held out for the test metrics.
@@ -291,7 +367,8 @@ def calibrate(
             point (end frame), 3 numbers each, [mm].
         length_offset_mm: Override the file's sensor zero offset, [mm].
         noise_mm: Sensor noise (1 sigma) [mm] for the Kalman filters; default the
-            file's ``noise_mm`` or 0.05.
+            file's ``noise_mm`` or 0.05. With several sets: one for all, or one per set;
+            default each file's, else estimated from the residual.
         loss: ``linear``, or a robust loss (``huber``, ``soft_l1``, ``cauchy``).
         parameters: Parameter model: ``dh`` (default with a DH table), ``hayati`` or
             ``placement`` (default without one; any URDF).
@@ -313,10 +390,17 @@ def calibrate(
     _check_data(test_data, "test_data")
     if progress is not None and not callable(progress):
         raise ArgumentError("progress", f"expected a function of the setup, or None, got {type(progress).__name__}")
-    setup = prepare(robot, data, end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
-                    length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters,
-                    estimate=estimate, compliance=compliance, payload_kg=payload_kg,
-                    payload_com_mm=payload_com_mm, cable_tension_n=cable_tension_n)
+    setup: CalibrationSetup | StackedSetup = prepare(
+        robot, cast(Any, data), end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
+        length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters, estimate=estimate,
+        compliance=compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm, cable_tension_n=cable_tension_n)
+    if isinstance(setup, StackedSetup):
+        if test_data is not None:
+            raise CalibPinError("test_data with several sets: give the validation set as one of the sets, "
+                                "with role 'test' (calib_pin.multiset.FitSet)")
+        if progress is not None:
+            progress(setup)
+        return setup.run(method, seed=seed, test_fraction=test_fraction, loss=loss)
     validation = None if test_data is None else _validation(setup, test_data, str(robot))
     if progress is not None:
         progress(setup)

@@ -19,6 +19,7 @@ from .parameters import ParameterModel
 from .problem import CalibrationProblem
 from .robot import Chain
 from .sanity import beyond_sanity
+from .stacked import StackedProblem
 from .units import for_humans
 
 if TYPE_CHECKING:
@@ -50,6 +51,12 @@ class CalibrationResult:
         loss: ``linear`` or the robust loss used.
         warnings: What a person must know about this result (one line each).
         test_source: The separate validation session scored as ``test``, if any.
+        sets: With several measurement sets, each set's
+            :class:`~calib_pin.multiset.SetResult` (its sigma and where it came from, its
+            rows, its metrics before/after per split, its sensor geometry); ``problem`` is
+            then the :class:`~calib_pin.stacked.StackedProblem`, ``data`` every set's rows
+            in turn, ``train``/``test`` index its rows, and ``metrics`` pools every set's
+            row errors, each in its own set's units [mm]. Empty for one set.
     """
 
     chain: Chain
@@ -57,7 +64,7 @@ class CalibrationResult:
     method: str
     x: np.ndarray
     estimate: EstimateResult
-    problem: CalibrationProblem
+    problem: CalibrationProblem | StackedProblem
     data: MeasurementSet
     train: np.ndarray
     test: np.ndarray
@@ -67,6 +74,7 @@ class CalibrationResult:
     loss: str = "linear"
     warnings: tuple[str, ...] = ()
     test_source: str = ""
+    sets: tuple[Any, ...] = ()
 
     @property
     def model_name(self) -> str:

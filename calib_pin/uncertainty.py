@@ -20,6 +20,7 @@ import numpy as np
 
 from .problem import CalibrationProblem
 from .simulation import random_poses
+from .stacked import StackedProblem
 from .subspace import RCOND, Subspace
 from .units import human_unit
 
@@ -72,7 +73,7 @@ class Uncertainty:
 
 
 def estimate_uncertainty(
-    problem: CalibrationProblem, x: np.ndarray, *, rcond: float = RCOND, poses: int = 500, seed: int = 0
+    problem: CalibrationProblem | StackedProblem, x: np.ndarray, *, rcond: float = RCOND, poses: int = 500, seed: int = 0
 ) -> Uncertainty:
     """Uncertainty of the estimate x fitted to ``problem`` (the training rows)."""
     model = problem.model

@@ -73,7 +73,10 @@ def calibrate_parser() -> argparse.ArgumentParser:
         "write the corrected URDF and a JSON report.",
     )
     add_robot_arguments(p, "default: the file's", "default: the file's")
-    p.add_argument("--data", help="measurement set CSV (default: the robot's shipped set)")
+    p.add_argument("--data", action="append",
+                   help="measurement set CSV (default: the robot's shipped set); repeat it to fit several sets "
+                   "(sessions, anchors, tracker stations) with one robot: each file's own set-up metadata "
+                   "(# anchor_mm, # tool_mm, # length_offset_mm, # noise_mm) is used for its rows")
     p.add_argument("--test-data", help="a separate validation session CSV: train on all of --data, test on this")
     p.add_argument("--method", default=DEFAULT_METHOD, help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})")
     p.add_argument("--test-fraction", type=fraction, default=0.2, help="share of poses held out for testing (default 0.2)")
@@ -104,6 +107,24 @@ def calibrate_main(argv: Sequence[str] | None = None) -> int:
     return run(lambda: _analyze(args) if args.analyze else _calibrate(args))
 
 
+def _data(args: argparse.Namespace) -> Any:
+    """``--data`` as ``prepare`` takes it: None, one file, or a list of several.
+
+    Raises:
+        CalibPinError: a drawstring set-up option given once for several sets.
+    """
+    if not args.data or len(args.data) == 1:
+        return args.data[0] if args.data else None
+    from ..exceptions import CalibPinError
+
+    for flag, value in (("--anchor-mm", args.anchor_mm), ("--tool-mm", args.tool_mm),
+                        ("--length-offset-mm", args.length_offset_mm)):
+        if value is not None:
+            raise CalibPinError(f"{flag} with several --data files: put each set's in its file "
+                                f"('# {flag[2:].replace('-', '_')}: ...')")
+    return list(args.data)
+
+
 def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
     return {"end_frame": args.end_frame, "anchor_mm": args.anchor_mm, "tool_mm": args.tool_mm,
             "length_offset_mm": args.length_offset_mm, "noise_mm": args.noise_mm, "parameters": args.model,
@@ -114,7 +135,7 @@ def _analyze(args: argparse.Namespace) -> int:
     from ..identifiability import analyze
     from ..pipeline import prepare
 
-    setup = prepare(args.robot, args.data, **_setup_options(args))
+    setup = prepare(args.robot, _data(args), **_setup_options(args))
     print(f"{setup.chain.name}: {setup.data.describe_rows()} from {setup.data.source}, "
           f"{setup.params.name} model, {setup.problem.model.describe()}")
     print(analyze(setup.problem).report())
@@ -204,7 +225,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     from ..pipeline import calibrate
 
     _check_dh_export(args)
-    result = calibrate(args.robot, args.data, method=args.method, seed=args.seed,
+    result = calibrate(args.robot, _data(args), method=args.method, seed=args.seed,
                        test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
                        progress=_announce, **_setup_options(args))
     out = Outputs(Path(args.out))
@@ -261,13 +282,30 @@ def compliance_cells(soft: dict[str, Any]) -> str:
     return ", ".join(cells)
 
 
-def _summary(result: Any, report: dict[str, Any]) -> None:
-    n_train, n_test = len(result.train), len(result.test)
-    test = f"test rows from {result.test_source}" if result.test_source else f"{n_test} test rows"
-    print(f"{result.chain.name}: {result.data.describe_rows()} from {result.data.source} "
-          f"({n_train} train, {test}, seed {result.seed}), {result.model_name} model, method {result.method}")
+def _sets_summary(result: Any) -> None:
+    """The header and a table per set, then the all-sets table (several sets)."""
+    print(f"{result.chain.name}: {len(result.sets)} sets, {len(result.train)} train and {len(result.test)} test rows "
+          f"(split per set by pose, seed {result.seed}), {result.model_name} model, method {result.method}")
     print(f"error per row: {result.problem.model.error_name}")
+    for s in result.sets:
+        rows = len(s.train) + len(s.test)
+        print(f"set {s.label}: {rows} rows from {s.source or 'memory'} ({len(s.train)} train, {len(s.test)} test, "
+              f"role {s.role}), noise {s.sigma * 1e3:.4f} mm ({s.sigma_origin})")
+        print(table(s.metrics))
+    print("all sets (each row's error in its own set's units):")
     print(table(result.metrics))
+
+
+def _summary(result: Any, report: dict[str, Any]) -> None:
+    if result.sets:
+        _sets_summary(result)
+    else:
+        n_train, n_test = len(result.train), len(result.test)
+        test = f"test rows from {result.test_source}" if result.test_source else f"{n_test} test rows"
+        print(f"{result.chain.name}: {result.data.describe_rows()} from {result.data.source} "
+              f"({n_train} train, {test}, seed {result.seed}), {result.model_name} model, method {result.method}")
+        print(f"error per row: {result.problem.model.error_name}")
+        print(table(result.metrics))
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")

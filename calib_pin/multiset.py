@@ -1,0 +1,343 @@
+"""Several measurement sets of one robot in one calibration: the set-up and the run.
+
+Each set keeps its own sensor set-up (its file's anchor, tool point and cable offset, or
+a device frame and markers fitted on that set's own training rows), its own split and its
+own noise sigma_k. The fit is one :class:`~calib_pin.stacked.StackedProblem` of the
+training rows of every set, set k's rows weighted by sigma_0 / sigma_k.
+
+sigma_k comes from the caller (:class:`FitSet`'s ``noise_mm``, or ``noise_mm`` for all
+sets), else from the set's file (``# noise_mm``); a set with neither gets it from the
+data by variance-component estimation: fit, then
+
+    sigma_k^2 = r_k . r_k / (n_k - p_k),    p_k = rank * n_k / N,
+
+(r_k: set k's training residual, n_k its values, N every set's, rank: the identifiable
+directions of the stacked training Jacobian, shared out by each set's share of the
+values), refit with the new weights, until no sigma moves by more than 1 % (at most
+:data:`MAX_VCE_FITS` fits). The report gives each set's sigma and where it came from.
+
+The split is made per set, by pose, with the same seed and fraction for every set
+(``role="split"``); a set may instead be all training (``train``) or all test (``test``:
+scored, never fitted; a drawstring set only, its anchor as its file gives it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .arguments import MAX_MM, as_choice, as_float, as_instance
+from .estimators import get_method, run_estimator
+from .exceptions import ArgumentError, CalibPinError, DataError
+from .identifiability import support_error
+from .measurements import MeasurementSet
+from .measurements.checks import check_measurements
+from .metrics import Metrics, split_rows
+from .parameters import ParameterModel
+from .problem import CalibrationProblem
+from .result import CalibrationResult
+from .robot import Chain
+from .sensors import sensor_for
+from .stacked import StackedProblem
+from .subspace import Subspace
+
+#: A set's role: split by pose (default), all training rows, or all test rows.
+ROLES = ("split", "train", "test")
+
+#: At most this many fits of the variance-component estimation.
+MAX_VCE_FITS = 5
+
+#: The estimation stops when no sigma moves by more than this (relative).
+VCE_TOLERANCE = 0.01
+
+
+@dataclass(frozen=True)
+class FitSet:
+    """One measurement set of a multi-set calibration, with what the caller says of it.
+
+    Attributes:
+        data: A measurement CSV or a :class:`~calib_pin.measurements.MeasurementSet`.
+        label: Its name in reports and unknowns (``s2:anchor_x``); default the file's stem.
+        role: ``split`` (train/test by pose, the default), ``train`` or ``test``.
+        noise_mm: Its sensor noise (1 sigma) [mm]; default the file's ``noise_mm``, else
+            estimated from the residual (several sets) or 0.05.
+    """
+
+    data: str | Path | MeasurementSet
+    label: str = ""
+    role: str = "split"
+    noise_mm: float | None = None
+
+
+@dataclass(frozen=True)
+class SetResult:
+    """One set of a multi-set calibration.
+
+    Attributes:
+        label, source, kind, role: The set's label, file ("" in memory), data kind and role.
+        sigma: The noise (1 sigma) its rows were weighted by, [m]; ``sigma_origin``:
+            ``caller``, ``file``, ``estimate`` (from the residual) or ``default``.
+        rows: Its rows in the stacked problem (``result.train``/``result.test`` index those).
+        train, test: Its own row indices (0-based, into its data) of the two splits.
+        metrics: ``metrics[split][stage]`` as ``CalibrationResult.metrics``, in its own units [mm].
+        geometry: Its sensor geometry after calibration, for report.json (mm, degrees).
+        model: Its measurement model; ``x``: its own unknown vector (robot, then its sensor's).
+    """
+
+    label: str
+    source: str
+    kind: str
+    role: str
+    sigma: float
+    sigma_origin: str
+    rows: np.ndarray
+    train: np.ndarray
+    test: np.ndarray
+    metrics: dict[str, dict[str, Metrics]]
+    geometry: dict
+    model: Any = field(repr=False)
+    x: np.ndarray = field(repr=False)
+
+    def predict(self, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """The values this set's sensor would read at joint angles q (n, n_joints) [rad], [m]."""
+        return self.model.predict(self.x, np.atleast_2d(np.asarray(q, dtype=float)), points)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready: the set's table and set-up."""
+        return {
+            "label": self.label, "data": self.source, "data_kind": self.kind, "role": self.role,
+            "noise_mm": self.sigma * 1e3, "noise_from": self.sigma_origin,
+            "train_rows": len(self.train), "test_rows": len(self.test),
+            **{split: {stage: m.as_dict() for stage, m in stages.items()} for split, stages in self.metrics.items()},
+            "error": self.model.error_name, "sensor": self.model.describe(), **self.geometry,
+        }
+
+
+def fit_sets(data: Any) -> list[FitSet] | None:
+    """``data`` as FitSets when it is a list or tuple of several sets (None otherwise)."""
+    if not isinstance(data, list | tuple):
+        return None
+    if not data:
+        raise ArgumentError("data", "an empty list of measurement sets")
+    return [d if isinstance(d, FitSet) else FitSet(d) for d in data]
+
+
+@dataclass
+class StackedSetup:
+    """A robot and several measurement sets, ready to be calibrated by any parameter method.
+
+    Attributes:
+        chain, params: The robot and its parameter model (shared by every set).
+        sets: The measurement sets; ``labels``, ``roles``: theirs.
+        sigmas: Each set's noise [m] when known (caller or file), else None.
+        origins: Where each known sigma came from (``caller``, ``file``), else ``estimate``.
+        options: Shared sensor options (``estimate``, ``compliance``).
+    """
+
+    chain: Chain
+    params: ParameterModel
+    sets: tuple[MeasurementSet, ...]
+    labels: tuple[str, ...]
+    roles: tuple[str, ...]
+    sigmas: tuple[float | None, ...]
+    origins: tuple[str, ...]
+    options: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def noise(self) -> float:
+        """The first set's sigma (the Kalman filters' noise; the default until estimated) [m]."""
+        from .pipeline import DEFAULT_NOISE_MM
+
+        return self.sigmas[0] or DEFAULT_NOISE_MM * 1e-3
+
+    @cached_property
+    def data(self) -> MeasurementSet:
+        """Every set's rows in turn, as one set (pose labels ``<label>:<pose>``)."""
+        first = self.sets[0]
+        lines = [s.lines for s in self.sets]
+        points = [s.point_ids for s in self.sets]
+        return MeasurementSet(
+            q=np.concatenate([s.q for s in self.sets]), values=np.concatenate([s.values for s in self.sets]),
+            kind=first.kind, robot=first.robot, end_frame=first.end_frame,
+            lines=None if any(x is None for x in lines) else np.concatenate(lines),  # type: ignore[arg-type]
+            source=", ".join(s.source or label for s, label in zip(self.sets, self.labels, strict=True)),
+            pose_ids=np.concatenate([np.array([f"{label}:{g}" for g in s.groups], dtype=object)
+                                     for s, label in zip(self.sets, self.labels, strict=True)]),
+            point_ids=None if any(x is None for x in points) else np.concatenate(points))  # type: ignore[arg-type]
+
+    def split(self, test_fraction: float, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each set's (train, test) rows: by pose with the same seed and fraction, or all
+        of one side by its role."""
+        from .pipeline import check_fraction
+
+        check_fraction(test_fraction)
+        out = []
+        for data, role in zip(self.sets, self.roles, strict=True):
+            every = np.arange(len(data))
+            if role == "train":
+                out.append((every, every[:0]))
+            elif role == "test":
+                out.append((every[:0], every))
+            else:
+                poses = np.unique(data.groups)
+                train_poses, _ = split_rows(len(poses), test_fraction, seed)
+                in_train = np.isin(data.groups, poses[train_poses])
+                out.append((np.flatnonzero(in_train), np.flatnonzero(~in_train)))
+        return out
+
+    def problems_on(self, fits: list[np.ndarray]) -> list[CalibrationProblem]:
+        """Each set's problem of every row, its sensor's starting geometry fitted on its ``fits`` rows."""
+        return [sensor_for(d.kind).problem_for(self.chain, self.params, d, rows, self.options)
+                for d, rows in zip(self.sets, fits, strict=True)]
+
+    @cached_property
+    def problem(self) -> StackedProblem:
+        """Every row of every set, each sensor's start fitted on all its rows (for an analysis)."""
+        problems = self.problems_on([np.arange(len(d)) for d in self.sets])
+        return StackedProblem.of(problems, self.labels, [s or self.noise for s in self.sigmas])
+
+    def run(self, method: str, *, seed: int = 0, test_fraction: float = 0.2, loss: str = "linear",
+            test_data: Any = None) -> CalibrationResult:
+        """Estimate with ``method`` on every set's training rows; score each set and all.
+
+        Raises:
+            CalibPinError: a method that learns no kinematics, a separate ``test_data``
+                (give it as a set with role ``test``), too few training rows.
+        """
+        spec = get_method(as_instance(method, "method", str, "a method name (calib_pin.ESTIMATORS)"))
+        if not spec.kinematic:
+            raise CalibPinError(f"method '{method}' learns a correction of one sensor's values: with several sets "
+                                "use a parameter method (lm, ekf-qibas, ...)")
+        if test_data is not None:
+            raise CalibPinError("test_data with several sets: give the validation set as one of the sets, "
+                                "with role 'test'")
+        spec.check(loss, self.sets[0].kind)
+        for d in self.sets:
+            check_measurements(self.chain, d)
+        splits = self.split(test_fraction, seed)
+        warnings = [note for note in (d.ignored_note() for d in self.sets) if note]
+        problems = self.problems_on([train for train, _ in splits])
+        offsets = np.cumsum([0] + [len(d) for d in self.sets])
+        train = np.concatenate([offsets[k] + tr for k, (tr, _) in enumerate(splits)]).astype(int)
+        test = np.concatenate([offsets[k] + te for k, (_, te) in enumerate(splits)]).astype(int)
+        if not len(train):
+            raise CalibPinError("every set has role 'test': nothing to fit")
+        sigmas = [s if s is not None else self.noise for s in self.sigmas]
+        full = StackedProblem.of(problems, self.labels, sigmas)
+        training = full.subset(train)
+        if training.n_values < full.n_params:
+            raise DataError(self.data.source, f"{len(train)} training rows give {training.n_values} values, "
+                            f"fewer than the {full.n_params} unknowns to estimate")
+        unsupported = support_error(training)
+        if unsupported:
+            raise DataError(self.data.source, unsupported)
+        x0 = np.zeros(full.n_params)
+        estimate, sigmas, fits = self._fit(method, full, train, sigmas, x0, seed, loss)
+        full = full.with_weights(sigmas)
+        if fits > 1:
+            guessed = [label for label, o in zip(self.labels, self.origins, strict=True) if o == "estimate"]
+            warnings.append(f"noise of {', '.join(guessed)} estimated from the residual ({fits} fits)")
+        results: list[SetResult] = []
+        pooled: dict[str, dict[str, list[np.ndarray]]] = {}
+        for k, ((tr, te), problem) in enumerate(zip(splits, problems, strict=True)):
+            xk = full.model.part_x(estimate.x, k)
+            zero = np.zeros(problem.n_params)
+            metrics: dict[str, dict[str, Metrics]] = {}
+            for split, rows in (("train", tr), ("test", te)):
+                if len(rows):
+                    part = problem.subset(rows)
+                    before, after = part.row_errors(part.residual(zero)), part.row_errors(part.residual(xk))
+                    metrics[split] = {"before": Metrics.of(before), "after": Metrics.of(after)}
+                    pooled.setdefault(split, {"before": [], "after": []})
+                    pooled[split]["before"].append(before)
+                    pooled[split]["after"].append(after)
+            origin = self.origins[k] if self.sigmas[k] is not None else ("estimate" if fits > 1 else "default")
+            results.append(SetResult(
+                label=self.labels[k], source=self.sets[k].source, kind=self.sets[k].kind, role=self.roles[k],
+                sigma=float(sigmas[k]), sigma_origin=origin, rows=np.arange(offsets[k], offsets[k + 1]),
+                train=tr, test=te, metrics=metrics, geometry=problem.model.geometry_report(xk),
+                model=problem.model, x=np.asarray(xk)))
+        metrics = {split: {stage: Metrics.of(np.concatenate(v)) for stage, v in stages.items()}
+                   for split, stages in pooled.items()}
+        return CalibrationResult(
+            chain=self.chain, params=self.params, method=method, x=estimate.x, estimate=estimate,
+            problem=full, data=self.data, train=train, test=test, metrics=metrics, seed=seed,
+            noise=float(sigmas[0]), loss=loss, warnings=tuple(warnings), sets=tuple(results))
+
+    def _fit(self, method: str, full: StackedProblem, train: np.ndarray, sigmas: list[float], x0: np.ndarray,
+             seed: int, loss: str) -> tuple[Any, list[float], int]:
+        """The estimate, each set's sigma [m] and the fits it took (variance components,
+        module docstring, for the sets whose sigma is not known)."""
+        unknown = [k for k, s in enumerate(self.sigmas) if s is None]
+        fits = 0
+        while True:
+            training = full.with_weights(sigmas).subset(train)
+            estimate = run_estimator(method, training, x0, seed=seed, noise=sigmas[0], loss=loss)
+            fits += 1
+            if not unknown or len(self.sets) < 2 or fits >= MAX_VCE_FITS:
+                return estimate, sigmas, fits
+            rank = Subspace.of_problem(training, estimate.x).rank
+            n_total = training.n_values
+            new = list(sigmas)
+            for part, k in zip(training.parts, training.sets, strict=True):
+                if k in unknown:
+                    r = part.residual(full.model.part_x(estimate.x, k))
+                    dof = part.n_values - rank * part.n_values / n_total
+                    if dof > 0 and r @ r > 0:
+                        new[k] = float(np.sqrt(r @ r / dof))
+            moved = max(abs(new[k] / sigmas[k] - 1.0) for k in unknown)
+            sigmas = new
+            if moved < VCE_TOLERANCE:
+                return estimate, sigmas, fits
+
+
+def set_sigma(given: FitSet, noise_mm: Any, data: MeasurementSet) -> tuple[float | None, str]:
+    """A set's sigma [m] and its origin: its FitSet's, the caller's for all, its file's, or None."""
+    if given.noise_mm is not None:
+        return as_float(given.noise_mm, "noise_mm", 0.0, MAX_MM, low_open=True, unit="mm") * 1e-3, "caller"
+    if noise_mm is not None:
+        return float(noise_mm) * 1e-3, "caller"
+    if data.noise:
+        return float(data.noise), "file"
+    return None, "estimate"
+
+
+def check_sets(sets: list[FitSet], options: dict[str, Any]) -> None:
+    """Refuse what several sets cannot take: set-up overrides for all, bad roles."""
+    for name in ("anchor_mm", "tool_mm", "length_offset_mm"):
+        if options.get(name) is not None:
+            raise ArgumentError(name, "one value for several sets: put each set's in its file "
+                                f"('# {name}: ...') or its MeasurementSet")
+    for s in sets:
+        as_choice(s.role, "role", ROLES)
+        as_instance(s.label, "label", str, "a set's label (text)")
+
+
+def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...]:
+    """Each set's label (given, else its file's stem, else ``s<k>``); the same label or the
+    same file twice is refused."""
+    labels: list[str] = []
+    files: dict[str, str] = {}
+    for k, (s, data) in enumerate(zip(sets, loaded, strict=True)):
+        label = s.label or (Path(data.source).stem if data.source else f"s{k + 1}")
+        if label in labels:
+            raise CalibPinError(f"two sets are labelled '{label}': give each set its own label (or file name)")
+        if data.source:
+            key = str(Path(data.source).resolve())
+            if key in files:
+                raise DataError(data.source, f"given twice (sets {files[key]} and {label}): a set is fitted once")
+            files[key] = label
+        labels.append(label)
+    kinds = {d.kind for d in loaded}
+    if len(kinds) > 1:
+        raise CalibPinError("mixing cable and position sets in one fit comes with issue 22")
+    for s, data, label in zip(sets, loaded, labels, strict=True):
+        if s.role == "test" and data.kind == "position":
+            raise DataError(data.source or label, "a position set with role 'test' has no training rows to fit its "
+                            "device frame on: give it role 'split'")
+    return tuple(labels)
+

@@ -1,0 +1,315 @@
+"""Several measurement sets of one robot as one least-squares problem.
+
+All sets share the robot: its deviations and its compliances, the first ``sensor_start``
+entries of every set's unknown vector. Each set keeps its own sensor and set-up (an
+anchor, a device frame and markers) and its own noise. The stacked unknown vector is
+
+    x = [robot deviations, compliances, set 1's sensor unknowns, set 2's, ...],
+
+and the stacked residual is every set's residual in turn, set k's multiplied by
+w_k = sigma_0 / sigma_k (sigma_0: the first set's noise), so that every row weighs as its
+noise says and the whole residual is in units of sigma_0 (the noise the Kalman filters
+are given). :class:`StackedProblem` implements :class:`calib_pin.problem.LeastSquares`
+exactly as :class:`~calib_pin.problem.CalibrationProblem` does, so every estimator, the
+identifiability analysis, the uncertainty and the active set see it unchanged. One set is
+never stacked: the pipeline uses its own problem, bit for bit as before.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from .exceptions import CalibPinError
+from .problem import CalibrationProblem
+
+
+@dataclass(frozen=True)
+class StackedModel:
+    """The shared robot of several sets' measurement models, and their sensors in turn.
+
+    It answers what the pipeline, the reports and the uncertainty ask of a calibration's
+    model about the robot (names, units, scale, ``robot``, ``compliance``, the end-frame
+    points), and maps the stacked x onto each set's own (:meth:`part_x`).
+
+    Attributes:
+        parts: Each set's measurement model (one robot, one compliance spec).
+        labels: Each set's label, used as the prefix of its sensor unknowns (``s2:anchor_x``).
+    """
+
+    parts: tuple[Any, ...]
+    labels: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        first = self.parts[0]
+        for label, part in zip(self.labels[1:], self.parts[1:], strict=True):
+            if tuple(part.names[: part.sensor_start]) != tuple(first.names[: first.sensor_start]):
+                raise CalibPinError(f"set {label}: its robot unknowns differ from set {self.labels[0]}'s "
+                                    "(one robot, one parameter model, one compliance spec for every set)")
+            if part.values_per_row != first.values_per_row:
+                raise CalibPinError("mixing cable and position sets in one fit comes with issue 22")
+
+    @property
+    def first(self) -> Any:
+        return self.parts[0]
+
+    @property
+    def n_robot(self) -> int:
+        return int(self.first.n_robot)
+
+    @property
+    def sensor_start(self) -> int:
+        return int(self.first.sensor_start)
+
+    @property
+    def chain(self) -> Any:
+        return self.first.chain
+
+    @property
+    def params(self) -> Any:
+        return self.first.params
+
+    @property
+    def compliance_spec(self) -> Any:
+        return self.first.compliance_spec
+
+    @property
+    def deflection(self) -> Any:
+        return self.first.deflection
+
+    @property
+    def values_per_row(self) -> int:
+        return int(self.first.values_per_row)
+
+    @property
+    def error_name(self) -> str:
+        return str(self.first.error_name)
+
+    @cached_property
+    def columns(self) -> tuple[np.ndarray, ...]:
+        """Each set's unknowns as indices into the stacked x: the shared robot part, then its own."""
+        robot = np.arange(self.sensor_start)
+        out, start = [], self.sensor_start
+        for part in self.parts:
+            n = part.n_params - part.sensor_start
+            out.append(np.concatenate([robot, np.arange(start, start + n)]).astype(int))
+            start += n
+        return tuple(out)
+
+    @cached_property
+    def names(self) -> tuple[str, ...]:
+        """The robot's names, then each set's sensor unknowns prefixed ``<label>:``."""
+        own = [f"{label}:{name}" for label, part in zip(self.labels, self.parts, strict=True)
+               for name in part.names[part.sensor_start:]]
+        return tuple(self.first.names[: self.sensor_start]) + tuple(own)
+
+    @cached_property
+    def units(self) -> tuple[str, ...]:
+        return tuple(self.first.units[: self.sensor_start]) + tuple(
+            u for part in self.parts for u in part.units[part.sensor_start:])
+
+    @cached_property
+    def scale(self) -> np.ndarray:
+        return np.concatenate([self.first.scale[: self.sensor_start]]
+                              + [part.scale[part.sensor_start:] for part in self.parts])
+
+    @property
+    def n_params(self) -> int:
+        return len(self.names)
+
+    @property
+    def nonnegative(self) -> tuple[int, ...]:
+        """The compliances (shared by every set): they must be >= 0."""
+        return tuple(range(self.n_robot, self.sensor_start))
+
+    def part_x(self, x: np.ndarray | None, k: int) -> np.ndarray | None:
+        """Set k's own unknown vector within the stacked x (None stays None)."""
+        return None if x is None else np.asarray(x, dtype=float)[self.columns[k]]
+
+    def robot(self, x: np.ndarray) -> np.ndarray:
+        """The robot's deviations within x, shape (n_robot,)."""
+        return np.asarray(x, dtype=float)[: self.n_robot]
+
+    def compliance(self, x: np.ndarray | None) -> np.ndarray:
+        """The joint compliances within x, [rad/Nm]; x None: zero."""
+        if x is None:
+            return np.zeros(self.sensor_start - self.n_robot)
+        return np.asarray(x, dtype=float)[self.n_robot : self.sensor_start]
+
+    def sensor_part(self, x: np.ndarray | None) -> np.ndarray:
+        """Every set's sensor unknowns within x, in turn."""
+        if x is None:
+            return np.zeros(self.n_params - self.sensor_start)
+        return np.asarray(x, dtype=float)[self.sensor_start :]
+
+    def point_jacobian(self, x: np.ndarray, q: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A point fixed in the end frame [m] and its derivative (n_rows, 3, n_params):
+        the robot's part only (zero in every set's sensor columns)."""
+        points, jac = self.first.point_jacobian(self.part_x(x, 0), q, point)
+        full = np.zeros(jac.shape[:2] + (self.n_params,))
+        full[:, :, : self.sensor_start] = jac[:, :, : self.sensor_start]
+        return points, full
+
+    def geometry_at(self, x: np.ndarray | None) -> tuple[Any, ...]:
+        """Each set's sensor geometry at x."""
+        return tuple(part.geometry_at(self.part_x(x, k)) for k, part in enumerate(self.parts))
+
+    def geometry_report(self, x: np.ndarray | None) -> dict:
+        """Each set's geometry at x for report.json, by label."""
+        return {"set_geometry": {label: part.geometry_report(self.part_x(x, k))
+                                 for k, (label, part) in enumerate(zip(self.labels, self.parts, strict=True))}}
+
+    def describe(self) -> str:
+        return f"{len(self.parts)} sets: " + "; ".join(
+            f"{label} ({part.describe()})" for label, part in zip(self.labels, self.parts, strict=True))
+
+    def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        raise CalibPinError(f"a calibration of {len(self.parts)} sets predicts per set: use result.sets[k].predict(q)")
+
+    def point_index(self, labels: Any, n_rows: int, source: str = "") -> np.ndarray | None:
+        raise CalibPinError(f"a calibration of {len(self.parts)} sets predicts per set: use result.sets[k].predict(q)")
+
+
+@dataclass(frozen=True)
+class StackedProblem:
+    """Several sets' calibration problems with one robot (module docstring).
+
+    Attributes:
+        model: The stacked model (every set's measurement model, the labels).
+        parts: Each set's problem over its rows, in the stacked order; an empty set is
+            left out (``sets`` says which set each part is).
+        weights: w_k = sigma_0 / sigma_k of each part, shape (n_parts,).
+        sets: Each part's index into ``model.parts``.
+    """
+
+    model: StackedModel
+    parts: tuple[CalibrationProblem, ...]
+    weights: np.ndarray
+    sets: tuple[int, ...] = ()
+    _offsets: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if not self.sets:
+            object.__setattr__(self, "sets", tuple(range(len(self.parts))))
+        object.__setattr__(self, "weights", np.asarray(self.weights, dtype=float))
+        object.__setattr__(self, "_offsets", np.cumsum([0] + [p.n_rows for p in self.parts]))
+
+    @classmethod
+    def of(cls, problems: Sequence[CalibrationProblem], labels: Sequence[str], sigmas: Sequence[float]) -> StackedProblem:
+        """The stack of every row of each set's problem, set k weighted by sigmas[0] / sigmas[k] [m]."""
+        model = StackedModel(tuple(p.model for p in problems), tuple(labels))
+        sigma = np.asarray(sigmas, dtype=float)
+        return cls(model, tuple(problems), sigma[0] / sigma)
+
+    def with_weights(self, sigmas: Sequence[float]) -> StackedProblem:
+        """The same rows with set k weighted by sigmas[0] / sigmas[k] (sigmas of every set of the model)."""
+        sigma = np.asarray(sigmas, dtype=float)
+        return StackedProblem(self.model, self.parts, (sigma[0] / sigma)[list(self.sets)], self.sets)
+
+    # --- LeastSquares ------------------------------------------------------------------
+
+    @property
+    def scale(self) -> np.ndarray:
+        return self.model.scale
+
+    @property
+    def values_per_row(self) -> int:
+        return self.model.values_per_row
+
+    @property
+    def n_params(self) -> int:
+        return self.model.n_params
+
+    @property
+    def nonnegative(self) -> tuple[int, ...]:
+        return self.model.nonnegative
+
+    @property
+    def n_rows(self) -> int:
+        return int(self._offsets[-1])
+
+    n_poses = n_rows
+
+    @property
+    def n_values(self) -> int:
+        return sum(p.n_values for p in self.parts)
+
+    @property
+    def q(self) -> np.ndarray:
+        """Every row's joint angles, shape (n_rows, n_joints), [rad]."""
+        return np.concatenate([p.q for p in self.parts])
+
+    @property
+    def points(self) -> np.ndarray | None:
+        """Every row's point index, or None for one-point sensors."""
+        if any(p.points is None for p in self.parts):
+            return None
+        return np.concatenate([p.points for p in self.parts])  # type: ignore[misc]
+
+    def _x(self, x: np.ndarray | None, part: int) -> Any:
+        return self.model.part_x(x, self.sets[part])
+
+    def _columns(self, part: int) -> np.ndarray:
+        return self.model.columns[self.sets[part]]
+
+    def residual(self, x: np.ndarray | None) -> np.ndarray:
+        """Each set's residual times its weight, in turn, shape (n_values,), [m of sigma_0]."""
+        return np.concatenate([w * p.residual(self._x(x, k))
+                               for k, (p, w) in enumerate(zip(self.parts, self.weights, strict=True))])
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Derivative of :meth:`residual`, shape (n_values, n_params); a set's rows are
+        zero in the other sets' sensor columns."""
+        jac = np.zeros((self.n_values, self.n_params))
+        start = 0
+        for k, (p, w) in enumerate(zip(self.parts, self.weights, strict=True)):
+            block = p.jacobian(self._x(x, k))
+            jac[start : start + len(block), self._columns(k)] = w * block
+            start += len(block)
+        return jac
+
+    def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:
+        """Row ``row``'s weighted residual (values_per_row,) and Jacobian (values_per_row, n_params)."""
+        k = int(np.searchsorted(self._offsets, row, side="right")) - 1
+        r, j = self.parts[k].row_residual_with_jacobian(self._x(x, k), row - int(self._offsets[k]))
+        w = self.weights[k]
+        full = np.zeros((len(r), self.n_params))
+        full[:, self._columns(k)] = w * j
+        return w * r, full
+
+    def cost(self, x: np.ndarray) -> float:
+        """Mean squared weighted residual, [m^2 of sigma_0]."""
+        r = self.residual(x)
+        return float(r @ r) / len(r)
+
+    def subset(self, rows: np.ndarray | slice) -> StackedProblem:
+        """The stack restricted to some stacked rows (indices in the stacked order, kept
+        in that order within each set); sets left without rows are left out."""
+        index = np.arange(self.n_rows)[rows] if isinstance(rows, slice) else np.asarray(rows, dtype=int).reshape(-1)
+        parts, weights, sets = [], [], []
+        for k, p in enumerate(self.parts):
+            lo, hi = self._offsets[k], self._offsets[k + 1]
+            mine = index[(index >= lo) & (index < hi)] - lo
+            if len(mine):
+                parts.append(p.subset(mine))
+                weights.append(self.weights[k])
+                sets.append(self.sets[k])
+        return StackedProblem(self.model, tuple(parts), np.asarray(weights), tuple(sets))
+
+    def rows_of(self, values: np.ndarray) -> np.ndarray:
+        """Rows that hold the given residual entries (indices into the residual)."""
+        return np.unique(np.asarray(values, dtype=int) // self.values_per_row)
+
+    def row_errors(self, residual: np.ndarray) -> np.ndarray:
+        """Size of each row's error in its own set's units (the weight divided out),
+        shape (n_rows,), [m]."""
+        sizes = np.linalg.norm(np.asarray(residual).reshape(self.n_rows, -1), axis=1)
+        return sizes / np.repeat(self.weights, [p.n_rows for p in self.parts])
+
+    def part_rows(self, part: int) -> np.ndarray:
+        """The stacked rows of part ``part``."""
+        return np.arange(self._offsets[part], self._offsets[part + 1])
