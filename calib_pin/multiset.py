@@ -321,16 +321,18 @@ def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...
     """Each set's label (given, else its file's stem, else ``s<k>``); the same label or the
     same file twice is refused."""
     labels: list[str] = []
-    files: dict[str, str] = {}
+    files: dict[str, list[tuple[str, set[int] | None]]] = {}
     for k, (s, data) in enumerate(zip(sets, loaded, strict=True)):
         label = s.label or (Path(data.source).stem if data.source else f"s{k + 1}")
+        if data.source:  # rows of one file in two sets (the file twice; subsets of it may share no line)
+            lines = None if data.lines is None else {int(n) for n in data.lines}
+            seen = files.setdefault(str(Path(data.source).resolve()), [])
+            for other, other_lines in seen:
+                if lines is None or other_lines is None or lines & other_lines:
+                    raise DataError(data.source, f"given twice (sets {other} and {k + 1}): a row is fitted once")
+            seen.append((label, lines))
         if label in labels:
             raise CalibPinError(f"two sets are labelled '{label}': give each set its own label (or file name)")
-        if data.source:
-            key = str(Path(data.source).resolve())
-            if key in files:
-                raise DataError(data.source, f"given twice (sets {files[key]} and {label}): a set is fitted once")
-            files[key] = label
         labels.append(label)
     kinds = {d.kind for d in loaded}
     if len(kinds) > 1:
