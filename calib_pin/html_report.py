@@ -147,6 +147,27 @@ def _sensor_section(r: dict) -> str:
             f"{fmt(r['length_offset_mm'])} mm.</p>")
 
 
+def _sets_section(r: dict) -> str:
+    """A row per measurement set: its noise and where it came from, its rows and errors."""
+    rows = []
+    for s in r["sets"]:
+        for split in ("train", "test"):
+            if split in s:
+                rows.append([html.escape(s["label"]), html.escape(str(s["data"])), f"{fmt(s['noise_mm'])} ({s['noise_from']})",
+                             split, str(s[f"{split}_rows"]), fmt(s[split]["before"]["rmse_mm"]),
+                             fmt(s[split]["after"]["rmse_mm"])])
+    return (_table(["set", "data", "noise mm", "split", "rows", "RMSE before", "RMSE after"], rows, "num")
+            + "<p>One robot, each set with its own sensor set-up; rows weighted by their set's noise. The summary "
+            "pools every set's row errors, each in its own set's units.</p>")
+
+
+def sensor_views(r: dict) -> list[tuple[str, dict]]:
+    """The report's sensor geometry as (title, report-like dict) pairs: one, or one per measurement set."""
+    if "set_geometry" not in r:
+        return [("", r)]
+    return [(f"Set {label}", {**r, **geometry}) for label, geometry in r["set_geometry"].items()]
+
+
 CSS = """body{font-family:system-ui,sans-serif;max-width:1240px;margin:1.5em auto;padding:0 1em;color:#222}
 .row{display:flex;gap:2em;flex-wrap:wrap;align-items:flex-start}.row>div{flex:1 1 0;min-width:280px}.row>div.fit{flex:0 0 auto}
 h1{font-size:1.5em;margin-bottom:.2em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:1.6em}
@@ -197,7 +218,10 @@ def render_html(r: dict) -> str:
         sections.append(("workspace", "Accuracy over the workspace", _img(_fig().workspace(r), "workspace uncertainty")
                          + f"<p>Predicted 1-sigma position uncertainty of the end frame at {f['poses']} random "
                          f"poses: RMS {fmt(f['rms'])} mm, max {fmt(f['max'])} mm.</p>"))
-    sections.append(("sensor", "Sensor", _sensor_section(r)))
+    if r.get("sets"):
+        sections.insert(1, ("sets", "Measurement sets", _sets_section(r)))
+    sections.append(("sensor", "Sensor", "".join((f"<h3>{html.escape(title)}</h3>" if title else "") + _sensor_section(v)
+                                                 for title, v in sensor_views(r))))
     nav = "".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
     body = "".join(f'<section id="{key}"><h2>{html.escape(title)}</h2>{content}</section>'
                    for key, title, content in sections)
@@ -242,10 +266,11 @@ def write_figures(report: dict[str, Any], folder: str | Path) -> list[Path]:
         drawn["deviations"] = fig.deviations(report, deviation_rows(report))
     if report.get("workspace_uncertainty"):
         drawn["workspace"] = fig.workspace(report)
-    if "device_frame" in report:
-        drawn["sensor"] = fig.sensor(report, pin.rpy.rpyToMatrix(*np.deg2rad(report["device_frame"]["rpy_deg"])))
+    first = sensor_views(report)[0][1]  # several sets: the first set's sensor
+    if "device_frame" in first:
+        drawn["sensor"] = fig.sensor(first, pin.rpy.rpyToMatrix(*np.deg2rad(first["device_frame"]["rpy_deg"])))
     else:
-        drawn["sensor"] = fig.sensor(report)
+        drawn["sensor"] = fig.sensor(first)
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     paths = []

@@ -256,6 +256,9 @@ class StackedSetup:
                     pooled[split]["before"].append(before)
                     pooled[split]["after"].append(after)
             origin = self.origins[k] if self.sigmas[k] is not None else ("estimate" if fits > 1 else "default")
+            if "train" in metrics:
+                mixed = mixed_setups_warning(self.sets[k], tr, metrics["train"]["after"].rmse_mm, float(sigmas[k]))
+                warnings += [mixed] if mixed else []
             results.append(SetResult(
                 label=self.labels[k], source=self.sets[k].source, kind=self.sets[k].kind, role=self.roles[k],
                 sigma=float(sigmas[k]), sigma_origin=origin, rows=np.arange(offsets[k], offsets[k + 1]),
@@ -293,6 +296,33 @@ class StackedSetup:
             sigmas = new
             if moved < VCE_TOLERANCE:
                 return estimate, sigmas, fits
+
+
+#: A set whose training RMSE after the fit exceeds this many noise sigmas, and whose rows a
+#: column of :data:`SETUP_COLUMNS` assigns to several set-ups, gets a warning naming them.
+SETUP_SIGMAS = 5.0
+
+#: Columns (a file's extra columns) that say which sensor set-up a row was measured with.
+SETUP_COLUMNS = ("session", "setup", "station")
+
+
+def mixed_setups_warning(data: MeasurementSet, train: np.ndarray, after_rmse_mm: float, sigma: float) -> str | None:
+    """The warning for a set fitted as one sensor set-up whose own column says its training
+    rows come from several (``session`` A, B, C: three anchors in one file), when the fit
+    leaves more than SETUP_SIGMAS x its noise ``sigma`` [m]; else None. Cheap: nothing is
+    computed unless the set has such a column."""
+    for name in SETUP_COLUMNS:
+        column = data.extra.get(name)
+        if column is None or after_rmse_mm <= SETUP_SIGMAS * sigma * 1e3:
+            continue
+        setups = sorted({str(v) for v in np.asarray(column, dtype=object)[train]})
+        if len(setups) > 1:
+            shown = ", ".join(setups[:6]) + (", ..." if len(setups) > 6 else "")
+            return (f"{Path(data.source).name if data.source else 'the set'}: its '{name}' column names "
+                    f"{len(setups)} set-ups ({shown}) fitted here as one (train RMSE {after_rmse_mm:.3g} mm, "
+                    f"{after_rmse_mm / (sigma * 1e3):.0f} x the noise {sigma * 1e3:.3g} mm): give each set-up its "
+                    "own file with its own metadata and pass them together (--data a.csv --data b.csv)")
+    return None
 
 
 def set_sigma(given: FitSet, noise_mm: Any, data: MeasurementSet) -> tuple[float | None, str]:

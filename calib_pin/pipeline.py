@@ -35,7 +35,7 @@ from .identifiability import support_error
 from .measurements import MeasurementSet, read_measurements
 from .measurements.checks import check_measurements, check_same_setup
 from .metrics import Metrics, split_rows
-from .multiset import FitSet, StackedSetup, check_sets, fit_sets, labelled, set_sigma
+from .multiset import FitSet, StackedSetup, check_sets, fit_sets, labelled, mixed_setups_warning, set_sigma
 from .parameters import MODELS, ParameterModel, parameter_model
 from .problem import CalibrationProblem
 from .result import CalibrationResult
@@ -158,6 +158,9 @@ class CalibrationSetup:
                 part = problem.subset(rows)
                 metrics[split] = {"before": Metrics.of(part.row_errors(part.residual(x0))),
                                   "after": Metrics.of(part.row_errors(estimate.residual(part)))}
+        mixed = mixed_setups_warning(self.data, train, metrics["train"]["after"].rmse_mm, self.noise)
+        if mixed:  # several set-ups in one file (its session column says so)
+            warnings.append(mixed)
         result = CalibrationResult(
             chain=self.chain, params=self.params, method=method, x=estimate.x, estimate=estimate,
             problem=problem, data=self.data, train=train, test=test, metrics=metrics, seed=seed,

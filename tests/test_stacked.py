@@ -210,3 +210,30 @@ def test_cli_several_data_files(three, tmp_path, capsys):
     assert calibrate_main(["irb120", *paths, "--anchor-mm", "1,2,3", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--anchor-mm with several --data files: put each set's in its file" in err[0]
+
+
+def test_three_set_ups_in_one_file_are_named_in_a_warning(three, tmp_path):
+    _, sets = three
+    rows = np.concatenate([s.values for s in sets])
+    one = dataclasses.replace(sets[0], q=np.concatenate([s.q for s in sets]), values=rows,
+                              extra={"session": np.repeat(np.array(["A", "B", "C"], dtype=object), 60)})
+    path = tmp_path / "three_anchors.csv"
+    cp.write_measurements(path, one)  # one anchor in the metadata, three in fact
+    result = cp.calibrate("irb120", path, method="lm", noise_mm=0.05)
+    assert result.metrics["train"]["after"].rmse_mm > 0.25
+    warning = [w for w in result.warnings if "set-ups" in w]
+    assert len(warning) == 1 and "'session' column names 3 set-ups (A, B, C) fitted here as one" in warning[0]
+    together = cp.calibrate("irb120", sets, method="lm", noise_mm=0.05)  # three files: no such warning
+    assert not [w for w in together.warnings if "set-ups" in w]
+
+
+def test_html_report_has_a_table_per_set(three):
+    pytest.importorskip("matplotlib")
+    from calib_pin.html_report import render_html
+    from calib_pin.report import build_report
+
+    _, sets = three
+    result = cp.calibrate("irb120", [FitSet(sets[0], "left"), FitSet(sets[1], "right")], method="lm",
+                          estimate=("anchor",))
+    page = render_html(build_report(result))
+    assert "Measurement sets" in page and "Set left" in page and "Set right" in page
