@@ -25,7 +25,7 @@ _API = {
     "load_calibration": "calibration_file", "CalibratedRobot": "compensation",
     "compare": "comparison", "Comparison": "comparison",
     "analyze": "identifiability",
-    "CalibrationProblem": "problem",
+    "CalibrationProblem": "problem", "StackedProblem": "stacked", "FitSet": "multiset", "SetResult": "multiset",
     "Chain": "robot", "Kinematics": "robot", "load_chain": "robot",
     "DHModel": "parameters", "HayatiModel": "parameters", "PlacementModel": "parameters",
     "parameter_model": "parameters",
@@ -54,6 +54,7 @@ __all__ = [
     "ESTIMATORS",
     "EstimateResult",
     "EstimatorError",
+    "FitSet",
     "HayatiModel",
     "Kinematics",
     "MeasurementSet",
@@ -61,6 +62,8 @@ __all__ = [
     "PositionDevice",
     "PositionModel",
     "RobotError",
+    "SetResult",
+    "StackedProblem",
     "Truth",
     "analyze",
     "calibrate",
@@ -100,6 +103,7 @@ if TYPE_CHECKING:
     from .identifiability import analyze
     from .measurements import MeasurementSet, read_measurements, write_measurements
     from .measurements.checks import check_measurements
+    from .multiset import FitSet, SetResult
     from .parameters import DHModel, HayatiModel, PlacementModel, parameter_model
     from .pipeline import CalibrationSetup, calibrate, prepare
     from .problem import CalibrationProblem
@@ -107,3 +111,4 @@ if TYPE_CHECKING:
     from .robot import Chain, Kinematics, load_chain
     from .sensors import CableModel, Drawstring, PositionDevice, PositionModel
     from .simulation import Truth, simulate, simulate_positions
+    from .stacked import StackedProblem

@@ -237,3 +237,16 @@ def test_html_report_has_a_table_per_set(three):
                           estimate=("anchor",))
     page = render_html(build_report(result))
     assert "Measurement sets" in page and "Set left" in page and "Set right" in page
+
+
+@pytest.mark.parametrize("method", ["ekf-qibas", "ekf"])
+def test_kalman_filters_update_row_by_row_over_stacked_sets(chain, params, three, method):
+    truth, sets = three
+    data = [FitSet(s, f"s{k + 1}", noise_mm=0.05) for k, s in enumerate(sets)]
+    result = cp.calibrate("irb120", data, method=method, estimate=("anchor",))
+    reference = cp.calibrate("irb120", data, method="lm", estimate=("anchor",))
+    for s, ref, anchor_mm in zip(result.sets, reference.sets, ANCHORS_MM, strict=True):
+        error = _fresh_rmse_mm(chain, params, truth, s.model, s.x, anchor_mm)
+        assert error < 1.3 * _fresh_rmse_mm(chain, params, truth, ref.model, ref.x, anchor_mm) + 0.005
+    with pytest.raises(cp.CalibPinError, match=r"result.sets\[k\].predict"):
+        result.predict(np.zeros(6))
