@@ -366,7 +366,7 @@ def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...
         labels.append(label)
     kinds = {d.kind for d in loaded}
     if len(kinds) > 1:
-        raise CalibPinError("mixing cable and position sets in one fit comes with issue 22")
+        raise CalibPinError("mixing cable and position sets in one fit is not supported yet: calibrate them one kind at a time")
     for s, data, label in zip(sets, loaded, labels, strict=True):
         if s.role == "test" and data.kind == "position":
             raise DataError(data.source or label, "a position set with role 'test' has no training rows to fit its "

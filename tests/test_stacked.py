@@ -176,7 +176,7 @@ def test_roles_train_and_test(chain, params, three):
     ({"anchor_mm": (0, 0, 0)}, "anchor_mm: one value for several sets"),
     ({"test_data": "robots/irb120_default.csv"}, "role 'test'"),
     ({"method": "rbf"}, "with several sets use a parameter method"),
-    ({"data": "mixed"}, "mixing cable and position sets in one fit comes with issue 22"),
+    ({"data": "mixed"}, "mixing cable and position sets in one fit is not supported yet"),
 ])
 def test_several_sets_refusals(three, kwargs, message):
     _, sets = three
