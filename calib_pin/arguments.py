@@ -84,7 +84,7 @@ def as_float(value: Any, arg: str, low: float | None = None, high: float | None 
         right = ")" if high_open else "]"
         span = f"{left}{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}{right}"
         raise ArgumentError(arg, f"expected a number in {span}{' ' + unit if unit else ''}, got {number:g}")
-    return number
+    return number + 0.0  # -0.0 is 0.0 (numpy's scale >= 0 checks refuse a negative zero)
 
 
 def as_optional(check: Callable[..., Any], value: Any, arg: str, *args: Any, **kwargs: Any) -> Any:

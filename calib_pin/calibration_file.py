@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -227,7 +228,28 @@ def _deviations(doc: dict[str, Any], params: Any, chain: Chain, source: Path) ->
         if beyond:
             raise DataError(str(source), f"{beyond} that calibrate refuses to export: not a plausible "
                             "calibration (calibrate again)", None, f"deviations_si.{name}")
+    _same_for_humans(doc, x, params, source)
     return x
+
+
+def _same_for_humans(doc: dict[str, Any], x: np.ndarray, params: Any, source: Path) -> None:
+    """The file's ``deviations`` (mm and deg, for people to read) must say what its
+    ``deviations_si`` say (the values used): a value edited by hand in one of them only
+    is refused, naming it. A file without ``deviations`` is fine."""
+    shown = doc.get("deviations")
+    if shown is None:
+        return
+    if not isinstance(shown, dict):
+        raise DataError(str(source), f"expected the deviations in mm and deg by name, got {json.dumps(shown)[:40]}",
+                        None, "deviations")
+    for (key, used), name in zip(for_humans(x, params.names, params.units).items(), params.names, strict=True):
+        if key not in shown:
+            continue
+        value = _number(shown, key, source, "deviations.", key.rsplit("_", 1)[-1])
+        if not math.isclose(value, used, rel_tol=1e-6, abs_tol=1e-9):
+            raise DataError(str(source), f"{value:g} contradicts deviations_si.{name} ({used:g} "
+                            f"{key.rsplit('_', 1)[-1]}), the value compensate uses: edit both, or calibrate again",
+                            None, f"deviations.{key}")
 
 
 def _xyz_mm(doc: dict[str, Any], key: str, source: Path, prefix: str) -> np.ndarray:
@@ -318,7 +340,7 @@ def load_calibration(path: str | Path, robot: str | None = None, *, cable: bool 
     robot = as_optional(as_robot, robot, "robot")
     cable = as_bool(cable, "cable")
     try:
-        doc = json.loads(source.read_text(encoding="utf-8"))
+        doc = json.loads(source.read_text(encoding="utf-8-sig"))  # a BOM: an editor on Windows
         if not isinstance(doc, dict) or doc.get("format") != FORMAT:
             raise DataError(str(source), f"not a {FORMAT} file", None, "format")
         _version(doc, source)

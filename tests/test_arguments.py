@@ -232,3 +232,13 @@ def test_argument_error_carries_the_name():
     assert error.argument == "q" and error.reason == "bad" and isinstance(error, cp.CalibPinError)
     assert str(error) == "argument q: bad"
     assert Path(cp.__file__).name == "__init__.py"
+
+
+def test_a_negative_zero_is_zero(chain, params):
+    """-0.0 passes 'noise >= 0' but numpy's normal() refused it (ValueError 'scale < 0'):
+    a checked number is returned as +0.0."""
+    from calib_pin.arguments import as_float
+
+    assert str(as_float(-0.0, "noise_mm", 0.0)) == "0.0"
+    data, _ = cp.simulate(chain, params, 5, seed=0, noise_mm=-0.0)
+    assert len(data) == 5

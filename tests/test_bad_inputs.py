@@ -412,6 +412,14 @@ R3_WRONG: list[Case] = [
      2, "c.json: parameter_model"),
     (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(end_frame=7), "p.csv": POSES}, 2, "c.json: end_frame"),
     (COMPENSATE, CAL_ARGS, {"c.json": "[1, 2]", "p.csv": POSES}, 2, "c.json"),
+    # ... a value edited by hand in the mm/deg copy only (compensate used deviations_si, silently)
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(deviations={"a_1_mm": 500.0}), "p.csv": POSES},
+     2, "c.json: deviations.a_1_mm: 500 contradicts deviations_si.a_1 (0 mm)"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(deviations={"a_1_mm": 0.0, "theta_2_deg": 1e-12}),
+                            "p.csv": POSES}, 0, "targets compensated"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(deviations="none"), "p.csv": POSES}, 2, "c.json: deviations"),
+    # ... saved by an editor with a byte-order mark (Windows Notepad): the same file
+    (COMPENSATE, CAL_ARGS, {"c.json": "\ufeff" + _calibration_file(), "p.csv": POSES}, 0, "targets compensated"),
     # --- calibrate --test-data: the validation session's own set-up must agree with the training one
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META)}, 0, "test rows from t.csv"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[5])}, 0, "test rows from t.csv"),
@@ -484,6 +492,8 @@ R3_COMPLIANCE: list[Case] = [
     # noise 0: a noise-free simulation is fine; a Kalman filter's assumed sigma of 0 is not
     (SIM, ["irb120", "--poses-file", "p.csv", "--seed", "1", "--noise-mm", "0", "--out", "truth.csv"],
      {"p.csv": POSES}, 0, "noise 0 mm"),  # the README's dry run
+    (SIM, ["irb120", "--poses-file", "p.csv", "--noise-mm", "-0", "--out", "truth.csv"],
+     {"p.csv": POSES}, 0, "noise 0 mm"),  # a negative zero was numpy's 'scale < 0' traceback
     (CAL, ["irb120", "--method", "lm", "--noise-mm", "0"], {}, 2, "Kalman"),
 ]
 

@@ -113,3 +113,17 @@ def test_validation_session_with_another_setup_is_refused(cable, tmp_path):
     check_same_setup(dataclasses.replace(cable, anchor=cable.anchor + 4e-10), cable, {})  # within rounding
     result = cp.calibrate("irb120", cable, method="lm", test_data=dataclasses.replace(cable, source="same"))
     assert result.test_source == "same" and result.metrics["test"]["after"].rmse_mm < 0.2
+
+
+def test_a_set_of_lists_is_a_set_of_arrays(chain, cable):
+    """A MeasurementSet made by hand with lists (q, values, anchor, tool) calibrates as
+    the same set of arrays (it raised numpy's TypeError); a ragged list is refused naming q."""
+    listed = dataclasses.replace(cable, q=cable.q.tolist(), values=cable.values.tolist(),
+                                 anchor=tuple(cable.anchor), tool=list(cable.tool))
+    assert isinstance(listed.q, np.ndarray) and isinstance(listed.anchor, np.ndarray)
+    expected = cp.calibrate("irb120", cable, method="lm", test_fraction=0.0).x
+    np.testing.assert_allclose(cp.calibrate("irb120", listed, method="lm", test_fraction=0.0).x, expected)
+    ragged = cable.q.tolist()
+    ragged[2] = ragged[2][:5]
+    with pytest.raises(cp.DataError, match=r"data: q: joint angles of shape \(30,\) \(object\)"):
+        check_measurements(chain, dataclasses.replace(cable, q=ragged, source=""))

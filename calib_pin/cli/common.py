@@ -152,7 +152,7 @@ def non_negative(kind: type, upper: float = 1e9) -> Callable[[str], Any]:
             raise argparse.ArgumentTypeError(f"expected a non-negative {kind.__name__}, got '{text[:40]}'")
         if value > upper:
             raise argparse.ArgumentTypeError(f"expected at most {upper:g}, got '{text[:40]}'")
-        return value
+        return value + 0  # '-0' is 0 (numpy's scale >= 0 checks refuse a negative zero)
 
     return parse
 
