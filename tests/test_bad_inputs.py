@@ -425,6 +425,12 @@ R3_WRONG: list[Case] = [
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[5])}, 0, "test rows from t.csv"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[2].replace("600.000000", "600.0000001"),
                                                           *META[3:])}, 0, "test rows from t.csv"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[2].replace("600.000000", "600.0004"),
+                                                          *META[3:])}, 0, "test rows from t.csv"),  # um rounding
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[2].replace("600.000000", "600.002"),
+                                                          *META[3:])}, 2, "t.csv: anchor_mm"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], "# anchor_m: 0.6, 0.2, -0.1", *META[3:])},
+     0, "test rows from t.csv"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], SHIFTED, *META[3:])},
      2, "t.csv: anchor_mm: the validation session has 650, 200, -100 mm, the calibration 600, 200, -100 mm"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:3], "# tool_mm: 0, 0, 60", *META[4:])},
