@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arguments import as_instance, as_path
 from .dataset import MeasurementSet, PointLabel, point_label
 
 
@@ -73,7 +74,14 @@ def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[PointLabel
 def write_measurements(path: str | Path, data: MeasurementSet) -> None:
     """Write a measurement set, metadata first; a position set gets ``pose`` and
     ``point_id`` columns (labels as they are: numbers or text); the set's extra columns
-    follow calib-pin's, so nothing read is lost."""
+    follow calib-pin's, so nothing read is lost.
+
+    Raises:
+        ArgumentError: ``path`` is not a path, or ``data`` not a MeasurementSet.
+        OSError: the file cannot be written.
+    """
+    path = as_path(path, "path")
+    as_instance(data, "data", MeasurementSet, "a MeasurementSet (calib_pin.read_measurements or simulate)")
     lines = metadata_lines(data)
     if any(";" in name or "\t" in name for name in data.extra):  # the header alone would look ';'-separated
         lines.append("# csv: sep=,")
