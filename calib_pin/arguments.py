@@ -104,7 +104,8 @@ def as_choice(value: Any, arg: str, choices: Iterable[str]) -> str:
 
 def as_names(value: Any, arg: str) -> tuple[str, ...]:
     """Names: a comma-separated str (``"anchor,offset"``) or a sequence of str; None or
-    blank gives ``()``. Blanks around names are dropped."""
+    blank gives ``()``. Blanks around names are dropped; a name given twice is refused
+    (``joint_2,joint_2`` made two compliances of one joint, a file compensate refused)."""
     if value is None:
         return ()
     if isinstance(value, str):
@@ -118,6 +119,8 @@ def as_names(value: Any, arg: str) -> tuple[str, ...]:
         if not isinstance(item, str):
             raise ArgumentError(arg, f"expected names as str, got {_shown(item)} in the sequence")
         if item.strip():
+            if item.strip() in names:
+                raise ArgumentError(arg, f"'{item.strip()}' is given twice: name each once")
             names.append(item.strip())
     return tuple(names)
 

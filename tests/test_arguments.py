@@ -171,6 +171,7 @@ CASES = [
     ("CableModel", "estimate", lambda f: cp.CableModel(f.chain, f.params, Drawstring(np.zeros(3), np.zeros(3)),
                                                        estimate="moon")),
     ("PositionModel", "device", lambda f: cp.PositionModel(f.chain, f.params, "tracker")),
+    ("calibrate", "compliance", lambda f: cp.calibrate("irb120", f.small, method="lm", compliance=("joint_2", "joint_2"))),
     # reading and writing sets, a drawstring's geometry (were numpy's or Python's own errors)
     ("read_measurements", "path", lambda f: cp.read_measurements(3)),
     ("read_measurements", "chain", lambda f: cp.read_measurements(Path(__file__).parent.parent / "robots" / "irb120_default.csv", "irb120")),

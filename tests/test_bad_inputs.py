@@ -470,6 +470,14 @@ R3_WRONG: list[Case] = [
     (CAL, ["irb120", "--analyze", "--anchor-mm", "-600 200 -100"], {}, 0, "rank"),
     (CAL, ["irb120", "--analyze", "--length-offset-mm", "-1e-3"], {}, 0, "rank"),
     (CAL, ["irb120", "--analyze", "--anchor-mm", "-6,0"], {}, 2, "--anchor-mm"),
+    # ... a name repeated inside a list option: joint_2,joint_2 wrote a calibration file compensate refused
+    (CAL, ["irb120", "--method", "lm", "--compliance", "joint_2,joint_2", "--no-html"], {}, 2,
+     "--compliance: 'joint_2' is given twice"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--compliance", "joint_3, joint_3"], {}, 2,
+     "--compliance: 'joint_3' is given twice"),
+    (CAL, ["irb120", "--analyze", "--estimate", "anchor,anchor"], {}, 2, "--estimate: 'anchor' is given twice"),
+    (CAL, ["irb120", "--analyze", "--compliance", " , "], {}, 2, "--compliance: expected joint names"),
+    (CAL, ["irb120", "--analyze", "--compliance", "joint_2, joint_3"], {}, 0, "compliance_joint_3"),
 ]
 
 
