@@ -329,6 +329,18 @@ def _check_data(data: Any, arg: str) -> None:
         as_path(data, arg)  # os.PathLike passes; anything else is refused naming ``arg``
 
 
+def _same_rows(a: MeasurementSet, b: MeasurementSet) -> bool:
+    """Both sets are one file, or hold the same joint angles and values."""
+    if a.source and b.source:
+        try:
+            if Path(a.source).samefile(b.source):
+                return True
+        except OSError:
+            pass
+    return (np.shape(a.q) == np.shape(b.q) and np.shape(a.values) == np.shape(b.values)
+            and np.array_equal(a.q, b.q) and np.array_equal(a.values, b.values, equal_nan=True))
+
+
 def _validation(setup: CalibrationSetup, test_data: str | Path | MeasurementSet, robot_label: str) -> MeasurementSet:
     """A separate validation session for ``setup``'s robot, of the same kind of data and
     the same drawstring set-up (its own ``anchor_mm``/``tool_mm``/``length_offset_mm``
@@ -337,4 +349,7 @@ def _validation(setup: CalibrationSetup, test_data: str | Path | MeasurementSet,
     if validation.kind != setup.data.kind:
         raise DataError(validation.source, f"holds {validation.kind} data, the calibration set {setup.data.kind} data")
     check_same_setup(validation, setup.data, setup.options)
+    if _same_rows(validation, setup.data):  # its score would be the training fit's, shown as a test
+        raise DataError(validation.source or "test_data", "holds the training set's own rows: a validation "
+                        "session must be another one (or leave it out to hold out a test fraction)")
     return validation

@@ -431,6 +431,7 @@ R3_WRONG: list[Case] = [
                                                           *META[3:])}, 2, "t.csv: anchor_mm"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], "# anchor_m: 0.6, 0.2, -0.1", *META[3:])},
      0, "test rows from t.csv"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": data()}, 2, "t.csv: holds the training set's own rows"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], SHIFTED, *META[3:])},
      2, "t.csv: anchor_mm: the validation session has 650, 200, -100 mm, the calibration 600, 200, -100 mm"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:3], "# tool_mm: 0, 0, 60", *META[4:])},

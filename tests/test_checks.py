@@ -111,8 +111,20 @@ def test_validation_session_with_another_setup_is_refused(cable, tmp_path):
         check_same_setup(cable, cable, {"anchor_mm": (610.0, 200.0, -100.0)})
     check_same_setup(dataclasses.replace(cable, anchor=None, tool=None), cable, {})  # the session does not say
     check_same_setup(dataclasses.replace(cable, anchor=cable.anchor + 4e-10), cable, {})  # within rounding
-    result = cp.calibrate("irb120", cable, method="lm", test_data=dataclasses.replace(cable, source="same"))
+    result = cp.calibrate("irb120", cable, method="lm",
+                          test_data=dataclasses.replace(cable.subset(np.arange(10)), source="same"))
     assert result.test_source == "same" and result.metrics["test"]["after"].rmse_mm < 0.2
+
+
+def test_the_training_set_as_its_own_validation_session_is_refused(cable, tmp_path):
+    """A test on the training rows scored the fit as if it were new poses (exit 0): the
+    same set, in memory or as one file under two names (or a copy), is refused."""
+    with pytest.raises(cp.DataError, match="holds the training set's own rows"):
+        cp.calibrate("irb120", cable, method="lm", test_data=dataclasses.replace(cable, source=""))
+    path = tmp_path / "s.csv"
+    cp.write_measurements(path, cable)
+    with pytest.raises(cp.DataError, match=r"s\.csv: holds the training set's own rows"):
+        cp.calibrate("irb120", path, method="lm", test_data=tmp_path / "." / "s.csv")
 
 
 def test_a_set_of_lists_is_a_set_of_arrays(chain, cable):
