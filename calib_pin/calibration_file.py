@@ -289,6 +289,16 @@ def _compliance_of(soft: dict[str, Any], chain: Chain, source: Path,
         if c < 0:
             raise DataError(str(source), f"{c:g} rad/Nm is negative: a compliance is >= 0", None,
                             f"{p}compliance_rad_per_Nm.{j}")
+    shown = soft.get("stiffness_Nm_per_rad")  # for people; a hand edit there only is refused
+    for j, k in zip(spec.joints, stiffness(values).tolist(), strict=True):
+        if isinstance(shown, dict) and j in shown:
+            given = shown[j]
+            same = given is None if not np.isfinite(k) else (
+                isinstance(given, (int, float)) and not isinstance(given, bool) and math.isclose(given, k, rel_tol=1e-6))
+            if not same:
+                raise DataError(str(source), f"{json.dumps(given)[:20]} contradicts compliance_rad_per_Nm.{j} (a "
+                                f"stiffness of {k:.6g} Nm/rad), the value compensate uses: edit both, or calibrate "
+                                "again", None, f"{p}stiffness_Nm_per_rad.{j}")
     pull = None
     if soft.get("cable_pull") is not None:
         where = _field(soft, "cable_pull", dict, "the cable's hook_mm and anchor_mm", source, p)

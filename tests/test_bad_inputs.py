@@ -418,6 +418,10 @@ R3_WRONG: list[Case] = [
     (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(deviations={"a_1_mm": 0.0, "theta_2_deg": 1e-12}),
                             "p.csv": POSES}, 0, "targets compensated"),
     (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(deviations="none"), "p.csv": POSES}, 2, "c.json: deviations"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"compliance.stiffness_Nm_per_rad": {"joint_2": 1000.0}}),
+                            "p.csv": POSES}, 2, "c.json: compliance.stiffness_Nm_per_rad.joint_2: 1000.0 contradicts"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"compliance.stiffness_Nm_per_rad": {"joint_2": 50000.0}}),
+                            "p.csv": POSES}, 0, "targets compensated"),
     # ... saved by an editor with a byte-order mark (Windows Notepad): the same file
     (COMPENSATE, CAL_ARGS, {"c.json": "\ufeff" + _calibration_file(), "p.csv": POSES}, 0, "targets compensated"),
     # --- calibrate --test-data: the validation session's own set-up must agree with the training one
