@@ -613,6 +613,8 @@ R3_FILES: list[Case] = [
      "d.csv:7"),
     (CAL, ["irb120", "--data", "d.csv"], {"d.csv": "# csv: sep=, decimal=,\n" + data()}, 2, "d.csv:1: csv"),
     (CAL, ["irb120", "--data", "d.csv"], {"d.csv": "# csv: sep=|\n" + data()}, 2, "d.csv:1: csv"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(*(r + ",T1" for r in ROWS[:30]), head=HEAD + ",point_id")},
+     2, "d.csv:7: has both length and a point_id column (the marker labels of a position set)"),  # said x/y/z columns
 ]
 
 
