@@ -164,6 +164,12 @@ class CalibrationSetup:
         return result if test_data is None else score_session(result, test_data)
 
 
+#: A validation session whose own device frame puts its points farther than this from
+#: where the calibration's frame puts them was measured from another placement, [m]
+#: (a refit on the same placement moves them by the calibration's residual, < 1 mm).
+DEVICE_SHIFT_M = 5e-3
+
+
 def score_session(result: CalibrationResult, session: MeasurementSet) -> CalibrationResult:
     """``result`` with its ``test`` metrics taken from a separate validation session.
 
@@ -172,6 +178,11 @@ def score_session(result: CalibrationResult, session: MeasurementSet) -> Calibra
     are predicted (see :meth:`calib_pin.sensors.base.MeasurementModel.session_errors`).
     """
     model = result.problem.model
+    shift = getattr(model, "session_frame_shift", lambda x, data: None)(result.x, session)
+    if shift is not None and shift > DEVICE_SHIFT_M:  # scored with the calibration's frame, every row would be off
+        raise DataError(session.source or "test_data", f"the session's own is {shift * 1e3:.3g} mm (RMS over its "
+                        "points) from the calibration's: the device was moved between the sessions? One device "
+                        "placement per calibration for now; measure both from the same placement", None, "device frame")
     before = model.session_errors(None, session)
     after = model.session_errors(result.x, session, result.estimate.correction)
     metrics = {**result.metrics, "test": {"before": Metrics.of(before), "after": Metrics.of(after)}}

@@ -139,3 +139,16 @@ def test_a_set_of_lists_is_a_set_of_arrays(chain, cable):
     ragged[2] = ragged[2][:5]
     with pytest.raises(cp.DataError, match=r"data: q: joint angles of shape \(30,\) \(object\)"):
         check_measurements(chain, dataclasses.replace(cable, q=ragged, source=""))
+
+
+def test_a_validation_session_from_another_device_placement_is_refused(positions):
+    """Scored with the calibration's device frame, a session measured after the tracker
+    was moved 10 mm gave every row 10 mm of error (exit 0): refused, naming the shift; the
+    same placement is scored."""
+    train, test = positions.subset(np.arange(24)), positions.subset(np.arange(24, 36))
+    result = cp.calibrate("irb120", train, method="lm", test_data=test)
+    assert result.metrics["test"]["after"].rmse_mm < 0.2
+    moved = dataclasses.replace(test, values=test.values + [0.0, 0.01, 0.0], source="v.csv")
+    with pytest.raises(cp.DataError, match=r"v\.csv: device frame: the session's own is 10 mm \(RMS over its points\) "
+                                           "from the calibration's"):
+        cp.calibrate("irb120", train, method="lm", test_data=moved)
