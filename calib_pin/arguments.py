@@ -84,7 +84,7 @@ def as_float(value: Any, arg: str, low: float | None = None, high: float | None 
         right = ")" if high_open else "]"
         span = f"{left}{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}{right}"
         raise ArgumentError(arg, f"expected a number in {span}{' ' + unit if unit else ''}, got {number:g}")
-    return number
+    return number + 0.0  # -0.0 is 0.0 (numpy's scale >= 0 checks refuse a negative zero)
 
 
 def as_optional(check: Callable[..., Any], value: Any, arg: str, *args: Any, **kwargs: Any) -> Any:
@@ -104,7 +104,8 @@ def as_choice(value: Any, arg: str, choices: Iterable[str]) -> str:
 
 def as_names(value: Any, arg: str) -> tuple[str, ...]:
     """Names: a comma-separated str (``"anchor,offset"``) or a sequence of str; None or
-    blank gives ``()``. Blanks around names are dropped."""
+    blank gives ``()``. Blanks around names are dropped; a name given twice is refused
+    (``joint_2,joint_2`` made two compliances of one joint, a file compensate refused)."""
     if value is None:
         return ()
     if isinstance(value, str):
@@ -118,6 +119,8 @@ def as_names(value: Any, arg: str) -> tuple[str, ...]:
         if not isinstance(item, str):
             raise ArgumentError(arg, f"expected names as str, got {_shown(item)} in the sequence")
         if item.strip():
+            if item.strip() in names:
+                raise ArgumentError(arg, f"'{item.strip()}' is given twice: name each once")
             names.append(item.strip())
     return tuple(names)
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -227,7 +228,28 @@ def _deviations(doc: dict[str, Any], params: Any, chain: Chain, source: Path) ->
         if beyond:
             raise DataError(str(source), f"{beyond} that calibrate refuses to export: not a plausible "
                             "calibration (calibrate again)", None, f"deviations_si.{name}")
+    _same_for_humans(doc, x, params, source)
     return x
+
+
+def _same_for_humans(doc: dict[str, Any], x: np.ndarray, params: Any, source: Path) -> None:
+    """The file's ``deviations`` (mm and deg, for people to read) must say what its
+    ``deviations_si`` say (the values used): a value edited by hand in one of them only
+    is refused, naming it. A file without ``deviations`` is fine."""
+    shown = doc.get("deviations")
+    if shown is None:
+        return
+    if not isinstance(shown, dict):
+        raise DataError(str(source), f"expected the deviations in mm and deg by name, got {json.dumps(shown)[:40]}",
+                        None, "deviations")
+    for (key, used), name in zip(for_humans(x, params.names, params.units).items(), params.names, strict=True):
+        if key not in shown:
+            continue
+        value = _number(shown, key, source, "deviations.", key.rsplit("_", 1)[-1])
+        if not math.isclose(value, used, rel_tol=1e-6, abs_tol=1e-9):
+            raise DataError(str(source), f"{value:g} contradicts deviations_si.{name} ({used:g} "
+                            f"{key.rsplit('_', 1)[-1]}), the value compensate uses: edit both, or calibrate again",
+                            None, f"deviations.{key}")
 
 
 def _xyz_mm(doc: dict[str, Any], key: str, source: Path, prefix: str) -> np.ndarray:
@@ -267,6 +289,16 @@ def _compliance_of(soft: dict[str, Any], chain: Chain, source: Path,
         if c < 0:
             raise DataError(str(source), f"{c:g} rad/Nm is negative: a compliance is >= 0", None,
                             f"{p}compliance_rad_per_Nm.{j}")
+    shown = soft.get("stiffness_Nm_per_rad")  # for people; a hand edit there only is refused
+    for j, k in zip(spec.joints, stiffness(values).tolist(), strict=True):
+        if isinstance(shown, dict) and j in shown:
+            given = shown[j]
+            same = given is None if not np.isfinite(k) else (
+                isinstance(given, (int, float)) and not isinstance(given, bool) and math.isclose(given, k, rel_tol=1e-6))
+            if not same:
+                raise DataError(str(source), f"{json.dumps(given)[:20]} contradicts compliance_rad_per_Nm.{j} (a "
+                                f"stiffness of {k:.6g} Nm/rad), the value compensate uses: edit both, or calibrate "
+                                "again", None, f"{p}stiffness_Nm_per_rad.{j}")
     pull = None
     if soft.get("cable_pull") is not None:
         where = _field(soft, "cable_pull", dict, "the cable's hook_mm and anchor_mm", source, p)
@@ -318,7 +350,7 @@ def load_calibration(path: str | Path, robot: str | None = None, *, cable: bool 
     robot = as_optional(as_robot, robot, "robot")
     cable = as_bool(cable, "cable")
     try:
-        doc = json.loads(source.read_text(encoding="utf-8"))
+        doc = json.loads(source.read_text(encoding="utf-8-sig"))  # a BOM: an editor on Windows
         if not isinstance(doc, dict) or doc.get("format") != FORMAT:
             raise DataError(str(source), f"not a {FORMAT} file", None, "format")
         _version(doc, source)

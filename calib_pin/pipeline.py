@@ -168,6 +168,12 @@ class CalibrationSetup:
         return result if test_data is None else score_session(result, test_data)
 
 
+#: A validation session whose own device frame puts its points farther than this from
+#: where the calibration's frame puts them was measured from another placement, [m]
+#: (a refit on the same placement moves them by the calibration's residual, < 1 mm).
+DEVICE_SHIFT_M = 5e-3
+
+
 def score_session(result: CalibrationResult, session: MeasurementSet) -> CalibrationResult:
     """``result`` with its ``test`` metrics taken from a separate validation session.
 
@@ -176,6 +182,11 @@ def score_session(result: CalibrationResult, session: MeasurementSet) -> Calibra
     are predicted (see :meth:`calib_pin.sensors.base.MeasurementModel.session_errors`).
     """
     model: Any = result.problem.model
+    shift = getattr(model, "session_frame_shift", lambda x, data: None)(result.x, session)
+    if shift is not None and shift > DEVICE_SHIFT_M:  # scored with the calibration's frame, every row would be off
+        raise DataError(session.source or "test_data", f"the session's own is {shift * 1e3:.3g} mm (RMS over its "
+                        "points) from the calibration's: the device was moved between the sessions? One device "
+                        "placement per calibration for now; measure both from the same placement", None, "device frame")
     before = model.session_errors(None, session)
     after = model.session_errors(result.x, session, result.estimate.correction)
     metrics = {**result.metrics, "test": {"before": Metrics.of(before), "after": Metrics.of(after)}}
@@ -416,6 +427,18 @@ def _check_data(data: Any, arg: str) -> None:
         as_path(data, arg)  # os.PathLike passes; anything else is refused naming ``arg``
 
 
+def _same_rows(a: MeasurementSet, b: MeasurementSet) -> bool:
+    """Both sets are one file, or hold the same joint angles and values."""
+    if a.source and b.source:
+        try:
+            if Path(a.source).samefile(b.source):
+                return True
+        except OSError:
+            pass
+    return (np.shape(a.q) == np.shape(b.q) and np.shape(a.values) == np.shape(b.values)
+            and np.array_equal(a.q, b.q) and np.array_equal(a.values, b.values, equal_nan=True))
+
+
 def _validation(setup: CalibrationSetup, test_data: str | Path | MeasurementSet, robot_label: str) -> MeasurementSet:
     """A separate validation session for ``setup``'s robot, of the same kind of data and
     the same drawstring set-up (its own ``anchor_mm``/``tool_mm``/``length_offset_mm``
@@ -424,4 +447,7 @@ def _validation(setup: CalibrationSetup, test_data: str | Path | MeasurementSet,
     if validation.kind != setup.data.kind:
         raise DataError(validation.source, f"holds {validation.kind} data, the calibration set {setup.data.kind} data")
     check_same_setup(validation, setup.data, setup.options)
+    if _same_rows(validation, setup.data):  # its score would be the training fit's, shown as a test
+        raise DataError(validation.source or "test_data", "holds the training set's own rows: a validation "
+                        "session must be another one (or leave it out to hold out a test fraction)")
     return validation

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
+from .arguments import as_angles_rad
 from .estimators.base import EstimateResult
 from .exceptions import CalibPinError
 from .export.urdf import write_calibrated_urdf
@@ -151,11 +152,12 @@ class CalibrationResult:
             device frame.
 
         Raises:
-            CalibPinError: q is not finite numbers of shape (n_poses, n_joints); point_ids
+            CalibPinError: q is not finite numbers of shape (n_poses, n_joints), or is
+                outside the joint limits (degrees given as radians); point_ids
                 is left out with several markers, or is not one label or one per pose.
             DataError: a label that is not a marker of this calibration.
         """
-        q = _joint_angles(q, self.chain.n_joints)
+        q = as_angles_rad(_joint_angles(q, self.chain.n_joints), "q", self.chain)  # within limits: not degrees
         labels = None
         if point_ids is not None:
             labels = np.asarray(point_ids, dtype=object).reshape(-1)

@@ -51,7 +51,8 @@ class StackedModel:
                 raise CalibPinError(f"set {label}: its robot unknowns differ from set {self.labels[0]}'s "
                                     "(one robot, one parameter model, one compliance spec for every set)")
             if part.values_per_row != first.values_per_row:
-                raise CalibPinError("mixing cable and position sets in one fit is not supported yet: calibrate them one kind at a time")
+                raise CalibPinError("mixing cable and position sets in one fit is not supported yet: "
+                                    "calibrate them one kind at a time")
 
     @property
     def first(self) -> Any:

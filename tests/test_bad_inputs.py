@@ -412,11 +412,30 @@ R3_WRONG: list[Case] = [
      2, "c.json: parameter_model"),
     (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(end_frame=7), "p.csv": POSES}, 2, "c.json: end_frame"),
     (COMPENSATE, CAL_ARGS, {"c.json": "[1, 2]", "p.csv": POSES}, 2, "c.json"),
+    # ... a value edited by hand in the mm/deg copy only (compensate used deviations_si, silently)
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(deviations={"a_1_mm": 500.0}), "p.csv": POSES},
+     2, "c.json: deviations.a_1_mm: 500 contradicts deviations_si.a_1 (0 mm)"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(deviations={"a_1_mm": 0.0, "theta_2_deg": 1e-12}),
+                            "p.csv": POSES}, 0, "targets compensated"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(deviations="none"), "p.csv": POSES}, 2, "c.json: deviations"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"compliance.stiffness_Nm_per_rad": {"joint_2": 1000.0}}),
+                            "p.csv": POSES}, 2, "c.json: compliance.stiffness_Nm_per_rad.joint_2: 1000.0 contradicts"),
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"compliance.stiffness_Nm_per_rad": {"joint_2": 50000.0}}),
+                            "p.csv": POSES}, 0, "targets compensated"),
+    # ... saved by an editor with a byte-order mark (Windows Notepad): the same file
+    (COMPENSATE, CAL_ARGS, {"c.json": "\ufeff" + _calibration_file(), "p.csv": POSES}, 0, "targets compensated"),
     # --- calibrate --test-data: the validation session's own set-up must agree with the training one
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META)}, 0, "test rows from t.csv"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[5])}, 0, "test rows from t.csv"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[2].replace("600.000000", "600.0000001"),
                                                           *META[3:])}, 0, "test rows from t.csv"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[2].replace("600.000000", "600.0004"),
+                                                          *META[3:])}, 0, "test rows from t.csv"),  # um rounding
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], META[2].replace("600.000000", "600.002"),
+                                                          *META[3:])}, 2, "t.csv: anchor_mm"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], "# anchor_m: 0.6, 0.2, -0.1", *META[3:])},
+     0, "test rows from t.csv"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": data()}, 2, "t.csv: holds the training set's own rows"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:2], SHIFTED, *META[3:])},
      2, "t.csv: anchor_mm: the validation session has 650, 200, -100 mm, the calibration 600, 200, -100 mm"),
     (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": _test_csv(*META[:3], "# tool_mm: 0, 0, 60", *META[4:])},
@@ -463,6 +482,14 @@ R3_WRONG: list[Case] = [
     (CAL, ["irb120", "--analyze", "--anchor-mm", "-600 200 -100"], {}, 0, "rank"),
     (CAL, ["irb120", "--analyze", "--length-offset-mm", "-1e-3"], {}, 0, "rank"),
     (CAL, ["irb120", "--analyze", "--anchor-mm", "-6,0"], {}, 2, "--anchor-mm"),
+    # ... a name repeated inside a list option: joint_2,joint_2 wrote a calibration file compensate refused
+    (CAL, ["irb120", "--method", "lm", "--compliance", "joint_2,joint_2", "--no-html"], {}, 2,
+     "--compliance: 'joint_2' is given twice"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--compliance", "joint_3, joint_3"], {}, 2,
+     "--compliance: 'joint_3' is given twice"),
+    (CAL, ["irb120", "--analyze", "--estimate", "anchor,anchor"], {}, 2, "--estimate: 'anchor' is given twice"),
+    (CAL, ["irb120", "--analyze", "--compliance", " , "], {}, 2, "--compliance: expected joint names"),
+    (CAL, ["irb120", "--analyze", "--compliance", "joint_2, joint_3"], {}, 0, "compliance_joint_3"),
 ]
 
 
@@ -491,6 +518,8 @@ R3_COMPLIANCE: list[Case] = [
     # noise 0: a noise-free simulation is fine; a Kalman filter's assumed sigma of 0 is not
     (SIM, ["irb120", "--poses-file", "p.csv", "--seed", "1", "--noise-mm", "0", "--out", "truth.csv"],
      {"p.csv": POSES}, 0, "noise 0 mm"),  # the README's dry run
+    (SIM, ["irb120", "--poses-file", "p.csv", "--noise-mm", "-0", "--out", "truth.csv"],
+     {"p.csv": POSES}, 0, "noise 0 mm"),  # a negative zero was numpy's 'scale < 0' traceback
     (CAL, ["irb120", "--method", "lm", "--noise-mm", "0"], {}, 2, "Kalman"),
 ]
 
@@ -591,6 +620,8 @@ R3_FILES: list[Case] = [
      "d.csv:7"),
     (CAL, ["irb120", "--data", "d.csv"], {"d.csv": "# csv: sep=, decimal=,\n" + data()}, 2, "d.csv:1: csv"),
     (CAL, ["irb120", "--data", "d.csv"], {"d.csv": "# csv: sep=|\n" + data()}, 2, "d.csv:1: csv"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(*(r + ",T1" for r in ROWS[:30]), head=HEAD + ",point_id")},
+     2, "d.csv:7: has both length and a point_id column (the marker labels of a position set)"),  # said x/y/z columns
 ]
 
 

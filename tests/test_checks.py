@@ -111,5 +111,44 @@ def test_validation_session_with_another_setup_is_refused(cable, tmp_path):
         check_same_setup(cable, cable, {"anchor_mm": (610.0, 200.0, -100.0)})
     check_same_setup(dataclasses.replace(cable, anchor=None, tool=None), cable, {})  # the session does not say
     check_same_setup(dataclasses.replace(cable, anchor=cable.anchor + 4e-10), cable, {})  # within rounding
-    result = cp.calibrate("irb120", cable, method="lm", test_data=dataclasses.replace(cable, source="same"))
+    result = cp.calibrate("irb120", cable, method="lm",
+                          test_data=dataclasses.replace(cable.subset(np.arange(10)), source="same"))
     assert result.test_source == "same" and result.metrics["test"]["after"].rmse_mm < 0.2
+
+
+def test_the_training_set_as_its_own_validation_session_is_refused(cable, tmp_path):
+    """A test on the training rows scored the fit as if it were new poses (exit 0): the
+    same set, in memory or as one file under two names (or a copy), is refused."""
+    with pytest.raises(cp.DataError, match="holds the training set's own rows"):
+        cp.calibrate("irb120", cable, method="lm", test_data=dataclasses.replace(cable, source=""))
+    path = tmp_path / "s.csv"
+    cp.write_measurements(path, cable)
+    with pytest.raises(cp.DataError, match=r"s\.csv: holds the training set's own rows"):
+        cp.calibrate("irb120", path, method="lm", test_data=tmp_path / "." / "s.csv")
+
+
+def test_a_set_of_lists_is_a_set_of_arrays(chain, cable):
+    """A MeasurementSet made by hand with lists (q, values, anchor, tool) calibrates as
+    the same set of arrays (it raised numpy's TypeError); a ragged list is refused naming q."""
+    listed = dataclasses.replace(cable, q=cable.q.tolist(), values=cable.values.tolist(),
+                                 anchor=tuple(cable.anchor), tool=list(cable.tool))
+    assert isinstance(listed.q, np.ndarray) and isinstance(listed.anchor, np.ndarray)
+    expected = cp.calibrate("irb120", cable, method="lm", test_fraction=0.0).x
+    np.testing.assert_allclose(cp.calibrate("irb120", listed, method="lm", test_fraction=0.0).x, expected)
+    ragged = cable.q.tolist()
+    ragged[2] = ragged[2][:5]
+    with pytest.raises(cp.DataError, match=r"data: q: joint angles of shape \(30,\) \(object\)"):
+        check_measurements(chain, dataclasses.replace(cable, q=ragged, source=""))
+
+
+def test_a_validation_session_from_another_device_placement_is_refused(positions):
+    """Scored with the calibration's device frame, a session measured after the tracker
+    was moved 10 mm gave every row 10 mm of error (exit 0): refused, naming the shift; the
+    same placement is scored."""
+    train, test = positions.subset(np.arange(24)), positions.subset(np.arange(24, 36))
+    result = cp.calibrate("irb120", train, method="lm", test_data=test)
+    assert result.metrics["test"]["after"].rmse_mm < 0.2
+    moved = dataclasses.replace(test, values=test.values + [0.0, 0.01, 0.0], source="v.csv")
+    with pytest.raises(cp.DataError, match=r"v\.csv: device frame: the session's own is 10 mm \(RMS over its points\) "
+                                           "from the calibration's"):
+        cp.calibrate("irb120", train, method="lm", test_data=moved)

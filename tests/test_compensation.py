@@ -138,3 +138,27 @@ def test_cli(calibrated, chain, tmp_path, capsys):
         assert len(err.strip().splitlines()) == 1
         assert re.search(message, err), err
     assert not (tmp_path / "bad.csv").exists()
+
+
+def test_cli_keeps_the_programs_other_columns(calibrated, chain, tmp_path, capsys):
+    """A robot program's speed, zone and name columns and its notes are copied to the
+    compensated file as they were (they were dropped), and read back the same."""
+    robot, _, folder = calibrated
+    q = _regular_targets(chain, 3, 5)
+    program = tmp_path / "program.csv"
+    write_poses(program, q, robot="irb120", notes={"program": "pick and place"})
+    lines = program.read_text().splitlines()
+    head = next(k for k, line in enumerate(lines) if line.startswith("pose"))
+    lines[head] += ",speed,name"
+    for k, extra in enumerate(["100,home", ",\"pick, left\"", "25.5,place"], start=head + 1):
+        lines[k] += "," + extra
+    program.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "corrected.csv"
+    assert command("compensate")(["irb120", "--calibration", str(folder), "--targets", str(program),
+                                  "--out", str(out)]) == 0
+    assert "columns speed, name of program.csv: copied to the output" in capsys.readouterr().out
+    corrected = read_pose_list(out, chain)
+    assert np.abs(corrected.q - robot.compensate(q)).max() < 1e-9
+    np.testing.assert_array_equal(corrected.extra["speed"], [100.0, np.nan, 25.5])
+    assert list(corrected.extra["name"]) == ["home", "pick, left", "place"]
+    assert corrected.notes["program"] == "pick and place"

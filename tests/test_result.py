@@ -59,6 +59,10 @@ def test_predict_asks_for_point_ids_with_several_markers(chain, three_markers):
         (np.zeros((0, 6)), r"q: no poses"),
         (np.full((2, 6), np.nan), r"q: not finite"),
         ([["a"] * 6], r"q: not numbers"),
+        # degrees given as radians: predict answered for an arm turned 57 times too far
+        (np.rad2deg([[0.5, 0.3, -0.2, 0.1, 0.4, 1.0]]), r"argument q: q\[0, 0\] = 28.6479 rad is outside the "
+         r"limits of joint_1 .*looks like degrees"),
+        ([[0.0, 2.5, 0.0, 0.0, 0.0, 0.0]], r"argument q: q\[0, 1\] = 2.5 rad is outside the limits of joint_2"),
     ],
 )
 def test_predict_checks_q(one_marker, q, message):

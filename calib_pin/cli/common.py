@@ -15,6 +15,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from ..arguments import as_names
 from ..exceptions import ArgumentError, CalibPinError
 
 BAD_INPUT_EXIT = 2
@@ -152,7 +153,7 @@ def non_negative(kind: type, upper: float = 1e9) -> Callable[[str], Any]:
             raise argparse.ArgumentTypeError(f"expected a non-negative {kind.__name__}, got '{text[:40]}'")
         if value > upper:
             raise argparse.ArgumentTypeError(f"expected at most {upper:g}, got '{text[:40]}'")
-        return value
+        return value + 0  # '-0' is 0 (numpy's scale >= 0 checks refuse a negative zero)
 
     return parse
 
@@ -227,6 +228,17 @@ def estimate_names(text: str) -> tuple[str, ...]:
     return names
 
 
+def joint_names(text: str) -> tuple[str, ...]:
+    """Comma-separated joint names (or ``all``), each once."""
+    try:
+        names = as_names(text, "compliance")
+    except ArgumentError as e:
+        raise argparse.ArgumentTypeError(e.reason) from None
+    if not names:
+        raise argparse.ArgumentTypeError(f"expected joint names, comma-separated (joint_2,joint_3) or all, got '{text[:40]}'")
+    return names
+
+
 def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str) -> None:
     """The robot and drawstring geometry arguments shared by calibrate and simulate."""
     p.add_argument("robot", help="robot name (irb120, or an example-robot-data name) or URDF path")
@@ -238,7 +250,7 @@ def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_de
 
 def add_compliance_arguments(p: argparse.ArgumentParser, what: str = "estimate") -> None:
     """Joint compliance and its loads (see :mod:`calib_pin.robot.deflection`)."""
-    p.add_argument("--compliance", metavar="JOINTS",
+    p.add_argument("--compliance", metavar="JOINTS", type=joint_names,
                    help=f"{what} the compliance [rad/Nm] of these joints under gravity (and payload, cable pull): "
                    "joint names comma-separated (joint_2,joint_3) or all; needs the URDF's inertial data")
     p.add_argument("--payload-kg", type=non_negative(float, 1e4), help="payload mass carried by the end frame, kg")

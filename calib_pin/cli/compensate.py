@@ -68,12 +68,16 @@ def _compensate(args: argparse.Namespace) -> int:
         if problem:
             line = int(targets.lines[rows[k]]) if targets.lines is not None else None
             raise DataError(targets.source, f"pose {pose_ids[rows[k]]}: {problem}", line)
-    notes = {"robot": chain.name, "end_frame": chain.end_frame,
+    own = {k: v for k, v in targets.notes.items() if k != "compensated"}  # the targets' own notes, kept
+    notes = {**own, "robot": chain.name, "end_frame": chain.end_frame,
              "compensated": f"{source.name} (calib-pin {__version__}), targets {Path(targets.source).name}"}
-    out.add(Path(args.out), lambda tmp: write_compensated(tmp, result.q, pose_ids[rows],
-                                                        result.position_error_m, result.orientation_error_rad, notes))
+    extra = {name: column[rows] for name, column in targets.extra.items()}  # a program's speed, zone, name
+    out.add(Path(args.out), lambda tmp: write_compensated(tmp, result.q, pose_ids[rows], result.position_error_m,
+                                                        result.orientation_error_rad, notes, extra))
     written = out.commit()
     _summary(robot, q_nominal, result)
+    if extra:
+        print(f"columns {', '.join(extra)} of {Path(targets.source).name}: copied to the output as they were")
     for path in written:
         print(f"wrote {path}")
     return 0

@@ -23,8 +23,10 @@ from .dataset import MeasurementSet
 
 #: Data kinds a set may hold: drawstring readings, positions, or a pose list.
 KINDS = ("cable", "position", "poses")
-#: How far two set-ups may differ and still agree (the CSV files' rounding), [m].
-SETUP_TOLERANCE_M = 1e-9
+#: How far two set-ups may differ and still agree, [m]: a file's rounding, down to the
+#: micrometre (``600.000`` beside ``600.0004`` mm) is the same set-up; a drawstring's
+#: noise is some 50 um, so the scores cannot tell the two apart.
+SETUP_TOLERANCE_M = 1e-6
 
 
 def _where(data: MeasurementSet) -> str:

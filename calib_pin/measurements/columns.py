@@ -168,7 +168,8 @@ def check_columns(cols: Columns, n_joints: int, robot: str | None, end_frame: st
         if i not in cols.joints:
             raise DataError(str(path), f"missing column q{i}_deg (or q{i}_rad; q{i}_mm for a prismatic joint)", line)
     if cols.position and cols.length is not None:
-        raise DataError(str(path), "has both length and x/y/z columns: one set holds one sensor's data", line)
+        what = "x/y/z columns" if cols.coords else "a point_id column (the marker labels of a position set)"
+        raise DataError(str(path), f"has both length and {what}: one set holds one sensor's data", line)
     if cols.position:
         for axis in "xyz":
             if axis not in cols.coords:

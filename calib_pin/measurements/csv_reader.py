@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from ..arguments import as_bool, as_chain, as_optional, as_path
 from ..exceptions import DataError
 from ..input_files import check_regular
 from ..robot.chain import Chain
@@ -330,9 +331,12 @@ def read_measurements(
         content: The file's bytes when already read (they are checked as ``path``'s).
 
     Raises:
+        ArgumentError: ``path`` is not a path, ``chain`` not a chain (calib_pin.load_chain).
         DataError: the file cannot be read, or a row, column or metadata value is wrong.
     """
-    path = Path(path)
+    path = as_path(path, "path")
+    chain = as_optional(as_chain, chain, "chain")
+    readings, allow_empty = as_bool(readings, "readings"), as_bool(allow_empty, "allow_empty")
     parsed = _split(_read_text(path, content), path)
     if parsed.header is None:
         raise DataError(str(path), "no header line (q1_deg, ..., length_mm) and no data")

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arguments import as_instance, as_path
 from .dataset import MeasurementSet, PointLabel, point_label
 
 
@@ -73,7 +74,14 @@ def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[PointLabel
 def write_measurements(path: str | Path, data: MeasurementSet) -> None:
     """Write a measurement set, metadata first; a position set gets ``pose`` and
     ``point_id`` columns (labels as they are: numbers or text); the set's extra columns
-    follow calib-pin's, so nothing read is lost."""
+    follow calib-pin's, so nothing read is lost.
+
+    Raises:
+        ArgumentError: ``path`` is not a path, or ``data`` not a MeasurementSet.
+        OSError: the file cannot be written.
+    """
+    path = as_path(path, "path")
+    as_instance(data, "data", MeasurementSet, "a MeasurementSet (calib_pin.read_measurements or simulate)")
     lines = metadata_lines(data)
     if any(";" in name or "\t" in name for name in data.extra):  # the header alone would look ';'-separated
         lines.append("# csv: sep=,")
@@ -107,18 +115,25 @@ def write_poses(
 
 def write_compensated(
     path: str | Path, q: np.ndarray, pose_ids: np.ndarray, position_error_m: np.ndarray,
-    orientation_error_rad: np.ndarray, notes: dict[str, str],
+    orientation_error_rad: np.ndarray, notes: dict[str, str], extra: dict[str, np.ndarray] | None = None,
 ) -> None:
-    """Write compensated joint targets: ``pose,q1_deg,...`` as a pose list, then each
-    row's remaining end-frame error (``position_error_mm``, ``orientation_error_urad``;
-    the reader reads past them).
+    """Write compensated joint targets: ``pose,q1_deg,...`` as a pose list, the targets'
+    other columns as they were (a program's speed, zone or name), then each row's
+    remaining end-frame error (``position_error_mm``, ``orientation_error_urad``; the
+    reader reads past them).
 
     Args:
         q: Joint commands, shape (n_poses, n_joints), [rad].
         position_error_m, orientation_error_rad: Remaining errors, shape (n_poses,).
+        extra: The targets' other columns, name to shape (n_poses,) (numbers or text).
     """
+    kept = MeasurementSet(q=q, values=np.zeros(len(q)), kind="poses", extra=dict(extra or {}))
     lines = [f"# {k}: {v}" for k, v in notes.items()]
-    lines.append(header(q.shape[1], "poses", with_pose=True) + ",position_error_mm,orientation_error_urad")
-    lines += [row(qk, labels=(int(pose),)) + f",{e_p * 1e3:.6f},{e_r * 1e6:.4f}"
-              for qk, pose, e_p, e_r in zip(q, pose_ids, position_error_m, orientation_error_rad, strict=True)]
+    if any(";" in name or "\t" in name for name in kept.extra):  # the header alone would look ';'-separated
+        lines.append("# csv: sep=,")
+    lines.append(",".join([header(q.shape[1], "poses", with_pose=True), *map(text_field, kept.extra),
+                           "position_error_mm", "orientation_error_urad"]))
+    lines += [",".join([row(qk, labels=(int(pose),)), *_extra_fields(kept, k)]) + f",{e_p * 1e3:.6f},{e_r * 1e6:.4f}"
+              for k, (qk, pose, e_p, e_r) in enumerate(zip(q, pose_ids, position_error_m, orientation_error_rad,
+                                                             strict=True))]
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")

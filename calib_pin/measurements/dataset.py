@@ -32,6 +32,16 @@ def point_label(value: Any) -> PointLabel:
     raise CalibPinError(f"point_id {value} is not a marker label (a whole number or a text label)")
 
 
+def _as_array(value: list[Any] | tuple[Any, ...]) -> np.ndarray:
+    """``value`` as an array; a ragged one as an object array (refused by the checks)."""
+    try:
+        return np.asarray(value)
+    except ValueError:
+        array = np.empty(len(value), dtype=object)
+        array[:] = list(value)
+        return array
+
+
 @dataclass
 class MeasurementSet:
     """The rows of one session.
@@ -75,6 +85,14 @@ class MeasurementSet:
     pose_ids: np.ndarray | None = None
     point_ids: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        """A list or tuple given for an array field (a set made by hand) becomes an array;
+        what it holds is checked by :func:`~calib_pin.measurements.checks.check_measurements`."""
+        for name in ("q", "values", "anchor", "tool", "lines", "pose_ids", "point_ids"):
+            value = getattr(self, name)
+            if isinstance(value, (list, tuple)):
+                setattr(self, name, _as_array(value))
 
     def __len__(self) -> int:
         return len(self.q)

@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..arguments import as_names
 from ..exceptions import CalibPinError, RobotError
 from .chain import Chain
 
@@ -304,7 +305,7 @@ def compliance_spec(chain: Chain, joints: str | Sequence[str] | None, payload_kg
         CalibPinError: loads without compliant joints, a negative or non-finite value,
             an unknown joint, or a URDF without inertial data.
     """
-    names = tuple(j.strip() for j in (joints.split(",") if isinstance(joints, str) else joints or ()) if j.strip())
+    names = as_names(joints, "compliance")  # a joint named twice is refused
     if names == ("all",):
         names = tuple(chain.joint_names)
     loads = {"payload_kg": payload_kg, "payload_com_mm": payload_com_mm, "cable_tension_n": cable_tension_n}

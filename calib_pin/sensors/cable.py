@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arguments import as_array, as_float
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
@@ -41,6 +42,24 @@ class Drawstring:
     anchor: np.ndarray
     tool: np.ndarray
     length_offset: float = 0.0
+
+    def __post_init__(self) -> None:
+        """Checked as given (a list is fine): 3 finite numbers each, a finite offset, [m].
+
+        Raises:
+            ArgumentError: naming ``anchor``, ``tool`` or ``length_offset``.
+        """
+        object.__setattr__(self, "anchor", as_array(self.anchor, "anchor", (3,), unit="m"))
+        object.__setattr__(self, "tool", as_array(self.tool, "tool", (3,), unit="m"))
+        object.__setattr__(self, "length_offset", as_float(self.length_offset, "length_offset", unit="m"))
+
+    @classmethod
+    def _unchecked(cls, anchor: np.ndarray, tool: np.ndarray, length_offset: float) -> Drawstring:
+        """A geometry an estimator is trying (its x may be anything on the way): not checked."""
+        sensor = object.__new__(cls)
+        for name, value in (("anchor", anchor), ("tool", tool), ("length_offset", length_offset)):
+            object.__setattr__(sensor, name, value)
+        return sensor
 
     def to_dict(self) -> dict:
         """In mm, the measurement file's metadata names."""
@@ -113,7 +132,7 @@ class CableModel(MeasurementModel):
             anchor, extra = anchor + extra[:3], extra[3:]
         if "offset" in self.estimate:
             offset = offset + extra[0]
-        return Drawstring(anchor=anchor, tool=self.sensor.tool, length_offset=offset)
+        return Drawstring._unchecked(anchor, self.sensor.tool, offset)
 
     def geometry_report(self, x: np.ndarray | None) -> dict:
         return self.geometry_at(x).to_dict()

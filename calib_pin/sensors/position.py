@@ -199,6 +199,29 @@ class PositionModel(MeasurementModel):
             errors.append(np.linalg.norm(predicted - data.values[rows], axis=1))
         return np.concatenate(errors) if errors else np.zeros(0)
 
+    def session_frame_shift(self, x: np.ndarray | None, data: MeasurementSet) -> float | None:
+        """How far a separate session's own device frame is from the calibration's, [m]:
+        the RMS distance, over the session's rows of known markers, between where the
+        calibration's frame and the session's best-fit (Kabsch) frame put the model's
+        points. None with fewer than 3 such rows (nothing to fit a frame to)."""
+        assert data.point_ids is not None
+        device = self.geometry_at(x)
+        known = set(device.labels)
+        session_labels, session_points = marker_labels(data.point_ids, data.source or "the measurement set")
+        base, measured = [], []
+        for k, label in enumerate(session_labels):
+            if label in known or _other_form(label) in known:
+                rows = np.flatnonzero(session_points == k)
+                base.append(self.points_at(x, data.q[rows], device.markers[int(device.index_of([label])[0])]))
+                measured.append(data.values[rows])
+        if not base or sum(len(b) for b in base) < 3:
+            return None
+        points = np.concatenate(base)
+        own = _kabsch(points, np.concatenate(measured))
+        ours = points @ device.frame.rotation.T + device.frame.translation
+        theirs = points @ own.rotation.T + own.translation
+        return float(np.sqrt(np.mean(np.sum((theirs - ours) ** 2, axis=1))))
+
     def locate(self, x: np.ndarray | None, q: np.ndarray, position: np.ndarray) -> np.ndarray:
         """The end-frame point [m] that the model at x puts at device-frame ``position``
         [m] at joint angles q (one row)."""
