@@ -160,3 +160,39 @@ def test_compensate_hint_names_only_its_own_options(calibration, tmp_path, capsy
     assert code == 2 and len(err) == 1, err
     assert "give the robot by its name 'irb120'" in err[0] and "--model" not in err[0], err[0]
     assert not (tmp_path / "x.csv").exists()
+
+
+#: Each command's output options that a FIFO (standing for /dev/null) is given as.
+SPECIAL = {
+    "make-poses": ["irb120", "--n", "4", "--out", "f"],
+    "plan-poses": ["irb120", "--n", "4", "--candidates", "40", "--out", "f", "--quiet"],
+    "simulate": ["irb120", "--poses", "5", "--out", "f"],
+    "collect": ["irb120", "--poses", "p.csv", "--out", "o.csv", "--port", "/dev/null/x", "--save-profile", "f"],
+}
+
+
+@pytest.mark.parametrize("name", SPECIAL)
+def test_a_device_or_pipe_output_is_refused_even_with_force(name, tmp_path, monkeypatch, capsys):
+    """``--out /dev/null --force`` once replaced /dev/null by a regular file (as root): an
+    output that is a device, a pipe or a socket is refused, --force or not; a FIFO stands
+    for the device here."""
+    monkeypatch.chdir(tmp_path)
+    assert command("make-poses")(["irb120", "--n", "4", "--out", "p.csv"]) == 0
+    os.mkfifo("f")
+    capsys.readouterr()
+    assert command(name)([*SPECIAL[name], "--force"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "f is a pipe or socket, not a file" in err[0], err
+    assert Path("f").is_fifo() and not Path("o.csv").exists()
+    with pytest.raises(OutputError, match="is a pipe or socket"):
+        Outputs(tmp_path).check(tmp_path / "f")
+
+
+def test_compensate_to_a_pipe_is_refused_even_with_force(calibration, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert command("make-poses")(["irb120", "--n", "4", "--out", "t.csv"]) == 0
+    os.mkfifo("f")
+    capsys.readouterr()
+    args = ["irb120", "--calibration", str(calibration), "--targets", "t.csv", "--out", "f", "--force"]
+    assert command("compensate")(args) == 2
+    assert "f is a pipe or socket" in capsys.readouterr().err and Path("f").is_fifo()

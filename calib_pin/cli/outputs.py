@@ -5,6 +5,8 @@ Every command writes through :class:`Outputs`, so one rule holds for all of them
 * an output that is one of the command's inputs is always refused (``--force`` too):
   the paths are compared as files (:func:`os.path.samefile`), so ``./p.csv``, a
   symbolic link or a hard link to an input are caught as well;
+* an output that is a device, a pipe or a socket is always refused (a rename would put
+  a regular file in the place of ``/dev/null``);
 * an existing output is refused unless ``force`` (the command's ``--force``) is given;
 * every output is written beside its final name and synced; only when all are written
   are they renamed into place. A failure part-way (a full disk, a rename that fails,
@@ -19,6 +21,7 @@ import contextlib
 import errno
 import os
 import shutil
+import stat
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -108,6 +111,9 @@ class Outputs:
         refuse_input(path, self.inputs)
         if path.is_dir():
             raise OutputError(f"{path} is a folder: give a file name")
+        special = _special(path)
+        if special:
+            raise OutputError(f"{path} is {special}, not a file: give a file name (--force never replaces it)")
         if not self.force and os.path.lexists(path):
             raise OutputError(f"{path} exists: give --force to replace it")
         return path
@@ -177,6 +183,18 @@ class Outputs:
         for _, backup in placed:
             if backup is not None:
                 _remove(backup)
+
+
+def _special(path: Path) -> str | None:
+    """What ``path`` is when it exists but is neither a regular file nor a symbolic link
+    (a rename would replace ``/dev/null`` or a FIFO by a regular file), else None."""
+    try:
+        mode = os.lstat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISLNK(mode) or stat.S_ISDIR(mode):
+        return None
+    return "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a pipe or socket"
 
 
 def _sibling(path: Path, kind: str) -> Path:
