@@ -285,6 +285,12 @@ R3_OUTPUTS: list[Case] = [
      2, "s.json is an input of this command (--profile)"),
     (COL, ["irb120", "--poses", "p.csv", "--out", "p.csv", *PORT], {"p.csv": POSES}, 2,
      "p.csv is an input of this command (--poses)"),
+    (CAL, ["irb120", "--data", "o/report.json", "--out", "o", "--method", "lm", "--no-html"], {"o/report.json": data()},
+     2, "o/report.json is an input of this command (--data)"),
+    (CAL, ["irb120", "--data", "d.csv", "--test-data", "./report.html", "--out", ".", "--method", "lm"],
+     {"d.csv": data(), "report.html": data()}, 2, "report.html is an input of this command (--test-data)"),
+    ("batch", ["summary.csv", "--out", "."], {"summary.csv": data()}, 2,
+     "summary.csv is an input of this command (SESSION summary.csv)"),
     # messages that name the real cause
     (CAL, ["irb120", "--data", "/dev/zero"], {}, 2, "/dev/zero: is not a regular file"),
     (SIM, [*SIM5, "--poses-file", "/dev/zero"], {}, 2, "/dev/zero: is not a regular file"),

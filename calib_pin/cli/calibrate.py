@@ -35,7 +35,7 @@ from .common import (
     positive_float,
     run,
 )
-from .outputs import Outputs
+from .outputs import Outputs, input_role, robot_file
 
 #: Export format -> what it writes.
 EXPORTS = {"urdf": "corrected URDF", "yaml": "corrected joint origins for xacro (and ur_description's layout)",
@@ -207,7 +207,8 @@ def _calibrate(args: argparse.Namespace) -> int:
     result = calibrate(args.robot, args.data, method=args.method, seed=args.seed,
                        test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
                        progress=_announce, **_setup_options(args))
-    out = Outputs(Path(args.out))
+    inputs = {"ROBOT": robot_file(args.robot), "--data": args.data, "--test-data": args.test_data}
+    out = Outputs(Path(args.out), inputs=inputs)  # an input in --out is never replaced, nor removed as stale
     report = build_report(result)
     refused = result.sanity_error() if result.kinematic else None
     notes: list[str] = []
@@ -223,7 +224,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     written = out.commit()  # all together or none
     for stale in _STALE:  # no earlier run's file beside this run's report
         path = out.folder / stale.format(name=result.chain.name)
-        if path not in written and path.exists():
+        if path not in written and path.exists() and input_role(path, inputs) is None:
             path.unlink()
     if refused:
         return fail(f"{refused} (report: {out.folder / 'report.json'})")
