@@ -291,6 +291,12 @@ R3_OUTPUTS: list[Case] = [
      {"d.csv": data(), "report.html": data()}, 2, "report.html is an input of this command (--test-data)"),
     ("batch", ["summary.csv", "--out", "."], {"summary.csv": data()}, 2,
      "summary.csv is an input of this command (SESSION summary.csv)"),
+    # a file where an output's folder should be: named as such, not "File exists"
+    (MK, ["irb120", "--n", "5", "--out", "f/p.csv"], {"f": "x"}, 2, "f/p.csv: cannot create its folder f: a file is in"),
+    (CAL, ["irb120", "--data", "d.csv", "--out", "f/o", "--method", "lm", "--no-html"], {"d.csv": data(), "f": "x"}, 2,
+     "cannot create its folder f/o: a file is in the way"),
+    ("batch", ["d.csv", "--out", "f/o"], {"d.csv": data(), "f": "x"}, 2,
+     "cannot keep a finished set (Not a directory); none of the 1 set(s) is kept"),
     # messages that name the real cause
     (CAL, ["irb120", "--data", "/dev/zero"], {}, 2, "/dev/zero: is not a regular file"),
     (SIM, [*SIM5, "--poses-file", "/dev/zero"], {}, 2, "/dev/zero: is not a regular file"),

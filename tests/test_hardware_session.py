@@ -325,3 +325,26 @@ def test_refused_collect_writes_no_header_and_no_profile(poses, tmp_path, monkey
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 4 and "cannot open /dev/nonexistent-tty" in err[0] and "prof.json exists" in err[1], err
     assert "was collected with anchor_mm none" in err[-1], err
+
+
+def test_a_session_that_cannot_be_created_names_it(poses, tmp_path, capsys):
+    """A file where the session's folder should be, or a read-only folder: one line naming
+    the session (not its temporary file, not "File exists"), and no file left."""
+    path, values = poses
+    (tmp_path / "f").write_text("x")
+    with FakeIndicator("modbus", values_mm=values) as fake:
+        assert _collect(fake, path, tmp_path / "f" / "s.csv") == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "s.csv: cannot create its folder" in err[0] and "a file is in the way" in err[0], err
+        ro = tmp_path / "ro"
+        ro.mkdir()
+        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k,ro", "tmpfs", str(ro)],
+                          capture_output=True).returncode != 0:
+            pytest.skip("cannot mount a tmpfs here")
+        try:
+            assert _collect(fake, path, ro / "s.csv") == 2
+        finally:
+            subprocess.run(["umount", str(ro)], check=True)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{ro / 's.csv'}: cannot create the session: Read-only" in err[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f", "ro"]

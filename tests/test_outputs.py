@@ -196,3 +196,29 @@ def test_compensate_to_a_pipe_is_refused_even_with_force(calibration, tmp_path, 
     args = ["irb120", "--calibration", str(calibration), "--targets", "t.csv", "--out", "f", "--force"]
     assert command("compensate")(args) == 2
     assert "f is a pipe or socket" in capsys.readouterr().err and Path("f").is_fifo()
+
+
+@pytest.fixture
+def read_only_folder(tmp_path):
+    """A read-only tmpfs (root writes through chmod, not through a read-only mount);
+    skipped where mounting is not permitted."""
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k,ro", "tmpfs", str(folder)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
+    try:
+        yield folder
+    finally:
+        subprocess.run(["umount", str(folder)], check=True)
+
+
+def test_a_read_only_folder_names_the_output_not_its_temporary_file(read_only_folder, tmp_path, capsys):
+    """The clean-up of a temporary file that could not be made once replaced the error
+    with ``ro/.p.csv.PID.tmp: Read-only file system``; the line names the output."""
+    for out in (read_only_folder / "p.csv", read_only_folder / "sub" / "p.csv"):
+        assert command("make-poses")(["irb120", "--n", "4", "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{out}: cannot" in err[0] and "Read-only file system" in err[0], err
+        assert ".tmp" not in err[0], err

@@ -136,7 +136,7 @@ class Outputs:
         try:
             for path, write in self._pending:
                 self.check(path)  # again: a file may have appeared while the command worked
-                path.parent.mkdir(parents=True, exist_ok=True)
+                _make_folder(path)
                 tmp = _sibling(path, "tmp")
                 staged.append((tmp, path))
                 try:
@@ -197,6 +197,22 @@ def _special(path: Path) -> str | None:
     return "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a pipe or socket"
 
 
+def _make_folder(path: Path) -> None:
+    """Create the folder of output ``path``.
+
+    Raises:
+        OutputError: it cannot be made (a file is in its way, a read-only disk).
+    """
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise OutputError(f"{path}: cannot create its folder {path.parent}: a file is in the way; "
+                          "no output was changed") from None
+    except OSError as e:
+        raise OutputError(f"{path}: cannot create its folder {path.parent}: {e.strerror or e}; "
+                          "no output was changed") from None
+
+
 def _sibling(path: Path, kind: str) -> Path:
     """A hidden name beside ``path`` for this process: ``.NAME.PID.KIND``."""
     return path.with_name(f".{path.name}.{os.getpid()}.{kind}")
@@ -253,7 +269,9 @@ def _fsync_folder(folder: Path) -> None:
 
 
 def _remove(path: Path) -> None:
-    with contextlib.suppress(FileNotFoundError):
+    """Remove ``path`` if it is there; a clean-up that fails (a read-only folder, where no
+    such file was made) never hides the error being reported."""
+    with contextlib.suppress(OSError):
         path.unlink()
 
 
