@@ -222,3 +222,30 @@ def test_a_read_only_folder_names_the_output_not_its_temporary_file(read_only_fo
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and f"{out}: cannot" in err[0] and "Read-only file system" in err[0], err
         assert ".tmp" not in err[0], err
+
+
+@pytest.mark.parametrize(("name", "argv"), [
+    ("compensate", ["--targets", "t.csv", "--out", "{robots}/irb120.urdf"]),
+    ("make-poses", ["--n", "4", "--out", "{robots}/irb120.toml"]),
+    ("plan-poses", ["--n", "4", "--candidates", "40", "--quiet", "--out", "{robots}/irb120.urdf"]),
+    ("simulate", ["--poses", "4", "--out", "{robots}/irb120_default.csv"]),
+])
+def test_a_robot_given_by_name_keeps_its_files(name, argv, calibration, tmp_path, monkeypatch, capsys):
+    """``compensate irb120 ... --out robots/irb120.urdf --force`` once replaced the shipped
+    URDF the name reads: a robot's own files are inputs (a copy of robots/ stands in)."""
+    import shutil
+
+    import calib_pin.robot.description as description
+
+    robots = tmp_path / "robots"
+    shutil.copytree(description.ROBOTS_DIR, robots)
+    monkeypatch.setattr(description, "ROBOTS_DIR", robots)
+    monkeypatch.chdir(tmp_path)
+    assert command("make-poses")(["irb120", "--n", "4", "--out", "t.csv"]) == 0
+    before = {p.name: p.read_bytes() for p in robots.iterdir()}
+    extra = ["--calibration", str(calibration)] if name == "compensate" else []
+    capsys.readouterr()
+    assert command(name)(["irb120", *extra, *[a.format(robots=robots) for a in argv], "--force"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is an input of this command (ROBOT irb120's" in err[0], err
+    assert {p.name: p.read_bytes() for p in robots.iterdir()} == before

@@ -35,7 +35,7 @@ from .common import (
     positive_float,
     run,
 )
-from .outputs import Outputs, input_role, robot_file
+from .outputs import Outputs, input_role, robot_inputs
 
 #: Export format -> what it writes.
 EXPORTS = {"urdf": "corrected URDF", "yaml": "corrected joint origins for xacro (and ur_description's layout)",
@@ -207,7 +207,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     result = calibrate(args.robot, args.data, method=args.method, seed=args.seed,
                        test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
                        progress=_announce, **_setup_options(args))
-    inputs = {"ROBOT": robot_file(args.robot), "--data": args.data, "--test-data": args.test_data}
+    inputs = {**robot_inputs(args.robot), "--data": args.data, "--test-data": args.test_data}
     out = Outputs(Path(args.out), inputs=inputs)  # an input in --out is never replaced, nor removed as stale
     report = build_report(result)
     refused = result.sanity_error() if result.kinematic else None

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..progress import quiet_progress
 from .common import SENSOR_FAULT_EXIT, OneLineParser, count, fail, non_negative, one_line, run, xyz_mm
-from .outputs import Outputs, add_force_argument, refuse_input, robot_file
+from .outputs import Outputs, add_force_argument, refuse_input, robot_inputs
 
 if TYPE_CHECKING:
     from ..hardware.reader import SensorProfile
@@ -78,7 +78,7 @@ def _profile(args: argparse.Namespace) -> SensorProfile:
 def _outputs(args: argparse.Namespace, profile: SensorProfile) -> Outputs:
     """The --save-profile file, refused now if it may not be written (an existing file
     without --force; an input, or the session, even with it); written by the caller last."""
-    inputs = {"ROBOT": robot_file(args.robot), "--poses": args.poses, "--profile": args.profile,
+    inputs = {**robot_inputs(args.robot), "--poses": args.poses, "--profile": args.profile,
               "--port": args.port}
     if args.out:
         refuse_input(args.out, inputs)

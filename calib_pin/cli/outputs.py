@@ -49,6 +49,19 @@ def robot_file(robot: str | None) -> str | None:
     return robot if robot and os.path.isfile(robot) else None
 
 
+def robot_inputs(robot: str | None) -> dict[str, str | None]:
+    """The files a robot argument reads, by label: a URDF path; for one of calib-pin's own
+    robots by name (``irb120``), its URDF, its DH table and its default data set, which
+    an output given by path (``--out robots/irb120.urdf --force``) must never replace."""
+    from ..robot.description import ROBOTS_DIR, own_robot_names, resolve_robot
+
+    if robot_file(robot) or not robot or robot not in own_robot_names():
+        return {"ROBOT": robot_file(robot)}
+    found = resolve_robot(robot)
+    return {f"ROBOT {robot}'s URDF": str(found.urdf), f"ROBOT {robot}'s DH table": str(ROBOTS_DIR / f"{robot}.toml"),
+            f"ROBOT {robot}'s default data": str(found.default_data) if found.default_data else None}
+
+
 def _same_file(a: Path, b: Path) -> bool:
     """Whether ``a`` and ``b`` name one file (either may not exist yet)."""
     try:
@@ -276,4 +289,4 @@ def _remove(path: Path) -> None:
 
 
 __all__ = ["Inputs", "OutputError", "Outputs", "add_force_argument", "input_role", "refuse_input",
-           "robot_file"]
+           "robot_file", "robot_inputs"]
