@@ -291,6 +291,8 @@ R3_OUTPUTS: list[Case] = [
      {"d.csv": data(), "report.html": data()}, 2, "report.html is an input of this command (--test-data)"),
     ("batch", ["summary.csv", "--out", "."], {"summary.csv": data()}, 2,
      "summary.csv is an input of this command (SESSION summary.csv)"),
+    (CMP, ["irb120", "--data", "o/table1.csv", "--out", "o", "--methods", "lm"], {"o/table1.csv": data()}, 2,
+     "o/table1.csv is an input of this command (--data)"),
     # a file where an output's folder should be: named as such, not "File exists"
     (MK, ["irb120", "--n", "5", "--out", "f/p.csv"], {"f": "x"}, 2, "f/p.csv: cannot create its folder f: a file is in"),
     (CAL, ["irb120", "--data", "d.csv", "--out", "f/o", "--method", "lm", "--no-html"], {"d.csv": data(), "f": "x"}, 2,
