@@ -212,6 +212,10 @@ def _collect(args: argparse.Namespace) -> int:
             print(f"error: {one_line(f'sensor: {e}; {session.done} of {len(poses)} poses are saved in {args.out}')}; "
                   "fix the fault and run the same command to resume", file=sys.stderr)
             return SENSOR_FAULT_EXIT
+        except OSError as e:  # the progress lines could not be printed (stdout on a full disk), say
+            where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+            return fail(f"{where}{e.strerror or e}; {session.done} of {len(poses)} poses are saved in {args.out}: "
+                        "run the same command to resume")
         finally:
             reader.close()
     state = "complete" if not session.remaining else f"{len(session.remaining)} poses left"
