@@ -249,3 +249,27 @@ def test_a_robot_given_by_name_keeps_its_files(name, argv, calibration, tmp_path
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "is an input of this command (ROBOT irb120's" in err[0], err
     assert {p.name: p.read_bytes() for p in robots.iterdir()} == before
+
+
+@pytest.mark.parametrize(("name", "argv"), [
+    ("make-poses", ["irb120", "--n", "4", "--out", "p.csv"]),
+    ("simulate", ["irb120", "--poses", "5", "--out", "s.csv"]),
+    ("calibrate", ["irb120", "--method", "lm", "--no-html", "--out", "o"]),
+])
+def test_ctrl_c_after_the_commit_does_not_say_nothing_was_written(name, argv, tmp_path, monkeypatch, capsys):
+    """Ctrl-C while the summary is printed, after every output is in place, once said
+    'nothing was written': the line names what was written in full."""
+    import calib_pin.cli.outputs as outputs
+
+    real = outputs.Outputs.commit
+
+    def commit_then_ctrl_c(self):
+        real(self)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(outputs.Outputs, "commit", commit_then_ctrl_c)
+    monkeypatch.chdir(tmp_path)
+    assert command(name)(argv) == 130
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1 and "after the outputs were written in full" in err[0], err
+    assert "nothing was written" not in err[0]

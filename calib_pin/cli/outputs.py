@@ -32,6 +32,10 @@ from ..exceptions import CalibPinError
 Inputs = Mapping[str, "str | os.PathLike[str] | None"]
 
 
+#: Every file a commit of this process placed, in order (what a Ctrl-C after it keeps).
+WRITTEN: list[Path] = []
+
+
 class OutputError(CalibPinError):
     """An output file that must not be written: an input, a folder, or an existing file
     without ``--force``; or one that could not be written (nothing was then changed)."""
@@ -161,6 +165,7 @@ class Outputs:
         finally:
             for tmp, _ in staged:
                 _remove(tmp)
+        WRITTEN.extend(path for _, path in staged)
         for folder in dict.fromkeys(path.parent for _, path in staged):
             _fsync_folder(folder)
         return [path for _, path in staged]
@@ -288,5 +293,5 @@ def _remove(path: Path) -> None:
         path.unlink()
 
 
-__all__ = ["Inputs", "OutputError", "Outputs", "add_force_argument", "input_role", "refuse_input",
+__all__ = ["WRITTEN", "Inputs", "OutputError", "Outputs", "add_force_argument", "input_role", "refuse_input",
            "robot_file", "robot_inputs"]
