@@ -282,11 +282,14 @@ def run_batch(
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise CalibPinError(f"{out}: the output folder is a file")
+    inputs: dict[str, str | None] = {f"SESSION {t.data}": t.data for t in tasks}
+    inputs["--robot"] = tasks[0].robot if tasks else None
+    Outputs(out, inputs=inputs).check(out / "summary.csv")  # an input is never an output: refused before the work
     checkpoint = Checkpoint(out, "set")
     outcomes = checkpoint.map(limited(run_task), tasks, [task_key(t) for t in tasks], encode=dataclasses.asdict,
                               decode=_outcome_from_json, keep=lambda o: not o.retry, jobs=jobs, scheduler=scheduler,
                               notify=notify)
-    files = Outputs(out)
+    files = Outputs(out, inputs=inputs)
     stale = [path for outcome in outcomes for path in _earlier_files(out, outcome.name)]
     try:
         for outcome in outcomes:

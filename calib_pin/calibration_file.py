@@ -28,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from .arguments import MAX_MM, as_bool, as_optional, as_path, as_robot
+from .atomic import write_text
 from .compensation import CalibratedRobot
 from .exceptions import CalibPinError, DataError, RobotError
 from .input_files import check_regular
@@ -119,7 +120,7 @@ def write_calibration(result: CalibrationResult, path: str | Path) -> Path:
     if negative:  # compensate would use it blindly
         raise CalibPinError(f"{negative[0]} is negative (a compliance is >= 0): no calibration file written")
     path = Path(path)
-    path.write_text(json.dumps(calibration_document(result), indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    write_text(path, json.dumps(calibration_document(result), indent=2, allow_nan=False) + "\n")
     return path
 
 

@@ -183,8 +183,9 @@ class Checkpoint:
                 try:
                     self.save(keys[i], encode(result))
                 except OSError as e:
+                    kept = self.kept(saved, len(items)) if saved else f"none of the {len(items)} {self.noun}(s) is kept"
                     raise CalibPinError(f"{self.folder}: cannot keep a finished {self.noun} ({e.strerror or e}); "
-                                        f"{self.kept(saved, len(items))}") from None
+                                        f"{kept}") from None
                 saved += 1
         except KeyboardInterrupt:
             raise Interrupted(f"stopped by Ctrl-C: {self.kept(saved, len(items))}") from None

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from .atomic import write_text
 from .optional import require
 
 
@@ -244,7 +245,7 @@ def write_html_report(report: dict[str, Any], path: str | Path) -> Path:
     page = render_html(report)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(page, encoding="utf-8")
+    write_text(path, page)
     return path
 
 

@@ -29,6 +29,7 @@ from .arguments import (
     as_parameter_model,
     as_xyz_mm,
 )
+from .atomic import write_text
 from .exceptions import ArgumentError, CalibPinError, DataError
 from .input_files import check_regular
 from .measurements import MeasurementSet
@@ -143,7 +144,7 @@ class Truth:
         if self.compliance is not None and self.compliance_values is not None:
             doc["compliance"] = {**self.compliance.to_dict(),
                                  "compliance_rad_per_Nm": np.asarray(self.compliance_values).tolist()}
-        Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+        write_text(path, json.dumps(doc, indent=2) + "\n")
 
     @classmethod
     def from_json(cls, path: str | Path, params: ParameterModel) -> Truth:

@@ -215,3 +215,32 @@ def test_every_command_runs_blas_on_one_thread():
     env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
     assert out.stdout.strip() == "1"
+
+
+def test_ctrl_c_while_a_command_loads_or_parses_is_one_line(monkeypatch, capsys):
+    """Ctrl-C in the half second the libraries load, or while the options are parsed,
+    once printed a 30-line traceback: it is one line and exit 130 (the interrupt is raised
+    where a real one lands: inside the import, inside argparse)."""
+    import argparse
+    import importlib
+
+    import calib_pin.cli as cli
+
+    real = importlib.import_module
+
+    def interrupted_import(name, *args):
+        if name.startswith("calib_pin.cli."):
+            raise KeyboardInterrupt
+        return real(name, *args)
+
+    monkeypatch.setattr(cli.importlib, "import_module", interrupted_import)
+    assert cli.main(["calibrate", "irb120"]) == 130
+    monkeypatch.setattr(cli.importlib, "import_module", real)
+
+    def interrupted_parse(self, *args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_known_args", interrupted_parse)
+    assert cli.command("make-poses")(["irb120"]) == 130
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert err == ["stopped by Ctrl-C: nothing was written"] * 2, err

@@ -325,3 +325,47 @@ def test_refused_collect_writes_no_header_and_no_profile(poses, tmp_path, monkey
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 4 and "cannot open /dev/nonexistent-tty" in err[0] and "prof.json exists" in err[1], err
     assert "was collected with anchor_mm none" in err[-1], err
+
+
+def test_a_session_that_cannot_be_created_names_it(poses, tmp_path, capsys):
+    """A file where the session's folder should be, or a read-only folder: one line naming
+    the session (not its temporary file, not "File exists"), and no file left."""
+    path, values = poses
+    (tmp_path / "f").write_text("x")
+    with FakeIndicator("modbus", values_mm=values) as fake:
+        assert _collect(fake, path, tmp_path / "f" / "s.csv") == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "s.csv: cannot create its folder" in err[0] and "a file is in the way" in err[0], err
+        ro = tmp_path / "ro"
+        ro.mkdir()
+        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k,ro", "tmpfs", str(ro)],
+                          capture_output=True).returncode != 0:
+            pytest.skip("cannot mount a tmpfs here")
+        try:
+            assert _collect(fake, path, ro / "s.csv") == 2
+        finally:
+            subprocess.run(["umount", str(ro)], check=True)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{ro / 's.csv'}: cannot create the session: Read-only" in err[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f", "ro"]
+
+
+def test_stdout_on_a_full_disk_says_how_many_poses_are_saved(poses, tmp_path):
+    """``collect ... > log.txt`` on a full disk: printing a progress line fails. That was
+    'error: File too large' alone; the line now says how many poses are saved, and the
+    session holds whole rows only (a rerun completes it)."""
+    path, values = poses
+    local = tmp_path / "p.csv"
+    local.write_bytes(Path(path).read_bytes())
+    with FakeIndicator("modbus", values_mm=values, follow=tmp_path / "s.csv") as fake:
+        command = [sys.executable, str(ROOT / "scripts" / "collect.py"), "irb120", "--poses", "p.csv",
+                   "--port", fake.path, "--out", "s.csv", *MODBUS, *FAST]
+        with open(tmp_path / "log.txt", "w") as log:
+            done = subprocess.run(command, cwd=tmp_path, stdout=log, stderr=subprocess.PIPE, text=True,
+                                  timeout=120, preexec_fn=_full_disk(1500))
+        err = done.stderr.strip().splitlines()
+        assert done.returncode == 2 and len(err) == 1, done.stderr
+        saved = len(_rows(tmp_path / "s.csv")[0])
+        assert 0 < saved < N and f"{saved} of {N} poses are saved in s.csv" in err[0], err[0]
+        assert _collect(fake, tmp_path / "p.csv", tmp_path / "s.csv") == 0
+    assert _rows(tmp_path / "s.csv")[0] == list(range(1, N + 1))

@@ -160,3 +160,116 @@ def test_compensate_hint_names_only_its_own_options(calibration, tmp_path, capsy
     assert code == 2 and len(err) == 1, err
     assert "give the robot by its name 'irb120'" in err[0] and "--model" not in err[0], err[0]
     assert not (tmp_path / "x.csv").exists()
+
+
+#: Each command's output options that a FIFO (standing for /dev/null) is given as.
+SPECIAL = {
+    "make-poses": ["irb120", "--n", "4", "--out", "f"],
+    "plan-poses": ["irb120", "--n", "4", "--candidates", "40", "--out", "f", "--quiet"],
+    "simulate": ["irb120", "--poses", "5", "--out", "f"],
+    "collect": ["irb120", "--poses", "p.csv", "--out", "o.csv", "--port", "/dev/null/x", "--save-profile", "f"],
+}
+
+
+@pytest.mark.parametrize("name", SPECIAL)
+def test_a_device_or_pipe_output_is_refused_even_with_force(name, tmp_path, monkeypatch, capsys):
+    """``--out /dev/null --force`` once replaced /dev/null by a regular file (as root): an
+    output that is a device, a pipe or a socket is refused, --force or not; a FIFO stands
+    for the device here."""
+    monkeypatch.chdir(tmp_path)
+    assert command("make-poses")(["irb120", "--n", "4", "--out", "p.csv"]) == 0
+    os.mkfifo("f")
+    capsys.readouterr()
+    assert command(name)([*SPECIAL[name], "--force"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "f is a pipe or socket, not a file" in err[0], err
+    assert Path("f").is_fifo() and not Path("o.csv").exists()
+    with pytest.raises(OutputError, match="is a pipe or socket"):
+        Outputs(tmp_path).check(tmp_path / "f")
+
+
+def test_compensate_to_a_pipe_is_refused_even_with_force(calibration, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert command("make-poses")(["irb120", "--n", "4", "--out", "t.csv"]) == 0
+    os.mkfifo("f")
+    capsys.readouterr()
+    args = ["irb120", "--calibration", str(calibration), "--targets", "t.csv", "--out", "f", "--force"]
+    assert command("compensate")(args) == 2
+    assert "f is a pipe or socket" in capsys.readouterr().err and Path("f").is_fifo()
+
+
+@pytest.fixture
+def read_only_folder(tmp_path):
+    """A read-only tmpfs (root writes through chmod, not through a read-only mount);
+    skipped where mounting is not permitted."""
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k,ro", "tmpfs", str(folder)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
+    try:
+        yield folder
+    finally:
+        subprocess.run(["umount", str(folder)], check=True)
+
+
+def test_a_read_only_folder_names_the_output_not_its_temporary_file(read_only_folder, tmp_path, capsys):
+    """The clean-up of a temporary file that could not be made once replaced the error
+    with ``ro/.p.csv.PID.tmp: Read-only file system``; the line names the output."""
+    for out in (read_only_folder / "p.csv", read_only_folder / "sub" / "p.csv"):
+        assert command("make-poses")(["irb120", "--n", "4", "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{out}: cannot" in err[0] and "Read-only file system" in err[0], err
+        assert ".tmp" not in err[0], err
+
+
+@pytest.mark.parametrize(("name", "argv"), [
+    ("compensate", ["--targets", "t.csv", "--out", "{robots}/irb120.urdf"]),
+    ("make-poses", ["--n", "4", "--out", "{robots}/irb120.toml"]),
+    ("plan-poses", ["--n", "4", "--candidates", "40", "--quiet", "--out", "{robots}/irb120.urdf"]),
+    ("simulate", ["--poses", "4", "--out", "{robots}/irb120_default.csv"]),
+])
+def test_a_robot_given_by_name_keeps_its_files(name, argv, calibration, tmp_path, monkeypatch, capsys):
+    """``compensate irb120 ... --out robots/irb120.urdf --force`` once replaced the shipped
+    URDF the name reads: a robot's own files are inputs (a copy of robots/ stands in)."""
+    import shutil
+
+    import calib_pin.robot.description as description
+
+    robots = tmp_path / "robots"
+    shutil.copytree(description.ROBOTS_DIR, robots)
+    monkeypatch.setattr(description, "ROBOTS_DIR", robots)
+    monkeypatch.chdir(tmp_path)
+    assert command("make-poses")(["irb120", "--n", "4", "--out", "t.csv"]) == 0
+    before = {p.name: p.read_bytes() for p in robots.iterdir()}
+    extra = ["--calibration", str(calibration)] if name == "compensate" else []
+    capsys.readouterr()
+    assert command(name)(["irb120", *extra, *[a.format(robots=robots) for a in argv], "--force"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is an input of this command (ROBOT irb120's" in err[0], err
+    assert {p.name: p.read_bytes() for p in robots.iterdir()} == before
+
+
+@pytest.mark.parametrize(("name", "argv"), [
+    ("make-poses", ["irb120", "--n", "4", "--out", "p.csv"]),
+    ("simulate", ["irb120", "--poses", "5", "--out", "s.csv"]),
+    ("calibrate", ["irb120", "--method", "lm", "--no-html", "--out", "o"]),
+])
+def test_ctrl_c_after_the_commit_does_not_say_nothing_was_written(name, argv, tmp_path, monkeypatch, capsys):
+    """Ctrl-C while the summary is printed, after every output is in place, once said
+    'nothing was written': the line names what was written in full."""
+    import calib_pin.cli.outputs as outputs
+
+    real = outputs.Outputs.commit
+
+    def commit_then_ctrl_c(self):
+        real(self)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(outputs.Outputs, "commit", commit_then_ctrl_c)
+    monkeypatch.chdir(tmp_path)
+    assert command(name)(argv) == 130
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1 and "after the outputs were written in full" in err[0], err
+    assert "nothing was written" not in err[0]

@@ -54,14 +54,26 @@ def limit_blas_threads(threads: int = BLAS_THREADS) -> None:
 def command(name: str) -> Callable[[Sequence[str] | None], int]:
     """The main function of subcommand ``name``, run with :data:`BLAS_THREADS` BLAS threads."""
     module, function, _ = COMMANDS[name]
-    limit_blas_threads()  # before the command's module loads numpy, scipy or Pinocchio
-    main = getattr(importlib.import_module(f"{__name__}.{module}"), function)
+    try:
+        limit_blas_threads()  # before the command's module loads numpy, scipy or Pinocchio
+        main = getattr(importlib.import_module(f"{__name__}.{module}"), function)
+    except KeyboardInterrupt:  # Ctrl-C while the libraries load (half a second): one line, not a traceback
+        return _stopped
 
     def limited(argv: Sequence[str] | None = None) -> int:
-        limit_blas_threads()
-        return main(argv)
+        try:
+            limit_blas_threads()
+            return main(argv)
+        except KeyboardInterrupt:  # outside the command's own run() (parsing): nothing was written
+            return _stopped(argv)
 
     return limited
+
+
+def _stopped(argv: Sequence[str] | None = None) -> int:
+    """Ctrl-C before a command's work began: one line, exit 130."""
+    print("\nstopped by Ctrl-C: nothing was written", file=sys.stderr)
+    return 130
 
 
 def main(argv: Sequence[str] | None = None) -> int:

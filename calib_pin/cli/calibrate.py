@@ -35,7 +35,7 @@ from .common import (
     positive_float,
     run,
 )
-from .outputs import Outputs
+from .outputs import Outputs, input_role, robot_inputs
 
 #: Export format -> what it writes.
 EXPORTS = {"urdf": "corrected URDF", "yaml": "corrected joint origins for xacro (and ur_description's layout)",
@@ -228,7 +228,10 @@ def _calibrate(args: argparse.Namespace) -> int:
     result = calibrate(args.robot, _data(args), method=args.method, seed=args.seed,
                        test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
                        progress=_announce, **_setup_options(args))
-    out = Outputs(Path(args.out))
+    data = args.data if isinstance(args.data, list) else [args.data]  # --data may be given once per set
+    sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
+    inputs = {**robot_inputs(args.robot), **sets, "--test-data": args.test_data}
+    out = Outputs(Path(args.out), inputs=inputs)  # an input in --out is never replaced, nor removed as stale
     report = build_report(result)
     refused = result.sanity_error() if result.kinematic else None
     notes: list[str] = []
@@ -244,7 +247,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     written = out.commit()  # all together or none
     for stale in _STALE:  # no earlier run's file beside this run's report
         path = out.folder / stale.format(name=result.chain.name)
-        if path not in written and path.exists():
+        if path not in written and path.exists() and input_role(path, inputs) is None:
             path.unlink()
     if refused:
         return fail(f"{refused} (report: {out.folder / 'report.json'})")

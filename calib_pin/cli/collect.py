@@ -19,7 +19,7 @@ import numpy as np
 
 from ..progress import quiet_progress
 from .common import SENSOR_FAULT_EXIT, OneLineParser, count, fail, non_negative, one_line, run, xyz_mm
-from .outputs import Outputs, add_force_argument, refuse_input, robot_file
+from .outputs import Outputs, add_force_argument, refuse_input, robot_inputs
 
 if TYPE_CHECKING:
     from ..hardware.reader import SensorProfile
@@ -78,7 +78,7 @@ def _profile(args: argparse.Namespace) -> SensorProfile:
 def _outputs(args: argparse.Namespace, profile: SensorProfile) -> Outputs:
     """The --save-profile file, refused now if it may not be written (an existing file
     without --force; an input, or the session, even with it); written by the caller last."""
-    inputs = {"ROBOT": robot_file(args.robot), "--poses": args.poses, "--profile": args.profile,
+    inputs = {**robot_inputs(args.robot), "--poses": args.poses, "--profile": args.profile,
               "--port": args.port}
     if args.out:
         refuse_input(args.out, inputs)
@@ -212,6 +212,10 @@ def _collect(args: argparse.Namespace) -> int:
             print(f"error: {one_line(f'sensor: {e}; {session.done} of {len(poses)} poses are saved in {args.out}')}; "
                   "fix the fault and run the same command to resume", file=sys.stderr)
             return SENSOR_FAULT_EXIT
+        except OSError as e:  # the progress lines could not be printed (stdout on a full disk), say
+            where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+            return fail(f"{where}{e.strerror or e}; {session.done} of {len(poses)} poses are saved in {args.out}: "
+                        "run the same command to resume")
         finally:
             reader.close()
     state = "complete" if not session.remaining else f"{len(session.remaining)} poses left"

@@ -100,15 +100,26 @@ def fail(message: str) -> int:
     return BAD_INPUT_EXIT
 
 
-def run(action: Callable[[], int], interrupted: str = "stopped by Ctrl-C: nothing was written") -> int:
+#: run()'s Ctrl-C line when the command says nothing else.
+NOTHING_WRITTEN = "stopped by Ctrl-C: nothing was written"
+
+
+def run(action: Callable[[], int], interrupted: str = NOTHING_WRITTEN) -> int:
     """Run a command's work: a user's mistake becomes one line on stderr and exit 2,
-    Ctrl-C one line and exit 130."""
+    Ctrl-C one line and exit 130 (naming the outputs already written in full, if any)."""
+    from .outputs import WRITTEN
+
+    mark = len(WRITTEN)
     try:
         return action()
     except CalibPinError as e:
         return fail(str(e))
     except KeyboardInterrupt:
-        print(f"\n{interrupted}", file=sys.stderr)
+        done = WRITTEN[mark:]
+        if done and interrupted == NOTHING_WRITTEN:  # Ctrl-C after the commit (while printing the summary)
+            names = ", ".join(str(p) for p in done[:3]) + (", ..." if len(done) > 3 else "")
+            interrupted = f"stopped by Ctrl-C after the outputs were written in full ({len(done)} file(s): {names})"
+        print(f"\n{one_line(interrupted)}", file=sys.stderr)
         return INTERRUPTED_EXIT
     except BrokenPipeError:
         return fail("standard output was closed (files already written are kept)")

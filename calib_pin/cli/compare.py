@@ -32,7 +32,7 @@ from .common import (
     positive_float,
     run,
 )
-from .outputs import Outputs
+from .outputs import Outputs, robot_inputs
 
 #: Most trials one comparison may run.
 MAX_TRIALS = 100_000
@@ -85,6 +85,9 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise CalibPinError(f"{out}: the output folder is a file")
+    refusal = Outputs(out, inputs={**robot_inputs(args.robot), "--data": args.data})
+    for name in OUTPUT_NAMES:  # an input is never an output: refused before the trials
+        refusal.check(out / name)
     if args.trials >= 10:
         print(f"comparing {len(args.methods)} methods over {args.trials} trials; this can take long "
               "(Ctrl-C stops; the finished trials are kept and the same command resumes)", file=sys.stderr, flush=True)
@@ -137,6 +140,9 @@ def _write(result: Any, out: Path, command: str) -> list[Path]:
         print(f"warning: no figures: drawing failed ({type(e).__name__}: {e}) ({FIGURES_HINT})", file=sys.stderr)
         return _commit(out, tables)
 
+
+#: The files compare writes in its --out folder.
+OUTPUT_NAMES = ("table1.csv", "table1.md", "fig2_residuals.png", "fig3_convergence.png")
 
 #: What the figures' warning line adds.
 FIGURES_HINT = "the tables are written"

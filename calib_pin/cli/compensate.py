@@ -16,7 +16,7 @@ import numpy as np
 from ..compensation import CalibratedRobot, Compensation
 from ..exceptions import DataError
 from .common import OneLineParser, run
-from .outputs import Outputs, add_force_argument, robot_file
+from .outputs import Outputs, add_force_argument, robot_inputs
 
 
 def compensate_parser() -> argparse.ArgumentParser:
@@ -50,7 +50,7 @@ def _compensate(args: argparse.Namespace) -> int:
     from ..measurements.csv_writer import write_compensated
 
     out = Outputs(Path(args.out).parent, force=args.force,
-                  inputs={"ROBOT": robot_file(args.robot), "--calibration": args.calibration, "--targets": args.targets})
+                  inputs={**robot_inputs(args.robot), "--calibration": args.calibration, "--targets": args.targets})
     out.check(args.out)  # before the work; a calibration folder's file is checked once found
     source = find_calibration(Path(args.calibration))
     out.inputs["--calibration"] = source

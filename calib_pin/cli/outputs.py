@@ -5,6 +5,8 @@ Every command writes through :class:`Outputs`, so one rule holds for all of them
 * an output that is one of the command's inputs is always refused (``--force`` too):
   the paths are compared as files (:func:`os.path.samefile`), so ``./p.csv``, a
   symbolic link or a hard link to an input are caught as well;
+* an output that is a device, a pipe or a socket is always refused (a rename would put
+  a regular file in the place of ``/dev/null``);
 * an existing output is refused unless ``force`` (the command's ``--force``) is given;
 * every output is written beside its final name and synced; only when all are written
   are they renamed into place. A failure part-way (a full disk, a rename that fails,
@@ -19,6 +21,7 @@ import contextlib
 import errno
 import os
 import shutil
+import stat
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -27,6 +30,10 @@ from ..exceptions import CalibPinError
 
 #: What a caller names inputs as: ``{label: path}`` (label = the option, e.g. ``--targets``).
 Inputs = Mapping[str, "str | os.PathLike[str] | None"]
+
+
+#: Every file a commit of this process placed, in order (what a Ctrl-C after it keeps).
+WRITTEN: list[Path] = []
 
 
 class OutputError(CalibPinError):
@@ -44,6 +51,19 @@ def add_force_argument(p: argparse.ArgumentParser, what: str = "output file") ->
 def robot_file(robot: str | None) -> str | None:
     """A robot argument when it names a file (a URDF path: an input), else None (a name)."""
     return robot if robot and os.path.isfile(robot) else None
+
+
+def robot_inputs(robot: str | None) -> dict[str, str | None]:
+    """The files a robot argument reads, by label: a URDF path; for one of calib-pin's own
+    robots by name (``irb120``), its URDF, its DH table and its default data set, which
+    an output given by path (``--out robots/irb120.urdf --force``) must never replace."""
+    from ..robot.description import ROBOTS_DIR, own_robot_names, resolve_robot
+
+    if robot_file(robot) or not robot or robot not in own_robot_names():
+        return {"ROBOT": robot_file(robot)}
+    found = resolve_robot(robot)
+    return {f"ROBOT {robot}'s URDF": str(found.urdf), f"ROBOT {robot}'s DH table": str(ROBOTS_DIR / f"{robot}.toml"),
+            f"ROBOT {robot}'s default data": str(found.default_data) if found.default_data else None}
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -108,6 +128,9 @@ class Outputs:
         refuse_input(path, self.inputs)
         if path.is_dir():
             raise OutputError(f"{path} is a folder: give a file name")
+        special = _special(path)
+        if special:
+            raise OutputError(f"{path} is {special}, not a file: give a file name (--force never replaces it)")
         if not self.force and os.path.lexists(path):
             raise OutputError(f"{path} exists: give --force to replace it")
         return path
@@ -130,7 +153,7 @@ class Outputs:
         try:
             for path, write in self._pending:
                 self.check(path)  # again: a file may have appeared while the command worked
-                path.parent.mkdir(parents=True, exist_ok=True)
+                _make_folder(path)
                 tmp = _sibling(path, "tmp")
                 staged.append((tmp, path))
                 try:
@@ -142,6 +165,7 @@ class Outputs:
         finally:
             for tmp, _ in staged:
                 _remove(tmp)
+        WRITTEN.extend(path for _, path in staged)
         for folder in dict.fromkeys(path.parent for _, path in staged):
             _fsync_folder(folder)
         return [path for _, path in staged]
@@ -177,6 +201,34 @@ class Outputs:
         for _, backup in placed:
             if backup is not None:
                 _remove(backup)
+
+
+def _special(path: Path) -> str | None:
+    """What ``path`` is when it exists but is neither a regular file nor a symbolic link
+    (a rename would replace ``/dev/null`` or a FIFO by a regular file), else None."""
+    try:
+        mode = os.lstat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISLNK(mode) or stat.S_ISDIR(mode):
+        return None
+    return "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a pipe or socket"
+
+
+def _make_folder(path: Path) -> None:
+    """Create the folder of output ``path``.
+
+    Raises:
+        OutputError: it cannot be made (a file is in its way, a read-only disk).
+    """
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise OutputError(f"{path}: cannot create its folder {path.parent}: a file is in the way; "
+                          "no output was changed") from None
+    except OSError as e:
+        raise OutputError(f"{path}: cannot create its folder {path.parent}: {e.strerror or e}; "
+                          "no output was changed") from None
 
 
 def _sibling(path: Path, kind: str) -> Path:
@@ -235,9 +287,11 @@ def _fsync_folder(folder: Path) -> None:
 
 
 def _remove(path: Path) -> None:
-    with contextlib.suppress(FileNotFoundError):
+    """Remove ``path`` if it is there; a clean-up that fails (a read-only folder, where no
+    such file was made) never hides the error being reported."""
+    with contextlib.suppress(OSError):
         path.unlink()
 
 
-__all__ = ["Inputs", "OutputError", "Outputs", "add_force_argument", "input_role", "refuse_input",
-           "robot_file"]
+__all__ = ["WRITTEN", "Inputs", "OutputError", "Outputs", "add_force_argument", "input_role", "refuse_input",
+           "robot_file", "robot_inputs"]

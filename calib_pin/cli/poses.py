@@ -12,7 +12,7 @@ from ..exceptions import CalibPinError
 from ..parameters import MODELS
 from ..progress import quiet_progress
 from .common import OneLineParser, count, estimate_names, fail, non_negative, run, xyz_mm
-from .outputs import Outputs, add_force_argument, robot_file
+from .outputs import Outputs, add_force_argument, robot_inputs
 
 #: Most poses or candidates a pose command draws (more would not fit in memory here).
 MAX_POSES = 1_000_000
@@ -33,7 +33,7 @@ def make_poses_parser() -> argparse.ArgumentParser:
 
 def _pose_output(args: argparse.Namespace) -> Outputs:
     """The pose list ``--out``, refused before the work (an existing file without --force, the URDF)."""
-    out = Outputs(Path(args.out).parent, force=args.force, inputs={"ROBOT": robot_file(args.robot)})
+    out = Outputs(Path(args.out).parent, force=args.force, inputs={**robot_inputs(args.robot)})
     out.check(args.out)
     return out
 

@@ -20,7 +20,7 @@ from .common import (
     non_negative,
     run,
 )
-from .outputs import Outputs, add_force_argument, robot_file
+from .outputs import Outputs, add_force_argument, robot_inputs
 
 #: Most poses one simulated set may hold (a larger one would not fit in memory here).
 MAX_POSES = 1_000_000
@@ -82,7 +82,7 @@ def _simulate(args: argparse.Namespace) -> int:
     if not out.name or out.is_dir():
         raise OSError(f"--out '{args.out}' is not a file name")
     truth_path = out.with_name(out.name.removesuffix(".csv") + ".truth.json")
-    outputs = Outputs(out.parent, force=args.force, inputs={"ROBOT": robot_file(args.robot),
+    outputs = Outputs(out.parent, force=args.force, inputs={**robot_inputs(args.robot),
                                                             "--poses-file": args.poses_file})
     for path in (out, truth_path):  # refused before the work, and again when written
         outputs.check(path)

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from ..atomic import write_text
 from ..exceptions import CalibPinError
 from ..parameters.base import ParameterModel
 from ..parameters.dh import DHModel
@@ -95,5 +96,5 @@ def write_dh_table(params: ParameterModel, x: np.ndarray, path: str | Path) -> P
                   f"rpy_deg = {_toml_list(np.rad2deg(pin.rpy.matrixToRpy(end.rotation)))}"]
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(lines) + "\n")
+    write_text(path, "\n".join(lines) + "\n")
     return path

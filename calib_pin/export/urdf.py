@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
+from ..atomic import write_bytes
 from ..exceptions import RobotError
 from ..robot.chain import Chain
 
@@ -126,5 +127,5 @@ def write_calibrated_urdf(
     # Top-level comments one per line around the root (lxml keeps no text between them).
     nodes = [*reversed(list(root.itersiblings(preceding=True))), root, *root.itersiblings()]
     body = b"\n".join(etree.tostring(node, encoding="utf-8", with_tail=False) for node in nodes)
-    path.write_bytes(b'<?xml version="1.0" encoding="utf-8"?>\n' + body + b"\n")
+    write_bytes(path, b'<?xml version="1.0" encoding="utf-8"?>\n' + body + b"\n")
     return path

@@ -20,6 +20,7 @@ import pinocchio as pin
 import yaml
 from lxml import etree
 
+from ..atomic import write_text
 from ..exceptions import RobotError
 from ..robot.chain import Chain
 from .urdf import corrected_origins, top_level_joints
@@ -42,7 +43,7 @@ def _write_yaml(path: str | Path, header: list[str], body: dict) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     text = "".join(f"# {line}\n" for line in header)
-    path.write_text(text + yaml.safe_dump(body, sort_keys=False, default_flow_style=False))
+    write_text(path, text + yaml.safe_dump(body, sort_keys=False, default_flow_style=False))
     return path
 
 

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import write_text
 from ..exceptions import CalibPinError
 from ..input_files import check_regular
 from ..optional import require
@@ -161,7 +162,7 @@ class SensorProfile:
     def save(self, path: str | Path) -> Path:
         """Write the profile as JSON."""
         path = Path(path)
-        path.write_text(json.dumps(asdict(self), indent=2) + "\n")
+        write_text(path, json.dumps(asdict(self), indent=2) + "\n")
         return path
 
     @classmethod

@@ -187,9 +187,15 @@ def _create(path: Path, text: str) -> int:
         SessionWriteError: the header did not reach the disk (no file is left).
         DataError: another run created ``path`` meanwhile.
     """
-    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    fd = os.open(tmp, os.O_RDWR | os.O_APPEND | os.O_CREAT | os.O_TRUNC, 0o644)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(tmp, os.O_RDWR | os.O_APPEND | os.O_CREAT | os.O_TRUNC, 0o644)
+    except (FileExistsError, NotADirectoryError):
+        raise SessionWriteError(f"{path}: cannot create its folder {path.parent}: a file is in the way; "
+                                "no file was created") from None
+    except OSError as e:  # a read-only folder: name the session, not its temporary file
+        raise SessionWriteError(f"{path}: cannot create the session: {e.strerror or e}; no file was created") from None
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         try:

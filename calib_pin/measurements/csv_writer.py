@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..arguments import as_instance, as_path
+from ..atomic import write_text
 from .dataset import MeasurementSet, PointLabel, point_label
 
 
@@ -94,7 +95,7 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
             point = data.point_ids[k] if data.point_ids is not None else 1
             labels = (int(pose), point_label(point))
         lines.append(",".join([row(data.q[k], values[k], labels), *_extra_fields(data, k)]))
-    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_text(path, "\n".join(lines) + "\n")
 
 
 def write_poses(
@@ -110,7 +111,7 @@ def write_poses(
     lines += [f"# {k}: {v}" for k, v in (notes or {}).items()]
     lines.append(header(q.shape[1], "poses", with_pose=True))
     lines += [row(qk, labels=(k,)) for k, qk in enumerate(q, start=1)]
-    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_text(path, "\n".join(lines) + "\n")
 
 
 def write_compensated(
@@ -136,4 +137,4 @@ def write_compensated(
     lines += [",".join([row(qk, labels=(int(pose),)), *_extra_fields(kept, k)]) + f",{e_p * 1e3:.6f},{e_r * 1e6:.4f}"
               for k, (qk, pose, e_p, e_r) in enumerate(zip(q, pose_ids, position_error_m, orientation_error_rad,
                                                              strict=True))]
-    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_text(path, "\n".join(lines) + "\n")
