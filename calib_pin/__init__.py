@@ -23,6 +23,7 @@ _API = {
     "calibrate": "pipeline", "prepare": "pipeline", "CalibrationSetup": "pipeline",
     "CalibrationResult": "result",
     "load_calibration": "calibration_file", "CalibratedRobot": "compensation",
+    "write_outputs": "export.bundle", "WrittenOutputs": "export.bundle", "OutputError": "export.outputs",
     "compare": "comparison", "Comparison": "comparison",
     "analyze": "identifiability",
     "CalibrationProblem": "problem", "StackedProblem": "stacked", "FitSet": "multiset", "SetResult": "multiset",
@@ -58,6 +59,7 @@ __all__ = [
     "HayatiModel",
     "Kinematics",
     "MeasurementSet",
+    "OutputError",
     "PlacementModel",
     "PositionDevice",
     "PositionModel",
@@ -65,6 +67,7 @@ __all__ = [
     "SetResult",
     "StackedProblem",
     "Truth",
+    "WrittenOutputs",
     "analyze",
     "calibrate",
     "check_measurements",
@@ -78,6 +81,7 @@ __all__ = [
     "simulate",
     "simulate_positions",
     "write_measurements",
+    "write_outputs",
     "__version__",
 ]
 
@@ -100,6 +104,8 @@ if TYPE_CHECKING:
     from .compensation import CalibratedRobot
     from .estimators import ESTIMATORS, EstimateResult, run_estimator
     from .exceptions import ArgumentError, CalibPinError, DataError, EstimatorError, RobotError
+    from .export.bundle import WrittenOutputs, write_outputs
+    from .export.outputs import OutputError
     from .identifiability import analyze
     from .measurements import MeasurementSet, read_measurements, write_measurements
     from .measurements.checks import check_measurements

@@ -1,8 +1,10 @@
 """Many calibrations at once: local processes (joblib) or an existing Dask cluster.
 
 A :class:`BatchTask` is one calibration of one measurement set. :func:`run_batch` runs
-many of them with :func:`parallel_map` and writes, per set, ``<out>/<set stem>/report.json``
-and the corrected URDF, plus one ``summary.csv`` row per set. A set that fails (a bad
+many of them with :func:`parallel_map` and writes, per set, ``<out>/<set stem>/``: the
+corrected URDF, the calibration file and ``report.json``, as ``calibrate`` does
+(:mod:`calib_pin.export.bundle`: a fit beyond the sanity bound gets report.json only),
+plus one ``summary.csv`` row per set. A set that fails (a bad
 file, a runaway estimate) gets ``status=failed`` and its one-line error in the summary;
 the other sets go on.
 
@@ -17,7 +19,7 @@ filesystem, as for any Dask file input); the outputs are written by the calling 
 Nothing finished is lost: each set's outcome is kept in ``<out>/.calib-pin-checkpoint``
 as soon as it is done (:mod:`calib_pin.checkpoint`), so after Ctrl-C, a killed worker or
 a lost scheduler the same command runs only the sets not yet done. The outputs are
-written at the end, all together (:class:`calib_pin.cli.outputs.Outputs`), and no file
+written at the end, all together (:class:`calib_pin.export.outputs.Outputs`), and no file
 of an earlier run is left beside a set that now fails.
 """
 
@@ -26,7 +28,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
-import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -35,8 +36,8 @@ from typing import Any
 
 from .checkpoint import Checkpoint, Interrupted, file_digest, fingerprint
 from .exceptions import CalibPinError
+from .export.outputs import Outputs
 from .parallel import ParallelFault, error_line, limited, parallel_completed, parallel_map
-from .report import build_report
 
 __all__ = ["SUMMARY_COLUMNS", "BatchTask", "ParallelFault", "TaskOutcome", "parallel_completed", "parallel_map",
            "run_batch", "run_task", "task_key", "write_outcome", "write_summary"]
@@ -85,8 +86,12 @@ class TaskOutcome:
         status: ``ok`` or ``failed``.
         error: One-line error of a failed set, else empty.
         row: Its ``summary.csv`` row (keys of :data:`SUMMARY_COLUMNS`).
-        report: The calibration report (``report.json``), or None if it did not run.
-        urdf_name, urdf_text: File name and text of the corrected URDF, or None.
+        report: The calibration report (``report.json``, without the output paths), or
+            None if it did not run.
+        urdf_name: File name of the corrected URDF, or None (refused, ``rbf``, failed).
+        files: The set's output files besides report.json, file name -> text (the
+            corrected URDF, the calibration file).
+        exports: Export format -> file name (``{"urdf": "irb120_calibrated.urdf"}``).
         retry: The set failed on a fault of the machine (an OSError: a full disk, a
             permission), not of its data: its outcome is not kept, the next run tries again.
     """
@@ -97,37 +102,45 @@ class TaskOutcome:
     row: dict[str, Any]
     report: dict | None = None
     urdf_name: str | None = None
-    urdf_text: str | None = None
+    files: dict[str, str] = field(default_factory=dict)
+    exports: dict[str, str] = field(default_factory=dict)
     retry: bool = False
+
+    @property
+    def urdf_text(self) -> str | None:
+        """The corrected URDF's text, or None."""
+        return self.files.get(self.urdf_name) if self.urdf_name else None
 
 
 def run_task(task: BatchTask) -> TaskOutcome:
-    """Calibrate one set and return its report, URDF text and summary row.
+    """Calibrate one set and return its report, output files and summary row.
 
     Never raises for a bad set: the error becomes ``status=failed`` and one line.
     """
+    from .export.bundle import render_outputs
     from .pipeline import calibrate
 
     start = time.perf_counter()
     row: dict[str, Any] = {"set": task.name, "method": task.method, "seed": task.seed}
     try:
         result = calibrate(_robot(task), task.data, method=task.method, seed=task.seed, **task.options)
-        report = build_report(result)
+        rendered = render_outputs(result, ("urdf",), html=False)
+        report = rendered.report
         row["rows"] = len(result.data)
         for split, stages in result.metrics.items():
             for stage, m in stages.items():
                 for stat, value in m.as_dict().items():
                     row[f"{split}_{stat.removesuffix('_mm')}_{stage}_mm"] = f"{value:.6f}"
-        urdf_name, urdf_text, error = _urdf(result, report)
+        files, exports, error = rendered.files, rendered.exports, rendered.refused or ""
     except Exception as e:  # noqa: BLE001 - a failing set must not stop the others
-        report, urdf_name, urdf_text, error = None, None, None, error_line(e)
+        report, files, exports, error = None, {}, {}, error_line(e)
         retry = isinstance(e, OSError)
     else:
         retry = False
     row["time_s"] = f"{time.perf_counter() - start:.3f}"
     status = "failed" if error else "ok"
     row.update(status=status, error=error)
-    return TaskOutcome(task.name, status, error, row, report, urdf_name, urdf_text, retry)
+    return TaskOutcome(task.name, status, error, row, report, exports.get("urdf"), files, exports, retry)
 
 
 def _robot(task: BatchTask) -> str:
@@ -141,75 +154,62 @@ def _robot(task: BatchTask) -> str:
     return robot
 
 
-def _urdf(result, report: dict[str, Any]) -> tuple[str | None, str | None, str]:
-    """(file name, text, error) of the corrected URDF; no URDF for ``rbf``; a fit beyond
-    the sanity bound (:meth:`CalibrationResult.sanity_error`, calibrate's own rule) is
-    refused with the same line, also in ``report["urdf_refused"]``. Poses that cannot
-    calibrate anything are refused before the estimate, by the library."""
-    if not result.kinematic:
-        return None, None, ""
-    refused = result.sanity_error()
-    if refused:
-        report["urdf_refused"] = refused
-        return None, None, refused
-    name = f"{result.chain.name}_calibrated.urdf"
-    with tempfile.TemporaryDirectory() as tmp:
-        return name, result.to_urdf(Path(tmp) / name).read_text(encoding="utf-8"), ""
-
-
 def write_outcome(outcome: TaskOutcome, out: Path) -> None:
-    """Write a set's ``report.json`` (even when its URDF was refused) and URDF under
-    ``out/<set>/``, together, and remove what an earlier run left there (all of a set
-    that now fails without a report)."""
-    from .cli.outputs import Outputs
-
+    """Write a set's outputs under ``out/<set>/`` (report.json even when its URDF was
+    refused), together, and remove what an earlier run left there (all of a set that now
+    fails without a report)."""
     files = Outputs(Path(out))
-    stale = _earlier_files(Path(out), outcome.name)
+    stale = _earlier_files(Path(out), outcome)
     _add_outcome(files, outcome)
-    _remove_stale(stale, files.commit())
+    _remove_stale(stale, files.commit(), files.inputs)
 
 
-def _add_outcome(files: Any, outcome: TaskOutcome) -> None:
-    """Queue a set's report.json and URDF in ``files`` (an Outputs of the batch folder)."""
+def _add_outcome(files: Outputs, outcome: TaskOutcome) -> None:
+    """Queue a set's files and report.json in ``files`` (an Outputs of the batch folder)."""
     if outcome.report is None:
         return
-    folder = files.folder / outcome.name
+    from .export.bundle import RenderedOutputs, add_outputs
+
     report = dict(outcome.report)
-    report["urdf"] = str(folder / outcome.urdf_name) if outcome.urdf_name else None
-    report.setdefault("urdf_refused", outcome.error or None)
-    text = json.dumps(report, indent=2, allow_nan=False) + "\n"
-    files.add(folder / "report.json", lambda tmp: tmp.write_text(text, encoding="utf-8"))
-    if outcome.urdf_name and outcome.urdf_text is not None:
-        urdf = outcome.urdf_text
-        files.add(folder / outcome.urdf_name, lambda tmp: tmp.write_text(urdf, encoding="utf-8"))
+    rendered = RenderedOutputs(str(report.get("robot", "")), dict(outcome.files), dict(outcome.exports), report,
+                               outcome.error or None)
+    add_outputs(files, rendered, files.folder / outcome.name)
 
 
-def _earlier_files(out: Path, name: str) -> list[Path]:
-    """The files an earlier batch run wrote for set ``name``: its report.json and the URDF that report names."""
-    folder = out / name
+def _earlier_files(out: Path, outcome: TaskOutcome) -> list[Path]:
+    """The files an earlier batch run wrote for the set: its report.json, the files that
+    report names, and what a calibration of its robot (or this run's) writes."""
+    from .export.bundle import stale_files
+
+    folder = out / outcome.name
+    robots = [str(outcome.report["robot"])] if outcome.report and outcome.report.get("robot") else []
     report = folder / "report.json"
     if not report.is_file():
-        return []
+        return [path for robot in robots for path in stale_files(folder, robot)]
     files = [report]
     try:
-        urdf = json.loads(report.read_text(encoding="utf-8")).get("urdf")
-    except (OSError, ValueError, AttributeError):
-        urdf = None
-    if isinstance(urdf, str) and Path(urdf).name:
-        files.append(folder / Path(urdf).name)
-    return files
+        earlier = json.loads(report.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        earlier = None
+    if isinstance(earlier, dict):
+        named = [earlier.get("urdf"), *(earlier.get("exports") or {}).values()] \
+            if isinstance(earlier.get("exports") or {}, dict) else [earlier.get("urdf")]
+        files += [folder / Path(p).name for p in named if isinstance(p, str) and Path(p).name]
+        if isinstance(earlier.get("robot"), str) and earlier["robot"]:
+            robots.insert(0, earlier["robot"])
+    return files + [path for robot in dict.fromkeys(robots) for path in stale_files(folder, robot)]
 
 
-def _remove_stale(stale: Sequence[Path], written: Sequence[Path]) -> None:
-    """Remove the earlier run's files this run did not write, and a set folder left empty."""
-    kept = {Path(p).resolve() for p in written}
-    for path in stale:
-        if path.resolve() not in kept:
-            path.unlink(missing_ok=True)
-            try:
-                path.parent.rmdir()  # only when empty
-            except OSError:
-                pass
+def _remove_stale(stale: Sequence[Path], written: Sequence[Path], inputs: Any = None) -> None:
+    """Remove the earlier run's files this run did not write (never an input), and a set
+    folder left empty."""
+    from .export.bundle import remove_stale
+
+    for path in remove_stale(stale, written, inputs):
+        try:
+            path.parent.rmdir()  # only when empty
+        except OSError:
+            pass
 
 
 def write_summary(outcomes: Sequence[TaskOutcome], path: Path) -> Path:
@@ -275,8 +275,6 @@ def run_batch(
         ParallelFault: a worker or the scheduler failed; the finished sets are kept.
         calib_pin.checkpoint.Interrupted: Ctrl-C; the finished sets are kept.
     """
-    from .cli.outputs import Outputs
-
     tasks = list(tasks)
     _check_names(tasks)
     out = Path(out)
@@ -290,12 +288,12 @@ def run_batch(
                               decode=_outcome_from_json, keep=lambda o: not o.retry, jobs=jobs, scheduler=scheduler,
                               notify=notify)
     files = Outputs(out, inputs=inputs)
-    stale = [path for outcome in outcomes for path in _earlier_files(out, outcome.name)]
+    stale = [path for outcome in outcomes for path in _earlier_files(out, outcome)]
     try:
         for outcome in outcomes:
             _add_outcome(files, outcome)
         files.add(out / "summary.csv", lambda tmp: write_summary(outcomes, tmp))
-        _remove_stale(stale, files.commit())  # all sets' outputs and the summary together, or none
+        _remove_stale(stale, files.commit(), inputs)  # all sets' outputs and the summary together, or none
     except KeyboardInterrupt:
         raise Interrupted(f"stopped by Ctrl-C: {checkpoint.kept(len(outcomes), len(outcomes))}") from None
     except (OSError, CalibPinError) as e:  # a full disk: no output changed, every set is kept

@@ -12,17 +12,16 @@ says so and the run writes everything else.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..calibration_file import calibration_path, write_calibration
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
+from ..export.bundle import EXPORTS, write_outputs
+from ..export.outputs import robot_inputs
 from ..metrics import Metrics
 from ..parameters import MODELS
-from ..report import build_report
 from .common import (
     OneLineParser,
     add_compliance_arguments,
@@ -35,11 +34,6 @@ from .common import (
     positive_float,
     run,
 )
-from .outputs import Outputs, input_role, robot_inputs
-
-#: Export format -> what it writes.
-EXPORTS = {"urdf": "corrected URDF", "yaml": "corrected joint origins for xacro (and ur_description's layout)",
-           "dh": "corrected DH table (dh, hayati models)"}
 
 
 def export_formats(text: str) -> tuple[str, ...]:
@@ -166,61 +160,6 @@ def _check_dh_export(args: argparse.Namespace) -> None:
                             "and a robot with a DH table (urdf and yaml work for every model)")
 
 
-def _add_exports(out: Outputs, result: Any, formats: Sequence[str], notes: list[str]) -> dict[str, str]:
-    """Queue the corrected robot in each format; returns format -> file name."""
-    import numpy as np
-    import pinocchio as pin
-
-    from ..export import write_dh_table, write_joint_origins_yaml, write_ur_kinematics_yaml
-
-    name, folder = result.chain.name, out.folder
-    files = {"urdf": folder / f"{name}_calibrated.urdf", "yaml": folder / f"{name}_joint_origins.yaml",
-             "dh": folder / f"{name}_dh.toml"}
-    writers = {"urdf": lambda tmp: result.to_urdf(tmp),
-               "yaml": lambda tmp: write_joint_origins_yaml(result.chain, result.deltas, tmp),
-               "dh": lambda tmp: write_dh_table(result.params, result.problem.model.robot(result.x), tmp)}
-    for fmt in formats:
-        out.add(files[fmt], writers[fmt])
-    written = {fmt: str(files[fmt]) for fmt in formats}
-    if "yaml" in formats and name.startswith("ur"):
-        path = folder / f"{name}_default_kinematics.yaml"
-
-        def ur_yaml(tmp: Path) -> None:
-            rest = write_ur_kinematics_yaml(result.chain, result.deltas, tmp)
-            if np.linalg.norm(pin.log6(rest).vector) > 1e-9:
-                notes.append(f"{path.name}: part of the tool0 correction does not fit ur_description's layout; "
-                             "its header gives it as a tool offset")
-
-        out.add(path, ur_yaml)
-        written["ur_kinematics"] = str(path)
-    return written
-
-
-def _add_html(out: Outputs, report: dict[str, Any], no_html: bool) -> bool:
-    """Queue report.html unless ``--no-html``. The page is drawn now, before any file is
-    written: if matplotlib is missing, broken or fails while drawing, one warning line on
-    stderr says so and the other outputs are written without it."""
-    if no_html:
-        return False
-    from ..optional import figures_or_warn
-
-    def draw() -> str:
-        from ..html_report import render_html
-
-        return render_html(report)
-
-    page = figures_or_warn("report.html", draw, "--no-html silences this")
-    if page is None:
-        return False
-    out.add(out.folder / "report.html", lambda tmp: tmp.write_text(page, encoding="utf-8"))
-    return True
-
-
-#: Every file a calibrate run may write, by name pattern (a stale one is removed).
-_STALE = ("{name}_calibrated.urdf", "{name}_calibration.json", "{name}_joint_origins.yaml",
-          "{name}_default_kinematics.yaml", "{name}_dh.toml", "report.html")
-
-
 def _calibrate(args: argparse.Namespace) -> int:
     from ..pipeline import calibrate
 
@@ -231,30 +170,16 @@ def _calibrate(args: argparse.Namespace) -> int:
     data = args.data if isinstance(args.data, list) else [args.data]  # --data may be given once per set
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
     inputs = {**robot_inputs(args.robot), **sets, "--test-data": args.test_data}
-    out = Outputs(Path(args.out), inputs=inputs)  # an input in --out is never replaced, nor removed as stale
-    report = build_report(result)
-    refused = result.sanity_error() if result.kinematic else None
-    notes: list[str] = []
-    exports = _add_exports(out, result, args.export, notes) if result.kinematic and not refused else {}
-    report["urdf"] = exports.get("urdf")
-    report["exports"] = exports
-    report["urdf_refused"] = refused or (None if result.kinematic else
-                                         f"{result.method} learns a correction of the measured values, which a URDF cannot hold")
-    if report["urdf"]:  # the calibration file goes with the URDF: geometry, compliance, sensor, versions
-        out.add(calibration_path(out.folder, result.chain.name), lambda tmp: write_calibration(result, tmp))
-    _add_html(out, report, args.no_html)
-    out.add(out.folder / "report.json", lambda tmp: tmp.write_text(json.dumps(report, indent=2, allow_nan=False) + "\n"))
-    written = out.commit()  # all together or none
-    for stale in _STALE:  # no earlier run's file beside this run's report
-        path = out.folder / stale.format(name=result.chain.name)
-        if path not in written and path.exists() and input_role(path, inputs) is None:
-            path.unlink()
-    if refused:
-        return fail(f"{refused} (report: {out.folder / 'report.json'})")
+    # an input in --out is never replaced, nor removed as stale; all files together or none
+    done = write_outputs(result, Path(args.out), args.export, html=not args.no_html, inputs=inputs,
+                         silence="--no-html silences this")
+    report = done.report
+    if done.refused:
+        return fail(f"{done.refused} (report: {done.folder / 'report.json'})")
     _summary(result, report)
-    for note in notes:
+    for note in done.notes:
         print(f"note: {note}")
-    for path in written:
+    for path in done.files:
         print(f"wrote {path}")
     return 0
 

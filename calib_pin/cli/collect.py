@@ -17,9 +17,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..export.outputs import Outputs, refuse_input, robot_inputs
 from ..progress import quiet_progress
 from .common import SENSOR_FAULT_EXIT, OneLineParser, count, fail, non_negative, one_line, run, xyz_mm
-from .outputs import Outputs, add_force_argument, refuse_input, robot_inputs
+from .outputs import add_force_argument
 
 if TYPE_CHECKING:
     from ..hardware.reader import SensorProfile

@@ -107,7 +107,7 @@ NOTHING_WRITTEN = "stopped by Ctrl-C: nothing was written"
 def run(action: Callable[[], int], interrupted: str = NOTHING_WRITTEN) -> int:
     """Run a command's work: a user's mistake becomes one line on stderr and exit 2,
     Ctrl-C one line and exit 130 (naming the outputs already written in full, if any)."""
-    from .outputs import WRITTEN
+    from ..export.outputs import WRITTEN
 
     mark = len(WRITTEN)
     try:

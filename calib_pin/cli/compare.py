@@ -1,7 +1,7 @@
 """``compare``: the estimators side by side (the paper's Table I, Fig. 2 and Fig. 3).
 
 Writes table1.csv, table1.md, fig2_residuals.png and fig3_convergence.png all together
-or none (:class:`~calib_pin.cli.outputs.Outputs`); the figures are optional: without a
+or none (:class:`~calib_pin.export.outputs.Outputs`); the figures are optional: without a
 working matplotlib one warning line, and the tables. Each finished trial is kept in
 ``OUT/.calib-pin-checkpoint`` as it finishes: after Ctrl-C (exit 130, one line) or a
 worker fault the same command runs only the trials not yet done, and says so.
@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..estimators import PAPER_METHODS
+from ..export.outputs import Outputs, robot_inputs
 from ..progress import quiet_progress
 from ..simulation import NOISE_KINDS
 from .common import (
@@ -32,7 +33,6 @@ from .common import (
     positive_float,
     run,
 )
-from .outputs import Outputs, robot_inputs
 
 #: Most trials one comparison may run.
 MAX_TRIALS = 100_000

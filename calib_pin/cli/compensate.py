@@ -15,8 +15,9 @@ import numpy as np
 
 from ..compensation import CalibratedRobot, Compensation
 from ..exceptions import DataError
+from ..export.outputs import Outputs, robot_inputs
 from .common import OneLineParser, run
-from .outputs import Outputs, add_force_argument, robot_inputs
+from .outputs import add_force_argument
 
 
 def compensate_parser() -> argparse.ArgumentParser:

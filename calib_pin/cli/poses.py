@@ -9,10 +9,11 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import CalibPinError
+from ..export.outputs import Outputs, robot_inputs
 from ..parameters import MODELS
 from ..progress import quiet_progress
 from .common import OneLineParser, count, estimate_names, fail, non_negative, run, xyz_mm
-from .outputs import Outputs, add_force_argument, robot_inputs
+from .outputs import add_force_argument
 
 #: Most poses or candidates a pose command draws (more would not fit in memory here).
 MAX_POSES = 1_000_000

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import CalibPinError
+from ..export.outputs import Outputs, robot_inputs
 from ..parameters import MODELS
 from ..simulation import NOISE_KINDS
 from .common import (
@@ -20,7 +21,7 @@ from .common import (
     non_negative,
     run,
 )
-from .outputs import Outputs, add_force_argument, robot_inputs
+from .outputs import add_force_argument
 
 #: Most poses one simulated set may hold (a larger one would not fit in memory here).
 MAX_POSES = 1_000_000

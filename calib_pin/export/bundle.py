@@ -1,0 +1,301 @@
+"""What a calibration writes: the corrected robot, the calibration file, report.html and
+report.json, all together or none, through one function.
+
+:func:`write_outputs` is what ``calibrate``, ``batch`` and library users call, so the same
+rules hold for each:
+
+* a fit beyond the sanity bound (:meth:`CalibrationResult.sanity_error`) writes no
+  corrected robot and no calibration file; report.json is still written and gives the
+  reason (``urdf_refused``); so does a method that learns no kinematics (``rbf``);
+* every file goes through :class:`~calib_pin.export.outputs.Outputs`: written under
+  temporary names and renamed together, and never one of the caller's inputs;
+* a file an earlier run wrote in the folder that this run does not write (a stale URDF
+  beside a now refused fit) is removed, unless it is an input;
+* report.html needs a working matplotlib: without one a single warning line on stderr
+  says so and everything else is written.
+
+The work is in two steps: :func:`render_outputs` makes every file's text in memory (a
+JSON-able :class:`RenderedOutputs`, which a batch worker returns and a checkpoint keeps),
+and :func:`add_outputs` queues them in an :class:`Outputs` (a batch queues all its sets
+in one, with its summary, and commits once).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..exceptions import CalibPinError
+from .outputs import Inputs, OutputError, Outputs, input_role
+
+if TYPE_CHECKING:
+    from ..result import CalibrationResult
+
+#: Export format -> what it writes.
+EXPORTS = {"urdf": "corrected URDF", "yaml": "corrected joint origins for xacro (and ur_description's layout)",
+           "dh": "corrected DH table (dh, hayati models)"}
+
+#: Every file a calibration may write in its folder besides report.json, by name pattern
+#: (one an earlier run left and this run does not write is removed).
+STALE = ("{name}_calibrated.urdf", "{name}_calibration.json", "{name}_joint_origins.yaml",
+         "{name}_default_kinematics.yaml", "{name}_dh.toml", "report.html")
+
+_FILES = {"urdf": "{name}_calibrated.urdf", "yaml": "{name}_joint_origins.yaml", "dh": "{name}_dh.toml",
+          "ur_kinematics": "{name}_default_kinematics.yaml"}
+
+
+@dataclass
+class RenderedOutputs:
+    """A calibration's output files, made in memory and not yet written (JSON-able).
+
+    Attributes:
+        robot: The robot's name (the files' prefix).
+        files: File name -> text, in the order they are written; report.json (last) is
+            not among them: it is made from ``report`` when the folder is known.
+        exports: Export format (``urdf``, ``yaml``, ``ur_kinematics``, ``dh``) -> file name.
+        report: The report dict (:func:`calib_pin.report.build_report`) with
+            ``urdf_refused``; ``urdf`` and ``exports`` are set by :func:`add_outputs`.
+        refused: Why no corrected robot is written for a kinematic method (the
+            sanity bound), else None.
+        notes: Lines for the user (a correction ur_description's layout cannot hold).
+    """
+
+    robot: str
+    files: dict[str, str]
+    exports: dict[str, str]
+    report: dict[str, Any]
+    refused: str | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class WrittenOutputs:
+    """What :func:`write_outputs` wrote.
+
+    Attributes:
+        files: The files written, in order (the exports, the calibration file,
+            report.html, report.json).
+        report: The report dict as written to report.json.
+        refused: Why no corrected robot and no calibration file were written (a fit
+            beyond the sanity bound), else None. report.json was written.
+        notes: Lines for the user (a correction ur_description's layout cannot hold).
+        removed: Files of an earlier run removed from the folder.
+    """
+
+    files: list[Path]
+    report: dict[str, Any]
+    refused: str | None
+    notes: list[str]
+    removed: list[Path] = field(default_factory=list)
+
+    @property
+    def folder(self) -> Path:
+        """The folder of report.json."""
+        return self.files[-1].parent
+
+
+def check_formats(formats: Sequence[str], result: CalibrationResult | None = None) -> tuple[str, ...]:
+    """``formats`` without repeats, each one of :data:`EXPORTS`.
+
+    Raises:
+        CalibPinError: an unknown format, or ``dh`` for the placement model (no DH table).
+    """
+    names = tuple(dict.fromkeys(formats))
+    unknown = [n for n in names if n not in EXPORTS]
+    if unknown:
+        raise CalibPinError(f"unknown export format '{unknown[0]}' (valid: {', '.join(EXPORTS)})")
+    if result is not None and "dh" in names and result.model_name == "placement":
+        raise CalibPinError("the placement model has no DH table: the dh export needs the dh or hayati model "
+                            "(urdf and yaml work for every model)")
+    return names
+
+
+def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]) -> tuple[dict[str, str], dict[str, str]]:
+    """(file name -> text, format -> file name) of the corrected robot in each format."""
+    import numpy as np
+    import pinocchio as pin
+
+    from . import write_dh_table, write_joint_origins_yaml, write_ur_kinematics_yaml
+
+    name = result.chain.name
+    writers = {"urdf": lambda tmp: result.to_urdf(tmp),
+               "yaml": lambda tmp: write_joint_origins_yaml(result.chain, result.deltas, tmp),
+               "dh": lambda tmp: write_dh_table(result.params, result.problem.model.robot(result.x), tmp)}
+    todo = [(fmt, _FILES[fmt].format(name=name)) for fmt in formats]
+    if "yaml" in formats and name.startswith("ur"):
+        todo.append(("ur_kinematics", _FILES["ur_kinematics"].format(name=name)))
+    files: dict[str, str] = {}
+    exports: dict[str, str] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for fmt, file in todo:
+            path = Path(tmp) / file
+            if fmt == "ur_kinematics":
+                rest = write_ur_kinematics_yaml(result.chain, result.deltas, path)
+                if np.linalg.norm(pin.log6(rest).vector) > 1e-9:
+                    notes.append(f"{file}: part of the tool0 correction does not fit ur_description's layout; "
+                                 "its header gives it as a tool offset")
+            else:
+                writers[fmt](path)
+            files[file] = path.read_text(encoding="utf-8")
+            exports[fmt] = file
+    return files, exports
+
+
+def _html(report: dict[str, Any], silence: str) -> str | None:
+    """report.html's text, or None (one warning line on stderr) without a working matplotlib."""
+    from ..optional import figures_or_warn
+
+    def draw() -> str:
+        from ..html_report import render_html
+
+        return render_html(report)
+
+    return figures_or_warn("report.html", draw, silence)
+
+
+def render_outputs(result: CalibrationResult, formats: Sequence[str] = ("urdf",), *, html: bool = True,
+                   silence: str = "html=False silences this") -> RenderedOutputs:
+    """Every file of ``result``'s outputs, in memory (nothing is written).
+
+    Args:
+        result: A calibration (:func:`calib_pin.pipeline.calibrate`).
+        formats: Formats of the corrected robot: ``urdf``, ``yaml`` (and ur_description's
+            layout for ``ur*`` robots), ``dh`` (dh and hayati models).
+        html: Make report.html (needs matplotlib; without it one warning line on stderr).
+        silence: How the warning says to silence it (the CLI: ``--no-html``).
+
+    Raises:
+        CalibPinError: an unknown format, or ``dh`` with the placement model.
+        OutputError: the temporary folder the files are made in cannot be written.
+    """
+    formats = check_formats(formats, result)
+    try:
+        return _render(result, formats, html, silence)
+    except OSError as e:  # the temporary folder the files are made in (a full /tmp)
+        raise OutputError(f"cannot make the outputs in a temporary folder: {e.strerror or e}; "
+                          "no output was changed") from None
+
+
+def _render(result: CalibrationResult, formats: tuple[str, ...], html: bool, silence: str) -> RenderedOutputs:
+    from ..calibration_file import calibration_path, write_calibration
+    from ..report import build_report
+
+    report = build_report(result)
+    refused = result.sanity_error() if result.kinematic else None
+    notes: list[str] = []
+    files: dict[str, str] = {}
+    exports: dict[str, str] = {}
+    if result.kinematic and not refused:
+        files, exports = _exports(result, formats, notes)
+    report["urdf_refused"] = refused or (None if result.kinematic else
+                                         f"{result.method} learns a correction of the measured values, which a URDF cannot hold")
+    if "urdf" in exports:  # the calibration file goes with the URDF: geometry, compliance, sensor, versions
+        with tempfile.TemporaryDirectory() as tmp:
+            path = write_calibration(result, calibration_path(tmp, result.chain.name))
+            files[path.name] = path.read_text(encoding="utf-8")
+    if html:
+        page = _html({**report, "urdf": None, "exports": {}}, silence)
+        if page is not None:
+            files["report.html"] = page
+    return RenderedOutputs(result.chain.name, files, exports, report, refused, notes)
+
+
+def report_in(rendered: RenderedOutputs, folder: str | os.PathLike[str]) -> dict[str, Any]:
+    """``rendered.report`` with the paths of its files in ``folder`` (``urdf``, ``exports``)."""
+    folder = Path(folder)
+    exports = {fmt: str(folder / file) for fmt, file in rendered.exports.items()}
+    report = dict(rendered.report)
+    report["urdf"] = exports.get("urdf")
+    report["exports"] = exports
+    urdf_refused = report.pop("urdf_refused", None)
+    report["urdf_refused"] = urdf_refused
+    return report
+
+
+def _writer(text: str) -> Callable[[Path], Any]:
+    """A writer of ``text`` (UTF-8) to the temporary path it is given."""
+    return lambda tmp: tmp.write_text(text, encoding="utf-8")
+
+
+def add_outputs(out: Outputs, rendered: RenderedOutputs, folder: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+    """Queue ``rendered``'s files and its report.json in ``out`` (in ``folder``, default
+    ``out.folder``); returns the report as report.json will hold it.
+
+    Raises:
+        OutputError: a file is one of ``out``'s inputs, a folder, a device.
+    """
+    folder = Path(out.folder if folder is None else folder)
+    report = report_in(rendered, folder)
+    for file, text in rendered.files.items():
+        out.add(folder / file, _writer(text))
+    out.add(folder / "report.json", _writer(json.dumps(report, indent=2, allow_nan=False) + "\n"))
+    return report
+
+
+def stale_files(folder: str | os.PathLike[str], robot: str) -> list[Path]:
+    """The files a calibration of ``robot`` may write in ``folder`` besides report.json."""
+    return [Path(folder) / pattern.format(name=robot) for pattern in STALE]
+
+
+def remove_stale(candidates: Sequence[Path], written: Sequence[Path], inputs: Inputs | None = None) -> list[Path]:
+    """Remove each of ``candidates`` that exists, was not ``written`` and is no input;
+    returns the files removed."""
+    kept = {os.path.abspath(p) for p in written}
+    removed = []
+    for path in dict.fromkeys(candidates):
+        if os.path.abspath(path) in kept or not path.is_file() or input_role(path, inputs or {}) is not None:
+            continue
+        path.unlink()
+        removed.append(path)
+    return removed
+
+
+def write_outputs(result: CalibrationResult, folder: str | os.PathLike[str], formats: Sequence[str] = ("urdf",), *,
+                  html: bool = True, inputs: Inputs | None = None, notes: list[str] | None = None,
+                  silence: str = "html=False silences this") -> WrittenOutputs:
+    """Write a calibration's outputs in ``folder``, all together or none.
+
+    ``folder/<robot>_calibrated.urdf`` (and the other ``formats``),
+    ``folder/<robot>_calibration.json`` (with the URDF), ``folder/report.html`` (``html``)
+    and ``folder/report.json``. A fit beyond the sanity bound writes report.json only,
+    with the reason in ``urdf_refused`` and in the returned ``refused``; ``rbf`` writes
+    no corrected robot either. Files an earlier calibration of the robot left in
+    ``folder`` that this one does not write are removed (never one of ``inputs``).
+    Existing outputs are replaced; an input is never an output.
+
+    Args:
+        result: A calibration (:func:`calib_pin.pipeline.calibrate`).
+        folder: The output folder (made if missing).
+        formats: ``urdf``, ``yaml``, ``dh`` (see :func:`render_outputs`).
+        html: Write report.html (needs matplotlib: without it one warning line on
+            stderr, and the rest is written).
+        inputs: The caller's input files by label (``{"--data": "s.csv"}``): none is
+            ever written over or removed.
+        notes: A list the notes for the user are appended to (also in the result).
+        silence: How the missing-matplotlib warning says to silence it.
+
+    Returns:
+        The files written, the report, the refusal reason (or None) and the notes.
+
+    Raises:
+        CalibPinError: an unknown format, ``dh`` with the placement model.
+        OutputError: an output is an input or a folder, or could not be written
+            (nothing was then changed).
+    """
+    rendered = render_outputs(result, formats, html=html, silence=silence)
+    out = Outputs(Path(folder), inputs=inputs)
+    report = add_outputs(out, rendered)
+    written = out.commit()
+    removed = remove_stale(stale_files(out.folder, rendered.robot), written, out.inputs)
+    if notes is not None:
+        notes.extend(rendered.notes)
+    return WrittenOutputs(written, report, rendered.refused, list(rendered.notes), removed)
+
+
+__all__ = ["EXPORTS", "STALE", "RenderedOutputs", "WrittenOutputs", "add_outputs", "check_formats", "remove_stale",
+           "render_outputs", "report_in", "stale_files", "write_outputs"]
