@@ -41,11 +41,16 @@ def arm(chain, params):
 
 
 @pytest.fixture(scope="module")
-def calibration(small, tmp_path_factory):
+def fit(small):
+    """An LM fit on the small set."""
+    return cp.calibrate("irb120", small, method="lm")
+
+
+@pytest.fixture(scope="module")
+def calibration(fit, tmp_path_factory):
     """A calibration file of an LM fit on the small set."""
-    result = cp.calibrate("irb120", small, method="lm")
     folder = tmp_path_factory.mktemp("cal")
-    return write_calibration(result, calibration_path(folder, "irb120"))
+    return write_calibration(fit, calibration_path(folder, "irb120"))
 
 
 def q_deg(chain):
@@ -189,6 +194,14 @@ CASES = [
     ("Drawstring", "anchor", lambda f: cp.Drawstring("600,200,-100", np.zeros(3))),
     ("Drawstring", "tool", lambda f: cp.Drawstring(np.zeros(3), NAN3)),
     ("Drawstring", "length_offset", lambda f: cp.Drawstring(np.zeros(3), np.zeros(3), "0")),
+    # write_outputs: checked before anything is made or written
+    ("write_outputs", "result", lambda f: cp.write_outputs(f.setup, "never")),
+    ("write_outputs", "folder", lambda f: cp.write_outputs(f.fit, None)),
+    ("write_outputs", "formats", lambda f: cp.write_outputs(f.fit, "never", "urdf,stl")),
+    ("write_outputs", "formats", lambda f: cp.write_outputs(f.fit, "never", 3)),
+    ("write_outputs", "html", lambda f: cp.write_outputs(f.fit, "never", html="no")),
+    ("write_outputs", "inputs", lambda f: cp.write_outputs(f.fit, "never", inputs=["a.csv"])),
+    ("write_outputs", "notes", lambda f: cp.write_outputs(f.fit, "never", notes="x")),
 ]
 
 
@@ -201,8 +214,8 @@ class Fixtures:
 
 @pytest.mark.parametrize(("entry", "argument", "call"), CASES,
                          ids=[f"{c[0]}-{c[1]}-{k}" for k, c in enumerate(CASES)])
-def test_a_bad_argument_is_named(entry, argument, call, chain, params, small, setup, arm, calibration):
-    fixtures = Fixtures(chain=chain, params=params, small=small, setup=setup, arm=arm, calibration=calibration)
+def test_a_bad_argument_is_named(entry, argument, call, chain, params, small, setup, arm, calibration, fit):
+    fixtures = Fixtures(chain=chain, params=params, small=small, setup=setup, arm=arm, calibration=calibration, fit=fit)
     with pytest.raises(cp.CalibPinError) as caught:
         call(fixtures)
     message = str(caught.value)
@@ -217,7 +230,7 @@ def test_every_public_function_is_covered():
     error classes and plain records excepted; compare's own module is another slice's)."""
     exempt = {"ArgumentError", "CalibPinError", "DataError", "EstimatorError", "RobotError", "ESTIMATORS", "EstimateResult",
               "MeasurementSet", "Truth", "CalibrationResult", "CalibrationProblem", "Comparison", "Chain",
-              "StackedProblem", "SetResult",
+              "StackedProblem", "SetResult", "OutputError", "WrittenOutputs",
               "DHModel", "HayatiModel", "PlacementModel", "PositionDevice", "CalibrationSetup",
               "compare", "__version__"}
     covered = {c[0].split(".")[0] for c in CASES} | {"CalibrationSetup"}

@@ -70,6 +70,7 @@ def test_serial_batch_calibrates_each_set_and_reports_the_bad_one(serial, sets, 
         # Against the simulator's truth: nominal 2 mm, calibrated well under 0.3 mm.
         assert _fresh_rmse_mm(o.report, truths[o.name], chain, params) < 0.3
         assert (out / o.name / "irb120_calibrated.urdf").read_text() == o.urdf_text
+        assert (out / o.name / "irb120_calibration.json").is_file()  # as calibrate writes (write_outputs)
         assert json.loads((out / o.name / "report.json").read_text())["method"] == "lm"
     with (out / "summary.csv").open() as f:
         rows = list(csv.DictReader(f))
@@ -178,7 +179,8 @@ def test_a_rerun_leaves_no_earlier_output_beside_a_set_that_now_fails(sets, tmp_
     out = tmp_path / "out"
     assert batch_main([str(broken), str(refused), "--out", str(out)]) == 0
     for name in ("arm", "arm_b"):
-        assert {p.name for p in (out / name).iterdir()} == {"irb120_calibrated.urdf", "report.json"}
+        assert {p.name for p in (out / name).iterdir()} == {"irb120_calibrated.urdf", "irb120_calibration.json",
+                                                           "report.json"}
     broken.write_text("q1_deg,q2_deg\n1,2\n")
     lines = text.splitlines()
     meta = [line for line in lines if line.startswith("#")]
@@ -190,6 +192,7 @@ def test_a_rerun_leaves_no_earlier_output_beside_a_set_that_now_fails(sets, tmp_
     assert len(err) == 1 and "2 of 2 set(s) failed" in err[0]
     assert not (out / "arm").exists()
     assert not (out / "arm_b" / "irb120_calibrated.urdf").exists()
+    assert not (out / "arm_b" / "irb120_calibration.json").exists()
     if (out / "arm_b").exists():  # the refused set's report of this run, which says why
         assert [p.name for p in (out / "arm_b").iterdir()] == ["report.json"]
         report = json.loads((out / "arm_b" / "report.json").read_text())

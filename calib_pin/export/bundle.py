@@ -25,12 +25,13 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..exceptions import CalibPinError
+from ..arguments import as_bool, as_instance, as_names, as_path
+from ..exceptions import ArgumentError, CalibPinError
 from .outputs import Inputs, OutputError, Outputs, input_role
 
 if TYPE_CHECKING:
@@ -99,16 +100,18 @@ class WrittenOutputs:
         return self.files[-1].parent
 
 
-def check_formats(formats: Sequence[str], result: CalibrationResult | None = None) -> tuple[str, ...]:
-    """``formats`` without repeats, each one of :data:`EXPORTS`.
+def check_formats(formats: str | Sequence[str], result: CalibrationResult | None = None) -> tuple[str, ...]:
+    """``formats`` (a sequence of names or ``"urdf,yaml"``) without repeats, each one of :data:`EXPORTS`.
 
     Raises:
-        CalibPinError: an unknown format, or ``dh`` for the placement model (no DH table).
+        ArgumentError: an unknown format, or none.
+        CalibPinError: ``dh`` for the placement model (no DH table).
     """
-    names = tuple(dict.fromkeys(formats))
+    names = tuple(dict.fromkeys(as_names(formats, "formats")))
     unknown = [n for n in names if n not in EXPORTS]
-    if unknown:
-        raise CalibPinError(f"unknown export format '{unknown[0]}' (valid: {', '.join(EXPORTS)})")
+    if unknown or not names:
+        raise ArgumentError("formats", f"unknown export format '{unknown[0]}' (valid: {', '.join(EXPORTS)})" if unknown
+                            else f"no export format given (valid: {', '.join(EXPORTS)})")
     if result is not None and "dh" in names and result.model_name == "placement":
         raise CalibPinError("the placement model has no DH table: the dh export needs the dh or hayati model "
                             "(urdf and yaml work for every model)")
@@ -146,6 +149,22 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
     return files, exports
 
 
+def planned_files(result: CalibrationResult, formats: str | Sequence[str] = ("urdf",), *,
+                  html: bool = True) -> list[str]:
+    """The names of the files :func:`write_outputs` may write for ``result`` (report.html
+    is left out when matplotlib fails), in order."""
+    name = result.chain.name
+    formats = check_formats(formats, result)
+    files = []
+    if result.kinematic and not result.sanity_error():
+        files = [_FILES[fmt].format(name=name) for fmt in formats]
+        if "yaml" in formats and name.startswith("ur"):
+            files.append(_FILES["ur_kinematics"].format(name=name))
+        if "urdf" in formats:
+            files.append(f"{name}_calibration.json")
+    return [*files, *(["report.html"] if html else []), "report.json"]
+
+
 def _html(report: dict[str, Any], silence: str) -> str | None:
     """report.html's text, or None (one warning line on stderr) without a working matplotlib."""
     from ..optional import figures_or_warn
@@ -158,7 +177,7 @@ def _html(report: dict[str, Any], silence: str) -> str | None:
     return figures_or_warn("report.html", draw, silence)
 
 
-def render_outputs(result: CalibrationResult, formats: Sequence[str] = ("urdf",), *, html: bool = True,
+def render_outputs(result: CalibrationResult, formats: str | Sequence[str] = ("urdf",), *, html: bool = True,
                    silence: str = "html=False silences this") -> RenderedOutputs:
     """Every file of ``result``'s outputs, in memory (nothing is written).
 
@@ -255,7 +274,7 @@ def remove_stale(candidates: Sequence[Path], written: Sequence[Path], inputs: In
     return removed
 
 
-def write_outputs(result: CalibrationResult, folder: str | os.PathLike[str], formats: Sequence[str] = ("urdf",), *,
+def write_outputs(result: CalibrationResult, folder: str | os.PathLike[str], formats: str | Sequence[str] = ("urdf",), *,
                   html: bool = True, inputs: Inputs | None = None, notes: list[str] | None = None,
                   silence: str = "html=False silences this") -> WrittenOutputs:
     """Write a calibration's outputs in ``folder``, all together or none.
@@ -271,7 +290,7 @@ def write_outputs(result: CalibrationResult, folder: str | os.PathLike[str], for
     Args:
         result: A calibration (:func:`calib_pin.pipeline.calibrate`).
         folder: The output folder (made if missing).
-        formats: ``urdf``, ``yaml``, ``dh`` (see :func:`render_outputs`).
+        formats: ``urdf``, ``yaml``, ``dh`` (see :func:`render_outputs`): a sequence or ``"urdf,yaml"``.
         html: Write report.html (needs matplotlib: without it one warning line on
             stderr, and the rest is written).
         inputs: The caller's input files by label (``{"--data": "s.csv"}``): none is
@@ -283,12 +302,26 @@ def write_outputs(result: CalibrationResult, folder: str | os.PathLike[str], for
         The files written, the report, the refusal reason (or None) and the notes.
 
     Raises:
-        CalibPinError: an unknown format, ``dh`` with the placement model.
+        ArgumentError: an argument of the wrong type, an unknown format.
+        CalibPinError: ``dh`` with the placement model.
         OutputError: an output is an input or a folder, or could not be written
             (nothing was then changed).
     """
+    from ..result import CalibrationResult
+
+    as_instance(result, "result", CalibrationResult, "a CalibrationResult (calib_pin.calibrate)")
+    folder = as_path(folder, "folder")
+    formats = check_formats(formats, result)
+    html = as_bool(html, "html")
+    inputs = dict(as_instance(inputs if inputs is not None else {}, "inputs", Mapping, "a mapping {label: path}"))
+    for path in inputs.values():
+        if path is not None and path != "":
+            as_path(path, "inputs")
+    as_instance(notes if notes is not None else [], "notes", list, "a list (the notes are appended to it) or None")
+    out = Outputs(folder, inputs=inputs)
+    for file in planned_files(result, formats, html=html):  # refused before the work that makes them
+        out.check(out.folder / file)
     rendered = render_outputs(result, formats, html=html, silence=silence)
-    out = Outputs(Path(folder), inputs=inputs)
     report = add_outputs(out, rendered)
     written = out.commit()
     removed = remove_stale(stale_files(out.folder, rendered.robot), written, out.inputs)
@@ -297,5 +330,5 @@ def write_outputs(result: CalibrationResult, folder: str | os.PathLike[str], for
     return WrittenOutputs(written, report, rendered.refused, list(rendered.notes), removed)
 
 
-__all__ = ["EXPORTS", "STALE", "RenderedOutputs", "WrittenOutputs", "add_outputs", "check_formats", "remove_stale",
-           "render_outputs", "report_in", "stale_files", "write_outputs"]
+__all__ = ["EXPORTS", "STALE", "RenderedOutputs", "WrittenOutputs", "add_outputs", "check_formats", "planned_files",
+           "remove_stale", "render_outputs", "report_in", "stale_files", "write_outputs"]
