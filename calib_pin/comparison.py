@@ -37,6 +37,7 @@ from .pipeline import CalibrationSetup, prepare
 from .problem import CalibrationProblem
 from .progress import progress_bar
 from .robot import Chain, load_chain
+from .robot.deflection import Compliance, as_compliance
 from .simulation import Truth, random_poses, simulate
 
 #: Table I of the paper: test RMSE, "Std" (mean absolute residual) and Max, [mm].
@@ -337,7 +338,7 @@ def compare(
     simulate_noise: str | None = None,
     noise_mm: float = 0.05,
     poses: int = 120,
-    compliance: str | tuple[str, ...] | None = None,
+    compliance: Compliance | str | tuple[str, ...] | None = None,
     payload_kg: float | None = None,
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
@@ -360,8 +361,10 @@ def compare(
         test_fraction: Share of rows held out (the paper's 0.2).
         simulate_noise: ``gauss``, ``student`` or ``outliers``: run on simulated sets of
             ``poses`` poses with that noise of size ``noise_mm`` [mm] (1 sigma).
-        compliance, payload_kg, payload_com_mm, cable_tension_n: Joint compliances to
-            estimate with the geometry, and their loads (as :func:`calib_pin.calibrate`).
+        compliance: Joint compliances to estimate with the geometry, and their loads: a
+            :class:`~calib_pin.robot.deflection.Compliance` or joint names (as
+            :func:`calib_pin.calibrate`); payload_kg, payload_com_mm, cable_tension_n: its
+            deprecated loose aliases.
         jobs, scheduler: Run the trials in ``jobs`` local processes, or on the Dask
             cluster at ``scheduler`` (see :func:`calib_pin.parallel.parallel_map`); the
             results do not depend on it (each trial is seeded), only the time does.
@@ -383,14 +386,15 @@ def compare(
         get_method(m)
     if trials < 1:
         raise CalibPinError(f"trials must be at least 1, got {trials}")
-    soft = {"compliance": compliance, "payload_kg": payload_kg, "payload_com_mm": payload_com_mm,
-            "cable_tension_n": cable_tension_n}
+    record = as_compliance(compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm,
+                           cable_tension_n=cable_tension_n)
+    soft = {"compliance": record}
     with progress_bar(trials * len(methods), "trials x methods") as bar:
         local = jobs == 1 and scheduler is None  # a bar follows only the trials run here
         tick = bar.update if bar is not None and local else None
         out, what = _trials(robot, data, methods, trials, seed, test_fraction, simulate_noise, noise_mm, poses,
                             soft, (jobs, scheduler), tick, (checkpoint, notify))
-    return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(compliance))
+    return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(record))
 
 
 def _trials(robot: str, data: str | Path | None, methods: list[str], trials: int, seed: int, test_fraction: float,
@@ -434,8 +438,8 @@ def _run_trials(one: Callable[[int], Trial], seeds: range, settings: list, where
                                            jobs=where[0], scheduler=where[1], notify=notify)
 
 
-def _compliance_words(compliance: str | tuple[str, ...] | None) -> str:
+def _compliance_words(compliance: Compliance | None) -> str:
     """What the comparison estimates beyond geometry, in words (empty for geometry only)."""
     if not compliance:
         return ""
-    return f"; with the compliance of {compliance if isinstance(compliance, str) else ', '.join(compliance)}"
+    return f"; with the compliance of {compliance.words()}"
