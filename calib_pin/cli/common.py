@@ -72,13 +72,13 @@ class OneLineParser(argparse.ArgumentParser):
                 break
             name, eq, _ = token.partition("=")
             action = self._option_string_actions.get(name) if token.startswith("-") else None
-            if action is None or action.nargs == 0 or isinstance(action, _LIST_ACTIONS) or action.nargs not in (None, 1):
+            if action is None or action.nargs == 0 or action.nargs not in (None, 1):
                 out.append(token)
                 i += 1
                 continue
             value = argv[i + 1] if not eq and i + 1 < len(argv) else None
             spelled = repr(token[:60] if eq or value is None else f"{name} {value[:40]}")
-            if action in seen:
+            if action in seen and not isinstance(action, _LIST_ACTIONS):  # a list option may repeat
                 self.error(f"{name} given twice ({seen[action]} and {spelled}): give it once; a second "
                            "one would replace the first")
             seen[action] = spelled
