@@ -27,13 +27,14 @@ _API = {
     "compare": "comparison", "Comparison": "comparison",
     "analyze": "identifiability",
     "CalibrationProblem": "problem", "StackedProblem": "stacked", "FitSet": "multiset", "SetResult": "multiset",
-    "Chain": "robot", "Kinematics": "robot", "load_chain": "robot",
+    "Chain": "robot", "Kinematics": "robot", "load_chain": "robot", "Compliance": "robot.deflection",
     "DHModel": "parameters", "HayatiModel": "parameters", "PlacementModel": "parameters",
     "parameter_model": "parameters",
     "CableModel": "sensors", "Drawstring": "sensors", "PositionModel": "sensors", "PositionDevice": "sensors",
     "MeasurementSet": "measurements", "read_measurements": "measurements", "write_measurements": "measurements",
     "check_measurements": "measurements.checks",
-    "simulate": "simulation", "simulate_positions": "simulation", "Truth": "simulation",
+    "simulate": "simulation", "simulate_positions": "simulation", "simulate_sessions": "simulation",
+    "Truth": "simulation",
     "ESTIMATORS": "estimators", "EstimateResult": "estimators", "run_estimator": "estimators",
     "ArgumentError": "exceptions", "CalibPinError": "exceptions", "DataError": "exceptions", "EstimatorError": "exceptions",
     "RobotError": "exceptions",
@@ -49,6 +50,7 @@ __all__ = [
     "CalibratedRobot",
     "Chain",
     "Comparison",
+    "Compliance",
     "DHModel",
     "DataError",
     "Drawstring",
@@ -80,6 +82,7 @@ __all__ = [
     "run_estimator",
     "simulate",
     "simulate_positions",
+    "simulate_sessions",
     "write_measurements",
     "write_outputs",
     "__version__",
@@ -115,6 +118,7 @@ if TYPE_CHECKING:
     from .problem import CalibrationProblem
     from .result import CalibrationResult
     from .robot import Chain, Kinematics, load_chain
+    from .robot.deflection import Compliance
     from .sensors import CableModel, Drawstring, PositionDevice, PositionModel
-    from .simulation import Truth, simulate, simulate_positions
+    from .simulation import Truth, simulate, simulate_positions, simulate_sessions
     from .stacked import StackedProblem

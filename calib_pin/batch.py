@@ -56,9 +56,11 @@ class BatchTask:
     """One calibration of one measurement set.
 
     Attributes:
-        robot: Robot name or URDF path (``irb120``); None takes the file's
+        robot: Robot name or URDF path (``irb120``); None takes the (first) file's
             ``# robot:`` line.
-        data: Measurement CSV, readable at this path where the task runs.
+        data: Measurement CSV, readable at this path where the task runs; or several
+            (a tuple of paths): one calibration of those sets together, one robot and
+            each set its own sensor set-up (:func:`calib_pin.pipeline.calibrate` of a list).
         method: Estimator name.
         seed: Seed of the split and the estimator: the task's result depends on it only.
         options: Further keyword arguments of :func:`calib_pin.pipeline.calibrate`
@@ -66,15 +68,21 @@ class BatchTask:
     """
 
     robot: str | None
-    data: str
+    data: str | tuple[str, ...]
     method: str = "lm"
     seed: int = 0
     options: dict[str, Any] = field(default_factory=dict)
 
     @property
+    def files(self) -> tuple[str, ...]:
+        """The measurement files of the calibration (one, or each set's)."""
+        return (self.data,) if isinstance(self.data, str) else tuple(self.data)
+
+    @property
     def name(self) -> str:
-        """The set's name: the data file's stem (``session_03``)."""
-        return Path(self.data).name.removesuffix(".csv")
+        """The calibration's name: the data file's stem (``session_03``); with several
+        sets, their stems joined by ``+`` (``a+b+c``)."""
+        return "+".join(Path(f).name.removesuffix(".csv") for f in self.files)
 
 
 @dataclass
@@ -123,7 +131,8 @@ def run_task(task: BatchTask) -> TaskOutcome:
     start = time.perf_counter()
     row: dict[str, Any] = {"set": task.name, "method": task.method, "seed": task.seed}
     try:
-        result = calibrate(_robot(task), task.data, method=task.method, seed=task.seed, **task.options)
+        data = task.data if isinstance(task.data, str) else list(task.data)
+        result = calibrate(_robot(task), data, method=task.method, seed=task.seed, **task.options)
         rendered = render_outputs(result, ("urdf",), html=False)
         report = rendered.report
         row["rows"] = len(result.data)
@@ -148,9 +157,9 @@ def _robot(task: BatchTask) -> str:
         return task.robot
     from .measurements import read_measurements
 
-    robot = read_measurements(task.data).robot
+    robot = read_measurements(task.files[0]).robot
     if robot is None:
-        raise CalibPinError(f"{task.data}: no robot named: add '# robot: NAME' to the file or pass --robot")
+        raise CalibPinError(f"{task.files[0]}: no robot named: add '# robot: NAME' to the file or pass --robot")
     return robot
 
 
@@ -224,12 +233,15 @@ def write_summary(outcomes: Sequence[TaskOutcome], path: Path) -> Path:
 
 
 def task_key(task: BatchTask) -> str:
-    """The fingerprint of what a task's outcome depends on: the data file's bytes, the
-    robot (and its URDF's bytes), the method, the seed and the options (see
-    :func:`calib_pin.checkpoint.fingerprint`)."""
-    data = Path(task.data)
-    return fingerprint("batch-set", task.robot, file_digest(task.robot), str(data.resolve()), file_digest(data),
-                       task.method, task.seed, task.options)
+    """The fingerprint of what a task's outcome depends on: the data file's bytes (every
+    set's, in order), the robot (and its URDF's bytes), the method, the seed and the
+    options (see :func:`calib_pin.checkpoint.fingerprint`)."""
+    if isinstance(task.data, str):  # one set: the key of earlier runs
+        data = Path(task.data)
+        return fingerprint("batch-set", task.robot, file_digest(task.robot), str(data.resolve()), file_digest(data),
+                           task.method, task.seed, task.options)
+    files = [[str(Path(f).resolve()), file_digest(f)] for f in task.files]
+    return fingerprint("batch-sets", task.robot, file_digest(task.robot), files, task.method, task.seed, task.options)
 
 
 def _outcome_from_json(value: dict[str, Any]) -> TaskOutcome:
@@ -241,10 +253,10 @@ def _check_names(tasks: Sequence[BatchTask]) -> None:
     for task in tasks:
         if task.name in seen:
             raise CalibPinError(
-                f"two sets share the name '{task.name}' ({seen[task.name]}, {task.data}): "
+                f"two sets share the name '{task.name}' ({seen[task.name]}, {'+'.join(task.files)}): "
                 "their outputs would overwrite each other under the same folder"
             )
-        seen[task.name] = task.data
+        seen[task.name] = "+".join(task.files)
 
 
 def run_batch(
@@ -280,7 +292,7 @@ def run_batch(
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise CalibPinError(f"{out}: the output folder is a file")
-    inputs: dict[str, str | None] = {f"SESSION {t.data}": t.data for t in tasks}
+    inputs: dict[str, str | None] = {f"SESSION {f}": f for t in tasks for f in t.files}
     inputs["--robot"] = tasks[0].robot if tasks else None
     Outputs(out, inputs=inputs).check(out / "summary.csv")  # an input is never an output: refused before the work
     checkpoint = Checkpoint(out, "set")

@@ -29,14 +29,16 @@ import numpy as np
 
 from .checkpoint import Checkpoint, file_digest, fingerprint
 from .estimators import PAPER_LABELS, PAPER_METHODS, get_method, run_estimator
-from .exceptions import CalibPinError
+from .exceptions import ArgumentError, CalibPinError
 from .metrics import Metrics
+from .multiset import StackedSetup
 from .parallel import parallel_map
 from .parameters import ParameterModel, parameter_model
 from .pipeline import CalibrationSetup, prepare
 from .problem import CalibrationProblem
 from .progress import progress_bar
 from .robot import Chain, load_chain
+from .robot.deflection import Compliance, as_compliance
 from .simulation import Truth, random_poses, simulate
 
 #: Table I of the paper: test RMSE, "Std" (mean absolute residual) and Max, [mm].
@@ -318,6 +320,41 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
     )
 
 
+def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_fraction: float,
+                   tick: Callable[[], Any] | None = None) -> Trial:
+    """One trial on several measurement sets fitted together: every set split by pose with
+    the trial's seed (:meth:`~calib_pin.multiset.StackedSetup.split`), each method fitted as
+    :func:`calib_pin.calibrate` of the sets fits it (each set weighted by its noise), and
+    scored on the held-out rows of every set, each row's error in its own set's unit [mm].
+    The sets' truths are not known here: no fresh-pose score."""
+    runs = {}
+    before: np.ndarray | None = None
+    for m in methods:
+        result = setup.run(m, seed=seed, test_fraction=test_fraction)
+        if not len(result.test):
+            raise CalibPinError(f"a comparison needs held-out rows: {len(setup.data)} rows at test fraction "
+                                f"{test_fraction:g} hold out none (use more poses or a larger test fraction)")
+        est, problem = result.estimate, result.problem
+        train_problem, test_problem = problem.subset(result.train), problem.subset(result.test)
+        k, evals = est.converged(CONVERGED_TOLERANCE)
+        residual = test_problem.row_errors(est.residual(test_problem))
+        runs[m] = MethodRun(
+            method=m, label=PAPER_LABELS[m],
+            train=Metrics.of(train_problem.row_errors(est.residual(train_problem))), test=Metrics.of(residual),
+            fresh_rmse_mm=None, iterations=est.iterations, evaluations=est.nfev,
+            converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
+            history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
+            test_residual_mm=residual * 1e3,
+        )
+        if before is None:  # every method starts from the same sensor geometry, fitted on the same rows
+            before = test_problem.row_errors(test_problem.residual(np.zeros(problem.n_params)))
+        if tick is not None:
+            tick()
+    assert before is not None  # methods is not empty
+    return Trial(seed=seed, source=setup.data.source or "stacked", before=Metrics.of(before),
+                 before_fresh_rmse_mm=None, before_residual_mm=before * 1e3, runs=runs)
+
+
 def _simulated_trial(robot: str, chain: Chain, params: ParameterModel, methods: list[str], test_fraction: float,
                      poses: int, noise_mm: float, noise_kind: str, soft: dict[str, Any], seed: int,
                      tick: Callable[[], Any] | None = None) -> Trial:
@@ -328,7 +365,7 @@ def _simulated_trial(robot: str, chain: Chain, params: ParameterModel, methods: 
 
 def compare(
     robot: str,
-    data: str | Path | None = None,
+    data: str | Path | list[str | Path] | tuple[str | Path, ...] | None = None,
     *,
     methods: list[str] | None = None,
     trials: int = 1,
@@ -337,7 +374,7 @@ def compare(
     simulate_noise: str | None = None,
     noise_mm: float = 0.05,
     poses: int = 120,
-    compliance: str | tuple[str, ...] | None = None,
+    compliance: Compliance | str | tuple[str, ...] | None = None,
     payload_kg: float | None = None,
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
@@ -350,8 +387,10 @@ def compare(
 
     Args:
         robot: Robot name or URDF path.
-        data: Measurement CSV; None uses the robot's shipped set. Ignored when
-            ``simulate_noise`` is given.
+        data: Measurement CSV; None uses the robot's shipped set. Several CSVs (a list):
+            the comparison runs on those sets stacked, one robot and each set its own
+            sensor set-up (as :func:`calib_pin.calibrate` of a list); each trial splits
+            every set by pose with the trial's seed. Ignored when ``simulate_noise`` is given.
         methods: Method names (default: the paper's nine, M1..M9).
         trials: Number of trials. On a measurement set, trial i uses the split of seed
             ``seed + i``; with ``simulate_noise``, trial i also simulates a new set of
@@ -360,8 +399,10 @@ def compare(
         test_fraction: Share of rows held out (the paper's 0.2).
         simulate_noise: ``gauss``, ``student`` or ``outliers``: run on simulated sets of
             ``poses`` poses with that noise of size ``noise_mm`` [mm] (1 sigma).
-        compliance, payload_kg, payload_com_mm, cable_tension_n: Joint compliances to
-            estimate with the geometry, and their loads (as :func:`calib_pin.calibrate`).
+        compliance: Joint compliances to estimate with the geometry, and their loads: a
+            :class:`~calib_pin.robot.deflection.Compliance` or joint names (as
+            :func:`calib_pin.calibrate`); payload_kg, payload_com_mm, cable_tension_n: its
+            deprecated loose aliases.
         jobs, scheduler: Run the trials in ``jobs`` local processes, or on the Dask
             cluster at ``scheduler`` (see :func:`calib_pin.parallel.parallel_map`); the
             results do not depend on it (each trial is seeded), only the time does.
@@ -383,17 +424,18 @@ def compare(
         get_method(m)
     if trials < 1:
         raise CalibPinError(f"trials must be at least 1, got {trials}")
-    soft = {"compliance": compliance, "payload_kg": payload_kg, "payload_com_mm": payload_com_mm,
-            "cable_tension_n": cable_tension_n}
+    record = as_compliance(compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm,
+                           cable_tension_n=cable_tension_n)
+    soft = {"compliance": record}
     with progress_bar(trials * len(methods), "trials x methods") as bar:
         local = jobs == 1 and scheduler is None  # a bar follows only the trials run here
         tick = bar.update if bar is not None and local else None
         out, what = _trials(robot, data, methods, trials, seed, test_fraction, simulate_noise, noise_mm, poses,
                             soft, (jobs, scheduler), tick, (checkpoint, notify))
-    return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(compliance))
+    return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(record))
 
 
-def _trials(robot: str, data: str | Path | None, methods: list[str], trials: int, seed: int, test_fraction: float,
+def _trials(robot: str, data: Any, methods: list[str], trials: int, seed: int, test_fraction: float,
             simulate_noise: str | None, noise_mm: float, poses: int, soft: dict[str, Any],
             where: tuple[int, str | None], tick: Callable[[], Any] | None,
             keep: tuple[str | Path | None, Callable[[str], Any] | None] = (None, None)) -> tuple[list[Trial], str]:
@@ -401,6 +443,11 @@ def _trials(robot: str, data: str | Path | None, methods: list[str], trials: int
     ``keep`` = (checkpoint folder, notify)) and what they ran on."""
     seeds = range(seed, seed + trials)
     settings = [robot, file_digest(robot), methods, test_fraction, soft]
+    if simulate_noise is None and isinstance(data, list | tuple) and len(data) > 1:
+        return _stacked_trials(robot, list(data), methods, trials, seed, test_fraction, soft, settings, where, tick,
+                               keep)
+    if simulate_noise is None and isinstance(data, list | tuple):
+        data = data[0] if data else None
     if simulate_noise is None:
         setup = prepare(robot, data, **soft)
         for m in methods:
@@ -422,6 +469,29 @@ def _trials(robot: str, data: str | Path | None, methods: list[str], trials: int
     return _run_trials(one, seeds, settings, where, keep), what
 
 
+def _stacked_trials(robot: str, data: list[Any], methods: list[str], trials: int, seed: int, test_fraction: float,
+                    soft: dict[str, Any], settings: list, where: tuple[int, str | None], tick: Callable[[], Any] | None,
+                    keep: tuple[str | Path | None, Callable[[str], Any] | None]) -> tuple[list[Trial], str]:
+    """The trials of :func:`compare` on several sets stacked, and what they ran on."""
+    for d in data:
+        if not isinstance(d, str | Path):
+            raise ArgumentError("data", f"expected measurement CSV paths, got {type(d).__name__} in the list")
+    setup = prepare(robot, [str(d) for d in data], **soft)
+    assert isinstance(setup, StackedSetup)
+    for m in methods:
+        spec = get_method(m)
+        spec.check(kind=setup.sets[0].kind)
+        if not spec.kinematic:
+            raise CalibPinError(f"method '{m}' learns a correction of one sensor's values: with several sets "
+                                "compare parameter methods (lm, ekf-qibas, ...)")
+    one = partial(_stacked_trial, setup, methods, test_fraction=test_fraction, tick=tick)
+    names = [Path(s.source).name if s.source else label for s, label in zip(setup.sets, setup.labels, strict=True)]
+    what = f"{len(setup.data)} rows of {len(setup.sets)} sets stacked ({', '.join(names)})"
+    what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
+    settings += ["sets", [[s.source, file_digest(s.source)] for s in setup.sets]]
+    return _run_trials(one, range(seed, seed + trials), settings, where, keep), what
+
+
 def _run_trials(one: Callable[[int], Trial], seeds: range, settings: list, where: tuple[int, str | None],
                 keep: tuple[str | Path | None, Callable[[str], Any] | None]) -> list[Trial]:
     """``one(seed)`` for each seed; with a checkpoint folder, each trial kept as it finishes,
@@ -434,8 +504,8 @@ def _run_trials(one: Callable[[int], Trial], seeds: range, settings: list, where
                                            jobs=where[0], scheduler=where[1], notify=notify)
 
 
-def _compliance_words(compliance: str | tuple[str, ...] | None) -> str:
+def _compliance_words(compliance: Compliance | None) -> str:
     """What the comparison estimates beyond geometry, in words (empty for geometry only)."""
     if not compliance:
         return ""
-    return f"; with the compliance of {compliance if isinstance(compliance, str) else ', '.join(compliance)}"
+    return f"; with the compliance of {compliance.words()}"

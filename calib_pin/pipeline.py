@@ -40,7 +40,7 @@ from .parameters import MODELS, ParameterModel, parameter_model
 from .problem import CalibrationProblem
 from .result import CalibrationResult
 from .robot import Chain, RobotDescription, load_chain, resolve_robot
-from .robot.deflection import compliance_spec
+from .robot.deflection import Compliance, as_compliance
 from .sensors import SENSORS, sensor_for
 
 #: Sensor noise assumed when neither the data (``# noise_mm``) nor the caller give it.
@@ -228,7 +228,7 @@ def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_labe
 def prepare(robot: str | RobotDescription, data: str | Path | MeasurementSet | None = None,
             *, end_frame: str | None = None, anchor_mm: Any = None, tool_mm: Any = None,
             length_offset_mm: float | None = None, noise_mm: Any = None, parameters: str | None = None,
-            estimate: tuple[str, ...] = (), compliance: str | tuple[str, ...] | None = None,
+            estimate: tuple[str, ...] = (), compliance: Compliance | str | tuple[str, ...] | None = None,
             payload_kg: float | None = None, payload_com_mm: Any = None,
             cable_tension_n: float | None = None) -> CalibrationSetup: ...
 
@@ -237,7 +237,7 @@ def prepare(robot: str | RobotDescription, data: str | Path | MeasurementSet | N
 def prepare(robot: str | RobotDescription, data: list[Any] | tuple[Any, ...],
             *, end_frame: str | None = None, anchor_mm: Any = None, tool_mm: Any = None,
             length_offset_mm: float | None = None, noise_mm: Any = None, parameters: str | None = None,
-            estimate: tuple[str, ...] = (), compliance: str | tuple[str, ...] | None = None,
+            estimate: tuple[str, ...] = (), compliance: Compliance | str | tuple[str, ...] | None = None,
             payload_kg: float | None = None, payload_com_mm: Any = None,
             cable_tension_n: float | None = None) -> CalibrationSetup | StackedSetup: ...
 
@@ -253,7 +253,7 @@ def prepare(
     noise_mm: Any = None,
     parameters: str | None = None,
     estimate: tuple[str, ...] = (),
-    compliance: str | tuple[str, ...] | None = None,
+    compliance: Compliance | str | tuple[str, ...] | None = None,
     payload_kg: float | None = None,
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
@@ -268,30 +268,27 @@ def prepare(
         CalibPinError: any bad input (robot, file, option), with a one-line message.
     """
     estimate = check_estimate(estimate)
+    record = as_compliance(compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm,
+                           cable_tension_n=cable_tension_n)
     sets = fit_sets(data)
     if sets is not None and len(sets) == 1:
         data, noise_mm = _single(sets[0], noise_mm)
     elif sets is not None:  # several sets
         return _prepare_sets(robot, sets, end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
                              length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters,
-                             estimate=estimate, compliance=compliance, payload_kg=payload_kg,
-                             payload_com_mm=payload_com_mm, cable_tension_n=cable_tension_n)
+                             estimate=estimate, compliance=record)
     _check_data(data, "data")
     end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
     anchor_mm = as_optional(as_xyz_mm, anchor_mm, "anchor_mm")
     tool_mm = as_optional(as_xyz_mm, tool_mm, "tool_mm")
-    payload_com_mm = as_optional(as_xyz_mm, payload_com_mm, "payload_com_mm")
     length_offset_mm = as_optional(as_float, length_offset_mm, "length_offset_mm", -MAX_MM, MAX_MM, unit="mm")
     noise_mm = as_optional(as_float, noise_mm, "noise_mm", 0.0, MAX_MM, low_open=True, unit="mm")
-    payload_kg = as_optional(as_float, payload_kg, "payload_kg", 0.0, 1e6, unit="kg")
-    cable_tension_n = as_optional(as_float, cable_tension_n, "cable_tension_n", 0.0, 1e6, unit="N")
     parameters = as_optional(as_choice, parameters, "parameters", MODELS)
-    compliance = as_names(compliance, "compliance")
     chain = _load_robot(robot, data, end_frame)
     parameter_model(chain, parameters)  # a robot that cannot be calibrated says so first
     chain, data = load_data(chain, data, str(robot), end_frame)
     noise = noise_mm * 1e-3 if noise_mm is not None else (data.noise or DEFAULT_NOISE_MM * 1e-3)
-    soft = compliance_spec(chain, compliance, payload_kg, payload_com_mm, cable_tension_n)
+    soft = record.spec(chain) if record is not None else None
     options = {"anchor_mm": anchor_mm, "tool_mm": tool_mm, "length_offset_mm": length_offset_mm, "estimate": estimate,
                "compliance": soft}
     setup = CalibrationSetup(chain, parameter_model(chain, parameters), data, noise, options)
@@ -308,14 +305,12 @@ def _single(given: FitSet, noise_mm: Any) -> tuple[Any, Any]:
 
 def _prepare_sets(robot: str | RobotDescription, sets: list[FitSet], *, end_frame: str | None, anchor_mm: Any,
                   tool_mm: Any, length_offset_mm: Any, noise_mm: Any, parameters: str | None,
-                  estimate: tuple[str, ...], compliance: Any, payload_kg: Any, payload_com_mm: Any,
-                  cable_tension_n: Any) -> StackedSetup:
+                  estimate: tuple[str, ...], compliance: Compliance | None) -> StackedSetup:
     """:func:`prepare` of several sets (:mod:`calib_pin.multiset`)."""
     check_sets(sets, {"anchor_mm": anchor_mm, "tool_mm": tool_mm, "length_offset_mm": length_offset_mm})
     for s in sets:
         _check_data(s.data, "data")
     end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
-    payload_com_mm = as_optional(as_xyz_mm, payload_com_mm, "payload_com_mm")
     if isinstance(noise_mm, list | tuple):
         if len(noise_mm) != len(sets):
             raise ArgumentError("noise_mm", f"{len(noise_mm)} values for {len(sets)} sets (give one, or one per set)")
@@ -323,17 +318,14 @@ def _prepare_sets(robot: str | RobotDescription, sets: list[FitSet], *, end_fram
                 for s, n in zip(sets, noise_mm, strict=True)]
         noise_mm = None
     noise_mm = as_optional(as_float, noise_mm, "noise_mm", 0.0, MAX_MM, low_open=True, unit="mm")
-    payload_kg = as_optional(as_float, payload_kg, "payload_kg", 0.0, 1e6, unit="kg")
-    cable_tension_n = as_optional(as_float, cable_tension_n, "cable_tension_n", 0.0, 1e6, unit="N")
     parameters = as_optional(as_choice, parameters, "parameters", MODELS)
-    compliance = as_names(compliance, "compliance")
     chain = _load_robot(robot, sets[0].data, end_frame)
     parameter_model(chain, parameters)
     chain, first = load_data(chain, sets[0].data, str(robot), end_frame)
     loaded = [first] + [load_data(chain, s.data, str(robot), chain.end_frame)[1] for s in sets[1:]]
     labels = labelled(sets, loaded)
     known = [set_sigma(s, noise_mm, d) for s, d in zip(sets, loaded, strict=True)]
-    soft = compliance_spec(chain, compliance, payload_kg, payload_com_mm, cable_tension_n)
+    soft = compliance.spec(chain) if compliance is not None else None
     setup = StackedSetup(chain, parameter_model(chain, parameters), tuple(loaded), labels,
                          tuple(s.role for s in sets), tuple(k[0] for k in known), tuple(k[1] for k in known),
                          {"estimate": estimate, "compliance": soft})
@@ -357,7 +349,7 @@ def calibrate(
     loss: str = "linear",
     parameters: str | None = None,
     estimate: tuple[str, ...] = (),
-    compliance: str | tuple[str, ...] | None = None,
+    compliance: Compliance | str | tuple[str, ...] | None = None,
     payload_kg: float | None = None,
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
@@ -388,9 +380,12 @@ def calibrate(
             ``placement`` (default without one; any URDF).
         estimate: Drawstring geometry to estimate with the robot: ``anchor``,
             ``offset`` (positions always estimate the device frame and markers).
-        compliance, payload_kg, payload_com_mm, cable_tension_n: Joints whose compliance
-            [rad/Nm] is estimated with the geometry (``"joint_2,joint_3"``, ``"all"``), a
-            payload [kg] at [mm] in the end frame, the cable's pull [N]: see :func:`prepare`.
+        compliance: The joints whose compliance [rad/Nm] is estimated with the geometry,
+            and their loads: a :class:`~calib_pin.robot.deflection.Compliance` (joints, a
+            payload [kg] at [mm] in the end frame, the cable's pull [N]), or joint names as
+            shorthand (``"joint_2,joint_3"``, ``"all"``); None: a rigid arm.
+        payload_kg, payload_com_mm, cable_tension_n: Deprecated aliases of the record's
+            fields (a DeprecationWarning; refused beside a record).
         progress: Called with the prepared setup before the estimation starts.
 
     Raises:
@@ -404,10 +399,12 @@ def calibrate(
     _check_data(test_data, "test_data")
     if progress is not None and not callable(progress):
         raise ArgumentError("progress", f"expected a function of the setup, or None, got {type(progress).__name__}")
+    record = as_compliance(compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm,
+                           cable_tension_n=cable_tension_n)
     setup: CalibrationSetup | StackedSetup = prepare(
         robot, cast(Any, data), end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
         length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters, estimate=estimate,
-        compliance=compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm, cable_tension_n=cable_tension_n)
+        compliance=record)
     if isinstance(setup, StackedSetup):
         if test_data is not None:
             raise CalibPinError("test_data with several sets: give the validation set as one of the sets, "

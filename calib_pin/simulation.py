@@ -7,6 +7,7 @@ and what the sensor would read on the true robot plus noise. The truth
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -35,7 +36,7 @@ from .input_files import check_regular
 from .measurements import MeasurementSet
 from .parameters import ParameterModel
 from .robot import Chain
-from .robot.deflection import ComplianceSpec
+from .robot.deflection import Compliance, ComplianceSpec, as_compliance
 from .sensors import CableModel, Drawstring, MeasurementModel, PositionDevice, PositionModel, sensor_for
 from .units import for_humans, from_humans
 
@@ -105,6 +106,9 @@ class Truth:
         outliers: Data rows (0-based) given a gross error.
         compliance: Compliant joints and loads of the true arm, or None (rigid).
         compliance_values: Their true compliances, shape (n_compliant,), [rad/Nm].
+        sessions: With several sessions of the one true robot
+            (:func:`simulate_sessions`), each session's true sensor geometry in turn
+            (the first is :attr:`sensor`); empty for one session.
     """
 
     x: np.ndarray
@@ -118,6 +122,16 @@ class Truth:
     outliers: tuple[int, ...] = ()
     compliance: ComplianceSpec | None = None
     compliance_values: np.ndarray | None = None
+    sessions: tuple[Any, ...] = ()
+
+    def session(self, k: int) -> Truth:
+        """The truth of session ``k`` (0-based): the one robot, that session's sensor."""
+        if not self.sessions:
+            if k != 0:
+                raise ArgumentError("k", f"a truth of one session has no session {k}")
+            return self
+        as_int(k, "k", 0, len(self.sessions) - 1)
+        return dataclasses.replace(self, sensor=self.sessions[k], sessions=())
 
     def model(self, chain: Chain, params: ParameterModel) -> MeasurementModel:
         """The true sensor's measurement model (nothing of the sensor estimated; the true
@@ -144,6 +158,8 @@ class Truth:
         if self.compliance is not None and self.compliance_values is not None:
             doc["compliance"] = {**self.compliance.to_dict(),
                                  "compliance_rad_per_Nm": np.asarray(self.compliance_values).tolist()}
+        if self.sessions:
+            doc["sessions"] = [g.to_dict() for g in self.sessions]
         write_text(path, json.dumps(doc, indent=2) + "\n")
 
     @classmethod
@@ -162,9 +178,10 @@ class Truth:
             soft = doc.get("compliance")
             spec = ComplianceSpec.from_dict(soft) if soft else None
             values = np.asarray(soft["compliance_rad_per_Nm"], dtype=float) if soft else None
+            sessions = tuple(sensor_for(kind).geometry_type.from_dict(g) for g in doc.get("sessions", ()))
             return cls(x, tuple(params.names), tuple(params.units), sensor, kind,
                        float(doc["noise_mm"]) * 1e-3, int(doc["seed"]),
-                       doc.get("noise_kind", "gauss"), tuple(doc.get("outlier_rows", ())), spec, values)
+                       doc.get("noise_kind", "gauss"), tuple(doc.get("outlier_rows", ())), spec, values, sessions)
         except OSError as e:
             raise DataError(str(path), f"cannot read: {e.strerror or e}") from None
         except (ValueError, KeyError, TypeError) as e:
@@ -226,8 +243,10 @@ def simulate(
     length_offset_mm: float = 0.0,
     noise_kind: str = "gauss",
     poses: np.ndarray | None = None,
-    compliance: ComplianceSpec | None = None,
+    compliance: Compliance | ComplianceSpec | str | None = None,
     true_compliance: Any = None,
+    *,
+    _true_x: np.ndarray | None = None,
 ) -> tuple[MeasurementSet, Truth]:
     """Simulate a drawstring session.
 
@@ -249,8 +268,11 @@ def simulate(
         noise_kind: ``gauss``, ``student`` or ``outliers`` (see :func:`reading_noise`).
         poses: Joint angles to use, shape (n_poses, n_joints) [rad], instead of random
             ones (``n_poses`` is then ignored).
-        compliance, true_compliance: The true arm's compliant joints and loads, and their
-            compliances [rad/Nm] (:mod:`calib_pin.robot.deflection`); None: a rigid arm.
+        compliance, true_compliance: The true arm's compliant joints and loads (a
+            :class:`~calib_pin.robot.deflection.Compliance`, joint names as shorthand, or
+            a resolved ``ComplianceSpec``), and their compliances [rad/Nm]; None: a rigid arm.
+        _true_x: Internal (:func:`simulate_sessions`): the true deviations of a robot
+            already drawn, used instead of drawing them.
 
     Raises:
         ArgumentError: a bad argument, named (a chain or parameter model of another
@@ -270,9 +292,10 @@ def simulate(
     poses = _poses_above_base(chain, cable, n_poses, rng) if poses is None else poses
     n_poses = len(poses)
     nominal = cable.predict(np.zeros(len(params.names)), poses)
-    x = _true_deviations(params, rng, nominal_rmse_mm, lambda x: np.abs(cable.predict(x, poses) - nominal))
+    x = _true_deviations(params, rng, nominal_rmse_mm, lambda x: np.abs(cable.predict(x, poses) - nominal)) \
+        if _true_x is None else _true_x
     noise, outliers = reading_noise(noise_kind, n_poses, noise_mm, rng)
-    soft = _true_compliance(compliance, true_compliance)
+    compliance, soft = _true_compliance(chain, compliance, true_compliance)
     true_model = CableModel(chain, params, sensor, compliance=compliance)
     readings = true_model.predict(np.concatenate([x, soft]), poses) + noise
     data = MeasurementSet(q=poses, values=readings, kind="cable", anchor=sensor.anchor, tool=sensor.tool,
@@ -295,17 +318,28 @@ def _common_arguments(chain: Any, params: Any, n_poses: Any, seed: Any, noise_mm
             as_float(nominal_rmse_mm, "nominal_rmse_mm", 0.0, 1e3, unit="mm"))
 
 
-def _true_compliance(spec: ComplianceSpec | None, values: Any) -> np.ndarray:
-    """The true compliances [rad/Nm] of ``spec``'s joints (empty for a rigid arm).
+def _true_compliance(chain: Chain, compliance: Any, values: Any) -> tuple[ComplianceSpec | None, np.ndarray]:
+    """The true arm's compliance spec and the true compliances [rad/Nm] of its joints
+    (None and empty for a rigid arm).
 
     Raises:
-        CalibPinError: values without joints, a count that does not match, or a negative value.
+        CalibPinError: a bad compliance record, values without joints, a count that does
+            not match, or a negative value.
     """
+    if isinstance(compliance, ComplianceSpec):
+        spec: ComplianceSpec | None = compliance
+    else:
+        record = as_compliance(compliance)
+        spec = record.spec(chain) if record is not None else None
+    return spec, _true_values(spec, values)
+
+
+def _true_values(spec: ComplianceSpec | None, values: Any) -> np.ndarray:
+    """The true compliances [rad/Nm] of ``spec``'s joints (empty for a rigid arm)."""
     if spec is None:
         if values is not None and np.size(values):
             raise ArgumentError("true_compliance", "true compliances need compliant joints (compliance)")
         return np.zeros(0)
-    as_instance(spec, "compliance", ComplianceSpec, "a ComplianceSpec (calib_pin.robot.deflection) or None")
     c = as_array(values if values is not None else [], "true_compliance", (len(spec.joints),), unit="rad/Nm")
     if not np.all(c >= 0):
         raise ArgumentError("true_compliance", f"give {len(spec.joints)} true compliance(s) >= 0 for "
@@ -326,8 +360,10 @@ def simulate_positions(
     nominal_rmse_mm: float = 2.0,
     markers_mm=DEFAULT_MARKERS_MM,
     device: pin.SE3 | None = None,
-    compliance: ComplianceSpec | None = None,
+    compliance: Compliance | ComplianceSpec | str | None = None,
     true_compliance: Any = None,
+    *,
+    _true_x: np.ndarray | None = None,
 ) -> tuple[MeasurementSet, Truth]:
     """Simulate a position session: every marker measured at each pose by a device.
 
@@ -349,7 +385,7 @@ def simulate_positions(
     if not len(markers):
         raise ArgumentError("markers_mm", "give at least one marker point (x, y, z in mm)")
     as_optional(as_instance, device, "device", pin.SE3, "the device frame T_DB as a pinocchio.SE3, or None")
-    _true_compliance(compliance, true_compliance)
+    compliance, soft = _true_compliance(chain, compliance, true_compliance)
     rng = np.random.default_rng(seed)
     if device is None:
         device = pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4]))
@@ -360,8 +396,8 @@ def simulate_positions(
     index = np.tile(np.arange(len(markers)), n_poses)
     nominal = model.predict(None, q, index)
     x = _true_deviations(params, rng, nominal_rmse_mm,
-                         lambda x: np.linalg.norm(model.predict(x, q, index) - nominal, axis=1))
-    soft = _true_compliance(compliance, true_compliance)
+                         lambda x: np.linalg.norm(model.predict(x, q, index) - nominal, axis=1)) \
+        if _true_x is None else _true_x
     true_model = PositionModel(chain, params, truth_device, estimate=(), compliance=compliance)
     positions = true_model.predict(np.concatenate([x, soft]), q, index) + rng.normal(size=q.shape[:1] + (3,)) * noise_mm * 1e-3
     data = MeasurementSet(
@@ -373,3 +409,114 @@ def simulate_positions(
     truth = Truth(x, tuple(params.names), tuple(params.units), truth_device, "position", noise_mm * 1e-3, seed,
                   compliance=compliance, compliance_values=soft if compliance else None)
     return data, truth
+
+
+#: Spread of the anchors drawn for sessions 2.. around the first, base frame, per axis, [mm]
+#: (a drawstring re-anchored elsewhere on the floor or a fixture).
+SESSION_ANCHOR_SPREAD_MM = (400.0, 400.0, 150.0)
+#: Spread of the device placements drawn for position sessions 2..: a turn about the
+#: vertical [deg] and a shift per axis [mm] (a tracker moved to another station).
+SESSION_DEVICE_TURN_DEG = 60.0
+SESSION_DEVICE_SHIFT_MM = (400.0, 400.0, 100.0)
+
+
+def simulate_sessions(
+    chain: Chain,
+    params: ParameterModel,
+    n_poses: int,
+    seed: int,
+    sessions: int = 3,
+    *,
+    kind: str = "cable",
+    noise_mm: float = 0.05,
+    nominal_rmse_mm: float = 2.0,
+    anchors_mm: Any = None,
+    tool_mm: tuple[float, float, float] = DEFAULT_TOOL_MM,
+    length_offset_mm: float = 0.0,
+    noise_kind: str = "gauss",
+    markers_mm: Any = DEFAULT_MARKERS_MM,
+    devices: Any = None,
+    poses: np.ndarray | None = None,
+    compliance: Compliance | ComplianceSpec | str | None = None,
+    true_compliance: Any = None,
+) -> tuple[list[MeasurementSet], Truth]:
+    """Simulate several sessions of one true robot, each with its own sensor set-up.
+
+    The true deviations (and compliances) are drawn once, in session 1, exactly as
+    :func:`simulate` (or :func:`simulate_positions`) of ``seed`` draws them: session 1 is
+    that function's set. Session k (k = 1..sessions) has its own poses and noise (seed
+    ``seed + k - 1``) and its own set-up: a drawstring its own anchor, a position device
+    its own device frame (the markers are the one tool's, shared).
+
+    Args:
+        chain, params, n_poses, noise_mm, nominal_rmse_mm, noise_kind, compliance,
+            true_compliance: As :func:`simulate` (``noise_kind`` for cables only).
+        seed: Seed of session 1 and of the set-ups drawn.
+        sessions: Number of sessions, >= 1.
+        kind: ``cable`` (a drawstring) or ``position`` (a position device).
+        anchors_mm: Cable: one anchor per session, shape (sessions, 3), base frame [mm];
+            None: the default anchor for session 1 and, for the others, anchors drawn
+            uniformly within :data:`SESSION_ANCHOR_SPREAD_MM` of it.
+        tool_mm, length_offset_mm: Cable: the tool point [mm, end frame] and the sensor's
+            zero offset [mm], the same in every session.
+        markers_mm: Position: marker points, shape (k, 3), end frame [mm].
+        devices: Position: one device frame T_DB (pinocchio.SE3) per session; None: the
+            default frame for session 1, the others turned about the vertical within
+            :data:`SESSION_DEVICE_TURN_DEG` and shifted within
+            :data:`SESSION_DEVICE_SHIFT_MM` of it.
+        poses: Cable: joint angles [rad], shape (n_poses, n_joints), used in every
+            session instead of random ones.
+
+    Returns:
+        The sets, one per session (each carrying its own true set-up), and one truth:
+        the robot and, in ``sessions``, every session's true sensor geometry.
+
+    Raises:
+        ArgumentError: a bad argument, named (as :func:`simulate`; anchors or devices not
+            one per session).
+    """
+    sessions = as_int(sessions, "sessions", 1, 1000)
+    kind = as_choice(kind, "kind", ("cable", "position"))
+    seed = as_int(seed, "seed", 0)
+    rng = np.random.default_rng([seed, sessions, 7])  # the set-ups' own draws
+    sets: list[MeasurementSet] = []
+    truths: list[Truth] = []
+    if kind == "cable":
+        if anchors_mm is None:
+            first = np.asarray(DEFAULT_ANCHOR_MM)
+            spread = np.asarray(SESSION_ANCHOR_SPREAD_MM)
+            anchors = np.vstack([first] + [first + rng.uniform(-spread, spread) for _ in range(sessions - 1)])
+        else:
+            anchors = as_array(anchors_mm, "anchors_mm", (sessions, 3), unit="mm")
+        for k in range(sessions):
+            data, truth = simulate(chain, params, n_poses, seed + k, noise_mm, nominal_rmse_mm,
+                                   anchor_mm=tuple(anchors[k]), tool_mm=tool_mm, length_offset_mm=length_offset_mm,
+                                   noise_kind=noise_kind, poses=poses, compliance=compliance,
+                                   true_compliance=true_compliance, _true_x=truths[0].x if truths else None)
+            sets.append(data)
+            truths.append(truth)
+    else:
+        if poses is not None:
+            raise ArgumentError("poses", "given poses are for drawstring sessions (kind 'cable') only")
+        if devices is None:
+            frames = [None] + [pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, np.deg2rad(rng.uniform(-1, 1) * SESSION_DEVICE_TURN_DEG)),
+                                       rng.uniform(-1, 1, 3) * np.asarray(SESSION_DEVICE_SHIFT_MM) * 1e-3)
+                               for _ in range(sessions - 1)]
+        else:
+            if not isinstance(devices, (list, tuple)) or len(devices) != sessions:
+                raise ArgumentError("devices", f"give one device frame (pinocchio.SE3) per session ({sessions})")
+            frames = list(devices)
+        for k in range(sessions):
+            frame = frames[k]
+            if devices is None and k > 0:  # moved from session 1's placement
+                frame = frames[k] * truths[0].sensor.frame
+            data, truth = simulate_positions(chain, params, n_poses, seed + k, noise_mm, nominal_rmse_mm,
+                                             markers_mm=markers_mm, device=frame, compliance=compliance,
+                                             true_compliance=true_compliance,
+                                             _true_x=truths[0].x if truths else None)
+            sets.append(data)
+            truths.append(truth)
+    for k, data in enumerate(sets):
+        data.notes["source"] = f"{data.notes['source']}, session {k + 1} of {sessions}"
+    truth = dataclasses.replace(truths[0], sessions=tuple(t.sensor for t in truths)) if sessions > 1 else truths[0]
+    return sets, truth

@@ -23,7 +23,7 @@ def cable_result(chain, params):
     """LM with compliance of joints 2, 3 on a simulated drawstring set with a 5 N pull."""
     spec = ComplianceSpec(JOINTS_23, cable_tension_n=5.0)
     data, _ = cp.simulate(chain, params, 80, seed=3, compliance=spec, true_compliance=TRUE_C)
-    return cp.calibrate("irb120", data, method="lm", compliance=JOINTS_23, cable_tension_n=5.0,
+    return cp.calibrate("irb120", data, method="lm", compliance=cp.Compliance(JOINTS_23, cable_tension_n=5.0),
                         estimate=("anchor",))
 
 

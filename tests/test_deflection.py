@@ -17,6 +17,7 @@ from calib_pin.report import build_report
 from calib_pin.robot import Kinematics, load_chain
 from calib_pin.robot.deflection import (
     CablePull,
+    Compliance,
     ComplianceSpec,
     Deflection,
     Payload,
@@ -225,12 +226,12 @@ def test_calibrate_reports_compliance_and_refuses_bad_options():
     c2 = soft["compliance_rad_per_Nm"]["joint_2"]
     assert 1e-6 < c2 < 1e-3 and np.isclose(soft["stiffness_Nm_per_rad"]["joint_2"], 1 / c2)
     assert np.isclose(result.compliances["compliance_joint_2_urad_per_Nm"], c2 * 1e6)
-    for kwargs, message in ((dict(compliance="joint_9"), "no chain joint"),
-                            (dict(compliance="all", payload_kg=-1.0), "payload_kg"),
-                            (dict(payload_kg=1.0), "needs compliant joints"),
-                            (dict(compliance="all", cable_tension_n=2.0), "drawstring data only")):
+    for make, message in ((lambda: "joint_9", "no chain joint"),
+                          (lambda: cp.Compliance("all", payload_kg=-1.0), "payload_kg"),
+                          (lambda: cp.Compliance(payload_kg=1.0), "needs compliant joints"),
+                          (lambda: cp.Compliance("all", cable_tension_n=2.0), "drawstring data only")):
         with pytest.raises(CalibPinError, match=message):
-            cp.prepare("irb120", "robots/irb120_wu2015.csv", **kwargs)
+            cp.prepare("irb120", "robots/irb120_wu2015.csv", compliance=make())
 
 
 def test_simulated_truth_with_compliance_through_the_pipeline(chain, params, tmp_path):
@@ -246,7 +247,7 @@ def test_simulated_truth_with_compliance_through_the_pipeline(chain, params, tmp
     assert np.allclose(Truth.from_json(tmp_path / "t.json", params).x_model, truth.x_model)
     fresh = {}
     for name, joints in (("geometric", None), ("compliant", JOINTS_23)):
-        setup = prepare("irb120", data, compliance=joints, cable_tension_n=5.0 if joints else None)
+        setup = prepare("irb120", data, compliance=Compliance(joints, cable_tension_n=5.0) if joints else None)
         result = setup.run("lm")
         score = fresh_scorer(setup, truth, 0)
         fresh[name] = score(lambda q, points, r=result: r.problem.model.predict(r.x, q, points))

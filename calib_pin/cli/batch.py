@@ -26,7 +26,11 @@ def batch_parser() -> argparse.ArgumentParser:
         "(--scheduler): per set OUT/<set>/report.json and the corrected URDF, plus "
         "OUT/summary.csv with one row per set.",
     )
-    p.add_argument("sessions", nargs="+", metavar="SESSION", help="measurement set CSVs (file stems must differ)")
+    p.add_argument("sessions", nargs="+", metavar="SESSION",
+                   help="measurement set CSVs, one calibration each (file stems must differ); "
+                   "a.csv+b.csv+c.csv is ONE calibration of those three sets together (one robot, each "
+                   "set its own sensor set-up from its file), written as OUT/a+b+c/ (a file whose own "
+                   "name holds '+' is one set when it exists)")
     p.add_argument("--out", required=True, help="output folder (each finished set is kept in OUT/.calib-pin-checkpoint "
                    "until the run completes: after Ctrl-C or a fault the same command resumes)")
     p.add_argument("--robot", help="robot name or URDF path (default: each file's '# robot:' line)")
@@ -48,6 +52,23 @@ def batch_main(argv: Sequence[str] | None = None) -> int:
     return run(lambda: _batch(args))
 
 
+def calibration_files(argument: str) -> str | tuple[str, ...]:
+    """One SESSION argument: a CSV, or several joined by ``+`` (one calibration of those
+    sets). An existing file is taken whole, '+' in its name or not.
+
+    Raises:
+        CalibPinError: an empty part (``a.csv++b.csv``, a leading or trailing ``+``).
+    """
+    from ..exceptions import CalibPinError
+
+    if "+" not in argument or Path(argument).is_file():
+        return argument
+    parts = argument.split("+")
+    if not all(p.strip() for p in parts):
+        raise CalibPinError(f"SESSION '{argument}': an empty set between '+' (join sets as a.csv+b.csv)")
+    return tuple(parts) if len(parts) > 1 else parts[0]
+
+
 def _batch(args: argparse.Namespace) -> int:
     from ..batch import BatchTask, run_batch
     from ..checkpoint import Interrupted
@@ -55,7 +76,7 @@ def _batch(args: argparse.Namespace) -> int:
 
     get_method(args.method).check(args.loss)  # a bad --loss fails once, not once per set
     options = {"test_fraction": args.test_fraction, "loss": args.loss, "parameters": args.model}
-    tasks = [BatchTask(args.robot, str(s), args.method, args.seed, options) for s in args.sessions]
+    tasks = [BatchTask(args.robot, calibration_files(str(s)), args.method, args.seed, options) for s in args.sessions]
     where = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} local process(es)"
     print(f"{len(tasks)} set(s), method {args.method}, seed {args.seed}, on {where}", flush=True)
     try:

@@ -72,13 +72,13 @@ class OneLineParser(argparse.ArgumentParser):
                 break
             name, eq, _ = token.partition("=")
             action = self._option_string_actions.get(name) if token.startswith("-") else None
-            if action is None or action.nargs == 0 or isinstance(action, _LIST_ACTIONS) or action.nargs not in (None, 1):
+            if action is None or action.nargs == 0 or action.nargs not in (None, 1):
                 out.append(token)
                 i += 1
                 continue
             value = argv[i + 1] if not eq and i + 1 < len(argv) else None
             spelled = repr(token[:60] if eq or value is None else f"{name} {value[:40]}")
-            if action in seen:
+            if action in seen and not isinstance(action, _LIST_ACTIONS):  # a list option may repeat
                 self.error(f"{name} given twice ({seen[action]} and {spelled}): give it once; a second "
                            "one would replace the first")
             seen[action] = spelled
@@ -250,12 +250,16 @@ def joint_names(text: str) -> tuple[str, ...]:
     return names
 
 
-def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str) -> None:
-    """The robot and drawstring geometry arguments shared by calibrate and simulate."""
+def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str,
+                        anchor_per_session: bool = False) -> None:
+    """The robot and drawstring geometry arguments shared by calibrate and simulate
+    (``anchor_per_session``: --anchor-mm may be given once per session, a list)."""
     p.add_argument("robot", help="robot name (irb120, or an example-robot-data name) or URDF path")
     p.add_argument("--end-frame", help="end frame (default: the data file's, else tool0)")
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed, a whole number >= 0 (default 0)")
-    p.add_argument("--anchor-mm", type=xyz_mm, help=f"sensor point P0 in the base frame, 'x,y,z' mm ({anchor_default})")
+    p.add_argument("--anchor-mm", type=xyz_mm, action="append" if anchor_per_session else "store",
+                   help=f"sensor point P0 in the base frame, 'x,y,z' mm ({anchor_default})"
+                   + ("; with --sessions K, give it once per session, or leave it out" if anchor_per_session else ""))
     p.add_argument("--tool-mm", type=xyz_mm, help=f"cable tool point in the end frame, 'x,y,z' mm ({tool_default})")
 
 
@@ -270,6 +274,20 @@ def add_compliance_arguments(p: argparse.ArgumentParser, what: str = "estimate")
 
 
 def compliance_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The compliance arguments as keyword arguments of ``prepare``/``calibrate``."""
-    return {"compliance": args.compliance, "payload_kg": args.payload_kg,
-            "payload_com_mm": args.payload_com_mm, "cable_tension_n": args.cable_tension_n}
+    """The compliance arguments as one record, built once: ``{"compliance": Compliance
+    or None}``, the keyword argument of ``prepare``/``calibrate``/``compare``/``simulate``.
+
+    Raises:
+        CalibPinError: a load (--payload-kg, --payload-com-mm, --cable-tension-n)
+            without --compliance.
+    """
+    from ..robot.deflection import LOAD_FIELDS, Compliance
+
+    loads = {k: getattr(args, k) for k in LOAD_FIELDS}
+    if args.compliance is None:
+        given = [k for k, v in loads.items() if v is not None]
+        if given:
+            raise CalibPinError(f"--{given[0].replace('_', '-')} needs compliant joints "
+                                "(--compliance joint_2,joint_3 or all)")
+        return {"compliance": None}
+    return {"compliance": Compliance(args.compliance, **loads)}

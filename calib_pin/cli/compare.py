@@ -45,7 +45,10 @@ def compare_parser() -> argparse.ArgumentParser:
         "Table I, Fig. 2, Fig. 3); writes table1.csv, table1.md and two PNG figures.",
     )
     p.add_argument("robot", help="robot name (irb120) or URDF path")
-    p.add_argument("--data", help="measurement set CSV (default: the robot's shipped set)")
+    p.add_argument("--data", action="append",
+                   help="measurement set CSV (default: the robot's shipped set); give it once per set "
+                   "(--data a.csv --data b.csv) to compare on the sets stacked: one robot, each set its own "
+                   "sensor set-up from its file, every set split by pose with each trial's seed")
     p.add_argument("--trials", type=count(MAX_TRIALS), default=1,
                    help="repeat over N seeded splits (or simulated sets): mean ± sd (default 1)")
     p.add_argument("--out", default="out/compare", help="output folder (default ./out/compare); each finished trial is "
@@ -85,7 +88,10 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise CalibPinError(f"{out}: the output folder is a file")
-    refusal = Outputs(out, inputs={**robot_inputs(args.robot), "--data": args.data})
+    data = args.data if args.data is None or len(args.data) > 1 else args.data[0]  # several: the sets stacked
+    inputs = {**robot_inputs(args.robot),
+              **({f"--data {d}": d for d in data} if isinstance(data, list) else {"--data": data})}
+    refusal = Outputs(out, inputs=inputs)
     for name in OUTPUT_NAMES:  # an input is never an output: refused before the trials
         refusal.check(out / name)
     if args.trials >= 10:
@@ -93,7 +99,7 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
               "(Ctrl-C stops; the finished trials are kept and the same command resumes)", file=sys.stderr, flush=True)
     try:
         result = compare(
-            args.robot, args.data, methods=args.methods, trials=args.trials, seed=args.seed,
+            args.robot, data, methods=args.methods, trials=args.trials, seed=args.seed,
             test_fraction=args.test_fraction, simulate_noise=args.simulate,
             noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
             checkpoint=out, notify=lambda line: print(line, flush=True), **compliance_options(args),

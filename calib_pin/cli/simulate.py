@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Sequence
+from functools import partial
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -16,12 +18,16 @@ from .common import (
     OneLineParser,
     add_compliance_arguments,
     add_robot_arguments,
+    compliance_options,
     count,
     finite,
     non_negative,
     run,
 )
 from .outputs import add_force_argument
+
+if TYPE_CHECKING:
+    from ..measurements import MeasurementSet
 
 #: Most poses one simulated set may hold (a larger one would not fit in memory here).
 MAX_POSES = 1_000_000
@@ -31,9 +37,15 @@ def simulate_parser() -> argparse.ArgumentParser:
     p = OneLineParser(
         prog="simulate.py",
         description="Simulate a drawstring measurement set with known true deviations; "
-        "writes FILE.csv and FILE.truth.json.",
+        "writes FILE.csv and FILE.truth.json. With --sessions K: K sessions of one true robot, "
+        "each with its own anchor, as FILE_1.csv .. FILE_K.csv, and one FILE.truth.json (the robot "
+        "and every session's true anchor).",
     )
-    add_robot_arguments(p, "default 600,200,-100", "default 0,0,50")
+    add_robot_arguments(p, "default 600,200,-100; sessions 2.. drawn around it", "default 0,0,50",
+                        anchor_per_session=True)
+    p.add_argument("--sessions", type=count(1000), default=1,
+                   help="number of sessions of the one true robot, each with its own anchor and poses "
+                   "(seed, seed+1, ...); writes FILE_1.csv .. FILE_K.csv (default 1: FILE.csv)")
     p.add_argument("--poses", type=count(MAX_POSES), default=120, help="number of poses (default 120)")
     p.add_argument("--noise-mm", type=non_negative(float, 100.0), default=0.05,
                    help="reading noise, 1 sigma, mm (default 0.05; 0: a noise-free set, e.g. the values of a dry run)")
@@ -49,7 +61,8 @@ def simulate_parser() -> argparse.ArgumentParser:
     add_compliance_arguments(p, "simulate")
     p.add_argument("--true-compliance-urad-per-nm", type=_values,
                    help="true compliance of each --compliance joint, comma-separated, urad/Nm (e.g. 25,40)")
-    p.add_argument("--out", required=True, help="output CSV (FILE.truth.json is written beside it)")
+    p.add_argument("--out", required=True, help="output CSV (FILE.truth.json is written beside it; "
+                   "with --sessions K, FILE_1.csv .. FILE_K.csv)")
     add_force_argument(p, "FILE.csv or FILE.truth.json")
     return p
 
@@ -65,6 +78,13 @@ def _values(text: str) -> tuple[float, ...]:
     return values
 
 
+def _write_set(tmp: Path, data: MeasurementSet) -> None:
+    """Write one simulated set to the staged file ``tmp``."""
+    from ..measurements import write_measurements
+
+    write_measurements(tmp, data)
+
+
 def simulate_main(argv: Sequence[str] | None = None) -> int:
     """``simulate.py ROBOT --poses N --seed S --noise-mm SIGMA --out FILE.csv``."""
     args = simulate_parser().parse_args(argv)
@@ -73,39 +93,50 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
 
 def _simulate(args: argparse.Namespace) -> int:
     from ..hardware.session import read_pose_list
-    from ..measurements import write_measurements
     from ..parameters import parameter_model
     from ..robot import load_chain
-    from ..robot.deflection import compliance_spec
-    from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate
+    from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate, simulate_sessions
 
     out = Path(args.out)
     if not out.name or out.is_dir():
         raise OSError(f"--out '{args.out}' is not a file name")
-    truth_path = out.with_name(out.name.removesuffix(".csv") + ".truth.json")
+    stem = out.name.removesuffix(".csv")
+    truth_path = out.with_name(stem + ".truth.json")
+    anchors = args.anchor_mm or []
+    if len(anchors) not in ((0, 1) if args.sessions == 1 else (0, args.sessions)):
+        raise CalibPinError(f"--anchor-mm is given {len(anchors)} times for {args.sessions} session(s): "
+                            "give it once per session, or leave it out")
+    csvs = [out] if args.sessions == 1 else [out.with_name(f"{stem}_{k}.csv") for k in range(1, args.sessions + 1)]
     outputs = Outputs(out.parent, force=args.force, inputs={**robot_inputs(args.robot),
                                                             "--poses-file": args.poses_file})
-    for path in (out, truth_path):  # refused before the work, and again when written
+    for path in (*csvs, truth_path):  # refused before the work, and again when written
         outputs.check(path)
     chain = load_chain(args.robot, args.end_frame)
     params = parameter_model(chain, args.model)
     kind = {"dh": "DH", "hayati": "Hayati", "placement": "joint-placement"}[params.name]
     poses = read_pose_list(args.poses_file, chain).q if args.poses_file else None
-    spec = compliance_spec(chain, args.compliance, args.payload_kg, args.payload_com_mm, args.cable_tension_n)
     true_c = None if args.true_compliance_urad_per_nm is None else np.array(args.true_compliance_urad_per_nm) * 1e-6
-    data, truth = simulate(
-        chain, params, args.poses, args.seed, noise_mm=args.noise_mm, nominal_rmse_mm=args.nominal_rmse_mm,
-        anchor_mm=args.anchor_mm or DEFAULT_ANCHOR_MM, tool_mm=args.tool_mm or DEFAULT_TOOL_MM,
-        length_offset_mm=args.length_offset_mm, noise_kind=args.noise_kind, poses=poses,
-        compliance=spec, true_compliance=true_c,
-    )
-    if not (data.lengths > 0).all():
-        raise CalibPinError(f"a simulated length is {data.lengths.min() * 1e3:.3f} mm, not positive: "
-                            "--length-offset-mm or the sensor geometry is wrong")
-    outputs.add(out, lambda tmp: write_measurements(tmp, data))
+    common = {"noise_mm": args.noise_mm, "nominal_rmse_mm": args.nominal_rmse_mm,
+              "tool_mm": args.tool_mm or DEFAULT_TOOL_MM, "length_offset_mm": args.length_offset_mm,
+              "noise_kind": args.noise_kind, "true_compliance": true_c, **compliance_options(args)}
+    if args.sessions == 1:
+        data, truth = simulate(chain, params, args.poses, args.seed, anchor_mm=anchors[0] if anchors else DEFAULT_ANCHOR_MM,
+                               poses=poses, **common)
+        sets = [data]
+    else:
+        sets, truth = simulate_sessions(chain, params, args.poses, args.seed, args.sessions,
+                                        anchors_mm=anchors or None, poses=poses, **common)
+    for data in sets:
+        if not (data.lengths > 0).all():
+            raise CalibPinError(f"a simulated length is {data.lengths.min() * 1e3:.3f} mm, not positive: "
+                                "--length-offset-mm or the sensor geometry is wrong")
+    for path, data in zip(csvs, sets, strict=True):
+        outputs.add(path, partial(_write_set, data=data))
     outputs.add(truth_path, lambda tmp: truth.to_json(tmp))
     written = outputs.commit()
-    print(f"{chain.name}: {len(data)} poses, {kind} deviations (seed {args.seed}), "
+    what = f"{len(sets[0])} poses" if args.sessions == 1 else \
+        f"{args.sessions} sessions of {len(sets[0])} poses (seeds {args.seed}..{args.seed + args.sessions - 1})"
+    print(f"{chain.name}: {what}, {kind} deviations (seed {args.seed}), "
           f"noise {args.noise_mm:g} mm ({args.noise_kind})")
     for path in written:
         print(f"wrote {path}")

@@ -41,14 +41,16 @@ deviated ones by the relative size of the deviations (1e-3), a further factor 1e
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
-from ..arguments import as_names
-from ..exceptions import CalibPinError, RobotError
+from ..arguments import _shown, as_float, as_names, as_xyz_mm
+from ..exceptions import ArgumentError, CalibPinError, RobotError
 from .chain import Chain
 
 #: Typical compliance [rad/Nm] (stiffness 5e4 Nm/rad, the order of a 3-25 kg
@@ -82,6 +84,106 @@ class CablePull:
     tension_n: float
     hook_m: np.ndarray
     anchor_m: np.ndarray
+
+
+#: Largest payload mass [kg] and cable tension [N] accepted (beyond: a unit mistake).
+MAX_LOAD = 1e6
+
+#: The loads of a :class:`Compliance`, by field name, in the order of the record.
+LOAD_FIELDS = ("payload_kg", "payload_com_mm", "cable_tension_n")
+
+
+@dataclass(frozen=True)
+class Compliance:
+    """Which joints deflect, and the extra loads they carry: the options that travel
+    together, validated once when the record is made.
+
+    Attributes:
+        joints: Compliant joint names (``("joint_2", "joint_3")``, or the comma-separated
+            text ``"joint_2,joint_3"``), ``"all"`` for every moving chain joint, or empty
+            for none (a rigid arm); stored as a tuple of names.
+        payload_kg: Payload mass carried by the end frame [kg], or None (no payload).
+        payload_com_mm: The payload's centre of mass in the end frame, (x, y, z) [mm], or
+            None (the end frame's origin); stored as a tuple of floats.
+        cable_tension_n: Drawstring tension [N] pulling the end effector towards the
+            anchor (drawstring data only), or None (no pull).
+
+    Which joints the robot has, and whether its URDF holds inertial data, is checked
+    against the robot when the record is used (:meth:`spec`).
+
+    Raises:
+        ArgumentError: naming the field: not names, a joint named twice, a mass or tension
+            not a finite number >= 0, a centre of mass not 3 finite numbers in mm, or loads
+            without compliant joints.
+    """
+
+    joints: tuple[str, ...] | str = ()
+    payload_kg: float | None = None
+    payload_com_mm: tuple[float, float, float] | None = None
+    cable_tension_n: float | None = None
+
+    def __post_init__(self) -> None:
+        names = as_names(self.joints, "joints")
+        mass = None if self.payload_kg is None else as_float(self.payload_kg, "payload_kg", 0.0, MAX_LOAD, unit="kg")
+        com = None if self.payload_com_mm is None else tuple(
+            float(v) for v in as_xyz_mm(self.payload_com_mm, "payload_com_mm"))
+        tension = None if self.cable_tension_n is None else as_float(
+            self.cable_tension_n, "cable_tension_n", 0.0, MAX_LOAD, unit="N")
+        loaded = [k for k, v in zip(LOAD_FIELDS, (mass, com, tension), strict=True) if v is not None]
+        if loaded and not names:
+            raise ArgumentError(loaded[0], "needs compliant joints (Compliance('joint_2,joint_3', ...) or 'all')")
+        object.__setattr__(self, "joints", names)
+        object.__setattr__(self, "payload_kg", mass)
+        object.__setattr__(self, "payload_com_mm", com)
+        object.__setattr__(self, "cable_tension_n", tension)
+
+    def __bool__(self) -> bool:
+        """True when some joint is compliant."""
+        return bool(self.joints)
+
+    def spec(self, chain: Chain) -> ComplianceSpec | None:
+        """The record for ``chain`` (``all`` expanded; None for a rigid arm).
+
+        Raises:
+            CalibPinError: a joint the chain does not have, or a URDF without inertial data.
+        """
+        return compliance_spec(chain, self.joints, self.payload_kg, self.payload_com_mm, self.cable_tension_n)
+
+    def words(self) -> str:
+        """The compliant joints, for people (``joint_2, joint_3``)."""
+        return ", ".join(self.joints)
+
+
+def as_compliance(value: Any, arg: str = "compliance", *, payload_kg: Any = None, payload_com_mm: Any = None,
+                  cable_tension_n: Any = None, stacklevel: int = 3) -> Compliance | None:
+    """A :class:`Compliance` from what a caller gave as ``compliance``: a record, joint
+    names as shorthand (``"joint_2,joint_3"``, ``"all"``, a sequence of str), or None.
+
+    The loose keywords ``payload_kg``, ``payload_com_mm`` and ``cable_tension_n`` are
+    deprecated aliases of the record's fields (kept for one release, with a
+    DeprecationWarning); given with a record, they are refused.
+
+    Raises:
+        ArgumentError: ``value`` of another type, a bad field (named), or a loose keyword
+            beside a record.
+    """
+    loose = {k: v for k, v in zip(LOAD_FIELDS, (payload_kg, payload_com_mm, cable_tension_n), strict=True)
+             if v is not None}
+    if loose:
+        if isinstance(value, Compliance):
+            key = next(iter(loose))
+            raise ArgumentError(key, f"given beside {arg}=Compliance(...): give it once, as the record's field")
+        warnings.warn(f"{', '.join(loose)} as separate keyword(s) are deprecated: pass "
+                      f"{arg}=calib_pin.Compliance(joints, {', '.join(f'{k}=...' for k in loose)})",
+                      DeprecationWarning, stacklevel=stacklevel)
+    if value is None and not loose:
+        return None
+    if isinstance(value, Compliance):
+        return value
+    if value is None or isinstance(value, (str, list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1):
+        return Compliance(as_names(value, arg), **loose)
+    raise ArgumentError(arg, "expected a calib_pin.Compliance, joint names ('joint_2,joint_3' or 'all') "
+                             f"or None, got {_shown(value)}")
 
 
 @dataclass(frozen=True)
