@@ -338,8 +338,8 @@ def set_sigma(given: FitSet, noise_mm: Any, data: MeasurementSet) -> tuple[float
 
 def check_sets(sets: list[FitSet], options: dict[str, Any]) -> None:
     """Refuse what several sets cannot take: set-up overrides for all, bad roles."""
-    for name in ("anchor_mm", "tool_mm", "length_offset_mm"):
-        if options.get(name) is not None:
+    for name, value in options.items():  # the sensors' set-up overrides
+        if value is not None:
             raise ArgumentError(name, "one value for several sets: put each set's in its file "
                                 f"('# {name}: ...') or its MeasurementSet")
     for s in sets:

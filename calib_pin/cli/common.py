@@ -13,10 +13,9 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any, NoReturn
 
-import numpy as np
-
 from ..arguments import as_names
 from ..exceptions import ArgumentError, CalibPinError
+from ..sensors.setup import estimate_names, finite, xyz_mm  # noqa: F401 (the sensors' flag parsers)
 
 BAD_INPUT_EXIT = 2
 SENSOR_FAULT_EXIT = 3
@@ -130,16 +129,6 @@ def run(action: Callable[[], int], interrupted: str = NOTHING_WRITTEN) -> int:
         return fail(f"{where}{e.strerror or e}")
 
 
-def xyz_mm(text: str) -> tuple[float, float, float]:
-    """``x,y,z`` in mm: three finite numbers."""
-    parts = [p for p in text.replace(",", " ").split() if p]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(np.isfinite(v) and abs(v) < 1e6 for v in values):
-        raise argparse.ArgumentTypeError(f"expected 3 numbers 'x,y,z' in mm, got '{text[:40]}'")
-    return values  # type: ignore[return-value]
 
 
 def fraction(text: str) -> float:
@@ -183,15 +172,6 @@ def positive_float(upper: float) -> Callable[[str], float]:
     return parse
 
 
-def finite(text: str) -> float:
-    """A finite number (|value| < 1e6)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (np.isfinite(value) and abs(value) < 1e6):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got '{text[:40]}'")
-    return value
 
 
 def count(upper: int) -> Callable[[str], int]:
@@ -226,17 +206,6 @@ def methods(text: str) -> list[str]:
     return names
 
 
-def estimate_names(text: str) -> tuple[str, ...]:
-    """Comma-separated sensor unknowns to estimate."""
-    from ..pipeline import check_estimate
-
-    try:
-        names = check_estimate(text.split(","))
-    except ArgumentError as e:
-        raise argparse.ArgumentTypeError(f"{e.reason}, comma-separated") from None
-    if not names:
-        raise argparse.ArgumentTypeError(f"cannot estimate '{text}' (comma-separated names)")
-    return names
 
 
 def joint_names(text: str) -> tuple[str, ...]:

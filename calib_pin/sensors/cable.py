@@ -10,16 +10,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from ..arguments import as_array, as_float
+from ..arguments import MAX_MM, as_array, as_float, as_optional, as_xyz_mm
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from .base import MeasurementModel, chosen
+from .setup import SensorSetup, estimate_names, finite, option, xyz_mm
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
@@ -73,6 +74,40 @@ class Drawstring:
                    float(doc["length_offset_mm"]) * 1e-3)
 
 
+@dataclass(frozen=True)
+class CableSetup(SensorSetup):
+    """A drawstring's set-up options, each None when not given (then the measurement
+    file's ``# anchor_mm`` / ``# tool_mm`` / ``# length_offset_mm``), checked once here.
+
+    Attributes:
+        anchor_mm: The sensor's point P0 in the base frame, shape (3,), [mm].
+        tool_mm: The tool point where the cable hooks on, in the end frame, shape (3,), [mm].
+        length_offset_mm: The sensor's zero offset, [mm].
+        estimate: Geometry estimated with the robot: ``anchor``, ``offset`` (names, in order given).
+
+    Raises:
+        ArgumentError: naming the field.
+    """
+
+    title: ClassVar[str] = "drawstring"
+
+    anchor_mm: Any = option(help="sensor point P0 in the base frame, 'x,y,z'", unit="mm", parser=xyz_mm)
+    tool_mm: Any = option(help="cable tool point in the end frame, 'x,y,z'", unit="mm", parser=xyz_mm)
+    length_offset_mm: Any = option(help="sensor zero offset", unit="mm", parser=finite)
+    estimate: Any = option((), help="drawstring geometry to estimate with the robot: anchor, offset or "
+                           "anchor,offset", parser=estimate_names)
+
+    def __post_init__(self) -> None:
+        from . import check_estimate
+
+        set_ = object.__setattr__
+        set_(self, "anchor_mm", as_optional(as_xyz_mm, self.anchor_mm, "anchor_mm"))
+        set_(self, "tool_mm", as_optional(as_xyz_mm, self.tool_mm, "tool_mm"))
+        set_(self, "length_offset_mm", as_optional(as_float, self.length_offset_mm, "length_offset_mm", -MAX_MM,
+                                                   MAX_MM, unit="mm"))
+        set_(self, "estimate", check_estimate(self.estimate))
+
+
 def _vector_mm(value: Any, name: str) -> np.ndarray:
     v = np.asarray(value, dtype=float).reshape(-1)
     if v.shape != (3,) or not np.all(np.isfinite(v)):
@@ -93,6 +128,10 @@ class CableModel(MeasurementModel):
     geometry_type = Drawstring
     error_name = "reading error"
     estimable = CABLE_EXTRAS
+    setup_type = CableSetup
+    data_name = "drawstring readings"
+    value_columns = ("length",)
+    metadata_keys = {"anchor": 3, "tool": 3, "length_offset": 1}
 
     def __init__(self, chain: Chain, params: ParameterModel, sensor: Drawstring, estimate: tuple[str, ...] = (),
                  compliance: ComplianceSpec | None = None) -> None:
@@ -107,8 +146,19 @@ class CableModel(MeasurementModel):
         self.sensor = sensor
 
     @classmethod
+    def setup_of(cls, data: MeasurementSet) -> CableSetup:
+        """The set-up the set's file gave (``anchor``, ``tool``, ``length_offset``), in mm;
+        not checked (:func:`~calib_pin.measurements.checks.check_measurements` does)."""
+        setup = object.__new__(CableSetup)
+        for name, value in (("anchor_mm", data.anchor), ("tool_mm", data.tool), ("length_offset_mm", data.length_offset)):
+            object.__setattr__(setup, name, None if value is None else np.asarray(value, dtype=float) * 1e3)
+        object.__setattr__(setup, "estimate", ())
+        return setup
+
+    @classmethod
     def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
                     fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
+        cls.refuse_foreign(options, data)
         get = options.get
         anchor = _vector_mm(get("anchor_mm"), "anchor_mm") if get("anchor_mm") is not None else data.anchor
         tool = _vector_mm(get("tool_mm"), "tool_mm") if get("tool_mm") is not None else data.tool
