@@ -368,8 +368,8 @@ def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...
     if len(kinds) > 1:
         raise CalibPinError("mixing cable and position sets in one fit is not supported yet: calibrate them one kind at a time")
     for s, data, label in zip(sets, loaded, labels, strict=True):
-        if s.role == "test" and data.kind == "position":
-            raise DataError(data.source or label, "a position set with role 'test' has no training rows to fit its "
-                            "device frame on: give it role 'split'")
+        if s.role == "test" and sensor_for(data.kind).fits_setup:
+            raise DataError(data.source or label, f"a {data.kind} set with role 'test' has no training rows to fit "
+                            f"its {sensor_for(data.kind).fitted_setup} on: give it role 'split'")
     return tuple(labels)
 

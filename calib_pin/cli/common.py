@@ -219,13 +219,18 @@ def joint_names(text: str) -> tuple[str, ...]:
     return names
 
 
-def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str) -> None:
-    """The robot and drawstring geometry arguments shared by calibrate and simulate."""
+def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str, *,
+                        skip: Sequence[str] = (), defaults: dict[str, Any] | None = None) -> None:
+    """The robot arguments shared by calibrate and simulate, and every registered sensor's
+    set-up flags (:func:`calib_pin.sensors.add_sensor_arguments`; ``skip``: fields without
+    a flag here, ``defaults``: flag defaults); ``anchor_default`` and ``tool_default`` say
+    what the point flags default to."""
+    from ..sensors import add_sensor_arguments
+
     p.add_argument("robot", help="robot name (irb120, or an example-robot-data name) or URDF path")
     p.add_argument("--end-frame", help="end frame (default: the data file's, else tool0)")
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed, a whole number >= 0 (default 0)")
-    p.add_argument("--anchor-mm", type=xyz_mm, help=f"sensor point P0 in the base frame, 'x,y,z' mm ({anchor_default})")
-    p.add_argument("--tool-mm", type=xyz_mm, help=f"cable tool point in the end frame, 'x,y,z' mm ({tool_default})")
+    add_sensor_arguments(p, {"anchor_mm": anchor_default, "tool_mm": tool_default}, skip, defaults)
 
 
 def add_compliance_arguments(p: argparse.ArgumentParser, what: str = "estimate") -> None:

@@ -16,7 +16,6 @@ from .common import (
     add_compliance_arguments,
     add_robot_arguments,
     count,
-    finite,
     non_negative,
     run,
 )
@@ -32,7 +31,8 @@ def simulate_parser() -> argparse.ArgumentParser:
         description="Simulate a drawstring measurement set with known true deviations; "
         "writes FILE.csv and FILE.truth.json.",
     )
-    add_robot_arguments(p, "default 600,200,-100", "default 0,0,50")
+    add_robot_arguments(p, "default 600,200,-100", "default 0,0,50", skip=("estimate",),
+                        defaults={"length_offset_mm": 0.0})
     p.add_argument("--poses", type=count(MAX_POSES), default=120, help="number of poses (default 120)")
     p.add_argument("--noise-mm", type=non_negative(float, 100.0), default=0.05,
                    help="reading noise, 1 sigma, mm (default 0.05; 0: a noise-free set, e.g. the values of a dry run)")
@@ -41,7 +41,6 @@ def simulate_parser() -> argparse.ArgumentParser:
                    "of 1-3 mm) (default gauss)")
     p.add_argument("--nominal-rmse-mm", type=non_negative(float, 1000.0), default=2.0,
                    help="reading error of the nominal model the true deviations cause, mm (default 2)")
-    p.add_argument("--length-offset-mm", type=finite, default=0.0, help="sensor zero offset, mm (default 0)")
     p.add_argument("--poses-file", help="simulate at the poses of this pose list (make_poses.py) instead of random ones")
     p.add_argument("--model", choices=MODELS,
                    help="parameter model of the true deviations (default dh with a DH table, else placement)")

@@ -23,7 +23,7 @@ from ..exceptions import ArgumentError
 from .base import MeasurementModel
 from .cable import CABLE_EXTRAS, CableModel, CableSetup, Drawstring
 from .position import PositionDevice, PositionModel, PositionSetup, fit_device
-from .setup import SensorSetup, add_setup_arguments
+from .setup import SensorSetup, add_setup_arguments, given
 
 #: Measurement-set kind -> the measurement model that predicts it.
 SENSORS: dict[str, type[MeasurementModel]] = {CableModel.kind: CableModel, PositionModel.kind: PositionModel}
@@ -73,10 +73,6 @@ def check_estimate(estimate: Any) -> tuple[str, ...]:
     return names
 
 
-def _given(value: Any) -> bool:
-    return value is not None and not (isinstance(value, tuple | list) and len(value) == 0)
-
-
 def setup_record(setup: Any = None, **loose: Any) -> SensorSetup | None:
     """The caller's sensor set-up as one record: ``setup`` (a record), with the loose
     keyword options (``anchor_mm=...``, the shorthand) laid over it; without ``setup``,
@@ -87,22 +83,22 @@ def setup_record(setup: Any = None, **loose: Any) -> SensorSetup | None:
     """
     import dataclasses
 
-    given = {k: v for k, v in loose.items() if _given(v)}
+    chosen = {k: v for k, v in loose.items() if given(v)}
     if setup is not None:
         if not isinstance(setup, SensorSetup):
             names = ", ".join(t.__name__ for t in setup_types())
             raise ArgumentError("setup", f"expected a sensor set-up record ({names}), got {type(setup).__name__}")
         own = set(setup.field_names())
-        for name in given:
+        for name in chosen:
             if name not in own:
                 raise ArgumentError(name, f"is not an option of {type(setup).__name__} (its fields: {', '.join(own)})")
-        return dataclasses.replace(setup, **given) if given else setup
-    if not given:
+        return dataclasses.replace(setup, **chosen) if chosen else setup
+    if not chosen:
         return None
     for record in setup_types():
-        if set(given) <= set(record.field_names()):
-            return record(**given)
-    unknown = sorted(set(given) - set(setup_fields()))
+        if set(chosen) <= set(record.field_names()):
+            return record(**chosen)
+    unknown = sorted(set(chosen) - set(setup_fields()))
     raise ArgumentError(unknown[0] if unknown else "setup",
                         "options of different sensors given together: pass one sensor's set-up")
 

@@ -86,6 +86,10 @@ class MeasurementModel(ABC):
     metadata_keys: ClassVar[dict[str, int]] = {}
     #: Rows carry ``pose`` and ``point_id`` labels (which marker a row measured).
     point_labels: ClassVar[bool] = False
+    #: The set-up is fitted on the set's own training rows (what: ``fitted_setup``), so a
+    #: set of this sensor cannot be all-test.
+    fits_setup: ClassVar[bool] = False
+    fitted_setup: ClassVar[str] = ""
 
     def __init__(self, chain: Chain, params: ParameterModel, extra: list[tuple[str, str, float]],
                  compliance: ComplianceSpec | None = None,
@@ -115,6 +119,34 @@ class MeasurementModel(ABC):
         return cls.setup_type(**given) if given else None
 
     @classmethod
+    def planning_model(cls, chain: Chain, params: ParameterModel, setup: SensorSetup | None) -> MeasurementModel:
+        """The model poses are planned for (``calib-pin plan-poses``), from the caller's
+        set-up (None: the sensor's default).
+
+        Raises:
+            CalibPinError: a sensor that cannot plan without data.
+        """
+        from ..exceptions import CalibPinError
+
+        raise CalibPinError(f"poses cannot be planned for {cls.data_name} without data")
+
+    @classmethod
+    def refuse_values(cls, values: np.ndarray) -> tuple[int, str] | None:
+        """A row whose finite values this sensor cannot have read: (row, why), or None."""
+        return None
+
+    @classmethod
+    def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
+        """Refuse a validation ``session`` whose own set-up contradicts the calibration's
+        (``training``'s, or the caller's overrides in ``options``); default: nothing to refuse
+        (a sensor whose set-up is fitted on the data).
+
+        Raises:
+            DataError: naming the session's file and the key.
+        """
+        return None
+
+    @classmethod
     def refuse_foreign(cls, options: Mapping[str, Any], data: MeasurementSet) -> None:
         """Refuse a given set-up option another sensor takes and this one does not.
 
@@ -123,12 +155,12 @@ class MeasurementModel(ABC):
         """
         from ..exceptions import CalibPinError
         from . import SENSORS
-        from .setup import flag_of
+        from .setup import flag_of, given
 
         own = set(cls.setup_type.field_names())
         for other in SENSORS.values():
             for name in other.setup_type.field_names():
-                if name not in own and options.get(name) is not None and options.get(name) != ():
+                if name not in own and given(options.get(name)):
                     raise CalibPinError(f"{flag_of(name)} is for {other.data_name.split()[0]} data; "
                                         f"{data.source} holds {cls.data_name}")
 

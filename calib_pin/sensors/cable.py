@@ -74,7 +74,7 @@ class Drawstring:
                    float(doc["length_offset_mm"]) * 1e-3)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class CableSetup(SensorSetup):
     """A drawstring's set-up options, each None when not given (then the measurement
     file's ``# anchor_mm`` / ``# tool_mm`` / ``# length_offset_mm``), checked once here.
@@ -146,6 +146,17 @@ class CableModel(MeasurementModel):
         self.sensor = sensor
 
     @classmethod
+    def planning_model(cls, chain: Chain, params: ParameterModel, setup: Any) -> CableModel:
+        """The drawstring at ``setup``'s points (a :class:`CableSetup`; the simulator's
+        defaults for those not given), estimating ``setup.estimate``."""
+        from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
+
+        setup = setup if setup is not None else CableSetup()
+        anchor = setup.anchor_mm if setup.anchor_mm is not None else DEFAULT_ANCHOR_MM
+        tool = setup.tool_mm if setup.tool_mm is not None else DEFAULT_TOOL_MM
+        return cls(chain, params, Drawstring(np.array(anchor) * 1e-3, np.array(tool) * 1e-3), setup.estimate)
+
+    @classmethod
     def setup_of(cls, data: MeasurementSet) -> CableSetup:
         """The set-up the set's file gave (``anchor``, ``tool``, ``length_offset``), in mm;
         not checked (:func:`~calib_pin.measurements.checks.check_measurements` does)."""
@@ -171,6 +182,48 @@ class CableModel(MeasurementModel):
         model = cls(chain, params, Drawstring(anchor, tool, offset), tuple(get("estimate") or ()),
                     get("compliance"))
         return CalibrationProblem(model, data.q, data.values)
+
+    @classmethod
+    def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
+        """Refuse a validation session whose own drawstring set-up (``anchor_mm``,
+        ``tool_mm``, ``length_offset_mm``) contradicts the calibration's: the training set's,
+        or the caller's overrides in ``options`` ([mm]). Agreement within
+        :data:`SETUP_TOLERANCE_M`, or a session that does not say, is fine.
+
+        Raises:
+            DataError: naming the session's file, the key and both values.
+        """
+        from ..measurements.checks import SETUP_TOLERANCE_M, _file_keys, _mm
+
+        keys = _file_keys(session.source) if session.source else None
+        for name in ("anchor", "tool", "length_offset"):
+            key = f"{name}_mm"
+            own = getattr(session, name)
+            if name == "length_offset":
+                given = (keys is not None and bool({"length_offset_mm", "length_offset_m"} & keys)) or (
+                    keys is None and own != 0.0)
+                if not given:
+                    continue
+            elif own is None:
+                continue
+            override = options.get(key)
+            used = np.asarray(override, dtype=float) * 1e-3 if override is not None else getattr(training, name)
+            if used is None:
+                continue
+            if not np.allclose(np.asarray(own, dtype=float), used, rtol=0.0, atol=SETUP_TOLERANCE_M):
+                by = f"--{key.replace('_', '-')}" if override is not None else (training.source or "the training set")
+                raise DataError(session.source or "test_data",
+                                f"the validation session has {_mm(own)} mm, the calibration {_mm(used)} mm ({by}): "
+                                "one sensor set-up per calibration for now; measure both with the same set-up, or "
+                                "correct the file's line", None, key)
+
+    @classmethod
+    def refuse_values(cls, values: np.ndarray) -> tuple[int, str] | None:
+        """A drawstring reading is >= 0."""
+        if (values < 0).any():
+            row = int(np.argmax(values < 0))
+            return row, f"{values[row] * 1e3:g} mm is negative: a drawstring reading is >= 0"
+        return None
 
     def geometry_at(self, x: np.ndarray | None) -> Drawstring:
         """The sensor geometry x implies (``sensor`` plus the estimated corrections)."""

@@ -103,7 +103,7 @@ class PositionDevice:
         return cls(pin.SE3(rot, np.asarray(frame["translation_mm"], dtype=float) * 1e-3), markers, labels)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PositionSetup(SensorSetup):
     """A position device's set-up options: none to give today. The device frame and the
     marker points start from their best fit on the training rows and are always
@@ -131,6 +131,8 @@ class PositionModel(MeasurementModel):
     data_name = "positions"
     value_columns = ("x", "y", "z")
     point_labels = True
+    fits_setup = True
+    fitted_setup = "device frame"
 
     def __init__(self, chain: Chain, params: ParameterModel, device: PositionDevice,
                  estimate: tuple[str, ...] = POSITION_EXTRAS, compliance: ComplianceSpec | None = None) -> None:

@@ -70,7 +70,7 @@ def flag_of(name: str) -> str:
     return "--" + name.replace("_", "-")
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class SensorSetup:
     """Base of every sensor's set-up record: the options a caller gives a sensor, each
     None (or empty) when not given (the measurement file's, or the sensor's default)."""
@@ -94,7 +94,22 @@ class SensorSetup:
 
     def given(self) -> dict[str, Any]:
         """The fields the caller set (not None, not empty)."""
-        return {k: v for k, v in self.options().items() if v is not None and v != ()}
+        return {k: v for k, v in self.options().items() if given(v)}
+
+    def __eq__(self, other: object) -> bool:
+        """Same record type and equal fields (arrays compared by value)."""
+        if type(other) is not type(self):
+            return NotImplemented
+        return all(np.array_equal(np.asarray(a, dtype=object), np.asarray(b, dtype=object))
+                   if isinstance(a, np.ndarray) or isinstance(b, np.ndarray) else a == b
+                   for a, b in zip(self.options().values(), other.options().values(), strict=True))
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def given(value: Any) -> bool:
+    """A set-up field the caller gave: not None, not an empty sequence."""
+    return value is not None and not (isinstance(value, tuple | list) and len(value) == 0)
 
 
 def add_setup_arguments(p: argparse.ArgumentParser, setups: Iterable[type[SensorSetup]],
@@ -117,7 +132,11 @@ def add_setup_arguments(p: argparse.ArgumentParser, setups: Iterable[type[Sensor
             seen.add(f.name)
             meta = f.metadata
             text = meta["help"] + (f", {meta['unit']}" if meta["unit"] else "")
-            text += f" ({notes[f.name]})" if f.name in notes else ""
+            if f.name in notes:
+                text += f" ({notes[f.name]})"
+            elif f.name in defaults:
+                given = defaults[f.name]
+                text += f" (default {format(given, 'g') if isinstance(given, float) else given})"
             default = defaults.get(f.name, () if f.default == () else None)
             kwargs: dict[str, Any] = {"default": default, "help": text}
             if meta["parser"] is not None:
