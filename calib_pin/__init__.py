@@ -30,6 +30,7 @@ _API = {
     "DHModel": "parameters", "HayatiModel": "parameters", "PlacementModel": "parameters",
     "parameter_model": "parameters",
     "CableModel": "sensors", "Drawstring": "sensors", "PositionModel": "sensors", "PositionDevice": "sensors",
+    "CableSetup": "sensors", "PositionSetup": "sensors",
     "MeasurementSet": "measurements", "read_measurements": "measurements", "write_measurements": "measurements",
     "check_measurements": "measurements.checks",
     "simulate": "simulation", "simulate_positions": "simulation", "Truth": "simulation",
@@ -41,6 +42,7 @@ _API = {
 __all__ = [
     "ArgumentError",
     "CableModel",
+    "CableSetup",
     "CalibPinError",
     "CalibrationProblem",
     "CalibrationResult",
@@ -61,6 +63,7 @@ __all__ = [
     "PlacementModel",
     "PositionDevice",
     "PositionModel",
+    "PositionSetup",
     "RobotError",
     "SetResult",
     "StackedProblem",
@@ -109,6 +112,6 @@ if TYPE_CHECKING:
     from .problem import CalibrationProblem
     from .result import CalibrationResult
     from .robot import Chain, Kinematics, load_chain
-    from .sensors import CableModel, Drawstring, PositionDevice, PositionModel
+    from .sensors import CableModel, CableSetup, Drawstring, PositionDevice, PositionModel, PositionSetup
     from .simulation import Truth, simulate, simulate_positions
     from .stacked import StackedProblem

@@ -184,3 +184,23 @@ def test_an_invented_sensor_gets_its_cli_flags(tmp_path, distance, capsys):
     report = json.loads((out / "report.json").read_text())
     assert report["test"]["after"]["rmse_mm"] < 0.03
     assert "distance" not in SENSORS or SENSORS["distance"] is fake_sensor.DistanceModel
+
+
+def test_an_invented_sensors_columns_are_checked_as_the_others(tmp_path, distance):
+    joints = ",".join(f"q{i}_deg" for i in range(1, 7))
+    mixed = tmp_path / "mixed.csv"
+    mixed.write_text(f"{joints},length_mm,distance_mm\n0,0,0,0,0,0,500,20\n")
+    with pytest.raises(cp.DataError, match="distance columns and others"):
+        cp.read_measurements(mixed)
+    twice = tmp_path / "twice.csv"
+    twice.write_text(f"{joints},distance_mm,distance_m\n0,0,0,0,0,0,500,0.5\n")
+    with pytest.raises(cp.DataError, match="two distance columns"):
+        cp.read_measurements(twice)
+    metres = tmp_path / "m.csv"
+    metres.write_text(f"# target_m: 0, 0, 0.05\n{joints},distance_m\n0,0,0,0,0,0,0.5\n")
+    data = cp.read_measurements(metres)
+    assert data.kind == "distance" and data.values.tolist() == [0.5] and data.sensor_meta["target"][2] == 0.05
+    without = tmp_path / "n.csv"
+    without.write_text(f"{joints},distance_mm\n0,0,0,0,0,0,500\n")
+    with pytest.raises(cp.DataError, match="no target point"):
+        cp.calibrate("irb120", without, method="lm")
