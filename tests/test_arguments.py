@@ -189,6 +189,13 @@ CASES = [
     ("Drawstring", "anchor", lambda f: cp.Drawstring("600,200,-100", np.zeros(3))),
     ("Drawstring", "tool", lambda f: cp.Drawstring(np.zeros(3), NAN3)),
     ("Drawstring", "length_offset", lambda f: cp.Drawstring(np.zeros(3), np.zeros(3), "0")),
+    # a sensor's set-up record, checked once when made
+    ("CableSetup", "anchor_mm", lambda f: cp.CableSetup(anchor_mm=(1, 2))),
+    ("CableSetup", "tool_mm", lambda f: cp.CableSetup(tool_mm=NAN3)),
+    ("CableSetup", "length_offset_mm", lambda f: cp.CableSetup(length_offset_mm="0")),
+    ("CableSetup", "estimate", lambda f: cp.CableSetup(estimate="device")),
+    ("PositionSetup", "estimate", lambda f: cp.PositionSetup(estimate=3)),
+    ("calibrate", "setup", lambda f: cp.calibrate("irb120", f.small, method="lm", setup={"anchor_mm": (1, 2, 3)})),
 ]
 
 
