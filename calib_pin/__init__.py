@@ -31,6 +31,7 @@ _API = {
     "DHModel": "parameters", "HayatiModel": "parameters", "PlacementModel": "parameters",
     "parameter_model": "parameters",
     "CableModel": "sensors", "Drawstring": "sensors", "PositionModel": "sensors", "PositionDevice": "sensors",
+    "CableSetup": "sensors", "PositionSetup": "sensors",
     "MeasurementSet": "measurements", "read_measurements": "measurements", "write_measurements": "measurements",
     "check_measurements": "measurements.checks",
     "simulate": "simulation", "simulate_positions": "simulation", "simulate_sessions": "simulation",
@@ -43,6 +44,7 @@ _API = {
 __all__ = [
     "ArgumentError",
     "CableModel",
+    "CableSetup",
     "CalibPinError",
     "CalibrationProblem",
     "CalibrationResult",
@@ -65,6 +67,7 @@ __all__ = [
     "PlacementModel",
     "PositionDevice",
     "PositionModel",
+    "PositionSetup",
     "RobotError",
     "SetResult",
     "StackedProblem",
@@ -119,6 +122,6 @@ if TYPE_CHECKING:
     from .result import CalibrationResult
     from .robot import Chain, Kinematics, load_chain
     from .robot.deflection import Compliance
-    from .sensors import CableModel, Drawstring, PositionDevice, PositionModel
+    from .sensors import CableModel, CableSetup, Drawstring, PositionDevice, PositionModel, PositionSetup
     from .simulation import Truth, simulate, simulate_positions, simulate_sessions
     from .stacked import StackedProblem

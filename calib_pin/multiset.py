@@ -338,8 +338,8 @@ def set_sigma(given: FitSet, noise_mm: Any, data: MeasurementSet) -> tuple[float
 
 def check_sets(sets: list[FitSet], options: dict[str, Any]) -> None:
     """Refuse what several sets cannot take: set-up overrides for all, bad roles."""
-    for name in ("anchor_mm", "tool_mm", "length_offset_mm"):
-        if options.get(name) is not None:
+    for name, value in options.items():  # the sensors' set-up overrides
+        if value is not None:
             raise ArgumentError(name, "one value for several sets: put each set's in its file "
                                 f"('# {name}: ...') or its MeasurementSet")
     for s in sets:
@@ -368,8 +368,8 @@ def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...
     if len(kinds) > 1:
         raise CalibPinError("mixing cable and position sets in one fit is not supported yet: calibrate them one kind at a time")
     for s, data, label in zip(sets, loaded, labels, strict=True):
-        if s.role == "test" and data.kind == "position":
-            raise DataError(data.source or label, "a position set with role 'test' has no training rows to fit its "
-                            "device frame on: give it role 'split'")
+        if s.role == "test" and sensor_for(data.kind).fits_setup:
+            raise DataError(data.source or label, f"a {data.kind} set with role 'test' has no training rows to fit "
+                            f"its {sensor_for(data.kind).fitted_setup} on: give it role 'split'")
     return tuple(labels)
 

@@ -23,11 +23,9 @@ from .arguments import (
     as_float,
     as_instance,
     as_int,
-    as_names,
     as_optional,
     as_path,
     as_robot,
-    as_xyz_mm,
 )
 from .estimators import DEFAULT_METHOD, get_method, run_estimator
 from .exceptions import ArgumentError, CalibPinError, DataError
@@ -41,25 +39,10 @@ from .problem import CalibrationProblem
 from .result import CalibrationResult
 from .robot import Chain, RobotDescription, load_chain, resolve_robot
 from .robot.deflection import Compliance, as_compliance
-from .sensors import SENSORS, sensor_for
+from .sensors import SensorSetup, check_estimate, sensor_for, setup_record
 
 #: Sensor noise assumed when neither the data (``# noise_mm``) nor the caller give it.
 DEFAULT_NOISE_MM = 0.05
-
-
-def check_estimate(estimate: Any) -> tuple[str, ...]:
-    """The sensor unknowns named in ``estimate`` (a comma-separated str or a sequence of
-    names; blanks dropped).
-
-    Raises:
-        ArgumentError: not names, or a name no sensor can estimate.
-    """
-    valid = tuple(dict.fromkeys(e for s in SENSORS.values() for e in s.estimable))
-    names = as_names(estimate, "estimate")
-    for e in names:
-        if e not in valid:
-            raise ArgumentError("estimate", f"cannot estimate '{e}' (valid: {', '.join(valid)})")
-    return names
 
 
 def check_fraction(test_fraction: float) -> float:
@@ -230,7 +213,7 @@ def prepare(robot: str | RobotDescription, data: str | Path | MeasurementSet | N
             length_offset_mm: float | None = None, noise_mm: Any = None, parameters: str | None = None,
             estimate: tuple[str, ...] = (), compliance: Compliance | str | tuple[str, ...] | None = None,
             payload_kg: float | None = None, payload_com_mm: Any = None,
-            cable_tension_n: float | None = None) -> CalibrationSetup: ...
+            cable_tension_n: float | None = None, setup: SensorSetup | None = None) -> CalibrationSetup: ...
 
 
 @overload
@@ -239,7 +222,7 @@ def prepare(robot: str | RobotDescription, data: list[Any] | tuple[Any, ...],
             length_offset_mm: float | None = None, noise_mm: Any = None, parameters: str | None = None,
             estimate: tuple[str, ...] = (), compliance: Compliance | str | tuple[str, ...] | None = None,
             payload_kg: float | None = None, payload_com_mm: Any = None,
-            cable_tension_n: float | None = None) -> CalibrationSetup | StackedSetup: ...
+            cable_tension_n: float | None = None, setup: SensorSetup | None = None) -> CalibrationSetup | StackedSetup: ...
 
 
 def prepare(
@@ -257,12 +240,15 @@ def prepare(
     payload_kg: float | None = None,
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
+    setup: SensorSetup | None = None,
 ) -> CalibrationSetup | StackedSetup:
     """Load a robot and a measurement set for calibration (arguments as :func:`calibrate`).
 
     With several sets (``data`` a list or tuple of paths, MeasurementSets or
     :class:`~calib_pin.multiset.FitSet`), a :class:`~calib_pin.multiset.StackedSetup`;
-    a list of one set is that set.
+    a list of one set is that set. ``setup`` (a sensor's set-up record,
+    :class:`~calib_pin.sensors.CableSetup`) overrides the file's set-up; the loose
+    ``anchor_mm``, ``tool_mm``, ``length_offset_mm`` and ``estimate`` are its shorthand.
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
@@ -270,18 +256,17 @@ def prepare(
     estimate = check_estimate(estimate)
     record = as_compliance(compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm,
                            cable_tension_n=cable_tension_n)
+    sensor_setup = setup_record(setup, anchor_mm=anchor_mm, tool_mm=tool_mm, length_offset_mm=length_offset_mm,
+                                estimate=estimate)
+    sensor_options = sensor_setup.options() if sensor_setup is not None else {}
     sets = fit_sets(data)
     if sets is not None and len(sets) == 1:
         data, noise_mm = _single(sets[0], noise_mm)
     elif sets is not None:  # several sets
-        return _prepare_sets(robot, sets, end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
-                             length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters,
-                             estimate=estimate, compliance=record)
+        return _prepare_sets(robot, sets, end_frame=end_frame, sensor_options=sensor_options, noise_mm=noise_mm,
+                             parameters=parameters, compliance=record)
     _check_data(data, "data")
     end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
-    anchor_mm = as_optional(as_xyz_mm, anchor_mm, "anchor_mm")
-    tool_mm = as_optional(as_xyz_mm, tool_mm, "tool_mm")
-    length_offset_mm = as_optional(as_float, length_offset_mm, "length_offset_mm", -MAX_MM, MAX_MM, unit="mm")
     noise_mm = as_optional(as_float, noise_mm, "noise_mm", 0.0, MAX_MM, low_open=True, unit="mm")
     parameters = as_optional(as_choice, parameters, "parameters", MODELS)
     chain = _load_robot(robot, data, end_frame)
@@ -289,11 +274,10 @@ def prepare(
     chain, data = load_data(chain, data, str(robot), end_frame)
     noise = noise_mm * 1e-3 if noise_mm is not None else (data.noise or DEFAULT_NOISE_MM * 1e-3)
     soft = record.spec(chain) if record is not None else None
-    options = {"anchor_mm": anchor_mm, "tool_mm": tool_mm, "length_offset_mm": length_offset_mm, "estimate": estimate,
-               "compliance": soft}
-    setup = CalibrationSetup(chain, parameter_model(chain, parameters), data, noise, options)
-    setup.problem  # noqa: B018 (refuse options the sensor does not take now; the problem is kept for --analyze)
-    return setup
+    prepared = CalibrationSetup(chain, parameter_model(chain, parameters), data, noise,
+                                {**sensor_options, "compliance": soft})
+    prepared.problem  # noqa: B018 (refuse options the sensor does not take now; the problem is kept for --analyze)
+    return prepared
 
 
 def _single(given: FitSet, noise_mm: Any) -> tuple[Any, Any]:
@@ -303,11 +287,13 @@ def _single(given: FitSet, noise_mm: Any) -> tuple[Any, Any]:
     return given.data, given.noise_mm if given.noise_mm is not None else noise_mm
 
 
-def _prepare_sets(robot: str | RobotDescription, sets: list[FitSet], *, end_frame: str | None, anchor_mm: Any,
-                  tool_mm: Any, length_offset_mm: Any, noise_mm: Any, parameters: str | None,
-                  estimate: tuple[str, ...], compliance: Compliance | None) -> StackedSetup:
-    """:func:`prepare` of several sets (:mod:`calib_pin.multiset`)."""
-    check_sets(sets, {"anchor_mm": anchor_mm, "tool_mm": tool_mm, "length_offset_mm": length_offset_mm})
+def _prepare_sets(robot: str | RobotDescription, sets: list[FitSet], *, end_frame: str | None,
+                  sensor_options: dict[str, Any], noise_mm: Any, parameters: str | None,
+                  compliance: Compliance | None) -> StackedSetup:
+    """:func:`prepare` of several sets (:mod:`calib_pin.multiset`); of the sensor options
+    only ``estimate`` applies to every set (a set-up override would be one for all)."""
+    estimate = sensor_options.get("estimate", ())
+    check_sets(sets, {k: v for k, v in sensor_options.items() if k != "estimate"})
     for s in sets:
         _check_data(s.data, "data")
     end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
@@ -326,11 +312,11 @@ def _prepare_sets(robot: str | RobotDescription, sets: list[FitSet], *, end_fram
     labels = labelled(sets, loaded)
     known = [set_sigma(s, noise_mm, d) for s, d in zip(sets, loaded, strict=True)]
     soft = compliance.spec(chain) if compliance is not None else None
-    setup = StackedSetup(chain, parameter_model(chain, parameters), tuple(loaded), labels,
-                         tuple(s.role for s in sets), tuple(k[0] for k in known), tuple(k[1] for k in known),
-                         {"estimate": estimate, "compliance": soft})
-    setup.problem  # noqa: B018 (refuse options a sensor does not take now)
-    return setup
+    stacked = StackedSetup(chain, parameter_model(chain, parameters), tuple(loaded), labels,
+                           tuple(s.role for s in sets), tuple(k[0] for k in known), tuple(k[1] for k in known),
+                           {"estimate": estimate, "compliance": soft})
+    stacked.problem  # noqa: B018 (refuse options a sensor does not take now)
+    return stacked
 
 
 def calibrate(
@@ -354,6 +340,7 @@ def calibrate(
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
     progress: Callable[[Any], object] | None = None,
+    setup: SensorSetup | None = None,
 ) -> CalibrationResult:
     """Calibrate a robot's kinematic deviations from drawstring readings or positions.
 
@@ -387,6 +374,9 @@ def calibrate(
         payload_kg, payload_com_mm, cable_tension_n: Deprecated aliases of the record's
             fields (a DeprecationWarning; refused beside a record).
         progress: Called with the prepared setup before the estimation starts.
+        setup: The sensor's set-up record (:class:`~calib_pin.sensors.CableSetup`):
+            overrides of the file's; ``anchor_mm``, ``tool_mm``, ``length_offset_mm`` and
+            ``estimate`` are its shorthand, laid over it.
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message; a
@@ -401,21 +391,21 @@ def calibrate(
         raise ArgumentError("progress", f"expected a function of the setup, or None, got {type(progress).__name__}")
     record = as_compliance(compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm,
                            cable_tension_n=cable_tension_n)
-    setup: CalibrationSetup | StackedSetup = prepare(
+    prepared: CalibrationSetup | StackedSetup = prepare(
         robot, cast(Any, data), end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
         length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters, estimate=estimate,
-        compliance=record)
-    if isinstance(setup, StackedSetup):
+        compliance=record, setup=setup)
+    if isinstance(prepared, StackedSetup):
         if test_data is not None:
             raise CalibPinError("test_data with several sets: give the validation set as one of the sets, "
                                 "with role 'test' (calib_pin.multiset.FitSet)")
         if progress is not None:
-            progress(setup)
-        return setup.run(method, seed=seed, test_fraction=test_fraction, loss=loss)
-    validation = None if test_data is None else _validation(setup, test_data, str(robot))
+            progress(prepared)
+        return prepared.run(method, seed=seed, test_fraction=test_fraction, loss=loss)
+    validation = None if test_data is None else _validation(prepared, test_data, str(robot))
     if progress is not None:
-        progress(setup)
-    return setup.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)
+        progress(prepared)
+    return prepared.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)
 
 
 def _check_data(data: Any, arg: str) -> None:

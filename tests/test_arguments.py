@@ -223,6 +223,13 @@ CASES = [
     ("write_outputs", "html", lambda f: cp.write_outputs(f.fit, "never", html="no")),
     ("write_outputs", "inputs", lambda f: cp.write_outputs(f.fit, "never", inputs=["a.csv"])),
     ("write_outputs", "notes", lambda f: cp.write_outputs(f.fit, "never", notes="x")),
+    # a sensor's set-up record, checked once when made
+    ("CableSetup", "anchor_mm", lambda f: cp.CableSetup(anchor_mm=(1, 2))),
+    ("CableSetup", "tool_mm", lambda f: cp.CableSetup(tool_mm=NAN3)),
+    ("CableSetup", "length_offset_mm", lambda f: cp.CableSetup(length_offset_mm="0")),
+    ("CableSetup", "estimate", lambda f: cp.CableSetup(estimate="device")),
+    ("PositionSetup", "estimate", lambda f: cp.PositionSetup(estimate=3)),
+    ("calibrate", "setup", lambda f: cp.calibrate("irb120", f.small, method="lm", setup={"anchor_mm": (1, 2, 3)})),
 ]
 
 

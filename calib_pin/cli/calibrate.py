@@ -27,9 +27,7 @@ from .common import (
     add_compliance_arguments,
     add_robot_arguments,
     compliance_options,
-    estimate_names,
     fail,
-    finite,
     fraction,
     positive_float,
     run,
@@ -75,15 +73,12 @@ def calibrate_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", default=DEFAULT_METHOD, help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})")
     p.add_argument("--test-fraction", type=fraction, default=0.2, help="share of poses held out for testing (default 0.2)")
     p.add_argument("--out", default="out", help="output folder (default ./out)")
-    p.add_argument("--length-offset-mm", type=finite, help="sensor zero offset, mm")
     p.add_argument("--noise-mm", type=assumed_noise,
                    help="sensor noise (1 sigma) for the Kalman filters, mm, > 0 (default: the file's, else 0.05)")
     p.add_argument("--loss", default="linear", help="linear (default), or a robust loss: huber, soft_l1, cauchy")
     p.add_argument("--model", choices=MODELS,
                    help="parameter model: dh (default with a DH table), hayati (dh with a tilt beta for parallel "
                    "axes), placement (6D offset per joint, any URDF; default without a DH table)")
-    p.add_argument("--estimate", type=estimate_names, default=(),
-                   help="drawstring geometry to estimate with the robot: anchor, offset or anchor,offset")
     add_compliance_arguments(p)
     p.add_argument("--export", type=export_formats, default=("urdf",),
                    help="formats of the corrected robot, comma-separated: urdf (default), yaml (joint origins for "
@@ -110,19 +105,21 @@ def _data(args: argparse.Namespace) -> Any:
     if not args.data or len(args.data) == 1:
         return args.data[0] if args.data else None
     from ..exceptions import CalibPinError
+    from ..sensors import setup_from_args
+    from ..sensors.setup import flag_of
 
-    for flag, value in (("--anchor-mm", args.anchor_mm), ("--tool-mm", args.tool_mm),
-                        ("--length-offset-mm", args.length_offset_mm)):
-        if value is not None:
-            raise CalibPinError(f"{flag} with several --data files: put each set's in its file "
-                                f"('# {flag[2:].replace('-', '_')}: ...')")
+    for name, value in setup_from_args(args).items():
+        if name != "estimate" and value is not None:  # a set-up override: each set has its own
+            raise CalibPinError(f"{flag_of(name)} with several --data files: put each set's in its file "
+                                f"('# {name}: ...')")
     return list(args.data)
 
 
 def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
-    return {"end_frame": args.end_frame, "anchor_mm": args.anchor_mm, "tool_mm": args.tool_mm,
-            "length_offset_mm": args.length_offset_mm, "noise_mm": args.noise_mm, "parameters": args.model,
-            "estimate": args.estimate, **compliance_options(args)}
+    from ..sensors import setup_from_args, setup_record
+
+    return {"end_frame": args.end_frame, "setup": setup_record(**setup_from_args(args)), "noise_mm": args.noise_mm,
+            "parameters": args.model, **compliance_options(args)}
 
 
 def _analyze(args: argparse.Namespace) -> int:

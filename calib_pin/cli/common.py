@@ -13,10 +13,9 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any, NoReturn
 
-import numpy as np
-
 from ..arguments import as_names
 from ..exceptions import ArgumentError, CalibPinError
+from ..sensors.setup import estimate_names, finite, xyz_mm  # noqa: F401 (the sensors' flag parsers)
 
 BAD_INPUT_EXIT = 2
 SENSOR_FAULT_EXIT = 3
@@ -130,16 +129,6 @@ def run(action: Callable[[], int], interrupted: str = NOTHING_WRITTEN) -> int:
         return fail(f"{where}{e.strerror or e}")
 
 
-def xyz_mm(text: str) -> tuple[float, float, float]:
-    """``x,y,z`` in mm: three finite numbers."""
-    parts = [p for p in text.replace(",", " ").split() if p]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(np.isfinite(v) and abs(v) < 1e6 for v in values):
-        raise argparse.ArgumentTypeError(f"expected 3 numbers 'x,y,z' in mm, got '{text[:40]}'")
-    return values  # type: ignore[return-value]
 
 
 def fraction(text: str) -> float:
@@ -183,15 +172,6 @@ def positive_float(upper: float) -> Callable[[str], float]:
     return parse
 
 
-def finite(text: str) -> float:
-    """A finite number (|value| < 1e6)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (np.isfinite(value) and abs(value) < 1e6):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got '{text[:40]}'")
-    return value
 
 
 def count(upper: int) -> Callable[[str], int]:
@@ -226,17 +206,6 @@ def methods(text: str) -> list[str]:
     return names
 
 
-def estimate_names(text: str) -> tuple[str, ...]:
-    """Comma-separated sensor unknowns to estimate."""
-    from ..pipeline import check_estimate
-
-    try:
-        names = check_estimate(text.split(","))
-    except ArgumentError as e:
-        raise argparse.ArgumentTypeError(f"{e.reason}, comma-separated") from None
-    if not names:
-        raise argparse.ArgumentTypeError(f"cannot estimate '{text}' (comma-separated names)")
-    return names
 
 
 def joint_names(text: str) -> tuple[str, ...]:
@@ -250,17 +219,21 @@ def joint_names(text: str) -> tuple[str, ...]:
     return names
 
 
-def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str,
+def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str, *,
+                        skip: Sequence[str] = (), defaults: dict[str, Any] | None = None,
                         anchor_per_session: bool = False) -> None:
-    """The robot and drawstring geometry arguments shared by calibrate and simulate
-    (``anchor_per_session``: --anchor-mm may be given once per session, a list)."""
+    """The robot arguments shared by calibrate and simulate, and every registered sensor's
+    set-up flags (:func:`calib_pin.sensors.add_sensor_arguments`; ``skip``: fields without
+    a flag here, ``defaults``: flag defaults); ``anchor_default`` and ``tool_default`` say
+    what the point flags default to (``anchor_per_session``: --anchor-mm may be given once
+    per session, a list)."""
+    from ..sensors import add_sensor_arguments
+
     p.add_argument("robot", help="robot name (irb120, or an example-robot-data name) or URDF path")
     p.add_argument("--end-frame", help="end frame (default: the data file's, else tool0)")
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed, a whole number >= 0 (default 0)")
-    p.add_argument("--anchor-mm", type=xyz_mm, action="append" if anchor_per_session else "store",
-                   help=f"sensor point P0 in the base frame, 'x,y,z' mm ({anchor_default})"
-                   + ("; with --sessions K, give it once per session, or leave it out" if anchor_per_session else ""))
-    p.add_argument("--tool-mm", type=xyz_mm, help=f"cable tool point in the end frame, 'x,y,z' mm ({tool_default})")
+    add_sensor_arguments(p, {"anchor_mm": anchor_default, "tool_mm": tool_default}, skip, defaults,
+                         append=("anchor_mm",) if anchor_per_session else ())
 
 
 def add_compliance_arguments(p: argparse.ArgumentParser, what: str = "estimate") -> None:

@@ -12,7 +12,8 @@ from ..exceptions import CalibPinError
 from ..export.outputs import Outputs, robot_inputs
 from ..parameters import MODELS
 from ..progress import quiet_progress
-from .common import OneLineParser, count, estimate_names, fail, non_negative, run, xyz_mm
+from ..sensors import add_sensor_arguments
+from .common import OneLineParser, count, fail, non_negative, run
 from .outputs import add_force_argument
 
 #: Most poses or candidates a pose command draws (more would not fit in memory here).
@@ -78,13 +79,11 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--candidates", type=count(MAX_POSES), default=5000, help="random candidates to choose from (5000)")
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed of the candidates (0)")
     p.add_argument("--margin-deg", type=non_negative(float), default=5.0, help="distance from the joint limits, deg (5)")
-    p.add_argument("--anchor-mm", type=xyz_mm, help="sensor point P0 in the base frame, x,y,z mm (600,200,-100)")
-    p.add_argument("--tool-mm", type=xyz_mm, help="tool point in the end frame, x,y,z mm (0,0,50)")
+    add_sensor_arguments(p, {"anchor_mm": "default 600,200,-100", "tool_mm": "default 0,0,50",
+                             "estimate": "that will be estimated too"}, skip=("length_offset_mm",))
     p.add_argument("--end-frame", help="end frame (default tool0)")
     p.add_argument("--model", choices=MODELS,
                    help="parameter model to plan for (default dh with a DH table, else placement)")
-    p.add_argument("--estimate", type=estimate_names, default=(),
-                   help="sensor geometry that will be estimated too: anchor, offset or anchor,offset")
     p.add_argument("--out", required=True, help="pose list CSV")
     add_force_argument(p, "--out file")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
@@ -100,16 +99,13 @@ def _plan_poses(args: argparse.Namespace) -> int:
     from ..parameters import parameter_model
     from ..planning import plan_poses
     from ..robot import load_chain
-    from ..sensors import CableModel, Drawstring
-    from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
+    from ..sensors import default_kind, sensor_for, setup_from_args, setup_record
 
     out = _pose_output(args)
     chain = load_chain(args.robot, args.end_frame)
-    sensor = Drawstring(np.array(args.anchor_mm or DEFAULT_ANCHOR_MM) * 1e-3,
-                        np.array(args.tool_mm or DEFAULT_TOOL_MM) * 1e-3)
     params = parameter_model(chain, args.model)
     name = params.name
-    model = CableModel(chain, params, sensor, args.estimate)
+    model = sensor_for(default_kind()).planning_model(chain, params, setup_record(**setup_from_args(args)))
     try:
         plan = plan_poses(model, args.n, args.candidates, seed=args.seed, margin=np.deg2rad(args.margin_deg))
     except ValueError as e:

@@ -20,7 +20,6 @@ from .common import (
     add_robot_arguments,
     compliance_options,
     count,
-    finite,
     non_negative,
     run,
 )
@@ -42,7 +41,7 @@ def simulate_parser() -> argparse.ArgumentParser:
         "and every session's true anchor).",
     )
     add_robot_arguments(p, "default 600,200,-100; sessions 2.. drawn around it", "default 0,0,50",
-                        anchor_per_session=True)
+                        skip=("estimate",), defaults={"length_offset_mm": 0.0}, anchor_per_session=True)
     p.add_argument("--sessions", type=count(1000), default=1,
                    help="number of sessions of the one true robot, each with its own anchor and poses "
                    "(seed, seed+1, ...); writes FILE_1.csv .. FILE_K.csv (default 1: FILE.csv)")
@@ -54,7 +53,6 @@ def simulate_parser() -> argparse.ArgumentParser:
                    "of 1-3 mm) (default gauss)")
     p.add_argument("--nominal-rmse-mm", type=non_negative(float, 1000.0), default=2.0,
                    help="reading error of the nominal model the true deviations cause, mm (default 2)")
-    p.add_argument("--length-offset-mm", type=finite, default=0.0, help="sensor zero offset, mm (default 0)")
     p.add_argument("--poses-file", help="simulate at the poses of this pose list (make_poses.py) instead of random ones")
     p.add_argument("--model", choices=MODELS,
                    help="parameter model of the true deviations (default dh with a DH table, else placement)")

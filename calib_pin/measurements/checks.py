@@ -21,8 +21,18 @@ from ..exceptions import DataError
 from ..robot.chain import Chain
 from .dataset import MeasurementSet
 
-#: Data kinds a set may hold: drawstring readings, positions, or a pose list.
-KINDS = ("cable", "position", "poses")
+#: What a pose list's ``kind`` is (a set without values).
+POSES = "poses"
+
+
+def kinds() -> tuple[str, ...]:
+    """Data kinds a set may hold: each registered sensor's (:data:`calib_pin.sensors.SENSORS`),
+    or a pose list."""
+    from ..sensors import SENSORS
+
+    return (*SENSORS, POSES)
+
+
 #: How far two set-ups may differ and still agree, [m]: a file's rounding, down to the
 #: micrometre (``600.000`` beside ``600.0004`` mm) is the same set-up; a drawstring's
 #: noise is some 50 um, so the scores cannot tell the two apart.
@@ -52,8 +62,11 @@ def _robot_matches(label: str, chain: Chain, robot_label: str | None) -> bool:
 
 def _check_shapes(chain: Chain, data: MeasurementSet) -> None:
     where = _where(data)
-    if data.kind not in KINDS:
-        raise DataError(where, f"kind '{data.kind}' is not one of {', '.join(KINDS)}", None, "kind")
+    if data.kind not in kinds():
+        raise DataError(where, f"kind '{data.kind}' is not one of {', '.join(kinds())}", None, "kind")
+    from ..sensors import SENSORS
+
+    model = SENSORS.get(data.kind)
     q = np.asarray(data.q)
     if q.dtype.kind not in "iuf" or q.ndim != 2 or q.shape[1] != chain.n_joints:
         raise DataError(where, f"joint angles of shape {q.shape} ({q.dtype.name}): expected (n_rows, "
@@ -61,17 +74,19 @@ def _check_shapes(chain: Chain, data: MeasurementSet) -> None:
     if not len(q):
         raise DataError(where, "has no rows", None, "q")
     values = np.asarray(data.values)
-    expected = {"cable": (len(q),), "position": (len(q), 3)}.get(data.kind)
-    if expected is not None and (values.dtype.kind not in "iuf" or values.shape != expected):
+    per_row = None if model is None else model.values_per_row
+    expected = None if per_row is None else (len(q),) if per_row == 1 else (len(q), per_row)
+    if model is not None and expected is not None and (values.dtype.kind not in "iuf" or values.shape != expected):
+        one = "reading" if per_row == 1 else ", ".join(model.value_columns)
         raise DataError(where, f"{data.kind} values of shape {values.shape} ({values.dtype.name}): expected "
-                        f"{expected} numbers, one {'reading' if data.kind == 'cable' else 'x, y, z'} per row",
-                        None, "values")
+                        f"{expected} numbers, one {one} per row", None, "values")
     for name in ("lines", "pose_ids", "point_ids"):
         labels = getattr(data, name)
         if labels is not None and np.shape(labels) != (len(q),):
             raise DataError(where, f"{name} of shape {np.shape(labels)}: expected one per row ({len(q)})", None, name)
-    if data.kind == "position" and data.point_ids is None:
-        raise DataError(where, "a position set needs point_ids (which marker each row measured)", None, "point_ids")
+    if model is not None and model.point_labels and data.point_ids is None:
+        raise DataError(where, f"a {data.kind} set needs point_ids (which marker each row measured)", None,
+                        "point_ids")
 
 
 def _check_angles(chain: Chain, data: MeasurementSet) -> None:
@@ -93,21 +108,25 @@ def _check_angles(chain: Chain, data: MeasurementSet) -> None:
 
 
 def _check_values(data: MeasurementSet) -> None:
-    if data.kind == "poses":
+    from ..sensors import SENSORS
+
+    model = SENSORS.get(data.kind)
+    if model is None:  # a pose list
         return
     values = np.asarray(data.values, dtype=float)
     bad = np.argwhere(~np.isfinite(values))
-    name = "length" if data.kind == "cable" else "position"
+    columns = model.value_columns
+    name = columns[0] if len(columns) == 1 else data.kind
     if len(bad):
         row = int(bad[0][0])
         line, prefix = _row_line(data, row)
         raise DataError(_where(data), f"{prefix}{values[tuple(bad[0])]} is not a finite {name} reading", line,
-                        name if data.kind == "cable" else "xyz"[int(bad[0][1])])
-    if data.kind == "cable" and (values < 0).any():
-        row = int(np.argmax(values < 0))
+                        columns[0] if len(columns) == 1 else columns[int(bad[0][1])])
+    refused = model.refuse_values(values)
+    if refused is not None:
+        row, why = refused
         line, prefix = _row_line(data, row)
-        raise DataError(_where(data), f"{prefix}{values[row] * 1e3:g} mm is negative: a drawstring reading is >= 0",
-                        line, "length")
+        raise DataError(_where(data), f"{prefix}{why}", line, columns[0] if len(columns) == 1 else None)
 
 
 def _check_metadata(chain: Chain, data: MeasurementSet, robot_label: str | None) -> None:
@@ -187,34 +206,15 @@ def _mm(value: Any) -> str:
 
 
 def check_same_setup(session: MeasurementSet, training: MeasurementSet, options: dict[str, Any]) -> None:
-    """Refuse a validation session whose own drawstring set-up (``anchor_mm``,
-    ``tool_mm``, ``length_offset_mm``) contradicts the calibration's: the training set's,
-    or the caller's overrides in ``options`` ([mm]). Agreement within
-    :data:`SETUP_TOLERANCE_M`, or a session that does not say, is fine.
+    """Refuse a validation session whose own sensor set-up contradicts the calibration's:
+    the training set's, or the caller's overrides in ``options``; what contradicts is the
+    sensor's to say (:meth:`~calib_pin.sensors.base.MeasurementModel.check_same_setup`).
 
     Raises:
         DataError: naming the session's file, the key and both values.
     """
-    if session.kind != "cable":
-        return
-    keys = _file_keys(session.source) if session.source else None
-    for name in ("anchor", "tool", "length_offset"):
-        key = f"{name}_mm"
-        own = getattr(session, name)
-        if name == "length_offset":
-            given = (keys is not None and bool({"length_offset_mm", "length_offset_m"} & keys)) or (
-                keys is None and own != 0.0)
-            if not given:
-                continue
-        elif own is None:
-            continue
-        override = options.get(key)
-        used = np.asarray(override, dtype=float) * 1e-3 if override is not None else getattr(training, name)
-        if used is None:
-            continue
-        if not np.allclose(np.asarray(own, dtype=float), used, rtol=0.0, atol=SETUP_TOLERANCE_M):
-            by = f"--{key.replace('_', '-')}" if override is not None else (training.source or "the training set")
-            raise DataError(session.source or "test_data",
-                            f"the validation session has {_mm(own)} mm, the calibration {_mm(used)} mm ({by}): "
-                            "one sensor set-up per calibration for now; measure both with the same set-up, or "
-                            "correct the file's line", None, key)
+    from ..sensors import SENSORS
+
+    model = SENSORS.get(session.kind)
+    if model is not None:
+        model.check_same_setup(session, training, options)

@@ -50,10 +50,35 @@ class Columns:
     extra: dict[int, str] = field(default_factory=dict)
     #: Unnamed columns (kept as extra unless blank in every row).
     unnamed: list[int] = field(default_factory=list)
+    #: A registered sensor's value columns beyond the drawstring's and the positions'
+    #: (its ``value_columns``): quantity -> (column index, unit).
+    sensor: dict[str, tuple[int, str]] = field(default_factory=dict)
+    #: That sensor's kind ("" without such columns).
+    sensor_kind: str = ""
 
     @property
     def position(self) -> bool:
         return bool(self.coords) or self.point is not None
+
+
+#: The value columns this module reads itself (the drawstring's and the positions').
+_BUILT_IN = {("length",), ("x", "y", "z")}
+
+
+def plugin_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
+    """Quantity -> (kind, all its value columns) of every registered sensor whose values
+    are not the drawstring's length or the positions' x, y, z."""
+    from ..sensors import SENSORS
+
+    return {c: (kind, model.value_columns) for kind, model in SENSORS.items()
+            if model.value_columns and tuple(model.value_columns) not in _BUILT_IN for c in model.value_columns}
+
+
+def kind_of_columns(columns: tuple[str, ...]) -> str:
+    """The registered kind whose value columns are ``columns``."""
+    from ..sensors import SENSORS
+
+    return next(kind for kind, model in SENSORS.items() if tuple(model.value_columns) == columns)
 
 
 def _units(quantity: str) -> str:
@@ -103,6 +128,12 @@ def classify(header: list[str], path: Path, line: int) -> Columns:
             if m.group(1) in cols.coords:
                 raise DataError(str(path), f"two {m.group(1)} columns (mm and m): keep one", line, name)
             cols.coords[m.group(1)] = (col, m.group(2))
+        elif (m := re.match(r"^(\w+)_(mm|m)$", name)) and m.group(1) in (plugins := plugin_columns()):
+            kind = plugins[m.group(1)][0]
+            if m.group(1) in cols.sensor or (cols.sensor_kind and cols.sensor_kind != kind):
+                raise DataError(str(path), f"two {m.group(1)} columns, or columns of two sensors: keep one", line, name)
+            cols.sensor[m.group(1)] = (col, m.group(2))
+            cols.sensor_kind = kind
         elif name in ANNOTATIONS:
             continue  # what calib-pin compensate adds to the joint targets; not data
         elif name == "pose":
@@ -167,6 +198,15 @@ def check_columns(cols: Columns, n_joints: int, robot: str | None, end_frame: st
     for i in sorted(expected):
         if i not in cols.joints:
             raise DataError(str(path), f"missing column q{i}_deg (or q{i}_rad; q{i}_mm for a prismatic joint)", line)
+    if cols.sensor_kind:
+        if cols.position or cols.length is not None:
+            raise DataError(str(path), f"has {cols.sensor_kind} columns and others: one set holds one sensor's data",
+                            line)
+        for quantity in plugin_columns()[next(iter(cols.sensor))][1]:
+            if quantity not in cols.sensor:
+                raise DataError(str(path), f"missing column {quantity}_mm (or {quantity}_m) of a {cols.sensor_kind} "
+                                "set", line)
+        return
     if cols.position and cols.length is not None:
         what = "x/y/z columns" if cols.coords else "a point_id column (the marker labels of a position set)"
         raise DataError(str(path), f"has both length and {what}: one set holds one sensor's data", line)

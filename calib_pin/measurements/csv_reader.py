@@ -50,15 +50,22 @@ from ..exceptions import DataError
 from ..input_files import check_regular
 from ..robot.chain import Chain
 from . import dialect
-from .columns import ANNOTATIONS, Columns, check_columns, check_near_misses, classify
+from .columns import ANNOTATIONS, Columns, check_columns, check_near_misses, classify, kind_of_columns, plugin_columns
 from .dataset import MeasurementSet, point_label
 from .dialect import Dialect, Override, number, quote, shown_separator
 
 __all__ = ["ANNOTATIONS", "number", "quote", "read_measurements"]
 
 _INTEGER = re.compile(r"^[-+]?\d+$")
-_VECTOR_KEYS = ("anchor", "tool")
-_SCALAR_KEYS = ("length_offset", "noise")
+
+
+def _keys(size: int) -> tuple[str, ...]:
+    """The set-up metadata keys of the registered sensors that hold ``size`` numbers
+    (3: a vector, 1: a scalar; ``noise`` is every set's), in mm or m."""
+    from ..sensors import SENSORS
+
+    keys = dict.fromkeys(k for m in SENSORS.values() for k, n in m.metadata_keys.items() if n == size)
+    return tuple(keys) + (("noise",) if size == 1 else ())
 #: Largest field accepted, characters.
 _FIELD_LIMIT = 1000
 #: Longest text label of a marker, characters.
@@ -76,12 +83,12 @@ def _metadata_value(key: str, text: str, path: Path, line: int, decimal: str) ->
     """Convert one metadata value to SI; (name, value) or None for a note."""
     base, _, unit = key.rpartition("_")
     scale = {"mm": 1e-3, "m": 1.0}.get(unit)
-    if base in _VECTOR_KEYS and scale:
+    if base in _keys(3) and scale:
         parts = dialect.vector_parts(text, decimal)
         if len(parts) != 3:
             raise DataError(str(path), f"needs 3 numbers (x, y, z), got '{quote(text)}'", line, key)
         return base, np.array([number(p, path, line, key, mark) for p, mark in parts]) * scale
-    if base in _SCALAR_KEYS and scale:
+    if base in _keys(1) and scale:
         value = number(text, path, line, key, decimal) * scale
         if base == "noise" and value <= 0:
             raise DataError(str(path), f"{text.strip()} must be positive", line, key)
@@ -141,7 +148,7 @@ def _metadata_line(parsed: _Parsed, stripped: str, path: Path, number_: int) -> 
 def _meta_name(key: str) -> str:
     """What a metadata key sets: ``anchor`` for ``anchor_mm`` and ``anchor_m``, else the key."""
     base, _, unit = key.rpartition("_")
-    return base if base in (*_VECTOR_KEYS, *_SCALAR_KEYS) and unit in ("mm", "m") else key
+    return base if base in (*_keys(3), *_keys(1)) and unit in ("mm", "m") else key
 
 
 def _split(text: str, path: Path) -> _Parsed:
@@ -207,10 +214,11 @@ def _numeric_fields(parsed: _Parsed, cols: Columns):
     lengths and coordinates (what tells the decimal mark)."""
     assert parsed.header is not None
     for number_, key, value in parsed.raw_meta:
-        if _meta_name(key) in _SCALAR_KEYS:
+        if _meta_name(key) in _keys(1):
             yield value, number_, key
     numeric = [c for c, _ in cols.joints.values()] + [c for c, _ in cols.coords.values()]
     numeric += [cols.length[0]] if cols.length is not None else []
+    numeric += [c for c, _ in cols.sensor.values()]
     for number_, fields in parsed.rows:
         for col in numeric:
             yield fields[col], number_, parsed.header[col]
@@ -249,6 +257,9 @@ def _angles(fields: list[str], header: list[str], cols: Columns, chain: Chain | 
 
 
 def _values(fields: list[str], header: list[str], cols: Columns, path: Path, line: int, decimal: str) -> np.ndarray:
+    if cols.sensor_kind:  # a registered sensor's columns, in its order
+        return np.array([number(fields[col], path, line, header[col], decimal) * (1e-3 if unit == "mm" else 1.0)
+                         for col, unit in cols.sensor.values()])
     if cols.position:
         out = np.empty(3)
         for a, axis in enumerate("xyz"):
@@ -354,7 +365,10 @@ def read_measurements(
         raise DataError(str(path), "has a header but no data rows")
     n = len(parsed.rows)
     q = np.empty((n, n_joints))
-    values = np.empty((n, 3 if cols.position else 1))
+    if cols.sensor_kind:  # its columns in the sensor's order
+        order = {q: k for k, q in enumerate(plugin_columns()[next(iter(cols.sensor))][1])}
+        cols.sensor = dict(sorted(cols.sensor.items(), key=lambda item: order[item[0]]))
+    values = np.empty((n, len(cols.sensor) if cols.sensor_kind else 3 if cols.position else 1))
     pose_ids = np.empty(n, dtype=int)
     for r, (number_, fields) in enumerate(parsed.rows):
         q[r] = _angles(fields, header, cols, chain, n_joints, path, number_, decimal)
@@ -368,12 +382,17 @@ def read_measurements(
     meta = parsed.meta
     if chain is not None and meta.get("robot") not in (None, chain.name, robot_label):
         raise DataError(str(path), f"is for robot '{meta['robot']}', not '{chain.name}'", None, "robot")
-    kind = "position" if cols.position else ("cable" if cols.length is not None else "poses")
+    kind = cols.sensor_kind or (kind_of_columns(("x", "y", "z")) if cols.position else (
+        kind_of_columns(("length",)) if cols.length is not None else "poses"))
+    from ..sensors import SENSORS
+
+    own = SENSORS[kind].metadata_keys if kind in SENSORS else {}
     return MeasurementSet(
-        q=q, values=values if cols.position else values[:, 0], kind=kind,
+        q=q, values=values if values.shape[1] > 1 else values[:, 0], kind=kind,
         anchor=meta.get("anchor"), tool=meta.get("tool"), length_offset=meta.get("length_offset", 0.0),
         noise=meta.get("noise"), robot=meta.get("robot"), end_frame=meta.get("end_frame"),
         lines=np.array(lines, dtype=int), source=str(path), notes=parsed.notes,
         pose_ids=pose_ids if cols.pose is not None else None,
         point_ids=point_ids if cols.position else None, extra=_extra(parsed, cols),
+        sensor_meta={k: meta[k] for k in own if k in meta},
     )

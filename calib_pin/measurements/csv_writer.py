@@ -46,23 +46,33 @@ def _mm(v: np.ndarray) -> str:
 def metadata_lines(data: MeasurementSet) -> list[str]:
     """The ``# key: value`` lines of a set: robot, end frame, sensor geometry, noise, notes."""
     lines = [f"# {key}: {value}" for key, value in (("robot", data.robot), ("end_frame", data.end_frame)) if value]
-    if data.anchor is not None:
-        lines.append(f"# anchor_mm: {_mm(data.anchor)}")
-    if data.tool is not None:
-        lines.append(f"# tool_mm: {_mm(data.tool)}")
-    if data.kind == "cable":
-        lines.append(f"# length_offset_mm: {data.length_offset * 1e3:.6f}")
+    from ..sensors import SENSORS
+
+    own = SENSORS[data.kind].metadata_keys if data.kind in SENSORS else {}
+    keys = dict.fromkeys(k for m in SENSORS.values() for k in m.metadata_keys.items())
+    for key, size in keys:  # each sensor's set-up metadata (the drawstring's in anchor, tool, length_offset)
+        value = data.sensor_meta.get(key, getattr(data, key, None))
+        if value is None or (size == 1 and key not in own):
+            continue
+        text = _mm(np.asarray(value, dtype=float).reshape(-1)) if size > 1 else f"{float(value) * 1e3:.6f}"
+        lines.append(f"# {key}_mm: {text}")
     if data.noise is not None:
         lines.append(f"# noise_mm: {data.noise * 1e3:.6f}")
     return lines + [f"# {k}: {v}" for k, v in data.notes.items()]
 
 
 def header(n_joints: int, kind: str, with_pose: bool = False) -> str:
-    """The column line of a set of ``kind`` (``cable``, ``position`` or ``poses``)."""
+    """The column line of a set of ``kind`` (a registered sensor's, or ``poses``): a
+    sensor with point labels gets ``pose`` and ``point_id`` first, then the joints, then
+    its value columns in mm."""
+    from ..sensors import SENSORS
+
+    model = SENSORS.get(kind)
     joints = [f"q{i}_deg" for i in range(1, n_joints + 1)]
-    if kind == "position":
-        return ",".join(["pose", "point_id", *joints, "x_mm", "y_mm", "z_mm"])
-    return ",".join((["pose"] if with_pose else []) + joints + (["length_mm"] if kind == "cable" else []))
+    values = [f"{c}_mm" for c in model.value_columns] if model is not None else []
+    if model is not None and model.point_labels:
+        return ",".join(["pose", "point_id", *joints, *values])
+    return ",".join((["pose"] if with_pose else []) + joints + values)
 
 
 def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[PointLabel] = ()) -> str:
@@ -88,14 +98,21 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
         lines.append("# csv: sep=,")
     lines.append(",".join([header(data.q.shape[1], data.kind), *map(text_field, data.extra)]))
     values = np.asarray(data.values, dtype=float).reshape(len(data), -1)
+    labelled = _point_labels(data.kind)
     for k in range(len(data)):
         labels: tuple[PointLabel, ...] = ()
-        if data.kind == "position":
+        if labelled:
             pose = data.pose_ids[k] if data.pose_ids is not None else k + 1
             point = data.point_ids[k] if data.point_ids is not None else 1
             labels = (int(pose), point_label(point))
         lines.append(",".join([row(data.q[k], values[k], labels), *_extra_fields(data, k)]))
     write_text(path, "\n".join(lines) + "\n")
+
+
+def _point_labels(kind: str) -> bool:
+    from ..sensors import SENSORS
+
+    return kind in SENSORS and SENSORS[kind].point_labels
 
 
 def write_poses(

@@ -50,8 +50,9 @@ class MeasurementSet:
         q: Joint angles, shape (n_rows, n_joints), [rad].
         values: What the sensor read, [m]: shape (n_rows,) for drawstring readings,
             (n_rows, 3) for positions in the measuring device's frame.
-        kind: The sensor kind the values are of (``cable`` or ``position``; see
-            :data:`calib_pin.sensors.SENSORS`); ``poses`` for a pose list without values.
+        kind: The sensor kind the values are of (a key of
+            :data:`calib_pin.sensors.SENSORS`; empty: its first, the drawstring); ``poses``
+            for a pose list without values.
         anchor: Drawstring: P0 in the base frame, shape (3,), [m], or None.
         tool: Drawstring: the tool point in the end frame, shape (3,), [m], or None.
         length_offset: Drawstring: zero offset, [m] (0 if not given).
@@ -68,11 +69,16 @@ class MeasurementSet:
         extra: The file's other columns, name to shape (n_rows,): float when every field
             is a number (empty ones NaN), else the text as written; values in the file's
             own units, unused by calib-pin (see :meth:`ignored_note`).
+        sensor_meta: The file's set-up metadata of the set's sensor (its
+            ``metadata_keys``), key to value in SI ([m]); the drawstring's is also in
+            ``anchor``, ``tool``, ``length_offset``.
+
+    :attr:`setup` is the sensor's set-up record the set carries (``CableSetup``, ...).
     """
 
     q: np.ndarray
     values: np.ndarray
-    kind: str = "cable"
+    kind: str = ""
     anchor: np.ndarray | None = None
     tool: np.ndarray | None = None
     length_offset: float = 0.0
@@ -85,10 +91,15 @@ class MeasurementSet:
     pose_ids: np.ndarray | None = None
     point_ids: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+    sensor_meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         """A list or tuple given for an array field (a set made by hand) becomes an array;
         what it holds is checked by :func:`~calib_pin.measurements.checks.check_measurements`."""
+        if not self.kind:
+            from ..sensors import default_kind
+
+            self.kind = default_kind()
         for name in ("q", "values", "anchor", "tool", "lines", "pose_ids", "point_ids"):
             value = getattr(self, name)
             if isinstance(value, (list, tuple)):
@@ -98,15 +109,31 @@ class MeasurementSet:
         return len(self.q)
 
     @property
+    def setup(self) -> Any:
+        """The set-up record of the set's sensor, as its file (or maker) gave it
+        (:class:`~calib_pin.sensors.CableSetup`, ...; fields in mm), or None (a pose list,
+        or a sensor without set-up metadata)."""
+        from ..sensors import SENSORS
+
+        model = SENSORS.get(self.kind)
+        return None if model is None else model.setup_of(self)
+
+    def _values_of(self, columns: tuple[str, ...], what: str) -> np.ndarray:
+        from ..sensors import SENSORS
+
+        model = SENSORS.get(self.kind)
+        if model is None or model.value_columns != columns:
+            raise CalibPinError(f"{self.source or 'the set'} holds {self.kind} data, not {what}")
+        return self.values
+
+    @property
     def lengths(self) -> np.ndarray:
         """Drawstring readings, shape (n_rows,), [m].
 
         Raises:
             CalibPinError: the set holds no drawstring readings.
         """
-        if self.kind != "cable":
-            raise CalibPinError(f"{self.source or 'the set'} holds {self.kind} data, not drawstring readings")
-        return self.values
+        return self._values_of(("length",), "drawstring readings")
 
     @property
     def positions(self) -> np.ndarray:
@@ -115,9 +142,7 @@ class MeasurementSet:
         Raises:
             CalibPinError: the set holds no positions.
         """
-        if self.kind != "position":
-            raise CalibPinError(f"{self.source or 'the set'} holds {self.kind} data, not positions")
-        return self.values
+        return self._values_of(("x", "y", "z"), "positions")
 
     @property
     def groups(self) -> np.ndarray:

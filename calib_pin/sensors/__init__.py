@@ -1,18 +1,29 @@
 """Sensors: what a measurement set's values are, predicted from the robot's deviations.
 
-- :class:`.cable.CableModel`: drawstring readings (the paper's sensor);
-- :class:`.position.PositionModel`: marker positions from a laser tracker or CMM.
+- :class:`.cable.CableModel`: drawstring readings (the paper's sensor), set up by a
+  :class:`.cable.CableSetup`;
+- :class:`.position.PositionModel`: marker positions from a laser tracker or CMM, set up
+  by a :class:`.position.PositionSetup`.
 
-The registry :data:`SENSORS` maps a measurement set's ``kind`` to its model; adding a
-sensor means adding a subclass of :class:`.base.MeasurementModel` here and its columns
-to the CSV reader, nothing else.
+The registry :data:`SENSORS` is the only place the kinds are listed: it maps a
+measurement set's ``kind`` to its model. Everything else asks it: the CSV reader and
+writer for a kind's value columns and metadata keys, the pipeline for its set-up record,
+the CLI for its flags (:func:`add_sensor_arguments`). Adding a sensor is one module (a
+subclass of :class:`.base.MeasurementModel` with its :class:`.setup.SensorSetup`) and one
+entry here (or :func:`register` at run time).
 """
 
 from __future__ import annotations
 
+import argparse
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+from ..exceptions import ArgumentError
 from .base import MeasurementModel
-from .cable import CABLE_EXTRAS, CableModel, Drawstring
-from .position import PositionDevice, PositionModel, fit_device
+from .cable import CABLE_EXTRAS, CableModel, CableSetup, Drawstring
+from .position import PositionDevice, PositionModel, PositionSetup, fit_device
+from .setup import SensorSetup, add_setup_arguments, given
 
 #: Measurement-set kind -> the measurement model that predicts it.
 SENSORS: dict[str, type[MeasurementModel]] = {CableModel.kind: CableModel, PositionModel.kind: PositionModel}
@@ -23,5 +34,89 @@ def sensor_for(kind: str) -> type[MeasurementModel]:
     return SENSORS[kind]
 
 
-__all__ = ["CABLE_EXTRAS", "SENSORS", "CableModel", "Drawstring", "MeasurementModel", "PositionDevice",
-           "PositionModel", "fit_device", "sensor_for"]
+def register(model: type[MeasurementModel]) -> type[MeasurementModel]:
+    """Add a sensor to :data:`SENSORS` under its ``kind`` (a plug-in's one line; usable as
+    a class decorator). Returns the model."""
+    SENSORS[model.kind] = model
+    return model
+
+
+def default_kind() -> str:
+    """The kind of a set made in memory without one: the registry's first."""
+    return next(iter(SENSORS))
+
+
+def setup_types() -> tuple[type[SensorSetup], ...]:
+    """Every registered sensor's set-up record type, in registry order."""
+    return tuple(dict.fromkeys(m.setup_type for m in SENSORS.values()))
+
+
+def setup_fields() -> tuple[str, ...]:
+    """Every field name of the registered set-up records, each once."""
+    return tuple(dict.fromkeys(n for t in setup_types() for n in t.field_names()))
+
+
+def check_estimate(estimate: Any) -> tuple[str, ...]:
+    """The sensor unknowns named in ``estimate`` (a comma-separated str or a sequence of
+    names; blanks dropped).
+
+    Raises:
+        ArgumentError: not names, or a name no sensor can estimate.
+    """
+    from ..arguments import as_names
+
+    valid = tuple(dict.fromkeys(e for s in SENSORS.values() for e in s.estimable))
+    names = as_names(estimate, "estimate")
+    for e in names:
+        if e not in valid:
+            raise ArgumentError("estimate", f"cannot estimate '{e}' (valid: {', '.join(valid)})")
+    return names
+
+
+def setup_record(setup: Any = None, **loose: Any) -> SensorSetup | None:
+    """The caller's sensor set-up as one record: ``setup`` (a record), with the loose
+    keyword options (``anchor_mm=...``, the shorthand) laid over it; without ``setup``,
+    the first registered record that has every loose option given; None when nothing is given.
+
+    Raises:
+        ArgumentError: ``setup`` is no set-up record, or a loose option it (or any) has no field for.
+    """
+    import dataclasses
+
+    chosen = {k: v for k, v in loose.items() if given(v)}
+    if setup is not None:
+        if not isinstance(setup, SensorSetup):
+            names = ", ".join(t.__name__ for t in setup_types())
+            raise ArgumentError("setup", f"expected a sensor set-up record ({names}), got {type(setup).__name__}")
+        own = set(setup.field_names())
+        for name in chosen:
+            if name not in own:
+                raise ArgumentError(name, f"is not an option of {type(setup).__name__} (its fields: {', '.join(own)})")
+        return dataclasses.replace(setup, **chosen) if chosen else setup
+    if not chosen:
+        return None
+    for record in setup_types():
+        if set(chosen) <= set(record.field_names()):
+            return record(**chosen)
+    unknown = sorted(set(chosen) - set(setup_fields()))
+    raise ArgumentError(unknown[0] if unknown else "setup",
+                        "options of different sensors given together: pass one sensor's set-up")
+
+
+def add_sensor_arguments(p: argparse.ArgumentParser, notes: Mapping[str, str] | None = None,
+                         skip: Iterable[str] = (), defaults: Mapping[str, Any] | None = None,
+                         append: Iterable[str] = ()) -> None:
+    """Add every registered sensor's set-up flags to ``p``, one argument group a sensor
+    (a field two sensors share once; ``append``: fields given once per session); see
+    :func:`.setup.add_setup_arguments`."""
+    add_setup_arguments(p, setup_types(), notes, skip, defaults, append)
+
+
+def setup_from_args(args: argparse.Namespace) -> dict[str, Any]:
+    """The set-up flags of parsed ``args`` as loose keyword options (field -> value)."""
+    return {name: getattr(args, name) for name in setup_fields() if hasattr(args, name)}
+
+
+__all__ = ["CABLE_EXTRAS", "SENSORS", "CableModel", "CableSetup", "Drawstring", "MeasurementModel", "PositionDevice",
+           "PositionModel", "PositionSetup", "SensorSetup", "add_sensor_arguments", "check_estimate", "default_kind",
+           "fit_device", "register", "sensor_for", "setup_fields", "setup_from_args", "setup_record", "setup_types"]

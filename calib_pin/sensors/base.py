@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
     from ..problem import CalibrationProblem
+    from .setup import SensorSetup
 
 
 def chosen(estimate: Any, valid: tuple[str, ...], sensor: str) -> tuple[str, ...]:
@@ -73,6 +74,22 @@ class MeasurementModel(ABC):
     geometry_type: ClassVar[Any]
     #: Names ``--estimate`` accepts for this sensor (empty: fixed by the sensor).
     estimable: ClassVar[tuple[str, ...]] = ()
+    #: The sensor's set-up options record (a :class:`~calib_pin.sensors.setup.SensorSetup`).
+    setup_type: ClassVar[type[SensorSetup]]
+    #: What a set of this sensor holds, for people ("drawstring readings").
+    data_name: ClassVar[str] = "readings"
+    #: The quantities of a row's values in a measurement file: column ``<name>_mm`` or
+    #: ``<name>_m`` each (``length``; ``x``, ``y``, ``z``), in the order of ``values``.
+    value_columns: ClassVar[tuple[str, ...]] = ()
+    #: The file's set-up metadata keys of this sensor (``# <key>_mm`` or ``# <key>_m``),
+    #: key -> how many numbers (1, or 3 for a vector); read in SI into ``MeasurementSet.sensor_meta``.
+    metadata_keys: ClassVar[dict[str, int]] = {}
+    #: Rows carry ``pose`` and ``point_id`` labels (which marker a row measured).
+    point_labels: ClassVar[bool] = False
+    #: The set-up is fitted on the set's own training rows (what: ``fitted_setup``), so a
+    #: set of this sensor cannot be all-test.
+    fits_setup: ClassVar[bool] = False
+    fitted_setup: ClassVar[str] = ""
 
     def __init__(self, chain: Chain, params: ParameterModel, extra: list[tuple[str, str, float]],
                  compliance: ComplianceSpec | None = None,
@@ -92,6 +109,60 @@ class MeasurementModel(ABC):
         self.scale = np.concatenate([params.scale, soft.scale if soft else [], [e[2] for e in extra]])
 
     # --- what each sensor implements ---------------------------------------------------
+
+    @classmethod
+    def setup_of(cls, data: MeasurementSet) -> SensorSetup | None:
+        """The set-up record the set's file gave (default: its ``sensor_meta`` as the
+        record's fields, by name; None for a set without)."""
+        names = set(cls.setup_type.field_names())
+        given = {k: v for k, v in data.sensor_meta.items() if k in names}
+        return cls.setup_type(**given) if given else None
+
+    @classmethod
+    def planning_model(cls, chain: Chain, params: ParameterModel, setup: SensorSetup | None) -> MeasurementModel:
+        """The model poses are planned for (``calib-pin plan-poses``), from the caller's
+        set-up (None: the sensor's default).
+
+        Raises:
+            CalibPinError: a sensor that cannot plan without data.
+        """
+        from ..exceptions import CalibPinError
+
+        raise CalibPinError(f"poses cannot be planned for {cls.data_name} without data")
+
+    @classmethod
+    def refuse_values(cls, values: np.ndarray) -> tuple[int, str] | None:
+        """A row whose finite values this sensor cannot have read: (row, why), or None."""
+        return None
+
+    @classmethod
+    def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
+        """Refuse a validation ``session`` whose own set-up contradicts the calibration's
+        (``training``'s, or the caller's overrides in ``options``); default: nothing to refuse
+        (a sensor whose set-up is fitted on the data).
+
+        Raises:
+            DataError: naming the session's file and the key.
+        """
+        return None
+
+    @classmethod
+    def refuse_foreign(cls, options: Mapping[str, Any], data: MeasurementSet) -> None:
+        """Refuse a given set-up option another sensor takes and this one does not.
+
+        Raises:
+            CalibPinError: naming the option's flag and the data.
+        """
+        from ..exceptions import CalibPinError
+        from . import SENSORS
+        from .setup import flag_of, given
+
+        own = set(cls.setup_type.field_names())
+        for other in SENSORS.values():
+            for name in other.setup_type.field_names():
+                if name not in own and given(options.get(name)):
+                    raise CalibPinError(f"{flag_of(name)} is for {other.data_name.split()[0]} data; "
+                                        f"{data.source} holds {cls.data_name}")
 
     @classmethod
     @abstractmethod

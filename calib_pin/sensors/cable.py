@@ -10,16 +10,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from ..arguments import as_array, as_float
+from ..arguments import MAX_MM, as_array, as_float, as_optional, as_xyz_mm
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from .base import MeasurementModel, chosen
+from .setup import SensorSetup, estimate_names, finite, option, xyz_mm
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
@@ -73,6 +74,40 @@ class Drawstring:
                    float(doc["length_offset_mm"]) * 1e-3)
 
 
+@dataclass(frozen=True, eq=False)
+class CableSetup(SensorSetup):
+    """A drawstring's set-up options, each None when not given (then the measurement
+    file's ``# anchor_mm`` / ``# tool_mm`` / ``# length_offset_mm``), checked once here.
+
+    Attributes:
+        anchor_mm: The sensor's point P0 in the base frame, shape (3,), [mm].
+        tool_mm: The tool point where the cable hooks on, in the end frame, shape (3,), [mm].
+        length_offset_mm: The sensor's zero offset, [mm].
+        estimate: Geometry estimated with the robot: ``anchor``, ``offset`` (names, in order given).
+
+    Raises:
+        ArgumentError: naming the field.
+    """
+
+    title: ClassVar[str] = "drawstring"
+
+    anchor_mm: Any = option(help="sensor point P0 in the base frame, 'x,y,z'", unit="mm", parser=xyz_mm)
+    tool_mm: Any = option(help="cable tool point in the end frame, 'x,y,z'", unit="mm", parser=xyz_mm)
+    length_offset_mm: Any = option(help="sensor zero offset", unit="mm", parser=finite)
+    estimate: Any = option((), help="drawstring geometry to estimate with the robot: anchor, offset or "
+                           "anchor,offset", parser=estimate_names)
+
+    def __post_init__(self) -> None:
+        from . import check_estimate
+
+        set_ = object.__setattr__
+        set_(self, "anchor_mm", as_optional(as_xyz_mm, self.anchor_mm, "anchor_mm"))
+        set_(self, "tool_mm", as_optional(as_xyz_mm, self.tool_mm, "tool_mm"))
+        set_(self, "length_offset_mm", as_optional(as_float, self.length_offset_mm, "length_offset_mm", -MAX_MM,
+                                                   MAX_MM, unit="mm"))
+        set_(self, "estimate", check_estimate(self.estimate))
+
+
 def _vector_mm(value: Any, name: str) -> np.ndarray:
     v = np.asarray(value, dtype=float).reshape(-1)
     if v.shape != (3,) or not np.all(np.isfinite(v)):
@@ -93,6 +128,10 @@ class CableModel(MeasurementModel):
     geometry_type = Drawstring
     error_name = "reading error"
     estimable = CABLE_EXTRAS
+    setup_type = CableSetup
+    data_name = "drawstring readings"
+    value_columns = ("length",)
+    metadata_keys = {"anchor": 3, "tool": 3, "length_offset": 1}
 
     def __init__(self, chain: Chain, params: ParameterModel, sensor: Drawstring, estimate: tuple[str, ...] = (),
                  compliance: ComplianceSpec | None = None) -> None:
@@ -107,8 +146,30 @@ class CableModel(MeasurementModel):
         self.sensor = sensor
 
     @classmethod
+    def planning_model(cls, chain: Chain, params: ParameterModel, setup: Any) -> CableModel:
+        """The drawstring at ``setup``'s points (a :class:`CableSetup`; the simulator's
+        defaults for those not given), estimating ``setup.estimate``."""
+        from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
+
+        setup = setup if setup is not None else CableSetup()
+        anchor = setup.anchor_mm if setup.anchor_mm is not None else DEFAULT_ANCHOR_MM
+        tool = setup.tool_mm if setup.tool_mm is not None else DEFAULT_TOOL_MM
+        return cls(chain, params, Drawstring(np.array(anchor) * 1e-3, np.array(tool) * 1e-3), setup.estimate)
+
+    @classmethod
+    def setup_of(cls, data: MeasurementSet) -> CableSetup:
+        """The set-up the set's file gave (``anchor``, ``tool``, ``length_offset``), in mm;
+        not checked (:func:`~calib_pin.measurements.checks.check_measurements` does)."""
+        setup = object.__new__(CableSetup)
+        for name, value in (("anchor_mm", data.anchor), ("tool_mm", data.tool), ("length_offset_mm", data.length_offset)):
+            object.__setattr__(setup, name, None if value is None else np.asarray(value, dtype=float) * 1e3)
+        object.__setattr__(setup, "estimate", ())
+        return setup
+
+    @classmethod
     def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
                     fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
+        cls.refuse_foreign(options, data)
         get = options.get
         anchor = _vector_mm(get("anchor_mm"), "anchor_mm") if get("anchor_mm") is not None else data.anchor
         tool = _vector_mm(get("tool_mm"), "tool_mm") if get("tool_mm") is not None else data.tool
@@ -121,6 +182,48 @@ class CableModel(MeasurementModel):
         model = cls(chain, params, Drawstring(anchor, tool, offset), tuple(get("estimate") or ()),
                     get("compliance"))
         return CalibrationProblem(model, data.q, data.values)
+
+    @classmethod
+    def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
+        """Refuse a validation session whose own drawstring set-up (``anchor_mm``,
+        ``tool_mm``, ``length_offset_mm``) contradicts the calibration's: the training set's,
+        or the caller's overrides in ``options`` ([mm]). Agreement within
+        :data:`SETUP_TOLERANCE_M`, or a session that does not say, is fine.
+
+        Raises:
+            DataError: naming the session's file, the key and both values.
+        """
+        from ..measurements.checks import SETUP_TOLERANCE_M, _file_keys, _mm
+
+        keys = _file_keys(session.source) if session.source else None
+        for name in ("anchor", "tool", "length_offset"):
+            key = f"{name}_mm"
+            own = getattr(session, name)
+            if name == "length_offset":
+                given = (keys is not None and bool({"length_offset_mm", "length_offset_m"} & keys)) or (
+                    keys is None and own != 0.0)
+                if not given:
+                    continue
+            elif own is None:
+                continue
+            override = options.get(key)
+            used = np.asarray(override, dtype=float) * 1e-3 if override is not None else getattr(training, name)
+            if used is None:
+                continue
+            if not np.allclose(np.asarray(own, dtype=float), used, rtol=0.0, atol=SETUP_TOLERANCE_M):
+                by = f"--{key.replace('_', '-')}" if override is not None else (training.source or "the training set")
+                raise DataError(session.source or "test_data",
+                                f"the validation session has {_mm(own)} mm, the calibration {_mm(used)} mm ({by}): "
+                                "one sensor set-up per calibration for now; measure both with the same set-up, or "
+                                "correct the file's line", None, key)
+
+    @classmethod
+    def refuse_values(cls, values: np.ndarray) -> tuple[int, str] | None:
+        """A drawstring reading is >= 0."""
+        if (values < 0).any():
+            row = int(np.argmax(values < 0))
+            return row, f"{values[row] * 1e3:g} mm is negative: a drawstring reading is >= 0"
+        return None
 
     def geometry_at(self, x: np.ndarray | None) -> Drawstring:
         """The sensor geometry x implies (``sensor`` plus the estimated corrections)."""

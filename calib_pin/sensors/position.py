@@ -22,7 +22,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import pinocchio as pin
@@ -34,6 +34,7 @@ from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
 from .base import MeasurementModel, chosen
+from .setup import SensorSetup
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
@@ -102,6 +103,23 @@ class PositionDevice:
         return cls(pin.SE3(rot, np.asarray(frame["translation_mm"], dtype=float) * 1e-3), markers, labels)
 
 
+@dataclass(frozen=True, eq=False)
+class PositionSetup(SensorSetup):
+    """A position device's set-up options: none to give today. The device frame and the
+    marker points start from their best fit on the training rows and are always
+    estimated, so ``estimate`` must stay empty (it is refused, naming the data).
+    """
+
+    title: ClassVar[str] = "position device"
+
+    estimate: Any = ()
+
+    def __post_init__(self) -> None:
+        from ..arguments import as_names
+
+        object.__setattr__(self, "estimate", as_names(self.estimate, "estimate"))
+
+
 class PositionModel(MeasurementModel):
     """Device-frame positions of markers on a chain whose deviations follow a parameter model."""
 
@@ -109,6 +127,12 @@ class PositionModel(MeasurementModel):
     values_per_row = 3
     geometry_type = PositionDevice
     error_name = "Euclidean position error in the device frame"
+    setup_type = PositionSetup
+    data_name = "positions"
+    value_columns = ("x", "y", "z")
+    point_labels = True
+    fits_setup = True
+    fitted_setup = "device frame"
 
     def __init__(self, chain: Chain, params: ParameterModel, device: PositionDevice,
                  estimate: tuple[str, ...] = POSITION_EXTRAS, compliance: ComplianceSpec | None = None) -> None:
@@ -129,10 +153,7 @@ class PositionModel(MeasurementModel):
                     fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
         """The device frame and markers start from their best fit with the nominal robot
         on ``fit_rows`` only; every marker must appear there."""
-        for name, flag in (("anchor_mm", "--anchor-mm"), ("tool_mm", "--tool-mm"),
-                           ("length_offset_mm", "--length-offset-mm")):
-            if options.get(name) is not None:
-                raise CalibPinError(f"{flag} is for drawstring data; {data.source} holds positions")
+        cls.refuse_foreign(options, data)
         if options.get("estimate"):
             raise CalibPinError(
                 f"--estimate {','.join(options['estimate'])} is for drawstring data; with positions "

@@ -1,0 +1,152 @@
+"""A sensor's set-up options as one record, and the CLI flags built from it.
+
+Each sensor module defines its options as one frozen dataclass (``CableSetup``,
+``PositionSetup``), its fields made with :func:`option`: the field's metadata carries the
+help text, the unit and the argparse parser of its ``--flag``. The record is validated
+once, in ``__post_init__``, and turned into the options mapping a sensor's
+``problem_for`` reads with :meth:`SensorSetup.options`. :func:`add_setup_arguments` adds
+the flags of a record's fields to a parser as an argument group.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..exceptions import ArgumentError
+
+# --- the flags' parsers (argparse types; the CLI's other flags use them too) ---
+
+def xyz_mm(text: str) -> tuple[float, float, float]:
+    """``x,y,z`` in mm: three finite numbers."""
+    parts = [p for p in text.replace(",", " ").split() if p]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(np.isfinite(v) and abs(v) < 1e6 for v in values):
+        raise argparse.ArgumentTypeError(f"expected 3 numbers 'x,y,z' in mm, got '{text[:40]}'")
+    return values  # type: ignore[return-value]
+
+
+def finite(text: str) -> float:
+    """A finite number (|value| < 1e6)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (np.isfinite(value) and abs(value) < 1e6):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got '{text[:40]}'")
+    return value
+
+
+def estimate_names(text: str) -> tuple[str, ...]:
+    """Comma-separated sensor unknowns to estimate."""
+    from . import check_estimate
+
+    try:
+        names = check_estimate(text.split(","))
+    except ArgumentError as e:
+        raise argparse.ArgumentTypeError(f"{e.reason}, comma-separated") from None
+    if not names:
+        raise argparse.ArgumentTypeError(f"cannot estimate '{text}' (comma-separated names)")
+    return names
+
+
+def option(default: Any = None, *, help: str, unit: str = "", parser: Callable[[str], Any] | None = None,
+           metavar: str | None = None) -> Any:
+    """A set-up field with what its ``--flag`` needs: ``help`` (for people), ``unit``
+    (shown after the help), ``parser`` (argparse ``type``; None: text)."""
+    return dataclasses.field(default=default,
+                             metadata={"help": help, "unit": unit, "parser": parser, "metavar": metavar})
+
+
+def flag_of(name: str) -> str:
+    """``--anchor-mm`` of a field ``anchor_mm``."""
+    return "--" + name.replace("_", "-")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class SensorSetup:
+    """Base of every sensor's set-up record: the options a caller gives a sensor, each
+    None (or empty) when not given (the measurement file's, or the sensor's default)."""
+
+    #: What the record's argument group is called in ``--help``.
+    title: ClassVar[str] = "sensor"
+
+    @classmethod
+    def from_options(cls, options: Mapping[str, Any]) -> SensorSetup:
+        """The record of the loose options among ``options`` (others are ignored)."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in options.items() if k in names and v is not None})
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    def options(self) -> dict[str, Any]:
+        """The record as the options mapping of ``problem_for``."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    def given(self) -> dict[str, Any]:
+        """The fields the caller set (not None, not empty)."""
+        return {k: v for k, v in self.options().items() if given(v)}
+
+    def __eq__(self, other: object) -> bool:
+        """Same record type and equal fields (arrays compared by value)."""
+        if type(other) is not type(self):
+            return NotImplemented
+        return all(np.array_equal(np.asarray(a, dtype=object), np.asarray(b, dtype=object))
+                   if isinstance(a, np.ndarray) or isinstance(b, np.ndarray) else a == b
+                   for a, b in zip(self.options().values(), other.options().values(), strict=True))
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def given(value: Any) -> bool:
+    """A set-up field the caller gave: not None, not an empty sequence."""
+    return value is not None and not (isinstance(value, tuple | list) and len(value) == 0)
+
+
+def add_setup_arguments(p: argparse.ArgumentParser, setups: Iterable[type[SensorSetup]],
+                        notes: Mapping[str, str] | None = None, skip: Iterable[str] = (),
+                        defaults: Mapping[str, Any] | None = None, append: Iterable[str] = ()) -> None:
+    """Add the ``--flags`` of each record's fields, one argument group per record.
+
+    Args:
+        notes: Field name -> text appended to its help (``default: the file's``).
+        skip: Field names not to add; a field two records share is added once.
+        defaults: Field name -> the flag's default (else the field's).
+        append: Field names whose flag may be given once per session (a list).
+    """
+    append = set(append)
+    notes, defaults, seen = notes or {}, defaults or {}, set(skip)
+    for setup in setups:
+        fields = [f for f in dataclasses.fields(setup) if f.name not in seen and "help" in f.metadata]
+        if not fields:
+            continue
+        group = p.add_argument_group(f"{setup.title} set-up")
+        for f in fields:
+            seen.add(f.name)
+            meta = f.metadata
+            text = meta["help"] + (f", {meta['unit']}" if meta["unit"] else "")
+            if f.name in notes:
+                text += f" ({notes[f.name]})"
+            elif f.name in defaults:
+                given = defaults[f.name]
+                text += f" (default {format(given, 'g') if isinstance(given, float) else given})"
+            default = defaults.get(f.name, () if f.default == () else None)
+            if f.name in append:
+                text += "; with --sessions K, give it once per session, or leave it out"
+            kwargs: dict[str, Any] = {"default": default, "help": text}
+            if f.name in append:
+                kwargs["action"] = "append"
+            if meta["parser"] is not None:
+                kwargs["type"] = meta["parser"]
+            if meta["metavar"]:
+                kwargs["metavar"] = meta["metavar"]
+            group.add_argument(flag_of(f.name), **kwargs)
