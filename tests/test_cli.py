@@ -244,3 +244,14 @@ def test_ctrl_c_while_a_command_loads_or_parses_is_one_line(monkeypatch, capsys)
     assert cli.command("make-poses")(["irb120"]) == 130
     err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert err == ["stopped by Ctrl-C: nothing was written"] * 2, err
+
+
+@pytest.mark.parametrize("name", sorted(__import__("calib_pin.cli", fromlist=["COMMANDS"]).COMMANDS))
+def test_every_help_names_the_calib_pin_command(name, capsys):
+    """``--help`` shows ``calib-pin <command>`` (the scripts/*.py wrappers run the same parser)."""
+    from calib_pin.cli import command
+
+    with pytest.raises(SystemExit) as done:
+        command(name)(["--help"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.startswith(f"usage: calib-pin {name} ")

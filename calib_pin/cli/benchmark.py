@@ -12,7 +12,7 @@ from .common import OneLineParser, count, methods, non_negative, run
 
 
 def benchmark_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(prog="benchmark.py", description="Time calib-pin's estimators on a seeded simulated IRB120 session.")
+    p = OneLineParser(prog="calib-pin benchmark", description="Time calib-pin's estimators on a seeded simulated IRB120 session.")
     p.add_argument("--repeats", type=count(1000), default=5, help="timed runs per method (5)")
     p.add_argument("--methods", type=methods,
                    help=f"comma-separated methods (the paper's nine; against FIGAROH: {DEFAULT_METHOD},lm)")

@@ -60,7 +60,7 @@ def assumed_noise(text: str) -> float:
 
 def calibrate_parser() -> argparse.ArgumentParser:
     p = OneLineParser(
-        prog="calibrate.py",
+        prog="calib-pin calibrate",
         description="Calibrate a robot's kinematics from drawstring readings or marker positions and "
         "write the corrected URDF and a JSON report.",
     )

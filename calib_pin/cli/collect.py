@@ -97,7 +97,7 @@ def _save(outputs: Outputs, args: argparse.Namespace) -> None:
 
 def collect_parser() -> argparse.ArgumentParser:
     p = OneLineParser(
-        prog="collect.py",
+        prog="calib-pin collect",
         description="Read a drawstring sensor at each pose of a pose list and append the "
         "readings to a measurement set (resumable); or --probe the sensor.",
     )

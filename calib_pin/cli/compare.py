@@ -40,7 +40,7 @@ MAX_TRIALS = 100_000
 
 def compare_parser() -> argparse.ArgumentParser:
     p = OneLineParser(
-        prog="compare.py",
+        prog="calib-pin compare",
         description="Run the estimators side by side on one data set and split (the paper's "
         "Table I, Fig. 2, Fig. 3); writes table1.csv, table1.md and two PNG figures.",
     )

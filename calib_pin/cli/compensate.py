@@ -22,7 +22,7 @@ from .outputs import add_force_argument
 
 def compensate_parser() -> argparse.ArgumentParser:
     p = OneLineParser(
-        prog="compensate.py",
+        prog="calib-pin compensate",
         description="Correct a robot program's joint targets (computed with the nominal model) so that the "
         "calibrated arm, deflection included, reaches the nominal end-frame poses.",
     )

@@ -14,7 +14,7 @@ def fake_indicator_main(argv: Sequence[str] | None = None) -> int:
     from ..hardware.fake_indicator import FAULTS, FakeIndicator
     from ..measurements import read_measurements
 
-    p = OneLineParser(prog="fake_indicator.py",
+    p = OneLineParser(prog="calib-pin fake-indicator",
                       description="Serve a simulated drawstring indicator on a pseudo-terminal; prints its device path.")
     p.add_argument("--protocol", choices=["modbus", "ascii"], default="modbus")
     p.add_argument("--value-mm", type=float, default=1000.0, help="value served (1000)")

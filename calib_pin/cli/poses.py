@@ -21,7 +21,7 @@ MAX_POSES = 1_000_000
 
 
 def make_poses_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(prog="make_poses.py", description="Write a random pose list within the joint limits.")
+    p = OneLineParser(prog="calib-pin make-poses", description="Write a random pose list within the joint limits.")
     p.add_argument("robot", help="robot name (irb120) or URDF path")
     p.add_argument("--n", type=count(MAX_POSES), default=120, help="number of poses (120)")
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed (0)")
@@ -72,7 +72,7 @@ def _make_poses(args: argparse.Namespace) -> int:
 
 def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     """``plan_poses.py ROBOT --n 40 --candidates 5000 [--seed S] --out poses.csv``."""
-    p = OneLineParser(prog="plan_poses.py",
+    p = OneLineParser(prog="calib-pin plan-poses",
                       description="Choose poses that maximise the observability of the parameters (D-optimal).")
     p.add_argument("robot", help="robot name (irb120) or URDF path")
     p.add_argument("--n", type=count(MAX_POSES), default=40, help="poses to choose (40)")

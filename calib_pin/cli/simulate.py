@@ -34,7 +34,7 @@ MAX_POSES = 1_000_000
 
 def simulate_parser() -> argparse.ArgumentParser:
     p = OneLineParser(
-        prog="simulate.py",
+        prog="calib-pin simulate",
         description="Simulate a drawstring measurement set with known true deviations; "
         "writes FILE.csv and FILE.truth.json. With --sessions K: K sessions of one true robot, "
         "each with its own anchor, as FILE_1.csv .. FILE_K.csv, and one FILE.truth.json (the robot "
