@@ -18,7 +18,7 @@ values), refit with the new weights, until no sigma moves by more than 1 % (at m
 
 The split is made per set, by pose, with the same seed and fraction for every set
 (``role="split"``); a set may instead be all training (``train``) or all test (``test``:
-scored, never fitted; a drawstring set only, its anchor as its file gives it).
+scored, never fitted; a drawstring set only, its anchor as its file or its FitSet's ``setup`` gives it).
 """
 
 from __future__ import annotations
@@ -41,7 +41,8 @@ from .parameters import ParameterModel
 from .problem import CalibrationProblem
 from .result import CalibrationResult
 from .robot import Chain
-from .sensors import sensor_for
+from .sensors import SensorSetup, sensor_for
+from .sensors.setup import given as given_value
 from .stacked import StackedProblem
 from .subspace import Subspace
 
@@ -65,12 +66,16 @@ class FitSet:
         role: ``split`` (train/test by pose, the default), ``train`` or ``test``.
         noise_mm: Its sensor noise (1 sigma) [mm]; default the file's ``noise_mm``, else
             estimated from the residual (several sets) or 0.05.
+        setup: Its sensor set-up overrides, a record of its sensor kind
+            (:class:`~calib_pin.sensors.CableSetup`): each field given wins over the file's
+            metadata (``estimate`` is one for all sets: give it to ``calibrate``).
     """
 
     data: str | Path | MeasurementSet
     label: str = ""
     role: str = "split"
     noise_mm: float | None = None
+    setup: SensorSetup | None = None
 
 
 @dataclass(frozen=True)
@@ -86,6 +91,8 @@ class SetResult:
         metrics: ``metrics[split][stage]`` as ``CalibrationResult.metrics``, in its own units [mm].
         geometry: Its sensor geometry after calibration, for report.json (mm, degrees).
         model: Its measurement model; ``x``: its own unknown vector (robot, then its sensor's).
+        overrides: The set-up fields the caller gave for this set (its FitSet's ``setup``),
+            each winning over its file's; ``overridden``: those of them the file also had.
     """
 
     label: str
@@ -101,6 +108,8 @@ class SetResult:
     geometry: dict
     model: Any = field(repr=False)
     x: np.ndarray = field(repr=False)
+    overrides: tuple[str, ...] = ()
+    overridden: tuple[str, ...] = ()
 
     def predict(self, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
         """The values this set's sensor would read at joint angles q (n, n_joints) [rad], [m]."""
@@ -114,6 +123,7 @@ class SetResult:
             "train_rows": len(self.train), "test_rows": len(self.test),
             **{split: {stage: m.as_dict() for stage, m in stages.items()} for split, stages in self.metrics.items()},
             "error": self.model.error_name, "sensor": self.model.describe(), **self.geometry,
+            "setup_from_caller": list(self.overrides), "setup_over_file": list(self.overridden),
         }
 
 
@@ -136,6 +146,8 @@ class StackedSetup:
         sigmas: Each set's noise [m] when known (caller or file), else None.
         origins: Where each known sigma came from (``caller``, ``file``), else ``estimate``.
         options: Shared sensor options (``estimate``, ``compliance``).
+        setups: Each set's own set-up overrides (field -> value, laid over ``options``
+            and over its file's metadata); empty: none for any set.
     """
 
     chain: Chain
@@ -146,6 +158,7 @@ class StackedSetup:
     sigmas: tuple[float | None, ...]
     origins: tuple[str, ...]
     options: dict[str, Any] = field(default_factory=dict)
+    setups: tuple[dict[str, Any], ...] = ()
 
     @property
     def noise(self) -> float:
@@ -169,6 +182,14 @@ class StackedSetup:
                                      for s, label in zip(self.sets, self.labels, strict=True)]),
             point_ids=None if any(x is None for x in points) else np.concatenate(points))  # type: ignore[arg-type]
 
+    def overridden(self, k: int) -> tuple[str, ...]:
+        """Set k's overrides that its file's metadata also gave."""
+        if not self.setups:
+            return ()
+        filed = sensor_for(self.sets[k].kind).setup_of(self.sets[k])
+        had = {n for n, v in (filed.options() if filed is not None else {}).items() if given_value(v)}
+        return tuple(n for n in self.setups[k] if n in had)
+
     def split(self, test_fraction: float, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
         """Each set's (train, test) rows: by pose with the same seed and fraction, or all
         of one side by its role."""
@@ -191,8 +212,9 @@ class StackedSetup:
 
     def problems_on(self, fits: list[np.ndarray]) -> list[CalibrationProblem]:
         """Each set's problem of every row, its sensor's starting geometry fitted on its ``fits`` rows."""
-        return [sensor_for(d.kind).problem_for(self.chain, self.params, d, rows, self.options)
-                for d, rows in zip(self.sets, fits, strict=True)]
+        own = self.setups or tuple({} for _ in self.sets)
+        return [sensor_for(d.kind).problem_for(self.chain, self.params, d, rows, {**self.options, **given})
+                for d, rows, given in zip(self.sets, fits, own, strict=True)]
 
     @cached_property
     def problem(self) -> StackedProblem:
@@ -263,7 +285,8 @@ class StackedSetup:
                 label=self.labels[k], source=self.sets[k].source, kind=self.sets[k].kind, role=self.roles[k],
                 sigma=float(sigmas[k]), sigma_origin=origin, rows=np.arange(offsets[k], offsets[k + 1]),
                 train=tr, test=te, metrics=metrics, geometry=problem.model.geometry_report(xk),
-                model=problem.model, x=np.asarray(xk)))
+                model=problem.model, x=np.asarray(xk), overrides=tuple(self.setups[k]) if self.setups else (),
+                overridden=self.overridden(k)))
         metrics = {split: {stage: Metrics.of(np.concatenate(v)) for stage, v in stages.items()}
                    for split, stages in pooled.items()}
         return CalibrationResult(
@@ -345,6 +368,37 @@ def check_sets(sets: list[FitSet], options: dict[str, Any]) -> None:
     for s in sets:
         as_choice(s.role, "role", ROLES)
         as_instance(s.label, "label", str, "a set's label (text)")
+
+
+def set_overrides(sets: list[FitSet], loaded: list[MeasurementSet], labels: tuple[str, ...]) -> tuple[dict[str, Any], ...]:
+    """Each set's set-up overrides (its FitSet's ``setup``, the fields given), checked against
+    its sensor kind; empty when no set has any.
+
+    Raises:
+        ArgumentError: a ``setup`` that is no set-up record, or one with ``estimate``.
+        DataError: a field the set's sensor has no use for, naming the set's file and the field.
+    """
+    if all(s.setup is None for s in sets):
+        return ()
+    out: list[dict[str, Any]] = []
+    for s, data, label in zip(sets, loaded, labels, strict=True):
+        if s.setup is None:
+            out.append({})
+            continue
+        if not isinstance(s.setup, SensorSetup):
+            raise ArgumentError("setup", f"of set {label}: expected a sensor set-up record, got {type(s.setup).__name__}")
+        chosen = s.setup.given()
+        if "estimate" in chosen:
+            raise ArgumentError("estimate", f"of set {label}: it applies to every set, give it to calibrate (--estimate)")
+        sensor = sensor_for(data.kind)
+        own = set(sensor.setup_type.field_names()) - {"estimate"}
+        for name in chosen:
+            if name not in own:
+                theirs = f"theirs: {', '.join(sorted(own))}" if own else "they take none"
+                raise DataError(data.source or label, f"not a set-up option of {sensor.data_name} "
+                                f"(set {label}; {theirs})", None, name)
+        out.append(chosen)
+    return tuple(out)
 
 
 def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...]:

@@ -33,7 +33,16 @@ from .identifiability import support_error
 from .measurements import MeasurementSet, read_measurements
 from .measurements.checks import check_measurements, check_same_setup
 from .metrics import Metrics, split_rows
-from .multiset import FitSet, StackedSetup, check_sets, fit_sets, labelled, mixed_setups_warning, set_sigma
+from .multiset import (
+    FitSet,
+    StackedSetup,
+    check_sets,
+    fit_sets,
+    labelled,
+    mixed_setups_warning,
+    set_overrides,
+    set_sigma,
+)
 from .parameters import MODELS, ParameterModel, parameter_model
 from .problem import CalibrationProblem
 from .result import CalibrationResult
@@ -262,6 +271,8 @@ def prepare(
     sets = fit_sets(data)
     if sets is not None and len(sets) == 1:
         data, noise_mm = _single(sets[0], noise_mm)
+        if sets[0].setup is not None:  # the set's own set-up wins over the shared one
+            sensor_options = {**sensor_options, **setup_record(sets[0].setup).given()}  # type: ignore[union-attr]
     elif sets is not None:  # several sets
         return _prepare_sets(robot, sets, end_frame=end_frame, sensor_options=sensor_options, noise_mm=noise_mm,
                              parameters=parameters, compliance=record)
@@ -314,7 +325,7 @@ def _prepare_sets(robot: str | RobotDescription, sets: list[FitSet], *, end_fram
     soft = compliance.spec(chain) if compliance is not None else None
     stacked = StackedSetup(chain, parameter_model(chain, parameters), tuple(loaded), labels,
                            tuple(s.role for s in sets), tuple(k[0] for k in known), tuple(k[1] for k in known),
-                           {"estimate": estimate, "compliance": soft})
+                           {"estimate": estimate, "compliance": soft}, set_overrides(sets, loaded, labels))
     stacked.problem  # noqa: B018 (refuse options a sensor does not take now)
     return stacked
 

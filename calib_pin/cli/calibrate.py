@@ -12,6 +12,7 @@ says so and the run writes everything else.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -68,7 +69,10 @@ def calibrate_parser() -> argparse.ArgumentParser:
     p.add_argument("--data", action="append",
                    help="measurement set CSV (default: the robot's shipped set); repeat it to fit several sets "
                    "(sessions, anchors, tracker stations) with one robot: each file's own set-up metadata "
-                   "(# anchor_mm, # tool_mm, # length_offset_mm, # noise_mm) is used for its rows")
+                   "(# anchor_mm, # tool_mm, # length_offset_mm, # noise_mm) is used for its rows, unless its "
+                   "argument overrides it: FILE:key=value[:key=value...] with keys anchor_mm, tool_mm, "
+                   "length_offset_mm ('x,y,z' / number, mm), noise_mm, role (split, train, test), label; "
+                   "e.g. s2.csv:anchor_mm=600,200,-100:noise_mm=0.3")
     p.add_argument("--test-data", help="a separate validation session CSV: train on all of --data, test on this")
     p.add_argument("--method", default=DEFAULT_METHOD, help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})")
     p.add_argument("--test-fraction", type=fraction, default=0.2, help="share of poses held out for testing (default 0.2)")
@@ -96,23 +100,93 @@ def calibrate_main(argv: Sequence[str] | None = None) -> int:
     return run(lambda: _analyze(args) if args.analyze else _calibrate(args))
 
 
-def _data(args: argparse.Namespace) -> Any:
-    """``--data`` as ``prepare`` takes it: None, one file, or a list of several.
+#: The keys a ``--data`` argument may carry besides its sensor's set-up fields.
+SET_KEYS = ("noise_mm", "role", "label")
+
+
+def data_argument(text: str) -> tuple[str, dict[str, Any]]:
+    """A ``--data`` argument ``FILE[:key=value[:key=value ...]]`` as (file, options): the
+    whole argument when it is an existing file, else split at the first ':' whose left part
+    is one. Keys: the sensors' set-up fields (``anchor_mm=600,200,-100``), ``noise_mm``,
+    ``role`` (split, train, test) and ``label``; each value parsed as its flag's.
 
     Raises:
-        CalibPinError: a drawstring set-up option given once for several sets.
+        CalibPinError: naming the argument and the key (unknown, twice, bad value).
     """
-    if not args.data or len(args.data) == 1:
-        return args.data[0] if args.data else None
+    from ..exceptions import CalibPinError
+    from ..multiset import ROLES
+    from ..sensors import setup_types
+
+    if ":" not in text or Path(text).is_file():
+        return text, {}
+    cut = next((i for i, c in enumerate(text) if c == ":" and Path(text[:i]).is_file()), None)
+    if cut is None:
+        head, _, rest = text.partition(":")
+        if "=" in rest.split(":")[0]:
+            raise CalibPinError(f"--data '{text}': no file '{head}' (per-set options follow an existing file: "
+                                "FILE:key=value:key=value)")
+        return text, {}
+    parsers: dict[str, Any] = {f.name: f.metadata.get("parser") for t in setup_types()
+                               for f in dataclasses.fields(t) if f.name != "estimate"}
+    parsers.update(noise_mm=assumed_noise, role=None, label=None)
+    options: dict[str, Any] = {}
+    for item in text[cut + 1:].split(":"):
+        key, eq, value = item.partition("=")
+        key = key.strip()
+        if not eq or not key:
+            raise CalibPinError(f"--data '{text}': '{item}' is not key=value (FILE:key=value:key=value)")
+        if key not in parsers:
+            raise CalibPinError(f"--data '{text}': unknown key '{key}' (valid: {', '.join(parsers)})")
+        if key in options:
+            raise CalibPinError(f"--data '{text}': key '{key}' given twice")
+        value = value.strip()
+        try:
+            if key == "role" and value not in ROLES:
+                raise argparse.ArgumentTypeError(f"expected one of {', '.join(ROLES)}, got '{value[:40]}'")
+            if key == "label" and not value:
+                raise argparse.ArgumentTypeError("an empty label")
+            options[key] = parsers[key](value) if parsers[key] else value
+        except argparse.ArgumentTypeError as e:
+            raise CalibPinError(f"--data '{text}': {key}: {e}") from None
+    return text[:cut], options
+
+
+def _fit_set(path: str, options: dict[str, Any]) -> Any:
+    from ..multiset import FitSet
+    from ..sensors import setup_record
+
+    fields = {k: v for k, v in options.items() if k not in SET_KEYS}
+    return FitSet(path, label=options.get("label", ""), role=options.get("role", "split"),
+                  noise_mm=options.get("noise_mm"), setup=setup_record(**fields) if fields else None)
+
+
+def _data(args: argparse.Namespace) -> Any:
+    """``--data`` as ``prepare`` takes it: None, one file, or a list of several (FitSets
+    with the per-set options of ``FILE:key=value``).
+
+    Raises:
+        CalibPinError: a drawstring set-up option given once for several sets, a bad
+            per-set option.
+    """
+    parsed = [data_argument(d) for d in args.data or ()]
+    if len(parsed) == 1 and not parsed[0][1]:
+        return parsed[0][0]
+    if not parsed:
+        return None
     from ..exceptions import CalibPinError
     from ..sensors import setup_from_args
     from ..sensors.setup import flag_of
 
     for name, value in setup_from_args(args).items():
-        if name != "estimate" and value is not None:  # a set-up override: each set has its own
+        if len(parsed) > 1 and name != "estimate" and value is not None:  # each set has its own
             raise CalibPinError(f"{flag_of(name)} with several --data files: put each set's in its file "
-                                f"('# {name}: ...')")
-    return list(args.data)
+                                f"('# {name}: ...') or its --data argument (FILE:{name}=...)")
+    return [_fit_set(path, options) for path, options in parsed]
+
+
+def _data_files(args: argparse.Namespace) -> list[Any]:
+    """The files of ``--data`` (without their per-set options); [None] without it."""
+    return [data_argument(d)[0] for d in args.data] if args.data else [None]
 
 
 def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -164,7 +238,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     result = calibrate(args.robot, _data(args), method=args.method, seed=args.seed,
                        test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
                        progress=_announce, **_setup_options(args))
-    data = args.data if isinstance(args.data, list) else [args.data]  # --data may be given once per set
+    data = _data_files(args)  # --data may be given once per set
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
     inputs = {**robot_inputs(args.robot), **sets, "--test-data": args.test_data}
     # an input in --out is never replaced, nor removed as stale; all files together or none
@@ -215,10 +289,18 @@ def _sets_summary(result: Any) -> None:
     for s in result.sets:
         rows = len(s.train) + len(s.test)
         print(f"set {s.label}: {rows} rows from {s.source or 'memory'} ({len(s.train)} train, {len(s.test)} test, "
-              f"role {s.role}), noise {s.sigma * 1e3:.4f} mm ({s.sigma_origin})")
+              f"role {s.role}), noise {s.sigma * 1e3:.4f} mm ({s.sigma_origin}){_override_note(s)}")
         print(table(s.metrics))
     print("all sets (each row's error in its own set's units):")
     print(table(result.metrics))
+
+
+def _override_note(s: Any) -> str:
+    """``, anchor_mm from the command line (over the file's)`` of a set with per-set options."""
+    if not s.overrides:
+        return ""
+    over = " (over the file's)"
+    return "".join(f", {n} from the command line{over if n in s.overridden else ''}" for n in s.overrides)
 
 
 def _summary(result: Any, report: dict[str, Any]) -> None:

@@ -1,0 +1,117 @@
+"""Per-set options: ``--data FILE:key=value:...`` on the command line, ``FitSet(setup=...)`` in the library."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import calib_pin as cp
+from calib_pin.cli.calibrate import calibrate_main, data_argument
+from calib_pin.exceptions import CalibPinError
+from calib_pin.multiset import FitSet
+from calib_pin.sensors import CableModel, CableSetup, Drawstring
+
+#: Three anchors of one drawstring, base frame [mm]; every file says WRONG_MM instead.
+ANCHORS_MM = ((600.0, 200.0, -100.0), (-300.0, 550.0, -50.0), (100.0, -600.0, 150.0))
+WRONG_MM = (400.0, 0.0, 0.0)
+NOISE_M = 5e-5
+
+
+@pytest.fixture(scope="module")
+def wrong_files(chain, params, tmp_path_factory):
+    """Three sessions of one true robot, each with its own anchor, written with a wrong anchor."""
+    folder = tmp_path_factory.mktemp("perset")
+    _, truth = cp.simulate(chain, params, 40, seed=21, anchor_mm=ANCHORS_MM[0])
+    wrong = np.array(WRONG_MM) * 1e-3
+    paths = []
+    for k, anchor_mm in enumerate(ANCHORS_MM):
+        poses, _ = cp.simulate(chain, params, 40, seed=210 + k, anchor_mm=anchor_mm, nominal_rmse_mm=0.0)
+        sensor = Drawstring(np.array(anchor_mm) * 1e-3, truth.sensor.tool, 0.0)
+        noise = np.random.default_rng(k).normal(scale=NOISE_M, size=len(poses))
+        values = CableModel(chain, params, sensor).predict(truth.x, poses.q) + noise
+        data = dataclasses.replace(poses, values=values, noise=None, anchor=wrong,
+                                   sensor_meta={**poses.sensor_meta, "anchor": wrong})
+        paths.append(folder / f"s{k + 1}.csv")
+        cp.write_measurements(paths[-1], data)
+    return paths
+
+
+def _spec(path, anchor_mm) -> str:
+    return f"{path}:anchor_mm={','.join(format(a, 'g') for a in anchor_mm)}"
+
+
+def test_cli_per_set_anchor_wins_over_the_file_and_calibrates_to_the_noise(wrong_files, tmp_path, capsys):
+    out = tmp_path / "o"
+    argv = ["irb120", "--method", "lm", "--no-html", "--out", str(out)]
+    specs = [_spec(p, a) for p, a in zip(wrong_files, ANCHORS_MM, strict=True)]
+    specs[2] += ":noise_mm=0.05:label=third"
+    assert calibrate_main([*argv, *[x for s in specs for x in ("--data", s)]]) == 0
+    text = capsys.readouterr().out
+    assert text.count("anchor_mm from the command line (over the file's)") == 3
+    report = json.loads((out / "report.json").read_text())
+    sets = report["sets"]
+    assert [s["label"] for s in sets] == ["s1", "s2", "third"]
+    assert sets[2]["noise_from"] == "caller" and sets[2]["noise_mm"] == pytest.approx(0.05)
+    for s, anchor_mm in zip(sets, ANCHORS_MM, strict=True):
+        assert s["anchor_mm"] == pytest.approx(anchor_mm)
+        assert s["setup_from_caller"] == ["anchor_mm"] and s["setup_over_file"] == ["anchor_mm"]
+        assert s["test"]["after"]["rmse_mm"] < 0.08  # reading noise 0.05 mm
+    # the files' wrong anchor alone cannot be calibrated (the fit runs off the sanity bounds)
+    assert calibrate_main([*argv, *[x for p in wrong_files for x in ("--data", str(p))]]) == 2
+    assert "wrong anchor_mm" in capsys.readouterr().err
+
+
+def test_library_fitset_setup_is_the_same_fit(wrong_files, tmp_path):
+    specs = [_spec(p, a) for p, a in zip(wrong_files, ANCHORS_MM, strict=True)]
+    out = tmp_path / "o"
+    assert calibrate_main(["irb120", "--method", "lm", "--no-html", "--out", str(out),
+                           *[x for s in specs for x in ("--data", s)]]) == 0
+    cli = json.loads((out / "report.json").read_text())["sets"]
+    lib = cp.calibrate("irb120", [FitSet(p, setup=CableSetup(anchor_mm=a)) for p, a in
+                                  zip(wrong_files, ANCHORS_MM, strict=True)], method="lm")
+    for s, c in zip(lib.sets, cli, strict=True):
+        assert s.overrides == ("anchor_mm",)
+        assert s.metrics["test"]["after"].rmse_mm == pytest.approx(c["test"]["after"]["rmse_mm"], rel=1e-9)
+
+
+def test_one_data_file_with_options(wrong_files, tmp_path, capsys):
+    out = tmp_path / "o"
+    assert calibrate_main(["irb120", "--method", "lm", "--no-html", "--out", str(out),
+                           "--data", _spec(wrong_files[0], ANCHORS_MM[0])]) == 0
+    capsys.readouterr()
+    report = json.loads((out / "report.json").read_text())
+    assert report["test"]["after"]["rmse_mm"] < 0.08 and report["anchor_mm"] == pytest.approx(ANCHORS_MM[0])
+
+
+def test_data_argument_forms(wrong_files, tmp_path):
+    path = str(wrong_files[0])
+    assert data_argument(path) == (path, {})
+    colon = tmp_path / "a:b.csv"
+    colon.write_text("x")
+    assert data_argument(str(colon)) == (str(colon), {})  # the whole argument is a file
+    assert data_argument(f"{colon}:role=test") == (str(colon), {"role": "test"})
+    got = data_argument(f"{path}:anchor_mm=1,2,3:length_offset_mm=-4:role=train")
+    assert got == (path, {"anchor_mm": (1.0, 2.0, 3.0), "length_offset_mm": -4.0, "role": "train"})
+    assert data_argument("nowhere.csv") == ("nowhere.csv", {})  # the loader names the missing file
+    for bad, message in [(f"{path}:colour=red", "unknown key 'colour'"),
+                         (f"{path}:anchor_mm=1,2", "anchor_mm: expected 3 numbers"),
+                         (f"{path}:role=validate", "role: expected one of split, train, test"),
+                         (f"{path}:noise_mm=0", "noise_mm: 0 is not a sensor sigma"),
+                         (f"{path}:role=test:role=train", "key 'role' given twice"),
+                         (f"{path}:anchor_mm", "is not key=value"),
+                         ("nowhere.csv:role=test", "no file 'nowhere.csv'")]:
+        with pytest.raises(CalibPinError, match=message):
+            data_argument(bad)
+
+
+def test_a_cable_key_on_a_position_set_is_refused(tmp_path):
+    text = Path("robots/irb120_wu2015.csv").read_text()
+    (tmp_path / "a.csv").write_text(text)
+    (tmp_path / "b.csv").write_text(text)
+    data = [FitSet(tmp_path / "a.csv", setup=CableSetup(anchor_mm=(1, 2, 3))), FitSet(tmp_path / "b.csv")]
+    with pytest.raises(CalibPinError, match="anchor_mm: not a set-up option of positions"):
+        cp.prepare("irb120", data)
