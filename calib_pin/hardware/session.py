@@ -119,18 +119,6 @@ class Session:
         self.close()
 
 
-def read_pose_list(path: str | Path, chain: Chain) -> MeasurementSet:
-    """A pose list: ``pose`` (optional, default 1..n) and joint columns, within limits.
-
-    Raises:
-        DataError: as :func:`calib_pin.measurements.read_measurements`.
-    """
-    poses = read_measurements(path, chain, readings=False)
-    if poses.pose_ids is None:
-        poses.pose_ids = np.arange(1, len(poses) + 1)
-    return poses
-
-
 def _header(chain: Chain, profile: SensorProfile, poses_path: str, anchor_mm, tool_mm) -> str:
     lines = [f"# robot: {chain.name}", f"# end_frame: {chain.end_frame}"]
     if anchor_mm is not None:
