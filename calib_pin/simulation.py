@@ -1,6 +1,7 @@
 """Simulated sessions with known true deviations: drawstring readings or positions.
 
-The simulator draws true kinematic deviations, random poses within the joint limits,
+The simulator draws true kinematic deviations, random poses within the joint limits
+(:func:`calib_pin.robot.poses.random_poses`),
 and what the sensor would read on the true robot plus noise. The truth
 (:class:`Truth`) is kept so every estimate can be checked against it.
 """

@@ -10,7 +10,8 @@ line on an append-only descriptor, every ``write`` checked, followed by ``fsync`
 that does not reach the disk in full (a full disk) is cut away again and not counted.
 The file is never rewritten: a run that is killed at any moment leaves every completed
 row intact, and at worst an incomplete last line, which the next run drops before it
-resumes at the first pose of the pose list not yet in the file.
+resumes at the first pose of the pose list (read by
+:func:`calib_pin.measurements.pose_list.read_pose_list`) not yet in the file.
 
 One run at a time: a session holds an exclusive lock (``flock``) on its file from
 :func:`prepare_session` until :meth:`Session.close`; a second run on the same file is
