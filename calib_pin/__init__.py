@@ -3,7 +3,7 @@ positions, on Pinocchio.
 
 The public API is below; each name is imported from its module on first use, so
 ``import calib_pin`` is quick and pulls in no optional dependency. Figures
-(matplotlib) are in :mod:`calib_pin.figures`, the sensor hardware in
+(matplotlib) are in :mod:`calib_pin.report.comparison_figures`, the sensor hardware in
 :mod:`calib_pin.hardware`.
 """
 
@@ -22,10 +22,10 @@ except PackageNotFoundError:  # a source tree that was not installed
 _API = {
     "calibrate": "pipeline", "prepare": "pipeline", "CalibrationSetup": "pipeline",
     "CalibrationResult": "result",
-    "load_calibration": "calibration_file", "CalibratedRobot": "compensation",
+    "load_calibration": "export.calibration_file", "CalibratedRobot": "compensation",
     "write_outputs": "export.bundle", "WrittenOutputs": "export.bundle", "OutputError": "export.outputs",
-    "compare": "comparison", "Comparison": "comparison",
-    "analyze": "identifiability",
+    "compare": "studies.comparison", "Comparison": "studies.comparison",
+    "analyze": "analysis.identifiability",
     "CalibrationProblem": "problem", "StackedProblem": "stacked", "FitSet": "multiset", "SetResult": "multiset",
     "Chain": "robot", "Kinematics": "robot", "load_chain": "robot", "Compliance": "robot.deflection",
     "DHModel": "parameters", "HayatiModel": "parameters", "PlacementModel": "parameters",
@@ -105,14 +105,13 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:
-    from .calibration_file import load_calibration
-    from .comparison import Comparison, compare
+    from .analysis.identifiability import analyze
     from .compensation import CalibratedRobot
     from .estimators import ESTIMATORS, EstimateResult, run_estimator
     from .exceptions import ArgumentError, CalibPinError, DataError, EstimatorError, RobotError
     from .export.bundle import WrittenOutputs, write_outputs
+    from .export.calibration_file import load_calibration
     from .export.outputs import OutputError
-    from .identifiability import analyze
     from .measurements import MeasurementSet, read_measurements, write_measurements
     from .measurements.checks import check_measurements
     from .multiset import FitSet, SetResult
@@ -125,3 +124,4 @@ if TYPE_CHECKING:
     from .sensors import CableModel, CableSetup, Drawstring, PositionDevice, PositionModel, PositionSetup
     from .simulation import Truth, simulate, simulate_positions, simulate_sessions
     from .stacked import StackedProblem
+    from .studies.comparison import Comparison, compare

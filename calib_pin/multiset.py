@@ -30,13 +30,14 @@ from typing import Any
 
 import numpy as np
 
+from .analysis.identifiability import support_error
+from .analysis.metrics import Metrics, split_rows
+from .analysis.subspace import Subspace
 from .arguments import MAX_MM, as_choice, as_float, as_instance
 from .estimators import get_method, run_estimator
 from .exceptions import ArgumentError, CalibPinError, DataError
-from .identifiability import support_error
 from .measurements import MeasurementSet
 from .measurements.checks import check_measurements
-from .metrics import Metrics, split_rows
 from .parameters import ParameterModel
 from .problem import CalibrationProblem
 from .result import CalibrationResult
@@ -44,7 +45,6 @@ from .robot import Chain
 from .sensors import SensorSetup, sensor_for
 from .sensors.setup import given as given_value
 from .stacked import StackedProblem
-from .subspace import Subspace
 
 #: A set's role: split by pose (default), all training rows, or all test rows.
 ROLES = ("split", "train", "test")

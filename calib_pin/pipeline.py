@@ -17,6 +17,8 @@ from typing import Any, cast, overload
 
 import numpy as np
 
+from .analysis.identifiability import support_error
+from .analysis.metrics import Metrics, split_rows
 from .arguments import (
     MAX_MM,
     as_choice,
@@ -29,10 +31,8 @@ from .arguments import (
 )
 from .estimators import DEFAULT_METHOD, get_method, run_estimator
 from .exceptions import ArgumentError, CalibPinError, DataError
-from .identifiability import support_error
 from .measurements import MeasurementSet, read_measurements
 from .measurements.checks import check_measurements, check_same_setup
-from .metrics import Metrics, split_rows
 from .multiset import (
     FitSet,
     StackedSetup,

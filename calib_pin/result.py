@@ -10,12 +10,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
+from .analysis.metrics import Metrics
 from .arguments import as_angles_rad
 from .estimators.base import EstimateResult
 from .exceptions import CalibPinError
 from .export.urdf import write_calibrated_urdf
 from .measurements import MeasurementSet
-from .metrics import Metrics
 from .parameters import ParameterModel
 from .problem import CalibrationProblem
 from .robot import Chain
@@ -24,8 +24,8 @@ from .stacked import StackedProblem
 from .units import for_humans
 
 if TYPE_CHECKING:
-    from .identifiability import Identifiability
-    from .uncertainty import Uncertainty
+    from .analysis.identifiability import Identifiability
+    from .analysis.uncertainty import Uncertainty
 
 
 
@@ -206,17 +206,17 @@ class CalibrationResult:
 
     @cached_property
     def uncertainty(self) -> Uncertainty | None:
-        """Standard errors and end-frame position uncertainty (:mod:`calib_pin.uncertainty`); None for rbf."""
+        """Standard errors and end-frame position uncertainty (:mod:`calib_pin.analysis.uncertainty`); None for rbf."""
         if not self.kinematic:
             return None
-        from .uncertainty import estimate_uncertainty
+        from .analysis.uncertainty import estimate_uncertainty
 
         return estimate_uncertainty(self.problem.subset(self.train), self.x, seed=self.seed)
 
     @cached_property
     def identifiability(self) -> Identifiability:
-        """What the training poses can identify (:func:`calib_pin.identifiability.analyze` at zero)."""
-        from .identifiability import analyze
+        """What the training poses can identify (:func:`calib_pin.analysis.identifiability.analyze` at zero)."""
+        from .analysis.identifiability import analyze
 
         return analyze(self.problem.subset(self.train))
 

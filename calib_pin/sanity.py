@@ -1,7 +1,7 @@
 """The sanity bounds of a robot's deviations: what no real arm's calibration exceeds.
 
 One place for the bounds :meth:`calib_pin.result.CalibrationResult.sanity_error` refuses
-an export with, and :func:`calib_pin.calibration_file.load_calibration` refuses a file with.
+an export with, and :func:`calib_pin.export.calibration_file.load_calibration` refuses a file with.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """Simulated sessions with known true deviations: drawstring readings or positions.
 
-The simulator draws true kinematic deviations, random poses within the joint limits,
+The simulator draws true kinematic deviations, random poses within the joint limits
+(:func:`calib_pin.robot.poses.random_poses`),
 and what the sensor would read on the true robot plus noise. The truth
 (:class:`Truth`) is kept so every estimate can be checked against it.
 """
@@ -37,6 +38,7 @@ from .measurements import MeasurementSet
 from .parameters import ParameterModel
 from .robot import Chain
 from .robot.deflection import Compliance, ComplianceSpec, as_compliance
+from .robot.poses import random_poses
 from .sensors import CableModel, Drawstring, MeasurementModel, PositionDevice, PositionModel, sensor_for
 from .units import for_humans, from_humans
 
@@ -186,22 +188,6 @@ class Truth:
             raise DataError(str(path), f"cannot read: {e.strerror or e}") from None
         except (ValueError, KeyError, TypeError) as e:
             raise DataError(str(path), f"not a calib-pin truth file ({type(e).__name__}: {e})") from None
-
-
-def random_poses(
-    chain: Chain, n: int, rng: np.random.Generator, margin: float = np.deg2rad(5.0)
-) -> np.ndarray:
-    """Uniform random joint angles within the limits less a margin, shape (n, n_joints) [rad].
-
-    A continuous joint (no limits) is drawn in [-pi, pi].
-    """
-    lo = np.where(np.isfinite(chain.lower), chain.lower + margin, -np.pi)
-    hi = np.where(np.isfinite(chain.upper), chain.upper - margin, np.pi)
-    if np.any(hi < lo):
-        k = int(np.argmax(lo - hi))
-        raise CalibPinError(f"joint '{chain.joint_names[k]}' has no range left inside its limits less a margin "
-                            f"of {np.rad2deg(margin):g} deg")
-    return rng.uniform(lo, hi, size=(n, chain.n_joints))
 
 
 def _poses_above_base(chain: Chain, cable: CableModel, n_poses: int, rng: np.random.Generator) -> np.ndarray:

@@ -7,7 +7,7 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.sensors import CableModel
-from calib_pin.simulation import random_poses
+from calib_pin.robot.poses import random_poses
 
 
 @pytest.fixture(scope="session")

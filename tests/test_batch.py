@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.batch import SUMMARY_COLUMNS, BatchTask, parallel_map, run_batch
+from calib_pin.studies.batch import SUMMARY_COLUMNS, BatchTask, parallel_map, run_batch
 from calib_pin.exceptions import CalibPinError
 from calib_pin.sensors import CableModel
-from calib_pin.simulation import random_poses
+from calib_pin.robot.poses import random_poses
 
 
 @pytest.fixture(scope="module")
@@ -205,7 +205,7 @@ def test_a_rerun_leaves_no_earlier_output_beside_a_set_that_now_fails(sets, tmp_
 
 def test_rerun_keys_depend_on_inputs_and_options(sets, tmp_path):
     """A finished set is reused only for the same file content, robot, method, seed and options."""
-    from calib_pin.batch import task_key
+    from calib_pin.studies.batch import task_key
 
     path = tmp_path / "k.csv"
     path.write_bytes(Path(sets[0][0].data).read_bytes())

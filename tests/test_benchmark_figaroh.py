@@ -6,7 +6,7 @@ import builtins
 
 import pytest
 
-from calib_pin import benchmark_figaroh
+from calib_pin.studies import benchmark_figaroh
 from calib_pin.cli.benchmark import _against_figaroh, benchmark_parser
 
 

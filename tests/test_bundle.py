@@ -9,7 +9,7 @@ import json
 import pytest
 
 import calib_pin as cp
-from calib_pin.calibration_file import load_calibration
+from calib_pin.export.calibration_file import load_calibration
 from calib_pin.export.bundle import render_outputs
 from calib_pin.result import CalibrationResult
 

@@ -9,9 +9,9 @@ import pinocchio as pin
 import pytest
 
 import calib_pin as cp
-from calib_pin.calibration_file import calibration_path, write_calibration
+from calib_pin.export.calibration_file import calibration_path, write_calibration
 from calib_pin.robot.deflection import ComplianceSpec
-from calib_pin.simulation import random_poses
+from calib_pin.robot.poses import random_poses
 
 JOINTS_23 = ("joint_2", "joint_3")
 TRUE_C = np.array([2.5e-5, 4e-5])

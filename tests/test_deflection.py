@@ -13,7 +13,7 @@ import pytest
 from calib_pin.estimators import run_estimator
 from calib_pin.exceptions import CalibPinError, RobotError
 from calib_pin.problem import CalibrationProblem
-from calib_pin.report import build_report
+from calib_pin.report.build import build_report
 from calib_pin.robot import Kinematics, load_chain
 from calib_pin.robot.deflection import (
     CablePull,
@@ -27,7 +27,8 @@ from calib_pin.robot.deflection import (
 )
 from calib_pin.sensors.cable import CableModel, Drawstring
 from calib_pin.sensors.position import PositionModel, fit_device
-from calib_pin.simulation import random_poses, simulate, simulate_positions
+from calib_pin.robot.poses import random_poses
+from calib_pin.simulation import simulate, simulate_positions
 
 JOINTS_23 = ("joint_2", "joint_3")
 #: True compliances of joints 2 and 3 [rad/Nm]: up to 0.5 mrad, 0.4 mm at the tool.
@@ -208,7 +209,7 @@ def test_cable_recovers_true_compliance(chain, params):
 def test_real_irb120_compliance_lowers_held_out_error():
     """Must hold (issue 11): on the real IRB120 laser-tracker set, compliance of joints 2
     and 3 lowers the held-out mean error by >= 30 % over the same 10 splits (LM)."""
-    from calib_pin.comparison import compare
+    from calib_pin.studies.comparison import compare
 
     data = "robots/irb120_wu2015.csv"
     geometric = compare("irb120", data, methods=["lm"], trials=10).rows()[1]["mean_mm"][0]
@@ -237,7 +238,7 @@ def test_calibrate_reports_compliance_and_refuses_bad_options():
 def test_simulated_truth_with_compliance_through_the_pipeline(chain, params, tmp_path):
     """simulate(compliance=...) carries the true compliances; calibrating with them brings
     the fresh-pose error to the floor, without them it stays several times higher."""
-    from calib_pin.comparison import fresh_scorer
+    from calib_pin.studies.comparison import fresh_scorer
     from calib_pin.pipeline import prepare
     from calib_pin.simulation import Truth
 

@@ -7,7 +7,7 @@ import yourdfpy
 from lxml import etree
 
 import calib_pin as cp
-from calib_pin.simulation import random_poses
+from calib_pin.robot.poses import random_poses
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,8 @@ from calib_pin.cli.collect import collect_main
 from calib_pin.cli.poses import make_poses_main
 from calib_pin.hardware.fake_indicator import FakeIndicator
 from calib_pin.hardware.reader import SensorProfile
-from calib_pin.hardware.session import open_session, read_pose_list
+from calib_pin.hardware.session import open_session
+from calib_pin.measurements.pose_list import read_pose_list
 from calib_pin.sensors import CableModel
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import calib_pin
-from calib_pin.html_report import deviation_rows, fmt, write_html_report
-from calib_pin.metrics import Metrics
-from calib_pin.report import build_report
+from calib_pin.report.html import deviation_rows, fmt, write_html_report
+from calib_pin.analysis.metrics import Metrics
+from calib_pin.report.build import build_report
 from calib_pin.robot.description import ROBOTS_DIR
 
 IMG = re.compile(r'<img [^>]*src="data:image/png;base64,([A-Za-z0-9+/=]+)"')
@@ -125,7 +125,7 @@ def test_browser_displays_every_figure(rendered, tmp_path):
 
 
 def test_write_figures_for_the_readme(rendered, tmp_path):
-    from calib_pin.html_report import write_figures
+    from calib_pin.report.html import write_figures
 
     _, r, _, _ = rendered
     paths = write_figures(r, tmp_path / "figs")

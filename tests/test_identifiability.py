@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.identifiability import analyze
+from calib_pin.analysis.identifiability import analyze
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -84,7 +84,7 @@ def test_rank_deficient_sets_calibrate_near_the_noise_floor(tmp_path, capfd, rob
 def test_support_error_refuses_only_what_cannot_calibrate():
     """One distinct pose cannot calibrate anything; two distinct poses calibrate two directions;
     a sensor that takes every direction the poses give leaves the robot none."""
-    from calib_pin.identifiability import support_error
+    from calib_pin.analysis.identifiability import support_error
 
     setup = cp.prepare("irb120")
     same = setup.problem.subset(np.zeros(50, dtype=int))

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calib_pin.metrics import Metrics, split_rows
+from calib_pin.analysis.metrics import Metrics, split_rows
 
 
 def test_metrics_of_known_residuals():

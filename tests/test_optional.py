@@ -44,8 +44,8 @@ def test_bad_mplbackend_still_writes_everything(tmp_path):
 def test_broken_matplotlib_import_still_writes_the_calibration(tmp_path, monkeypatch, capfd):
     """An ImportError inside matplotlib: one warning line, no report.html, the rest written."""
     monkeypatch.setitem(sys.modules, "matplotlib.backends.backend_agg", None)  # import fails
-    monkeypatch.delitem(sys.modules, "calib_pin.report_figures", raising=False)
-    monkeypatch.delattr(calib_pin, "report_figures", raising=False)  # imported anew, so it fails
+    monkeypatch.delitem(sys.modules, "calib_pin.report.figures", raising=False)
+    monkeypatch.delattr(calib_pin.report, "figures", raising=False)  # imported anew, so it fails
     out = tmp_path / "o"
     assert calibrate_main([*ARGS, "--out", str(out)]) == 0
     err = capfd.readouterr().err
@@ -57,7 +57,7 @@ def test_broken_matplotlib_import_still_writes_the_calibration(tmp_path, monkeyp
 
 def test_failure_while_drawing_still_writes_the_calibration(tmp_path, monkeypatch, capfd):
     """An exception inside a figure: one warning line naming it, the rest written."""
-    from calib_pin import report_figures
+    from calib_pin.report import figures as report_figures
 
     def broken(report):
         raise RuntimeError("font cache is corrupt")

@@ -52,7 +52,7 @@ HOOK_BATCH = """
 #: Trials of seed > 0 take 30 s.
 HOOK_COMPARE = """
     import time
-    import calib_pin.comparison as _comparison
+    import calib_pin.studies.comparison as _comparison
     _trial = _comparison._trial
     def slow_trial(setup, truth, methods, seed, *args, **kwargs):
         if seed > 0:
@@ -202,10 +202,10 @@ def test_a_killed_joblib_worker_is_one_line_and_keeps_the_finished_sets(sets, tm
 
 def test_a_tcp_server_that_is_not_a_dask_scheduler_is_one_line_within_seconds(sets, tmp_path, monkeypatch, capfd):
     pytest.importorskip("distributed")
-    import calib_pin.parallel
+    import calib_pin.studies.parallel
     from calib_pin.cli.batch import batch_main
 
-    monkeypatch.setattr(calib_pin.parallel, "ANSWER_TIMEOUT_S", 0.5)
+    monkeypatch.setattr(calib_pin.studies.parallel, "ANSWER_TIMEOUT_S", 0.5)
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen()
@@ -265,7 +265,7 @@ class _Scheduler:
 
 def test_dask_scheduler_without_workers_and_killed_scheduler_are_one_line(sets, tmp_path):
     pytest.importorskip("distributed")
-    from calib_pin.batch import ParallelFault, parallel_map
+    from calib_pin.studies.batch import ParallelFault, parallel_map
 
     scheduler = _Scheduler()
     try:
@@ -293,7 +293,7 @@ def test_dask_scheduler_without_workers_and_killed_scheduler_are_one_line(sets, 
 
 
 def test_checkpoint_keeps_whole_results_under_their_keys_and_resumes_only_the_rest(tmp_path):
-    from calib_pin.checkpoint import Checkpoint, fingerprint
+    from calib_pin.studies.checkpoint import Checkpoint, fingerprint
 
     calls: list[int] = []
 

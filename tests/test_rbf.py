@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.comparison import fresh_scorer
+from calib_pin.studies.comparison import fresh_scorer
 from calib_pin.estimators import run_estimator
 from calib_pin.estimators.rbf import RBF
 from calib_pin.exceptions import CalibPinError

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.simulation import random_poses
+from calib_pin.robot.poses import random_poses
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.parameters import dh_transforms
-from calib_pin.simulation import random_poses
+from calib_pin.robot.poses import random_poses
 
 
 def test_irb120_chain(chain):

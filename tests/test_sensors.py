@@ -5,8 +5,8 @@ import pinocchio as pin
 import pytest
 
 import calib_pin as cp
-from calib_pin.report import build_report
-from calib_pin.simulation import random_poses
+from calib_pin.report.build import build_report
+from calib_pin.robot.poses import random_poses
 
 
 def test_reading_is_distance_plus_offset(chain, params):

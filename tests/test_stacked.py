@@ -13,9 +13,9 @@ from calib_pin.cli.calibrate import calibrate_main
 from calib_pin.multiset import FitSet
 from calib_pin.problem import CalibrationProblem
 from calib_pin.sensors import CableModel, Drawstring
-from calib_pin.simulation import random_poses
+from calib_pin.robot.poses import random_poses
 from calib_pin.stacked import StackedProblem
-from calib_pin.subspace import Subspace
+from calib_pin.analysis.subspace import Subspace
 
 #: Three anchors of one drawstring, re-anchored between sessions, base frame [mm].
 ANCHORS_MM = ((600.0, 200.0, -100.0), (-300.0, 550.0, -50.0), (100.0, -600.0, 150.0))
@@ -100,7 +100,7 @@ def test_wu2015_split_in_two_sets_each_with_its_own_device_frame(tmp_path):
     assert np.all(np.isfinite(frames))
     pooled = np.concatenate([s.train for s in result.sets])
     assert len(result.train) == len(pooled)
-    from calib_pin.report import build_report
+    from calib_pin.report.build import build_report
 
     report = build_report(result)
     assert [s["label"] for s in report["sets"]] == ["m12", "m3"]
@@ -229,8 +229,8 @@ def test_three_set_ups_in_one_file_are_named_in_a_warning(three, tmp_path):
 
 def test_html_report_has_a_table_per_set(three):
     pytest.importorskip("matplotlib")
-    from calib_pin.html_report import render_html
-    from calib_pin.report import build_report
+    from calib_pin.report.html import render_html
+    from calib_pin.report.build import build_report
 
     _, sets = three
     result = cp.calibrate("irb120", [FitSet(sets[0], "left"), FitSet(sets[1], "right")], method="lm",

@@ -3,7 +3,7 @@
 import numpy as np
 
 import calib_pin as cp
-from calib_pin.report import build_report
+from calib_pin.report.build import build_report
 
 #: Parameters in the blind combinations of the IRB120 drawstring set (see --analyze):
 #: the truth's share along those directions is not estimated, so no interval covers it.

@@ -70,9 +70,9 @@ def calibration_files(argument: str) -> str | tuple[str, ...]:
 
 
 def _batch(args: argparse.Namespace) -> int:
-    from ..batch import BatchTask, run_batch
-    from ..checkpoint import Interrupted
     from ..estimators import get_method
+    from ..studies.batch import BatchTask, run_batch
+    from ..studies.checkpoint import Interrupted
 
     get_method(args.method).check(args.loss)  # a bad --loss fails once, not once per set
     options = {"test_fraction": args.test_fraction, "loss": args.loss, "parameters": args.model}

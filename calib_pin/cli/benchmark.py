@@ -1,4 +1,4 @@
-"""``benchmark``: time the estimators (see :mod:`calib_pin.benchmark`)."""
+"""``benchmark``: time the estimators (see :mod:`calib_pin.studies.benchmark`)."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ def benchmark_main(argv: Sequence[str] | None = None) -> int:
 
 def _benchmark(args: argparse.Namespace) -> int:
     from .. import __version__
-    from ..benchmark import benchmark, floor, format_scaling, format_timings, scaling
+    from ..studies.benchmark import benchmark, floor, format_scaling, format_timings, scaling
     from . import BLAS_THREADS
 
     what, rows = benchmark(args.methods or list(PAPER_METHODS), args.repeats, args.seed, args.poses)
@@ -57,7 +57,15 @@ def _benchmark(args: argparse.Namespace) -> int:
 
 def _against_figaroh(args: argparse.Namespace) -> None:
     """Print the FIGAROH race, or one line saying it is skipped."""
-    from ..benchmark_figaroh import FRESH_POSES, NOISE_MM, TIMED, against_figaroh, figaroh_version, format_goal, format_races
+    from ..studies.benchmark_figaroh import (
+        FRESH_POSES,
+        NOISE_MM,
+        TIMED,
+        against_figaroh,
+        figaroh_version,
+        format_goal,
+        format_races,
+    )
     from . import BLAS_THREADS
 
     chosen = args.methods or [DEFAULT_METHOD, "lm"]

@@ -18,10 +18,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..analysis.metrics import Metrics
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..export.bundle import EXPORTS, write_outputs
 from ..export.outputs import robot_inputs
-from ..metrics import Metrics
 from ..parameters import MODELS
 from .common import (
     OneLineParser,
@@ -197,7 +197,7 @@ def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _analyze(args: argparse.Namespace) -> int:
-    from ..identifiability import analyze
+    from ..analysis.identifiability import analyze
     from ..pipeline import prepare
 
     setup = prepare(args.robot, _data(args), **_setup_options(args))

@@ -189,7 +189,8 @@ def _start(session: Session, outputs: Outputs, args: argparse.Namespace) -> None
 
 def _collect(args: argparse.Namespace) -> int:
     from ..hardware.reader import SensorFault, open_reader
-    from ..hardware.session import collect, prepare_session, read_pose_list
+    from ..hardware.session import collect, prepare_session
+    from ..measurements.pose_list import read_pose_list
     from ..robot import load_chain
 
     # Everything is checked before anything is written: a refused run leaves no header,

@@ -81,9 +81,9 @@ def compare_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _compare(args: argparse.Namespace, argv: list[str]) -> int:
-    from ..checkpoint import Checkpoint, Interrupted
-    from ..comparison import compare
     from ..exceptions import CalibPinError
+    from ..studies.checkpoint import Checkpoint, Interrupted
+    from ..studies.comparison import compare
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
@@ -156,7 +156,7 @@ FIGURES_HINT = "the tables are written"
 
 def _figure_functions() -> tuple[Any, Any]:
     """Fig. 2 and Fig. 3's drawing functions (importing matplotlib)."""
-    from ..figures import convergence_figure, residual_figure
+    from ..report.comparison_figures import convergence_figure, residual_figure
 
     return residual_figure, convergence_figure
 

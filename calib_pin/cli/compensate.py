@@ -46,9 +46,9 @@ def compensate_main(argv: Sequence[str] | None = None) -> int:
 
 def _compensate(args: argparse.Namespace) -> int:
     from .. import __version__
-    from ..calibration_file import find_calibration, load_calibration
-    from ..hardware.session import read_pose_list
+    from ..export.calibration_file import find_calibration, load_calibration
     from ..measurements.csv_writer import write_compensated
+    from ..measurements.pose_list import read_pose_list
 
     out = Outputs(Path(args.out).parent, force=args.force,
                   inputs={**robot_inputs(args.robot), "--calibration": args.calibration, "--targets": args.targets})

@@ -49,7 +49,7 @@ def make_poses_main(argv: Sequence[str] | None = None) -> int:
 def _make_poses(args: argparse.Namespace) -> int:
     from ..measurements import write_poses
     from ..robot import load_chain
-    from ..simulation import random_poses
+    from ..robot.poses import random_poses
 
     out = _pose_output(args)
     chain = load_chain(args.robot, args.end_frame)
@@ -95,9 +95,9 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _plan_poses(args: argparse.Namespace) -> int:
+    from ..analysis.planning import plan_poses
     from ..measurements import write_poses
     from ..parameters import parameter_model
-    from ..planning import plan_poses
     from ..robot import load_chain
     from ..sensors import default_kind, sensor_for, setup_from_args, setup_record
 

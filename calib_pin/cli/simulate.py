@@ -90,7 +90,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from ..hardware.session import read_pose_list
+    from ..measurements.pose_list import read_pose_list
     from ..parameters import parameter_model
     from ..robot import load_chain
     from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate, simulate_sessions

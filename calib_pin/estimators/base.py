@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from ..analysis.subspace import Subspace
 from ..problem import LeastSquares
-from ..subspace import Subspace
 
 #: ``callback(rmse, evaluations)``: training RMSE [m] reached with that many evaluations.
 Callback = Callable[[float, float], None]
@@ -170,7 +170,7 @@ class Tracker:
         return self.callback is not None
 
     def whitened(self, x0: np.ndarray) -> Subspace:
-        """The identifiable subspace at x0 (:mod:`calib_pin.subspace`); its Jacobian
+        """The identifiable subspace at x0 (:mod:`calib_pin.analysis.subspace`); its Jacobian
         counts as one evaluation."""
         self.nfev += 1
         x0 = np.asarray(x0, dtype=float)

@@ -14,7 +14,7 @@ from .base import Callback, EstimateResult, Tracker
 
 @dataclass(frozen=True)
 class DE:
-    """scipy's differential evolution in the whitened search coordinates of :mod:`calib_pin.subspace`.
+    """scipy's differential evolution in the whitened search coordinates of :mod:`calib_pin.analysis.subspace`.
 
     Strategy ``best1bin`` with dithered mutation (0.5, 1) and recombination 0.7 (scipy's
     defaults), a population of ``popsize`` x dimension members, Latin-hypercube start in

@@ -27,7 +27,7 @@ class LevenbergMarquardt:
     """MINPACK's Levenberg-Marquardt through ``scipy.optimize.least_squares(method="lm")``.
 
     It solves for the identifiable directions only (the whitened coordinates of
-    :mod:`calib_pin.subspace`, with the analytic Jacobian mapped onto them); the others stay
+    :mod:`calib_pin.analysis.subspace`, with the analytic Jacobian mapped onto them); the others stay
     at x0. Stops on scipy's ``ftol``/``xtol``/``gtol`` or ``max_nfev`` evaluations.
     ``loss`` other than ``linear`` adds the robust stage of the module docstring.
 

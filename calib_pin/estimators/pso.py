@@ -13,7 +13,7 @@ from .base import Callback, EstimateResult, Tracker
 
 @dataclass(frozen=True)
 class PSO:
-    """Global-best particle swarm in the whitened search coordinates of :mod:`calib_pin.subspace`.
+    """Global-best particle swarm in the whitened search coordinates of :mod:`calib_pin.analysis.subspace`.
 
     Every iteration each particle's velocity becomes
     ``inertia * v + c1 * r1 * (own best - z) + c2 * r2 * (swarm best - z)``

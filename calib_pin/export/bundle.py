@@ -59,7 +59,7 @@ class RenderedOutputs:
         files: File name -> text, in the order they are written; report.json (last) is
             not among them: it is made from ``report`` when the folder is known.
         exports: Export format (``urdf``, ``yaml``, ``ur_kinematics``, ``dh``) -> file name.
-        report: The report dict (:func:`calib_pin.report.build_report`) with
+        report: The report dict (:func:`calib_pin.report.build.build_report`) with
             ``urdf_refused``; ``urdf`` and ``exports`` are set by :func:`add_outputs`.
         refused: Why no corrected robot is written for a kinematic method (the
             sanity bound), else None.
@@ -170,7 +170,7 @@ def _html(report: dict[str, Any], silence: str) -> str | None:
     from ..optional import figures_or_warn
 
     def draw() -> str:
-        from ..html_report import render_html
+        from ..report.html import render_html
 
         return render_html(report)
 
@@ -201,8 +201,8 @@ def render_outputs(result: CalibrationResult, formats: str | Sequence[str] = ("u
 
 
 def _render(result: CalibrationResult, formats: tuple[str, ...], html: bool, silence: str) -> RenderedOutputs:
-    from ..calibration_file import calibration_path, write_calibration
-    from ..report import build_report
+    from ..report.build import build_report
+    from .calibration_file import calibration_path, write_calibration
 
     report = build_report(result)
     refused = result.sanity_error() if result.kinematic else None

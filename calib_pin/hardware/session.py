@@ -10,7 +10,8 @@ line on an append-only descriptor, every ``write`` checked, followed by ``fsync`
 that does not reach the disk in full (a full disk) is cut away again and not counted.
 The file is never rewritten: a run that is killed at any moment leaves every completed
 row intact, and at worst an incomplete last line, which the next run drops before it
-resumes at the first pose of the pose list not yet in the file.
+resumes at the first pose of the pose list (read by
+:func:`calib_pin.measurements.pose_list.read_pose_list`) not yet in the file.
 
 One run at a time: a session holds an exclusive lock (``flock``) on its file from
 :func:`prepare_session` until :meth:`Session.close`; a second run on the same file is
@@ -117,18 +118,6 @@ class Session:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def read_pose_list(path: str | Path, chain: Chain) -> MeasurementSet:
-    """A pose list: ``pose`` (optional, default 1..n) and joint columns, within limits.
-
-    Raises:
-        DataError: as :func:`calib_pin.measurements.read_measurements`.
-    """
-    poses = read_measurements(path, chain, readings=False)
-    if poses.pose_ids is None:
-        poses.pose_ids = np.arange(1, len(poses) + 1)
-    return poses
 
 
 def _header(chain: Chain, profile: SensorProfile, poses_path: str, anchor_mm, tool_mm) -> str:

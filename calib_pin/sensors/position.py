@@ -14,7 +14,7 @@ correction of each marker (``marker<id>_x/y/z`` [m]), all around the starting va
 
 Some of these directions overlap: the device frame with the first joint's deviations,
 the markers with the last joint's. The estimators work on the identifiable directions
-only (:mod:`calib_pin.subspace`), so the overlap is harmless, and ``--analyze`` lists it.
+only (:mod:`calib_pin.analysis.subspace`), so the overlap is harmless, and ``--analyze`` lists it.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """A calibration report a person reads in a browser: one self-contained HTML file.
 
 One source: every number and figure comes from the report dict
-(:func:`calib_pin.report.build_report`, what report.json holds, including the per-row
+(:func:`calib_pin.report.build.build_report`, what report.json holds, including the per-row
 errors, the identifiability spectrum and the per-pose workspace uncertainty), so the
 HTML and the JSON cannot disagree. Figures are PNGs embedded as base64 (no network,
 opens from disk), drawn with matplotlib (the ``plots`` extra).
@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from .atomic import write_text
-from .optional import require
+from ..atomic import write_text
+from ..optional import require
 
 
 def _fig() -> ModuleType:
@@ -29,9 +29,9 @@ def _fig() -> ModuleType:
         CalibPinError: matplotlib is not installed (the message names the pip command).
     """
     require("matplotlib")
-    from . import report_figures
+    from . import figures
 
-    return report_figures
+    return figures
 
 
 def fmt(value: float) -> str:
@@ -194,7 +194,7 @@ def _verdict(r: dict) -> str:
 
 
 def render_html(r: dict) -> str:
-    """The report page of a report dict (:func:`calib_pin.report.build_report`).
+    """The report page of a report dict (:func:`calib_pin.report.build.build_report`).
 
     Raises:
         CalibPinError: matplotlib is not installed.
@@ -236,7 +236,7 @@ def write_html_report(report: dict[str, Any], path: str | Path) -> Path:
     """Write the self-contained HTML report of a report dict (``DIR/report.html``).
 
     Args:
-        report: :func:`calib_pin.report.build_report`'s dict (what report.json holds).
+        report: :func:`calib_pin.report.build.build_report`'s dict (what report.json holds).
         path: Output file.
 
     Raises:
@@ -253,7 +253,7 @@ def write_figures(report: dict[str, Any], folder: str | Path) -> list[Path]:
     """Write the report's figures as PNG files (for a README), drawn from the report dict.
 
     Args:
-        report: :func:`calib_pin.report.build_report`'s dict, e.g. a loaded report.json.
+        report: :func:`calib_pin.report.build.build_report`'s dict, e.g. a loaded report.json.
         folder: Where ``residuals.png``, ``deviations.png``, ``spectrum.png``,
             ``convergence.png``, ``workspace.png`` (kinematic methods) and ``sensor.png`` go.
 

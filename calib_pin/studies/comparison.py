@@ -11,7 +11,7 @@ residual of a good calibration is mostly sensor noise, the fresh-pose error is n
 writers give ``table1.csv`` and ``table1.md`` (with the paper's numbers beside ours).
 
 With a ``checkpoint`` folder each finished trial is kept there as it finishes
-(:mod:`calib_pin.checkpoint`): after Ctrl-C or a worker fault the same comparison runs
+(:mod:`calib_pin.studies.checkpoint`): after Ctrl-C or a worker fault the same comparison runs
 only the trials not yet done, with the same results.
 """
 
@@ -27,19 +27,20 @@ from typing import Any
 
 import numpy as np
 
+from ..analysis.metrics import Metrics
+from ..estimators import PAPER_LABELS, PAPER_METHODS, get_method, run_estimator
+from ..exceptions import ArgumentError, CalibPinError
+from ..multiset import StackedSetup
+from ..parameters import ParameterModel, parameter_model
+from ..pipeline import CalibrationSetup, prepare
+from ..problem import CalibrationProblem
+from ..progress import progress_bar
+from ..robot import Chain, load_chain
+from ..robot.deflection import Compliance, as_compliance
+from ..robot.poses import random_poses
+from ..simulation import Truth, simulate
 from .checkpoint import Checkpoint, file_digest, fingerprint
-from .estimators import PAPER_LABELS, PAPER_METHODS, get_method, run_estimator
-from .exceptions import ArgumentError, CalibPinError
-from .metrics import Metrics
-from .multiset import StackedSetup
 from .parallel import parallel_map
-from .parameters import ParameterModel, parameter_model
-from .pipeline import CalibrationSetup, prepare
-from .problem import CalibrationProblem
-from .progress import progress_bar
-from .robot import Chain, load_chain
-from .robot.deflection import Compliance, as_compliance
-from .simulation import Truth, random_poses, simulate
 
 #: Table I of the paper: test RMSE, "Std" (mean absolute residual) and Max, [mm].
 PAPER_TABLE1 = {
@@ -404,20 +405,20 @@ def compare(
             :func:`calib_pin.calibrate`); payload_kg, payload_com_mm, cable_tension_n: its
             deprecated loose aliases.
         jobs, scheduler: Run the trials in ``jobs`` local processes, or on the Dask
-            cluster at ``scheduler`` (see :func:`calib_pin.parallel.parallel_map`); the
+            cluster at ``scheduler`` (see :func:`calib_pin.studies.parallel.parallel_map`); the
             results do not depend on it (each trial is seeded), only the time does.
         checkpoint: Folder in which each finished trial is kept as it finishes
             (``<checkpoint>/.calib-pin-checkpoint``), and from which a comparison of the
             same data and settings takes the trials already done; None keeps nothing.
-            The caller removes it (:meth:`calib_pin.checkpoint.Checkpoint.clear`) once
+            The caller removes it (:meth:`calib_pin.studies.checkpoint.Checkpoint.clear`) once
             the outputs are written.
         notify: Called with one line when kept trials are reused.
 
     Raises:
         CalibPinError: bad method, robot, data or settings.
-        calib_pin.parallel.ParallelFault: a worker or the scheduler failed (the finished
+        calib_pin.studies.parallel.ParallelFault: a worker or the scheduler failed (the finished
             trials are kept when ``checkpoint`` is given).
-        calib_pin.checkpoint.Interrupted: Ctrl-C with a ``checkpoint``; the finished trials are kept.
+        calib_pin.studies.checkpoint.Interrupted: Ctrl-C with a ``checkpoint``; the finished trials are kept.
     """
     methods = list(PAPER_METHODS) if methods is None else list(methods)
     for m in methods:

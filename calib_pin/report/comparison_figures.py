@@ -1,7 +1,7 @@
 """The paper's Fig. 2 (residuals before/after per method) and Fig. 3 (convergence, time).
 
 Drawn with matplotlib's object API on the Agg canvas (no screen, no global pyplot
-state) from a :class:`calib_pin.comparison.Comparison`.
+state) from a :class:`calib_pin.studies.comparison.Comparison`.
 """
 
 from __future__ import annotations
@@ -11,14 +11,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .optional import require
+from ..optional import require
 
 require("matplotlib")
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 if TYPE_CHECKING:
-    from .comparison import Comparison
+    from ..studies.comparison import Comparison
 
 
 def _save(fig: Figure, path: str | Path) -> Path:

@@ -27,20 +27,20 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .arguments import MAX_MM, as_bool, as_optional, as_path, as_robot
-from .atomic import write_text
-from .compensation import CalibratedRobot
-from .exceptions import CalibPinError, DataError, RobotError
-from .input_files import check_regular
-from .parameters import parameter_model
-from .robot.chain import Chain, load_chain
-from .robot.deflection import ComplianceSpec, stiffness
-from .robot.description import resolve_robot
-from .sanity import beyond_sanity
-from .units import for_humans
+from ..arguments import MAX_MM, as_bool, as_optional, as_path, as_robot
+from ..atomic import write_text
+from ..compensation import CalibratedRobot
+from ..exceptions import CalibPinError, DataError, RobotError
+from ..input_files import check_regular
+from ..parameters import parameter_model
+from ..robot.chain import Chain, load_chain
+from ..robot.deflection import ComplianceSpec, stiffness
+from ..robot.description import resolve_robot
+from ..sanity import beyond_sanity
+from ..units import for_humans
 
 if TYPE_CHECKING:
-    from .result import CalibrationResult
+    from ..result import CalibrationResult
 
 #: What the file says it is, and its layout's version.
 FORMAT = "calib-pin calibration"
@@ -76,7 +76,7 @@ def _compliance(result: CalibrationResult) -> dict[str, Any] | None:
 
 def calibration_document(result: CalibrationResult) -> dict[str, Any]:
     """The calibration file's content (JSON-ready)."""
-    from . import __version__
+    from .. import __version__
 
     model, chain = result.problem.model, result.chain
     robot_x = model.robot(result.x)

@@ -9,9 +9,9 @@ the same command run again finds the finished items and runs only the rest; a co
 with other inputs or options finds no key of its own and reuses nothing.
 
 :meth:`Checkpoint.map` runs the items not yet done with
-:func:`calib_pin.parallel.parallel_completed` and keeps each as it finishes; Ctrl-C
+:func:`calib_pin.studies.parallel.parallel_completed` and keeps each as it finishes; Ctrl-C
 becomes :class:`Interrupted` and a worker or scheduler fault a
-:class:`~calib_pin.parallel.ParallelFault`, each one line that says how many items are
+:class:`~calib_pin.studies.parallel.ParallelFault`, each one line that says how many items are
 kept and that the same command resumes. JSON, not pickle: a file in an output folder
 is read as data, never run.
 """
@@ -27,7 +27,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
-from .exceptions import CalibPinError
+from ..exceptions import CalibPinError
 from .parallel import ParallelFault, parallel_completed
 
 T = TypeVar("T")
@@ -57,7 +57,7 @@ def file_digest(path: str | os.PathLike[str] | None) -> str | None:
 def fingerprint(*parts: Any) -> str:
     """A key of ``parts`` (JSON-able values: names, numbers, digests, option dicts) and the
     calib-pin version: equal parts give equal keys, any difference another."""
-    from . import __version__
+    from .. import __version__
 
     text = json.dumps([FORMAT, __version__, *parts], sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
@@ -147,10 +147,10 @@ class Checkpoint:
         notify: Callable[[str], Any] | None = None,
     ) -> list[R]:
         """``[fn(item) for item in items]``, in order: the kept results, and the others run
-        (:func:`~calib_pin.parallel.parallel_completed`) and kept as each finishes.
+        (:func:`~calib_pin.studies.parallel.parallel_completed`) and kept as each finishes.
 
         Args:
-            fn, items, jobs, scheduler: As :func:`calib_pin.parallel.parallel_map`.
+            fn, items, jobs, scheduler: As :func:`calib_pin.studies.parallel.parallel_map`.
             keys: Each item's :func:`fingerprint`.
             encode, decode: A result to a JSON-able value and back (exactly).
             keep: Whether a result is kept (default all); one that is not (a fault of the

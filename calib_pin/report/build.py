@@ -7,10 +7,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .subspace import RCOND
+from ..analysis.subspace import RCOND
 
 if TYPE_CHECKING:
-    from .result import CalibrationResult
+    from ..result import CalibrationResult
 
 
 def _metrics(result: CalibrationResult) -> dict[str, Any]:
@@ -115,7 +115,7 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         report["metrics_pooled"] = "every set's row errors together, each in its own set's units (mm)"
     spec = result.problem.model.compliance_spec
     if spec is not None:
-        from .robot.deflection import compliance_report
+        from ..robot.deflection import compliance_report
 
         report["compliance"] = compliance_report(spec, result.problem.model.compliance(result.x),
                                                  result.bounded_compliance)

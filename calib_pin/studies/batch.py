@@ -17,7 +17,7 @@ The measurement files must be readable at the same path by every worker (a share
 filesystem, as for any Dask file input); the outputs are written by the calling process.
 
 Nothing finished is lost: each set's outcome is kept in ``<out>/.calib-pin-checkpoint``
-as soon as it is done (:mod:`calib_pin.checkpoint`), so after Ctrl-C, a killed worker or
+as soon as it is done (:mod:`calib_pin.studies.checkpoint`), so after Ctrl-C, a killed worker or
 a lost scheduler the same command runs only the sets not yet done. The outputs are
 written at the end, all together (:class:`calib_pin.export.outputs.Outputs`), and no file
 of an earlier run is left beside a set that now fails.
@@ -34,9 +34,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..exceptions import CalibPinError
+from ..export.outputs import Outputs
 from .checkpoint import Checkpoint, Interrupted, file_digest, fingerprint
-from .exceptions import CalibPinError
-from .export.outputs import Outputs
 from .parallel import ParallelFault, error_line, limited, parallel_completed, parallel_map
 
 __all__ = ["SUMMARY_COLUMNS", "BatchTask", "ParallelFault", "TaskOutcome", "parallel_completed", "parallel_map",
@@ -125,8 +125,8 @@ def run_task(task: BatchTask) -> TaskOutcome:
 
     Never raises for a bad set: the error becomes ``status=failed`` and one line.
     """
-    from .export.bundle import render_outputs
-    from .pipeline import calibrate
+    from ..export.bundle import render_outputs
+    from ..pipeline import calibrate
 
     start = time.perf_counter()
     row: dict[str, Any] = {"set": task.name, "method": task.method, "seed": task.seed}
@@ -155,7 +155,7 @@ def run_task(task: BatchTask) -> TaskOutcome:
 def _robot(task: BatchTask) -> str:
     if task.robot is not None:
         return task.robot
-    from .measurements import read_measurements
+    from ..measurements import read_measurements
 
     robot = read_measurements(task.files[0]).robot
     if robot is None:
@@ -177,7 +177,7 @@ def _add_outcome(files: Outputs, outcome: TaskOutcome) -> None:
     """Queue a set's files and report.json in ``files`` (an Outputs of the batch folder)."""
     if outcome.report is None:
         return
-    from .export.bundle import RenderedOutputs, add_outputs
+    from ..export.bundle import RenderedOutputs, add_outputs
 
     report = dict(outcome.report)
     rendered = RenderedOutputs(str(report.get("robot", "")), dict(outcome.files), dict(outcome.exports), report,
@@ -188,7 +188,7 @@ def _add_outcome(files: Outputs, outcome: TaskOutcome) -> None:
 def _earlier_files(out: Path, outcome: TaskOutcome) -> list[Path]:
     """The files an earlier batch run wrote for the set: its report.json, the files that
     report names, and what a calibration of its robot (or this run's) writes."""
-    from .export.bundle import stale_files
+    from ..export.bundle import stale_files
 
     folder = out / outcome.name
     robots = [str(outcome.report["robot"])] if outcome.report and outcome.report.get("robot") else []
@@ -212,7 +212,7 @@ def _earlier_files(out: Path, outcome: TaskOutcome) -> list[Path]:
 def _remove_stale(stale: Sequence[Path], written: Sequence[Path], inputs: Any = None) -> None:
     """Remove the earlier run's files this run did not write (never an input), and a set
     folder left empty."""
-    from .export.bundle import remove_stale
+    from ..export.bundle import remove_stale
 
     for path in remove_stale(stale, written, inputs):
         try:
@@ -235,7 +235,7 @@ def write_summary(outcomes: Sequence[TaskOutcome], path: Path) -> Path:
 def task_key(task: BatchTask) -> str:
     """The fingerprint of what a task's outcome depends on: the data file's bytes (every
     set's, in order), the robot (and its URDF's bytes), the method, the seed and the
-    options (see :func:`calib_pin.checkpoint.fingerprint`)."""
+    options (see :func:`calib_pin.studies.checkpoint.fingerprint`)."""
     if isinstance(task.data, str):  # one set: the key of earlier runs
         data = Path(task.data)
         return fingerprint("batch-set", task.robot, file_digest(task.robot), str(data.resolve()), file_digest(data),
@@ -285,7 +285,7 @@ def run_batch(
     Raises:
         CalibPinError: duplicate set names, jobs below 1, a malformed scheduler address.
         ParallelFault: a worker or the scheduler failed; the finished sets are kept.
-        calib_pin.checkpoint.Interrupted: Ctrl-C; the finished sets are kept.
+        calib_pin.studies.checkpoint.Interrupted: Ctrl-C; the finished sets are kept.
     """
     tasks = list(tasks)
     _check_names(tasks)

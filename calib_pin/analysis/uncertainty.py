@@ -18,11 +18,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .problem import CalibrationProblem
-from .simulation import random_poses
-from .stacked import StackedProblem
+from ..problem import CalibrationProblem
+from ..robot.poses import random_poses
+from ..stacked import StackedProblem
+from ..units import human_unit
 from .subspace import RCOND, Subspace
-from .units import human_unit
 
 #: z of the two-sided 95 % normal interval.
 Z95 = 1.959964

@@ -37,11 +37,12 @@ from typing import Any
 
 import numpy as np
 
-from .estimators import run_estimator
-from .parameters import parameter_model
-from .pipeline import CalibrationSetup, prepare
-from .robot import load_chain
-from .simulation import random_poses, simulate_positions
+from ..estimators import run_estimator
+from ..parameters import parameter_model
+from ..pipeline import CalibrationSetup, prepare
+from ..robot import load_chain
+from ..robot.poses import random_poses
+from ..simulation import simulate_positions
 
 #: Samples (poses, one marker each) of the comparison.
 SIZES = (100, 1000)

@@ -15,13 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..analysis.metrics import split_rows
+from ..estimators import run_estimator
+from ..parameters import parameter_model
+from ..pipeline import prepare
+from ..robot import load_chain
+from ..simulation import simulate
 from .comparison import fresh_scorer
-from .estimators import run_estimator
-from .metrics import split_rows
-from .parameters import parameter_model
-from .pipeline import prepare
-from .robot import load_chain
-from .simulation import simulate
 
 
 @dataclass(frozen=True)

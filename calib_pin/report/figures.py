@@ -1,6 +1,6 @@
 """Figures of the calibration report, drawn from the report dict alone.
 
-Every function takes the report dict (:func:`calib_pin.report.build_report`, what
+Every function takes the report dict (:func:`calib_pin.report.build.build_report`, what
 report.json holds) and returns a PNG as bytes. Drawn with
 matplotlib's object API on the Agg canvas (no pyplot, no screen). Units as the keys
 say: [mm] and [deg].
@@ -65,7 +65,7 @@ def deviations(r: dict, rows: list[dict]) -> bytes:
     """Each robot deviation with its 95 % interval, lengths and angles side by side.
 
     Args:
-        rows: :func:`calib_pin.html_report.deviation_rows` (robot parameters only).
+        rows: :func:`calib_pin.report.html.deviation_rows` (robot parameters only).
     """
     groups = [[row for row in rows if row["unit"] == unit] for unit in ("mm", "deg")]
     groups = [g for g in groups if g]

@@ -24,9 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import qr
 
-from .arguments import as_array, as_float, as_instance
-from .problem import CalibrationProblem
-from .stacked import StackedProblem
+from ..arguments import as_array, as_float, as_instance
+from ..problem import CalibrationProblem
+from ..stacked import StackedProblem
 from .subspace import RCOND, Subspace
 
 
@@ -123,7 +123,7 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
 
     Args:
         rcond: Singular values below ``rcond`` times the largest count as zero (the
-            same cut the estimators' search space uses, :data:`calib_pin.subspace.RCOND`).
+            same cut the estimators' search space uses, :data:`calib_pin.analysis.subspace.RCOND`).
 
     Raises:
         ArgumentError: not a problem, x not of shape (n_params,) or not finite, rcond

@@ -13,11 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..problem import CalibrationProblem
+from ..progress import progress
+from ..robot.poses import random_poses
+from ..sensors.base import MeasurementModel
 from .identifiability import analyze
-from .problem import CalibrationProblem
-from .progress import progress
-from .sensors.base import MeasurementModel
-from .simulation import random_poses
 from .subspace import Subspace
 
 #: Regularisation of the starting information matrix (relative to the largest row norm^2).

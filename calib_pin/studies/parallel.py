@@ -1,7 +1,7 @@
 """Run one function over many items: here, in local processes (joblib) or on a Dask cluster.
 
 :func:`parallel_completed` yields each result as soon as it is done (so a caller can keep
-it, see :mod:`calib_pin.checkpoint`); :func:`parallel_map` returns them in order. A fault
+it, see :mod:`calib_pin.studies.checkpoint`); :func:`parallel_map` returns them in order. A fault
 of the machinery, not of an item, is a :class:`ParallelFault` with one line that names
 it: a local worker process that died, a Dask scheduler that cannot be reached, is not a
 Dask scheduler or died, no Dask worker left, a worker that died running an item. Every
@@ -22,8 +22,8 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, TypeVar
 
-from .exceptions import CalibPinError
-from .optional import require
+from ..exceptions import CalibPinError
+from ..optional import require
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -97,7 +97,7 @@ def parallel_map(
             :data:`WORKER_WAIT_S`).
 
     An exception in ``fn`` propagates; catch it inside ``fn`` to keep the other items
-    going (as :func:`calib_pin.batch.run_task` does).
+    going (as :func:`calib_pin.studies.batch.run_task` does).
 
     Raises:
         CalibPinError: jobs below 1, a malformed scheduler address.

@@ -1,0 +1,3 @@
+"""What a calibration reports: the report dict (:mod:`.build`), the HTML page
+(:mod:`.html`), its figures (:mod:`.figures`) and the comparison's figures
+(:mod:`.comparison_figures`)."""
