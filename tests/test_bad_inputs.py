@@ -385,6 +385,9 @@ def _test_csv(*meta: str) -> str:
 
 
 R3_WRONG: list[Case] = [
+    # -0 is 0 ("test fraction -0" was printed)
+    (CMP, ["irb120", "--simulate", "gauss", "--poses", "4", "--methods", "lm", "--test-fraction", "-0"], {}, 2,
+     "4 rows at test fraction 0 hold out none"),
     # --- compensate: the calibration file is validated on load
     (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(), "p.csv": POSES}, 0, "targets compensated"),
     (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(**{"deviations_si.a_1": 0.5}), "p.csv": POSES},

@@ -139,7 +139,7 @@ def fraction(text: str) -> float:
         value = -1.0
     if not 0.0 <= value < 1.0:
         raise argparse.ArgumentTypeError(f"expected a number in [0, 1), got '{text[:40]}'")
-    return value
+    return value + 0.0  # -0 is 0 (it printed as "test fraction -0")
 
 
 def non_negative(kind: type, upper: float = 1e9) -> Callable[[str], Any]:
