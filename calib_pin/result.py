@@ -166,6 +166,9 @@ class CalibrationResult:
             if labels.shape != (len(q),):
                 raise CalibPinError(f"point_ids: {labels.size} labels for {len(q)} poses (give one label, or one per pose)")
         points = self.problem.model.point_index(labels, len(q))
+        if labels is not None and points is None:  # a sensor of one point has no labels: they would be ignored
+            raise CalibPinError(f"point_ids: this calibration's sensor ({self.problem.model.describe()}) measures one "
+                                "point, which has no label: leave point_ids out")
         return self.estimate.predict(self.problem.model, q, points)
 
     def sanity_error(self) -> str | None:

@@ -69,3 +69,12 @@ def test_predict_checks_q(one_marker, q, message):
     result, _ = one_marker
     with pytest.raises(cp.CalibPinError, match=message):
         result.predict(q)
+
+
+def test_point_ids_of_a_sensor_of_one_point_are_refused_not_ignored():
+    """A drawstring calibration has no markers: labels given to predict would be ignored silently."""
+    result = cp.calibrate("irb120", method="lm")
+    q = result.data.q[:3]
+    assert result.predict(q).shape == (3,)
+    with pytest.raises(cp.CalibPinError, match="point_ids: .*leave point_ids out"):
+        result.predict(q, point_ids=["T1", "T1", "T1"])
