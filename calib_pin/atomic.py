@@ -1,5 +1,8 @@
 """A library writer's file is whole or absent: written beside its name, synced, renamed.
 
+The low-level pieces every writer shares are here too: :func:`write_all` (every byte of
+a buffer, a short write continued, no progress a full disk) and :func:`fsync_path`.
+
 :func:`write_bytes` and :func:`write_text` are what the public writers
 (:func:`calib_pin.measurements.write_measurements`, ``write_poses``, the calibration
 file, the corrected URDF, ...) write through, so a library caller on a full disk keeps
@@ -38,12 +41,7 @@ def write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         try:
-            view = memoryview(data)
-            while view:
-                n = os.write(fd, view)
-                if n <= 0:  # no progress: a full disk
-                    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
-                view = view[n:]
+            write_all(fd, data, name=str(path))
             os.fsync(fd)
         finally:
             os.close(fd)
@@ -60,4 +58,39 @@ def write_text(path: str | os.PathLike[str], text: str, encoding: str = "utf-8")
     return write_bytes(path, text.encode(encoding))
 
 
-__all__ = ["write_bytes", "write_text"]
+def write_all(fd: int, data: bytes, written: list[int] | None = None, name: str | None = None) -> None:
+    """Write every byte of ``data`` to the descriptor ``fd``: a short write is continued,
+    a write that makes no progress is a full disk; ``written[0]`` counts the bytes written.
+
+    Raises:
+        OSError: not every byte was written (``name`` in the error, if given).
+    """
+    view = memoryview(data)
+    while view:
+        n = os.write(fd, view)
+        if n <= 0:  # no progress: a full disk
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), name)
+        if written is not None:
+            written[0] += n
+        view = view[n:]
+
+
+def fsync_path(path: str | os.PathLike[str], strict: bool = True) -> None:
+    """Flush a file, or a folder's entries (its renames), to the disk; with ``strict``
+    False a filesystem that cannot is left as it is.
+
+    Raises:
+        OSError: with ``strict``, it could not be flushed.
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except OSError:
+        if strict:
+            raise
+
+
+__all__ = ["fsync_path", "write_all", "write_bytes", "write_text"]

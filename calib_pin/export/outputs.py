@@ -26,6 +26,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from ..atomic import fsync_path
 from ..exceptions import CalibPinError
 
 #: What a caller names inputs as: ``{label: path}`` (label = the option, e.g. ``--targets``).
@@ -151,7 +152,7 @@ class Outputs:
                 staged.append((tmp, path))
                 try:
                     write(tmp)
-                    _fsync(tmp)
+                    fsync_path(tmp)  # a rename must not publish a file still in cache
                 except OSError as e:
                     raise OutputError(f"{path}: cannot write: {e.strerror or e}; no output was changed") from None
             self._place(staged)
@@ -160,7 +161,7 @@ class Outputs:
                 _remove(tmp)
         WRITTEN.extend(path for _, path in staged)
         for folder in dict.fromkeys(path.parent for _, path in staged):
-            _fsync_folder(folder)
+            fsync_path(folder, strict=False)  # the renames
         return [path for _, path in staged]
 
     def _place(self, staged: list[tuple[Path, Path]]) -> None:
@@ -258,25 +259,6 @@ def _link_new(tmp: Path, path: Path) -> None:
         if os.path.lexists(path):
             raise OutputError(f"{path} exists: give --force to replace it") from None
         os.replace(tmp, path)
-
-
-def _fsync(path: Path) -> None:
-    """Flush a written file to the disk (a rename must not publish a file still in cache)."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _fsync_folder(folder: Path) -> None:
-    """Flush a folder's entries (the renames); a filesystem that cannot is left as is."""
-    with contextlib.suppress(OSError):
-        fd = os.open(folder, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
 
 
 def _remove(path: Path) -> None:

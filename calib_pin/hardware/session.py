@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from ..atomic import fsync_path, write_all
 from ..exceptions import CalibPinError, DataError
 from ..input_files import check_regular
 from ..measurements import MeasurementSet, read_measurements
@@ -133,14 +134,6 @@ def _header(chain: Chain, profile: SensorProfile, poses_path: str, anchor_mm, to
     return "\n".join(lines + [header(chain.n_joints, "cable", with_pose=True)]) + "\n"
 
 
-def _fsync_dir(path: Path) -> None:
-    fd = os.open(path.parent, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
 def _write_all(fd: int, data: bytes, written: list[int] | None = None) -> None:
     """Write every byte of ``data`` (a short write is continued; a write that makes no
     progress is a full disk), then ``fsync``; ``written[0]`` counts the bytes written.
@@ -148,14 +141,7 @@ def _write_all(fd: int, data: bytes, written: list[int] | None = None) -> None:
     Raises:
         OSError: the bytes did not all reach the disk.
     """
-    written = [0] if written is None else written
-    view = memoryview(data)
-    while view:
-        n = os.write(fd, view)
-        if n <= 0:
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-        written[0] += n
-        view = view[n:]
+    write_all(fd, data, written)
     os.fsync(fd)
 
 
@@ -201,7 +187,7 @@ def _create(path: Path, text: str) -> int:
             if e.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP):
                 raise
             os.replace(tmp, path)  # a filesystem without hard links
-        _fsync_dir(path)
+        fsync_path(path.parent)
     except BaseException:
         os.close(fd)
         raise

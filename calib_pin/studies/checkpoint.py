@@ -27,6 +27,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
+from ..atomic import write_text
 from ..exceptions import CalibPinError
 from .parallel import ParallelFault, parallel_completed
 
@@ -97,17 +98,7 @@ class Checkpoint:
         """
         self.folder.mkdir(parents=True, exist_ok=True)
         text = json.dumps({"format": FORMAT, "key": key, "result": result}, allow_nan=True)
-        path = self._path(key)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        try:
-            with tmp.open("w", encoding="utf-8") as f:
-                f.write(text)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
+        write_text(self._path(key), text)
 
     def clear(self) -> None:
         """Remove the checkpoint (after a complete run)."""
