@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from .analysis.identifiability import support_error
-from .analysis.metrics import Metrics, split_rows
+from .analysis.metrics import Metrics, check_fraction, split_rows
 from .analysis.subspace import Subspace
 from .arguments import MAX_MM, as_choice, as_float, as_instance
 from .estimators import get_method, run_estimator
@@ -42,7 +42,7 @@ from .parameters import ParameterModel
 from .problem import CalibrationProblem
 from .result import CalibrationResult
 from .robot import Chain
-from .sensors import SensorSetup, sensor_for
+from .sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for
 from .sensors.setup import given as given_value
 from .stacked import StackedProblem
 
@@ -163,8 +163,6 @@ class StackedSetup:
     @property
     def noise(self) -> float:
         """The first set's sigma (the Kalman filters' noise; the default until estimated) [m]."""
-        from .pipeline import DEFAULT_NOISE_MM
-
         return self.sigmas[0] or DEFAULT_NOISE_MM * 1e-3
 
     @cached_property
@@ -193,8 +191,6 @@ class StackedSetup:
     def split(self, test_fraction: float, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
         """Each set's (train, test) rows: by pose with the same seed and fraction, or all
         of one side by its role."""
-        from .pipeline import check_fraction
-
         check_fraction(test_fraction)
         out = []
         for data, role in zip(self.sets, self.roles, strict=True):

@@ -18,7 +18,7 @@ from typing import Any, cast, overload
 import numpy as np
 
 from .analysis.identifiability import support_error
-from .analysis.metrics import Metrics, split_rows
+from .analysis.metrics import Metrics, check_fraction, split_rows
 from .arguments import (
     MAX_MM,
     as_choice,
@@ -48,19 +48,7 @@ from .problem import CalibrationProblem
 from .result import CalibrationResult
 from .robot import Chain, RobotDescription, load_chain, resolve_robot
 from .robot.deflection import Compliance, as_compliance
-from .sensors import SensorSetup, check_estimate, sensor_for, setup_record
-
-#: Sensor noise assumed when neither the data (``# noise_mm``) nor the caller give it.
-DEFAULT_NOISE_MM = 0.05
-
-
-def check_fraction(test_fraction: float) -> float:
-    """The share of rows held out, in [0, 1).
-
-    Raises:
-        ArgumentError: not a number in [0, 1).
-    """
-    return as_float(test_fraction, "test_fraction", 0.0, 1.0, high_open=True)
+from .sensors import DEFAULT_NOISE_MM, SensorSetup, check_estimate, sensor_for, setup_record
 
 
 @dataclass

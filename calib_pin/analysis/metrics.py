@@ -6,6 +6,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..arguments import as_float
+
 
 @dataclass(frozen=True)
 class Metrics:
@@ -44,3 +46,12 @@ def split_rows(n: int, test_fraction: float, seed: int) -> tuple[np.ndarray, np.
     order = np.random.default_rng(seed).permutation(n)
     n_test = int(round(test_fraction * n))
     return np.sort(order[n_test:]), np.sort(order[:n_test])
+
+
+def check_fraction(test_fraction: float) -> float:
+    """The share of rows held out, in [0, 1).
+
+    Raises:
+        ArgumentError: not a number in [0, 1).
+    """
+    return as_float(test_fraction, "test_fraction", 0.0, 1.0, high_open=True)

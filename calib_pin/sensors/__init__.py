@@ -20,7 +20,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from ..exceptions import ArgumentError
-from .base import MeasurementModel
+from .base import DEFAULT_NOISE_MM, MeasurementModel
 from .cable import CABLE_EXTRAS, CableModel, CableSetup, Drawstring
 from .position import PositionDevice, PositionModel, PositionSetup, fit_device
 from .setup import SensorSetup, add_setup_arguments, given
@@ -117,6 +117,7 @@ def setup_from_args(args: argparse.Namespace) -> dict[str, Any]:
     return {name: getattr(args, name) for name in setup_fields() if hasattr(args, name)}
 
 
-__all__ = ["CABLE_EXTRAS", "SENSORS", "CableModel", "CableSetup", "Drawstring", "MeasurementModel", "PositionDevice",
+__all__ = ["CABLE_EXTRAS", "DEFAULT_NOISE_MM", "SENSORS", "CableModel", "CableSetup", "Drawstring", "MeasurementModel",
+           "PositionDevice",
            "PositionModel", "PositionSetup", "SensorSetup", "add_sensor_arguments", "check_estimate", "default_kind",
            "fit_device", "register", "sensor_for", "setup_fields", "setup_from_args", "setup_record", "setup_types"]

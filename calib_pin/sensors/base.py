@@ -23,6 +23,9 @@ from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec, Deflection
 from ..robot.kinematics import Kinematics
 
+#: Sensor noise (1 sigma) assumed when neither the data (``# noise_mm``) nor the caller give it, [mm].
+DEFAULT_NOISE_MM = 0.05
+
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
