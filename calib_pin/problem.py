@@ -63,8 +63,28 @@ class LeastSquares(Protocol):
     def rows_of(self, values: np.ndarray) -> np.ndarray: ...
 
 
+class RowProblem:
+    """What every least-squares problem derives from its residual and row size: the
+    cost and the rows of residual entries (shared by :class:`CalibrationProblem`,
+    :class:`calib_pin.stacked.StackedProblem` and the active set's reduced problem)."""
+
+    values_per_row: Any
+
+    def residual(self, x: Any) -> np.ndarray:
+        raise NotImplementedError
+
+    def cost(self, x: np.ndarray) -> float:
+        """Mean squared residual (paper eq. 6), [m^2]."""
+        r = self.residual(x)
+        return float(r @ r) / len(r)
+
+    def rows_of(self, values: np.ndarray) -> np.ndarray:
+        """Rows that hold the given residual entries (indices into the residual)."""
+        return np.unique(np.asarray(values, dtype=int) // self.values_per_row)
+
+
 @dataclass
-class CalibrationProblem:
+class CalibrationProblem(RowProblem):
     """Measured data and the model that predicts it.
 
     Attributes:
@@ -143,11 +163,3 @@ class CalibrationProblem:
         per row, the Euclidean error for a position."""
         return np.linalg.norm(np.asarray(residual).reshape(self.n_rows, -1), axis=1)
 
-    def rows_of(self, values: np.ndarray) -> np.ndarray:
-        """Rows that hold the given residual entries (indices into the residual)."""
-        return np.unique(np.asarray(values, dtype=int) // self.values_per_row)
-
-    def cost(self, x: np.ndarray) -> float:
-        """Mean squared residual (paper eq. 6), [m^2]."""
-        r = self.residual(x)
-        return float(r @ r) / len(r)

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from .exceptions import CalibPinError
-from .problem import CalibrationProblem
+from .problem import CalibrationProblem, RowProblem
 
 
 @dataclass(frozen=True)
@@ -176,7 +176,7 @@ class StackedModel:
 
 
 @dataclass(frozen=True)
-class StackedProblem:
+class StackedProblem(RowProblem):
     """Several sets' calibration problems with one robot (module docstring).
 
     Attributes:
@@ -282,11 +282,6 @@ class StackedProblem:
         full[:, self._columns(k)] = w * j
         return w * r, full
 
-    def cost(self, x: np.ndarray) -> float:
-        """Mean squared weighted residual, [m^2 of sigma_0]."""
-        r = self.residual(x)
-        return float(r @ r) / len(r)
-
     def subset(self, rows: np.ndarray | slice) -> StackedProblem:
         """The stack restricted to some stacked rows (indices in the stacked order, kept
         in that order within each set); sets left without rows are left out."""
@@ -300,10 +295,6 @@ class StackedProblem:
                 weights.append(self.weights[k])
                 sets.append(self.sets[k])
         return StackedProblem(self.model, tuple(parts), np.asarray(weights), tuple(sets))
-
-    def rows_of(self, values: np.ndarray) -> np.ndarray:
-        """Rows that hold the given residual entries (indices into the residual)."""
-        return np.unique(np.asarray(values, dtype=int) // self.values_per_row)
 
     def row_errors(self, residual: np.ndarray) -> np.ndarray:
         """Size of each row's error in its own set's units (the weight divided out),

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..problem import LeastSquares
+from ..problem import LeastSquares, RowProblem
 from .base import EstimateResult
 
 #: A bounded unknown below -TOLERANCE x its scale counts as negative (1e-3 of a typical
@@ -33,7 +33,7 @@ TOLERANCE = 1e-3
 
 
 @dataclass(frozen=True)
-class Fixed:
+class Fixed(RowProblem):
     """A least-squares problem with some unknowns held at given values: the estimator sees
     the free ones only (their columns, scale and count).
 
@@ -83,14 +83,8 @@ class Fixed:
         r, jac = self.problem.row_residual_with_jacobian(self.expand(z), row)
         return r, jac[:, self.free]
 
-    def cost(self, z: np.ndarray) -> float:
-        return self.problem.cost(self.expand(z))
-
     def subset(self, rows: np.ndarray | slice) -> Fixed:
         return Fixed(self.problem.subset(rows), self.free, self.values)
-
-    def rows_of(self, values: np.ndarray) -> np.ndarray:
-        return self.problem.rows_of(values)
 
     def __getattr__(self, name: str) -> Any:
         """The full problem's data (``q``, ``points``, ``model``) for methods that read it."""
