@@ -19,7 +19,12 @@ class LeastSquares(Protocol):
 
     Attributes:
         scale: Typical size of each unknown, shape (n_params,), SI units.
-        values_per_row: Residual entries one row (a Kalman update's block) holds.
+        values_per_row: Residual entries one row (a Kalman update's block) holds, when
+            every row holds the same number.
+        row_offsets: Where each row's entries start in the residual, shape (n_rows + 1,):
+            row k holds entries ``row_offsets[k]:row_offsets[k + 1]``. Rows of several
+            sensors (a cable reading, a 3-D position) differ in size; estimators use
+            this, never ``values_per_row``, to find a row's entries.
         n_rows, n_values, n_params: Sizes.
 
     A problem may also name unknowns that must be >= 0 in ``nonnegative`` (indices; a
@@ -32,6 +37,9 @@ class LeastSquares(Protocol):
 
     @property
     def values_per_row(self) -> int: ...
+
+    @property
+    def row_offsets(self) -> np.ndarray: ...
 
     @property
     def n_rows(self) -> int: ...
@@ -63,15 +71,31 @@ class LeastSquares(Protocol):
     def rows_of(self, values: np.ndarray) -> np.ndarray: ...
 
 
+def row_offsets(problem: Any) -> np.ndarray:
+    """Where each row's residual entries start in ``problem``'s residual, shape
+    (n_rows + 1,): its ``row_offsets``, or, for a problem that states only
+    ``values_per_row`` (rows of one size), multiples of it."""
+    offsets = getattr(problem, "row_offsets", None)
+    if offsets is None:
+        return np.arange(problem.n_rows + 1) * int(problem.values_per_row)
+    return np.asarray(offsets, dtype=int)
+
+
 class RowProblem:
     """What every least-squares problem derives from its residual and row size: the
     cost and the rows of residual entries (shared by :class:`CalibrationProblem`,
     :class:`calib_pin.stacked.StackedProblem` and the active set's reduced problem)."""
 
     values_per_row: Any
+    n_rows: Any
 
     def residual(self, x: Any) -> np.ndarray:
         raise NotImplementedError
+
+    @property
+    def row_offsets(self) -> np.ndarray:
+        """Where each row's residual entries start, shape (n_rows + 1,) (rows of equal size)."""
+        return np.arange(self.n_rows + 1) * self.values_per_row
 
     def cost(self, x: np.ndarray) -> float:
         """Mean squared residual (paper eq. 6), [m^2]."""
@@ -80,7 +104,7 @@ class RowProblem:
 
     def rows_of(self, values: np.ndarray) -> np.ndarray:
         """Rows that hold the given residual entries (indices into the residual)."""
-        return np.unique(np.asarray(values, dtype=int) // self.values_per_row)
+        return np.unique(np.searchsorted(self.row_offsets, np.asarray(values, dtype=int), side="right") - 1)
 
 
 @dataclass

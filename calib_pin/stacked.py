@@ -233,6 +233,14 @@ class StackedProblem(RowProblem):
     def n_rows(self) -> int:
         return int(self._offsets[-1])
 
+    @property
+    def row_offsets(self) -> np.ndarray:
+        """Where each stacked row's entries start, shape (n_rows + 1,): each set's own
+        offsets in turn (its rows may hold another number of values than the others')."""
+        starts = np.cumsum([0] + [p.n_values for p in self.parts])
+        inner = [p.row_offsets[:-1] + s for p, s in zip(self.parts, starts[:-1], strict=True)]
+        return np.concatenate([*inner, [starts[-1]]]).astype(int)
+
     n_poses = n_rows
 
     @property

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..problem import LeastSquares, RowProblem
+from ..problem import LeastSquares, RowProblem, row_offsets
 from .base import EstimateResult
 
 #: A bounded unknown below -TOLERANCE x its scale counts as negative (1e-3 of a typical
@@ -60,6 +60,10 @@ class Fixed(RowProblem):
     @property
     def values_per_row(self) -> int:
         return self.problem.values_per_row
+
+    @property
+    def row_offsets(self) -> np.ndarray:
+        return row_offsets(self.problem)
 
     @property
     def n_rows(self) -> int:

@@ -8,7 +8,7 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter  # imported with this module: only when the method is asked for
 
 from ..analysis.subspace import Subspace
-from ..problem import LeastSquares
+from ..problem import LeastSquares, row_offsets
 from .base import Callback, EstimateResult, Tracker
 
 
@@ -19,13 +19,14 @@ def filter_moments(
 
     In x: P0 = diag((prior * scale)^2) with the model's typical deviation sizes and
     Q = diag((process * scale)^2) per row; both are carried to z = pinv(basis) (x - x0).
-    R = noise^2 I for each of a row's values ([m^2]).
+    R = noise^2 for each of a row's values ([m^2]): the scalar; a row of k values
+    uses noise^2 I_k (rows of several sensors differ in size, see ``row_offsets``).
     """
     to_z = np.linalg.pinv(space.basis)
     scale = problem.scale
     p0 = to_z @ np.diag((prior * scale) ** 2) @ to_z.T
     q = to_z @ np.diag((process * scale) ** 2) @ to_z.T
-    return p0, q, noise**2 * np.eye(problem.values_per_row)
+    return p0, q, np.asarray(noise**2)
 
 
 @dataclass(frozen=True)
@@ -58,11 +59,14 @@ class EKF:
         track = Tracker(problem, callback)
         space = track.whitened(x0)
 
-        kf = ExtendedKalmanFilter(dim_x=space.dim, dim_z=problem.values_per_row)
+        sizes = np.diff(row_offsets(problem))
+        kf = ExtendedKalmanFilter(dim_x=space.dim, dim_z=int(sizes[0]))
         kf.x = np.zeros((space.dim, 1))
-        kf.P, kf.Q, kf.R = filter_moments(problem, space, self.prior, self.process, noise)
+        kf.P, kf.Q, r2 = filter_moments(problem, space, self.prior, self.process, noise)
+        noise_of = {int(m): r2 * np.eye(int(m)) for m in np.unique(sizes)}  # R of a row of m values
+        kf.R = noise_of[int(sizes[0])]
         track.record_at(x0)
-        zero = np.zeros((problem.values_per_row, 1))
+        zero_of = {m: np.zeros((m, 1)) for m in noise_of}
         for _ in range(self.passes):
             for k in range(problem.n_rows):
                 # The residual (predicted - measured) is the prediction of a zero measurement.
@@ -70,8 +74,9 @@ class EKF:
                 track.nfev += 1.0 / problem.n_rows
                 if self.process:  # F = I: with Q = 0 the prediction leaves x and P as they are
                     kf.predict()
-                kf.update(zero, HJacobian=lambda z, h=jac @ space.basis: h,
-                          Hx=lambda z, r=residual: r.reshape(-1, 1))
+                m = int(sizes[k])
+                kf.update(zero_of[m], HJacobian=lambda z, h=jac @ space.basis: h,
+                          Hx=lambda z, r=residual: r.reshape(-1, 1), R=noise_of[m])
                 if track.recording:
                     track.record_at(space.to_x(kf.x[:, 0]))
         return track.result(

@@ -10,7 +10,7 @@ from filterpy.kalman import (  # imported with this module: only when the method
     UnscentedKalmanFilter,
 )
 
-from ..problem import LeastSquares
+from ..problem import LeastSquares, row_offsets
 from .base import Callback, EstimateResult, Tracker
 from .ekf import filter_moments
 
@@ -58,18 +58,22 @@ class UKF:
 
         points = MerweScaledSigmaPoints(n, alpha=self.alpha, beta=self.beta, kappa=self.kappa,
                                         sqrt_method=_symmetric_sqrt)
+        sizes = np.diff(row_offsets(problem))
         kf = UnscentedKalmanFilter(
-            dim_x=n, dim_z=problem.values_per_row, dt=1.0, points=points,
+            dim_x=n, dim_z=int(sizes[0]), dt=1.0, points=points,
             fx=lambda z, dt: z, hx=lambda z, row: row.residual(space.to_x(z)),
         )
         kf.x = np.zeros(n)
-        kf.P, kf.Q, kf.R = filter_moments(problem, space, self.prior, self.process, noise)
+        kf.P, kf.Q, r2 = filter_moments(problem, space, self.prior, self.process, noise)
+        noise_of = {int(m): r2 * np.eye(int(m)) for m in np.unique(sizes)}  # R of a row of m values
+        kf.R = noise_of[int(sizes[0])]
         track.record_at(x0)
-        zero = np.zeros(problem.values_per_row)  # the residual is the prediction of a zero measurement
+        zero_of = {m: np.zeros(m) for m in noise_of}  # the residual is the prediction of a zero measurement
         for _ in range(self.passes):
             for k in range(problem.n_rows):
                 kf.predict()
-                kf.update(zero, row=problem.subset(slice(k, k + 1)))
+                m = int(sizes[k])
+                kf.update(zero_of[m], R=noise_of[m], row=problem.subset(slice(k, k + 1)))
                 kf.P = 0.5 * (kf.P + kf.P.T)
                 track.nfev += (2 * n + 1) / problem.n_rows
                 if track.recording:
