@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
     from ..problem import CalibrationProblem
+    from ..simulation import SimulationDraw
     from .setup import SensorSetup
 
 
@@ -207,6 +208,47 @@ class MeasurementModel(ABC):
     @abstractmethod
     def describe(self) -> str:
         """One phrase for people: the sensor and what of it is known or estimated."""
+
+    # --- simulation (the one seam calib_pin.simulation asks a sensor for) ----------------
+
+    @classmethod
+    def simulate_rows(cls, draw: SimulationDraw, geometry: Any | None) -> tuple[MeasurementSet, Any]:
+        """A simulated set of this sensor read on the true robot: its rows, their values
+        with noise and the set-up metadata its file will carry.
+
+        ``draw`` (:class:`calib_pin.simulation.SimulationDraw`) holds what every simulation
+        shares; call it in this order, as the sensor needs:
+
+        1. ``draw.poses(keep, why)``: the joint angles (n, n_joints) [rad], random within
+           the limits (``keep(q)`` a mask of usable ones) or the caller's;
+        2. ``draw.deviations(gap)``: the true robot's deviations, drawn and scaled so that
+           the nominal model's row errors ``gap(x)`` (n_rows,) [m] have the asked RMSE (or
+           the one robot of several sessions);
+        3. ``draw.noise(shape)``: the values' noise [m] (``draw.noise_kind``; rows of one value).
+
+        Predict the true values with ``cls(..., compliance=draw.compliance)`` at
+        ``draw.x_model`` (deviations, then the true compliances). ``draw.chain``,
+        ``draw.params``, ``draw.seed``, ``draw.noise_mm`` and ``draw.noise_kind`` describe the run.
+
+        Args:
+            geometry: The true set-up (a :attr:`geometry_type`); None: the sensor's default.
+
+        Returns:
+            The set (``kind`` this sensor's) and the true geometry used (for the truth file).
+
+        Raises:
+            CalibPinError: a sensor that cannot be simulated (the default).
+        """
+        from ..exceptions import CalibPinError
+
+        raise CalibPinError(f"{cls.data_name} cannot be simulated (the sensor implements no simulate_rows)")
+
+    @classmethod
+    def session_geometry(cls, first: Any, rng: np.random.Generator) -> Any:
+        """The true set-up of a later simulated session of this sensor (the sensor
+        re-anchored, the device moved), drawn with ``rng`` (session 1's set-up ``first``);
+        default: ``first`` itself (one set-up for every session)."""
+        return first
 
     @property
     def reference_point(self) -> np.ndarray:

@@ -29,6 +29,14 @@ if TYPE_CHECKING:
 #: Sensor quantities a cable model can estimate with the robot's parameters.
 CABLE_EXTRAS = ("anchor", "offset")
 
+#: Default sensor geometry of simulated sessions: the sensor body on the floor in
+#: front of the robot, the cable hooked on the tool axis 50 mm out of the flange.
+DEFAULT_ANCHOR_MM = (600.0, 200.0, -100.0)
+DEFAULT_TOOL_MM = (0.0, 0.0, 50.0)
+#: Spread of the anchors drawn for simulated sessions 2.. around the default anchor, base
+#: frame, per axis, [mm] (a drawstring re-anchored elsewhere on the floor or a fixture).
+SESSION_ANCHOR_SPREAD_MM = (400.0, 400.0, 150.0)
+
 
 @dataclass(frozen=True)
 class Drawstring:
@@ -149,8 +157,6 @@ class CableModel(MeasurementModel):
     def planning_model(cls, chain: Chain, params: ParameterModel, setup: Any) -> CableModel:
         """The drawstring at ``setup``'s points (a :class:`CableSetup`; the simulator's
         defaults for those not given), estimating ``setup.estimate``."""
-        from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
-
         setup = setup if setup is not None else CableSetup()
         anchor = setup.anchor_mm if setup.anchor_mm is not None else DEFAULT_ANCHOR_MM
         tool = setup.tool_mm if setup.tool_mm is not None else DEFAULT_TOOL_MM
@@ -182,6 +188,37 @@ class CableModel(MeasurementModel):
         model = cls(chain, params, Drawstring(anchor, tool, offset), tuple(get("estimate") or ()),
                     get("compliance"))
         return CalibrationProblem(model, data.q, data.values)
+
+    @classmethod
+    def simulate_rows(cls, draw: Any, geometry: Drawstring | None) -> tuple[MeasurementSet, Drawstring]:
+        """A drawstring session (:meth:`MeasurementModel.simulate_rows`): poses with the tool
+        point above the mounting plane (z > 0), each reading's noise of ``draw.noise_kind``;
+        ``geometry`` None: the default anchor and tool point, no offset."""
+        from ..measurements import MeasurementSet
+
+        sensor = geometry if geometry is not None else Drawstring(
+            np.asarray(DEFAULT_ANCHOR_MM) * 1e-3, np.asarray(DEFAULT_TOOL_MM) * 1e-3, 0.0)
+        chain, params = draw.chain, draw.params
+        cable = cls(chain, params, sensor)
+        poses = draw.poses(lambda q: cable.tool_positions(None, q)[:, 2] > 0.0,
+                           "put the tool point above the base's mounting plane (z > 0); check the tool point")
+        nominal = cable.predict(np.zeros(len(params.names)), poses)
+        draw.deviations(lambda x: np.abs(cable.predict(x, poses) - nominal))
+        noise = draw.noise(len(poses))
+        readings = cls(chain, params, sensor, compliance=draw.compliance).predict(draw.x_model, poses) + noise
+        data = MeasurementSet(q=poses, values=readings, kind=cls.kind, anchor=sensor.anchor, tool=sensor.tool,
+                              length_offset=sensor.length_offset, robot=chain.name, end_frame=chain.end_frame,
+                              notes={"source": f"calib-pin simulator, seed {draw.seed}, noise {draw.noise_mm:g} mm "
+                                               f"({draw.noise_kind})"})
+        return data, sensor
+
+    @classmethod
+    def session_geometry(cls, first: Drawstring, rng: np.random.Generator) -> Drawstring:
+        """A later session's drawstring: re-anchored uniformly within
+        :data:`SESSION_ANCHOR_SPREAD_MM` of the default anchor, the same tool point and offset."""
+        spread = np.asarray(SESSION_ANCHOR_SPREAD_MM)
+        anchor = np.asarray(DEFAULT_ANCHOR_MM) + rng.uniform(-spread, spread)
+        return Drawstring(anchor * 1e-3, first.tool, first.length_offset)
 
     @classmethod
     def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
