@@ -352,6 +352,7 @@ def simulate_set(
     draw = SimulationDraw(chain, params, seed, n_poses, noise_mm, noise_kind, nominal_rmse_mm, spec, soft, poses, true_x)
     data, true_geometry = sensor.simulate_rows(draw, geometry)
     assert draw.x is not None, f"{sensor.__name__}.simulate_rows must draw the deviations"
+    data.notes.setdefault("source", f"calib-pin simulator ({sensor.data_name}), seed {seed}, noise {noise_mm:g} mm")
     truth = Truth(draw.x, tuple(params.names), tuple(params.units), true_geometry, sensor.kind, noise_mm * 1e-3, seed,
                   noise_kind, tuple(int(i) for i in np.flatnonzero(draw.outliers)), spec, soft if spec else None)
     return data, truth

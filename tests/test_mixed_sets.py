@@ -14,6 +14,7 @@ from calib_pin.cli.calibrate import calibrate_main
 from calib_pin.multiset import FitSet
 from calib_pin.problem import row_offsets
 from calib_pin.robot.poses import random_poses
+from calib_pin.simulation import simulate_set
 from calib_pin.stacked import StackedProblem
 
 #: The two sets' noise (1 sigma) [mm]: a drawstring's and a tracker's (per axis).
@@ -101,3 +102,45 @@ def test_cli_cable_and_tracker_files(mixed, tmp_path, capsys):
     calibration = json.loads((out / "irb120_calibration.json").read_text())
     assert calibration["sensor"]["kind"] == "cable+position"
     assert set(calibration["sensor"]["set_geometry"]) == {"cable", "tracker"}
+
+
+@pytest.fixture
+def laser():
+    """The invented third sensor (tests/fake_sensor.py) registered for one test."""
+    import fake_sensor
+
+    fake_sensor.register()
+    yield fake_sensor
+    fake_sensor.unregister()
+
+
+def test_an_invented_sensor_simulates_through_its_one_method_and_mixes_with_the_others(chain, params, laser):
+    """The laser's simulate_rows is all it took: simulate_set and simulate_sessions write its
+    sessions with the others' (rows of 1, 3 and 1 values), and the three calibrate together."""
+    data, truth = simulate_set(laser.DistanceModel, chain, params, 20, seed=3, noise_mm=0.0)
+    assert data.kind == "distance" and np.allclose(
+        truth.model(chain, params).predict(truth.x_model, data.q), data.values, atol=1e-12)
+    sets, truth = cp.simulate_sessions(chain, params, [40, 10, 40], seed=2, kinds=["cable", "position", "distance"],
+                                       noise_mm=[0.05, 0.02, 0.03])
+    assert [s.kind for s in sets] == ["cable", "position", "distance"]
+    assert [truth.session(k).kind for k in range(3)] == ["cable", "position", "distance"]
+    result = cp.calibrate("irb120", sets, method="lm")
+    assert [s.sigma_origin for s in result.sets] == ["estimate", "file", "estimate"]
+    assert [round(s.sigma * 1e3, 2) for s in result.sets][1] == 0.02
+    for k in (0, 2):  # estimated from the residual
+        assert abs(result.sets[k].sigma / truth.session(k).noise - 1) < 0.3, (k, result.sets[k].sigma)
+    for k, s in enumerate(result.sets):
+        per_axis = 1 if k != 1 else np.sqrt(3)
+        assert _fresh_rmse_mm(chain, params, truth, s.model, s.x, k) < 2.0 * truth.session(k).noise * 1e3 * per_axis
+
+
+def test_a_truth_of_mixed_sessions_round_trips(chain, params, tmp_path):
+    sets, truth = cp.simulate_sessions(chain, params, [12, 6], seed=4, kinds=["cable", "position"],
+                                       noise_mm=[0.05, 0.02])
+    truth.to_json(tmp_path / "t.json")
+    doc = json.loads((tmp_path / "t.json").read_text())
+    assert [(g["data_kind"], g["noise_mm"]) for g in doc["sessions"]] == [("cable", 0.05), ("position", 0.02)]
+    back = cp.Truth.from_json(tmp_path / "t.json", params)
+    assert np.allclose(back.x, truth.x, rtol=1e-12, atol=0) and back.session(1).kind == "position"
+    assert np.allclose(back.session(1).sensor.frame.translation, truth.session(1).sensor.frame.translation)
+    assert np.allclose(back.session(0).sensor.anchor, sets[0].anchor) and back.session(0).noise == 5e-5
