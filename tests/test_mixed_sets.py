@@ -69,6 +69,7 @@ def test_mixed_stack_rows_of_two_sizes_and_its_jacobian_matches_finite_differenc
     assert np.allclose(errors[:8], cable.row_errors(cable.residual(stacked.model.part_x(x, 0))))
     assert np.allclose(errors[8:], tracker.row_errors(tracker.residual(stacked.model.part_x(x, 1))))
     assert distinct_values(stacked) == 26 and support_error(stacked) is None
+    assert distinct_values(prepared.problem.subset([0, 0, 60, 60])) == 1 + 3  # a repeated row counts once, at its size
     assert "reading error (c)" in stacked.model.error_name and "(t)" in stacked.model.error_name
 
 

@@ -226,9 +226,12 @@ class MeasurementModel(ABC):
            the one robot of several sessions);
         3. ``draw.noise(shape)``: the values' noise [m] (``draw.noise_kind``; rows of one value).
 
-        Predict the true values with ``cls(..., compliance=draw.compliance)`` at
-        ``draw.x_model`` (deviations, then the true compliances). ``draw.chain``,
-        ``draw.params``, ``draw.seed``, ``draw.noise_mm`` and ``draw.noise_kind`` describe the run.
+        Predict the true values with ``cls(chain, params, geometry, estimate=(),
+        compliance=draw.compliance)`` at ``draw.x_model`` (deviations, then the true
+        compliances): the truth file's model is built so (:meth:`calib_pin.simulation.Truth.model`),
+        so the sensor's model takes ``estimate=()`` for "nothing of the sensor unknown".
+        ``draw.chain``, ``draw.params``, ``draw.seed``, ``draw.noise_mm`` and
+        ``draw.noise_kind`` describe the run.
 
         Args:
             geometry: The true set-up (a :attr:`geometry_type`); None: the sensor's default.
