@@ -316,6 +316,10 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
+    prefits = [(f"set {s['label']}: ", s["setup_prefit"]) for s in report.get("sets", ()) if "setup_prefit" in s]
+    for where, prefit in prefits or ([("", report["setup_prefit"])] if "setup_prefit" in report else []):
+        print(f"sensor set-up: {where}{prefit['summary']} ({prefit['how']}); then estimated with the "
+              "robot (report.json)")
     soft = report.get("compliance")
     if soft:
         print(f"joint compliance: {compliance_cells(soft)}; deflection is not in the URDF")
