@@ -112,6 +112,14 @@ class CableSetup(SensorSetup):
         set_(self, "estimate", check_estimate(self.estimate))
 
 
+def _gives_offset(data: MeasurementSet) -> bool:
+    """The set's file (or, in memory, a non-zero value) gives the zero offset."""
+    from ..measurements.checks import _file_keys
+
+    keys = _file_keys(data.source) if data.source else None
+    return bool({"length_offset_mm", "length_offset_m"} & keys) if keys is not None else data.length_offset != 0.0
+
+
 def _vector_mm(value: Any, name: str) -> np.ndarray:
     v = np.asarray(value, dtype=float).reshape(-1)
     if v.shape != (3,) or not np.all(np.isfinite(v)):
@@ -203,6 +211,27 @@ class CableModel(MeasurementModel):
         return CalibrationProblem(model, data.q, data.values)
 
     @classmethod
+    def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
+                             calibrated: MeasurementModel, x: np.ndarray,
+                             options: Mapping[str, Any]) -> CalibrationProblem:
+        """A re-anchored session: its anchor estimated, from its file's anchor or, without
+        one, pre-fitted on ``rows`` (:func:`fit_drawstring`, the offset held). The tool point
+        and the zero offset belong to the tool and the instrument, not to where the sensor
+        sits: the session's file's when it gives them, else the calibration's (as calibrated)."""
+        assert isinstance(calibrated, CableModel)
+        known = calibrated.geometry_at(x)
+        tool = known.tool if session.tool is None else session.tool
+        offset = session.length_offset if _gives_offset(session) else known.length_offset
+        anchor, prefit = session.anchor, None
+        if anchor is None:
+            prefit = fit_drawstring(chain, params, session.q[rows], session.values[rows], tool, source=session.source,
+                                    offset=offset)
+            anchor = prefit.sensor.anchor
+        model = cls(chain, params, Drawstring(anchor, tool, offset), ("anchor",), options.get("compliance"))
+        model.prefit = prefit
+        return CalibrationProblem(model, session.q, session.values)
+
+    @classmethod
     def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
         """Refuse a validation session whose own drawstring set-up (``anchor_mm``,
         ``tool_mm``, ``length_offset_mm``) contradicts the calibration's: the training set's,
@@ -233,8 +262,8 @@ class CableModel(MeasurementModel):
                 by = f"--{key.replace('_', '-')}" if override is not None else (training.source or "the training set")
                 raise DataError(session.source or "test_data",
                                 f"the validation session has {_mm(own)} mm, the calibration {_mm(used)} mm ({by}): "
-                                "one sensor set-up per calibration for now; measure both with the same set-up, or "
-                                "correct the file's line", None, key)
+                                "measure both with the same set-up, re-register the session on its own first poses "
+                                "(--test-data FILE:register=K), or correct the file's line", None, key)
 
     @classmethod
     def refuse_values(cls, values: np.ndarray) -> tuple[int, str] | None:
@@ -267,7 +296,7 @@ class CableModel(MeasurementModel):
         return doc
 
     def describe(self) -> str:
-        known = [p for p in CABLE_EXTRAS if p not in self.estimate]
+        known = [p for p in ("anchor", "offset") if p not in self.estimate]  # the tool point: known unless estimated
         text = "drawstring sensor, " + (f"{' and '.join(known)} known" if known else "nothing known")
         text += f", {' and '.join(self.estimate)} estimated" if self.estimate else ""
         return text + (f" ({self.prefit.how()})" if self.prefit is not None else "")
@@ -323,18 +352,23 @@ class DrawstringPrefit:
     agreeing: int
     rows: int
     rms: float
+    offset_fitted: bool = True
 
     def how(self) -> str:
         """For people: how the anchor was obtained."""
-        what = "anchor, offset and tool point" if self.tool_fitted else "anchor and offset"
-        return (f"{what} pre-fitted with the nominal robot on {self.rows} training rows, best of {self.starts} "
+        what = ", ".join(self.fitted()[:-1]) + (" and " if len(self.fitted()) > 1 else "") + self.fitted()[-1]
+        return (f"{what} pre-fitted with the nominal robot on {self.rows} rows, best of {self.starts} "
                 f"starts ({self.agreeing} agree), reading RMS {self.rms * 1e3:.3g} mm")
 
     def as_dict(self) -> dict:
         """For report.json, in mm."""
-        return {**self.sensor.to_dict(), "fitted": ["anchor", "offset"] + (["tool"] if self.tool_fitted else []),
+        return {**self.sensor.to_dict(), "fitted": self.fitted(),
                 "robot": "nominal", "rows": self.rows, "starts": self.starts, "starts_agreeing": self.agreeing,
                 "rms_mm": self.rms * 1e3, "how": self.how(), "summary": self.summary()}
+
+    def fitted(self) -> list[str]:
+        """What was fitted: ``anchor``, ``offset``, ``tool``."""
+        return ["anchor"] + (["offset"] if self.offset_fitted else []) + (["tool"] if self.tool_fitted else [])
 
     def summary(self) -> str:
         """The fitted values for people, [mm]."""
@@ -346,7 +380,7 @@ class DrawstringPrefit:
 
 
 def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings: np.ndarray, tool: np.ndarray,
-                   fit_tool: bool = False, source: str = "") -> DrawstringPrefit:
+                   fit_tool: bool = False, source: str = "", offset: float | None = None) -> DrawstringPrefit:
     """Best-fit anchor P0 [m, base frame] and zero offset [m] (and, with ``fit_tool``, the
     tool point [m, end frame]) for the nominal robot, with no guess of the anchor.
 
@@ -362,13 +396,15 @@ def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings
     Args:
         q: Joint angles, shape (n_rows, n_joints), [rad]; readings: shape (n_rows,), [m].
         tool: The tool point's start (or its fixed value without ``fit_tool``), shape (3,), [m].
+        offset: The zero offset [m] held fixed (a re-anchored instrument's, known), or None: fitted.
 
     Raises:
         DataError: fewer rows than unknowns, naming ``source``.
     """
     from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
 
-    n_unknowns = 7 if fit_tool else 4
+    fixed = offset is not None
+    n_unknowns = 3 + (not fixed) + 3 * fit_tool
     if len(q) <= n_unknowns:
         raise DataError(source, f"{len(q)} training rows cannot locate the drawstring's anchor ({n_unknowns} unknowns "
                         "to pre-fit): add '# anchor_mm: x, y, z' or more rows", None, "anchor_mm")
@@ -376,7 +412,8 @@ def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings
     end_rot, origin = model.end_frames(None, q)
 
     def unpack(v: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
-        return v[:3], v[3], (v[4:7] if fit_tool else tool)
+        rest = v[3:] if fixed else v[4:]
+        return v[:3], (offset if fixed else v[3]), (rest[:3] if fit_tool else tool)  # type: ignore[return-value]
 
     def residual(v: np.ndarray) -> np.ndarray:
         anchor, offset, t = unpack(v)
@@ -386,7 +423,7 @@ def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings
         anchor, _, t = unpack(v)
         cable = origin + end_rot @ t - anchor
         u = cable / np.maximum(np.linalg.norm(cable, axis=1), 1e-12)[:, None]
-        cols = [-u, np.ones((len(q), 1))] + ([np.einsum("ni,nij->nj", u, end_rot)] if fit_tool else [])
+        cols = [-u] + ([] if fixed else [np.ones((len(q), 1))]) + ([np.einsum("ni,nij->nj", u, end_rot)] if fit_tool else [])
         return np.hstack(cols)
 
     tips = origin + end_rot @ tool
@@ -396,11 +433,11 @@ def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings
     starts = np.array(np.meshgrid(*axes, indexing="ij")).reshape(3, -1).T
     fits = []
     for start in starts:
-        v0 = np.concatenate([start, [0.0], tool if fit_tool else []])
+        v0 = np.concatenate([start, [] if fixed else [0.0], tool if fit_tool else []])
         fits.append(least_squares(residual, v0, jac=jacobian, method="lm"))
     best = min(fits, key=lambda f: f.cost)
     agreeing = sum(int(np.linalg.norm(f.x[:3] - best.x[:3]) < 1e-3) for f in fits)
-    anchor, offset, t = unpack(best.x)
+    anchor, found, t = unpack(best.x)
     rms = float(np.sqrt(2.0 * best.cost / len(q)))
-    return DrawstringPrefit(Drawstring(anchor.copy(), np.array(t, dtype=float), float(offset)), fit_tool,
-                            len(starts), agreeing, len(q), rms)
+    return DrawstringPrefit(Drawstring(anchor.copy(), np.array(t, dtype=float), float(found)), fit_tool,
+                            len(starts), agreeing, len(q), rms, not fixed)
