@@ -170,6 +170,19 @@ class PositionModel(MeasurementModel):
         return CalibrationProblem(model, data.q, data.values, points)
 
     @classmethod
+    def planning_model(cls, chain: Chain, params: ParameterModel, setup: Any) -> PositionModel:
+        """A device with the simulator's markers (:data:`calib_pin.simulation.DEFAULT_MARKERS_MM`,
+        labelled 1..3) and frame, its frame and markers estimated (a rigid move of the device
+        changes no design: the information is the same in any frame)."""
+        from ..simulation import DEFAULT_MARKERS_MM
+
+        if setup is not None and setup.given():
+            raise CalibPinError(f"a position device takes no set-up options to plan for (got {', '.join(setup.given())})")
+        device = PositionDevice(pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4])),
+                                np.array(DEFAULT_MARKERS_MM) * 1e-3, tuple(range(1, len(DEFAULT_MARKERS_MM) + 1)))
+        return cls(chain, params, device)
+
+    @classmethod
     def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
                              calibrated: MeasurementModel, x: np.ndarray,
                              options: Mapping[str, Any]) -> CalibrationProblem:
