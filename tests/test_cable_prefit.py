@@ -95,3 +95,21 @@ def test_cli_reports_the_prefit(session, tmp_path, capsys):
     assert "sensor set-up: anchor " in out and "best of 27 starts" in out
     report = json.loads((tmp_path / "o" / "report.json").read_text())
     assert report["setup_prefit"]["fitted"] == ["anchor", "offset"] and len(report["setup_prefit"]["anchor_mm"]) == 3
+
+
+def test_validation_of_an_anchor_free_calibration(session, chain, params):
+    """A calibration whose anchor was pre-fitted: a validation session without an anchor
+    is scored with the calibrated one; a session that states one cannot be checked against
+    it and is refused (never scored with the other anchor silently), unless re-registered."""
+    from calib_pin.validation import TestSet
+
+    data, _ = session
+    free = dataclasses.replace(data.subset(np.arange(80)), anchor=None)
+    rest = data.subset(np.arange(80, 120))
+    result = cp.calibrate("irb120", free, method="lm", test_data=dataclasses.replace(rest, anchor=None, source="v"))
+    assert result.metrics["test"]["after"].rmse_mm < 0.1
+    with pytest.raises(cp.DataError, match="anchor_mm: the validation session has 600, 200, -100 mm, the "
+                                           "calibration's is fitted"):
+        cp.calibrate("irb120", free, method="lm", test_data=dataclasses.replace(rest, source="v"))
+    registered = cp.calibrate("irb120", free, method="lm", test_data=TestSet(rest, register=15))
+    assert registered.metrics["test"]["after"].rmse_mm < 0.1

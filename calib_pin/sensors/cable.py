@@ -256,8 +256,12 @@ class CableModel(MeasurementModel):
                 continue
             override = options.get(key)
             used = np.asarray(override, dtype=float) * 1e-3 if override is not None else getattr(training, name)
-            if used is None:
-                continue
+            if used is None:  # the calibration fitted it (pre-fit): a stated one cannot be checked against it
+                raise DataError(session.source or "test_data",
+                                f"the validation session has {_mm(own)} mm, the calibration's is fitted on its training "
+                                f"rows ({training.source or 'the training set'} gives none): leave the session's line "
+                                "out to score it with the calibrated one, or re-register the session on its own "
+                                "first poses (--test-data FILE:register=K)", None, key)
             if not np.allclose(np.asarray(own, dtype=float), used, rtol=0.0, atol=SETUP_TOLERANCE_M):
                 by = f"--{key.replace('_', '-')}" if override is not None else (training.source or "the training set")
                 raise DataError(session.source or "test_data",
