@@ -52,6 +52,9 @@ class CalibrationResult:
         loss: ``linear`` or the robust loss used.
         warnings: What a person must know about this result (one line each).
         test_source: The separate validation session scored as ``test``, if any.
+        test_registration: A validation session on a new set-up: which of its rows
+            re-registered it and which were scored (:func:`calib_pin.validation.register_session`);
+            None when it shares the training set-up, or without one.
         sets: With several measurement sets, each set's
             :class:`~calib_pin.multiset.SetResult` (its sigma and where it came from, its
             rows, its metrics before/after per split, its sensor geometry); ``problem`` is
@@ -76,6 +79,7 @@ class CalibrationResult:
     warnings: tuple[str, ...] = ()
     test_source: str = ""
     sets: tuple[Any, ...] = ()
+    test_registration: dict[str, Any] | None = None
 
     @property
     def model_name(self) -> str:

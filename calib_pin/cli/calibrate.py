@@ -73,7 +73,11 @@ def calibrate_parser() -> argparse.ArgumentParser:
                    "argument overrides it: FILE:key=value[:key=value...] with keys anchor_mm, tool_mm, "
                    "length_offset_mm ('x,y,z' / number, mm), noise_mm, role (split, train, test), label; "
                    "e.g. s2.csv:anchor_mm=600,200,-100:noise_mm=0.3")
-    p.add_argument("--test-data", help="a separate validation session CSV: train on all of --data, test on this")
+    p.add_argument("--test-data", help="a separate validation session CSV: train on all of --data, test on this; "
+                   "FILE (or FILE:same=LABEL): measured with the training set's sensor set-up (checked); "
+                   "FILE:register=K: a new set-up (tracker moved, cable re-anchored), re-registered on its first K "
+                   "poses with the calibrated robot fixed, the other poses scored; FILE:register=role: on its rows "
+                   "whose role column says 'register'")
     p.add_argument("--method", default=DEFAULT_METHOD, help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})")
     p.add_argument("--test-fraction", type=fraction, default=0.2, help="share of poses held out for testing (default 0.2)")
     p.add_argument("--out", default="out", help="output folder (default ./out)")
@@ -149,6 +153,46 @@ def data_argument(text: str) -> tuple[str, dict[str, Any]]:
         except argparse.ArgumentTypeError as e:
             raise CalibPinError(f"--data '{text}': {key}: {e}") from None
     return text[:cut], options
+
+
+def validation_argument(text: str | None) -> Any:
+    """A ``--test-data`` argument ``FILE[:register=K|role][:same=LABEL]`` as the library's
+    test_data: the file, or a :class:`~calib_pin.validation.TestSet` with its choice.
+
+    Raises:
+        CalibPinError: naming the argument and the key (unknown, twice, bad value).
+    """
+    from ..exceptions import CalibPinError
+    from ..validation import TestSet
+
+    if text is None or ":" not in text or Path(text).is_file():
+        return text
+    cut = next((i for i, c in enumerate(text) if c == ":" and Path(text[:i]).is_file()), None)
+    if cut is None:
+        head, _, rest = text.partition(":")
+        if "=" in rest.split(":")[0]:
+            raise CalibPinError(f"--test-data '{text}': no file '{head}' (its choice follows an existing file: "
+                                "FILE:register=K)")
+        return text
+    options: dict[str, Any] = {}
+    for item in text[cut + 1:].split(":"):
+        key, eq, value = (part.strip() for part in item.partition("="))
+        if not eq or key not in ("register", "same"):
+            raise CalibPinError(f"--test-data '{text}': '{item}' is not register=K, register=role or same=LABEL")
+        if key in options:
+            raise CalibPinError(f"--test-data '{text}': key '{key}' given twice")
+        if key == "register" and value != "role":
+            if not value.isdigit() or int(value) < 1:
+                raise CalibPinError(f"--test-data '{text}': register: expected a number of poses >= 1 or 'role', "
+                                    f"got '{value[:40]}'")
+            options[key] = int(value)
+        else:
+            if not value:
+                raise CalibPinError(f"--test-data '{text}': {key}: an empty value")
+            options[key] = value
+    if "register" in options and "same" in options:
+        raise CalibPinError(f"--test-data '{text}': register (a new set-up) or same (the training set's), not both")
+    return TestSet(text[:cut], **options)
 
 
 def _fit_set(path: str, options: dict[str, Any]) -> Any:
@@ -236,11 +280,12 @@ def _calibrate(args: argparse.Namespace) -> int:
 
     _check_dh_export(args)
     result = calibrate(args.robot, _data(args), method=args.method, seed=args.seed,
-                       test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
+                       test_fraction=args.test_fraction, test_data=validation_argument(args.test_data), loss=args.loss,
                        progress=_announce, **_setup_options(args))
     data = _data_files(args)  # --data may be given once per set
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
-    inputs = {**robot_inputs(args.robot), **sets, "--test-data": args.test_data}
+    test_file = validation_argument(args.test_data)
+    inputs = {**robot_inputs(args.robot), **sets, "--test-data": getattr(test_file, "data", test_file)}
     # an input in --out is never replaced, nor removed as stale; all files together or none
     done = write_outputs(result, Path(args.out), args.export, html=not args.no_html, inputs=inputs,
                          silence="--no-html silences this")
@@ -309,13 +354,25 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     else:
         n_train, n_test = len(result.train), len(result.test)
         test = f"test rows from {result.test_source}" if result.test_source else f"{n_test} test rows"
+        registered = result.test_registration
         print(f"{result.chain.name}: {result.data.describe_rows()} from {result.data.source} "
               f"({n_train} train, {test}, seed {result.seed}), {result.model_name} model, method {result.method}")
         print(f"error per row: {result.problem.model.error_name}")
+        if registered:
+            lines = registered["registered_lines"]
+            where = f" (file lines {lines[0]}-{lines[-1]})" if lines and registered["registered_on"][0] == "f" else ""
+            print(f"validation on a new set-up: {len(registered['registered_rows'])} rows{where} re-registered it "
+                  f"({registered['registered_on']}; fitted {', '.join(registered['fitted'])} with the calibrated robot "
+                  f"fixed, RMS {registered['registration_rmse_mm']:.4f} mm); the other "
+                  f"{len(registered['scored_rows'])} rows are the test rows (rows in report.json)")
         print(table(result.metrics))
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
+    prefits = [(f"set {s['label']}: ", s["setup_prefit"]) for s in report.get("sets", ()) if "setup_prefit" in s]
+    for where, prefit in prefits or ([("", report["setup_prefit"])] if "setup_prefit" in report else []):
+        print(f"sensor set-up: {where}{prefit['summary']} ({prefit['how']}); then estimated with the "
+              "robot (report.json)")
     soft = report.get("compliance")
     if soft:
         print(f"joint compliance: {compliance_cells(soft)}; deflection is not in the URDF")

@@ -151,6 +151,18 @@ class MeasurementModel(ABC):
         return None
 
     @classmethod
+    def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
+                             calibrated: MeasurementModel, x: np.ndarray,
+                             options: Mapping[str, Any]) -> CalibrationProblem:
+        """The problem of a validation ``session`` on a new set-up of this sensor
+        (:mod:`calib_pin.validation`): every row, the unknowns a new placement changes after
+        the robot's, started from their fit on ``rows``. ``calibrated`` and ``x``: the
+        calibration's model and estimate (a sensor may take from them what the session does
+        not say). Default: :meth:`problem_for` with the caller's compliance only (a sensor
+        whose set-up is always fitted, e.g. a device frame and markers)."""
+        return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance")})
+
+    @classmethod
     def refuse_foreign(cls, options: Mapping[str, Any], data: MeasurementSet) -> None:
         """Refuse a given set-up option another sensor takes and this one does not.
 

@@ -217,6 +217,50 @@ class PositionModel(MeasurementModel):
                        rng.uniform(-1, 1, 3) * np.asarray(SESSION_DEVICE_SHIFT_MM) * 1e-3)
         return PositionDevice(move * first.frame, first.markers, first.labels)
 
+    @classmethod
+    def planning_model(cls, chain: Chain, params: ParameterModel, setup: Any) -> PositionModel:
+        """A device with the simulator's markers (:data:`DEFAULT_MARKERS_MM`,
+        labelled 1..3) and frame, its frame and markers estimated (a rigid move of the device
+        changes no design: the information is the same in any frame)."""
+        if setup is not None and setup.given():
+            raise CalibPinError(f"a position device takes no set-up options to plan for (got {', '.join(setup.given())})")
+        device = PositionDevice(default_device_frame(), np.array(DEFAULT_MARKERS_MM) * 1e-3,
+                                tuple(range(1, len(DEFAULT_MARKERS_MM) + 1)))
+        return cls(chain, params, device)
+
+    @classmethod
+    def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
+                             calibrated: MeasurementModel, x: np.ndarray,
+                             options: Mapping[str, Any]) -> CalibrationProblem:
+        """A moved device: its frame estimated. The markers ride on the tool, not on the
+        device: when the calibration knows every marker of the session they are its own (as
+        calibrated) and stay fixed, and the frame starts from their rigid (Kabsch) fit on
+        ``rows``; else (new markers) frame and markers are estimated, as :meth:`problem_for` does.
+
+        Raises:
+            DataError: fewer values on ``rows`` than the unknowns to fit.
+        """
+        assert isinstance(calibrated, PositionModel) and session.point_ids is not None
+        source = session.source or "test_data"
+        known = calibrated.geometry_at(x)
+        labels, points = marker_labels(session.point_ids, source)
+        try:
+            index = known.index_of(list(labels))
+        except DataError:
+            index = None
+        n_unknowns = 6 if index is not None else 6 + 3 * len(labels)
+        if 3 * len(rows) < n_unknowns:
+            raise DataError(source, f"{len(rows)} registration rows give {3 * len(rows)} values, fewer than the "
+                            f"{n_unknowns} set-up unknowns (the device frame{'' if index is not None else ' and markers'})"
+                            ": register on more poses", None, "register")
+        if index is None:
+            return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance")})
+        markers = known.markers[index]
+        base = calibrated.points_at(x, session.q[rows], markers[points[rows]])
+        device = PositionDevice(_kabsch(base, session.values[rows]), markers, labels)
+        model = cls(chain, params, device, ("device",), options.get("compliance"))
+        return CalibrationProblem(model, session.q, session.values, points)
+
     def point_index(self, labels: Any, n_rows: int, source: str = "") -> np.ndarray:
         """Marker indices of ``n_rows`` rows labelled ``labels`` (the file's ``point_id``
         values, numbers or text; None: every row measures the one marker).
