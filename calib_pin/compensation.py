@@ -101,7 +101,7 @@ class CalibratedRobot:
                     "a ComplianceSpec (calib_pin.robot.deflection) or None")
         if compliance_values is not None:
             values = as_array(compliance_values, "compliance_values", (None,), unit="rad/Nm")
-            if np.any(values < 0):
+            if np.any(values < 0) and not (compliance is not None and compliance.model == "basis"):  # signed
                 raise ArgumentError("compliance_values", f"a compliance is >= 0 [rad/Nm], got {values.tolist()}")
         if cable is not None and (not isinstance(cable, tuple) or len(cable) != 2):
             raise ArgumentError("cable", "expected (hook, anchor), each 3 numbers in m, or None")

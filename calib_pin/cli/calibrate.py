@@ -272,13 +272,33 @@ RIGID_NM_PER_RAD = 1e9
 def compliance_cells(soft: dict[str, Any]) -> str:
     """The compliances of report.json's ``compliance`` section for people: urad/Nm and the
     stiffness in Nm/rad; a joint at zero is rigid (its stiffness is infinite, JSON null)."""
+    if soft.get("compliance_model") == "basis":
+        return basis_cells(soft)
     bounded = set(soft.get("bounded_at_zero", ()))
     cells = []
     for joint, c in soft["compliance_rad_per_Nm"].items():
         k = soft["stiffness_Nm_per_rad"].get(joint)
         stiff = f"stiffness {k:.3g} Nm/rad" if k is not None and k < RIGID_NM_PER_RAD else "rigid"
-        cells.append(f"{joint} {c * 1e6:.1f} urad/Nm ({stiff}{', bounded at zero' if joint in bounded else ''})")
+        cells.append(f"{joint} {c * 1e6:.1f} urad/Nm ({stiff}{', bounded at zero' if joint in bounded else ''}"
+                     f"{_effect(soft, joint)})")
     return ", ".join(cells)
+
+
+def _effect(soft: dict[str, Any], joint: str) -> str:
+    """``; peak 512 urad, 0.31 mm at the end frame`` of a joint over the data."""
+    peak, moved = soft.get("peak_deflection_urad", {}), soft.get("end_frame_effect_mm", {})
+    if joint not in peak:
+        return ""
+    return f"; peak {peak[joint]:.0f} urad, {moved[joint]:.3f} mm at the end frame"
+
+
+def basis_cells(soft: dict[str, Any]) -> str:
+    """The gravity basis model's joints for people: terms, peak deflection and end-frame effect."""
+    cells = []
+    for joint, n in soft["basis_terms"].items():
+        lifted = ", against gravity" if joint in soft.get("against_gravity", ()) else ""
+        cells.append(f"{joint} {n} terms{lifted}{_effect(soft, joint)}")
+    return "gravity basis model (no inertias): " + ", ".join(cells)
 
 
 def _sets_summary(result: Any) -> None:
@@ -318,7 +338,8 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
     soft = report.get("compliance")
     if soft:
-        print(f"joint compliance: {compliance_cells(soft)}; deflection is not in the URDF")
+        print(f"joint compliance ({soft.get('compliance_model', 'cad')} model): {compliance_cells(soft)}; "
+              "deflection is not in the URDF")
     est = result.estimate
     print(f"estimation: {est.time_s:.3f} s, {est.iterations} iterations ({est.message})")
     u = report["uncertainty"]
