@@ -86,7 +86,8 @@ class CalibratedRobot:
         params: Its parameter model.
         deviations: The robot's deviations, shape (len(params.names),), SI ([m], [rad]).
         compliance: Compliant joints and loads, or None for a rigid arm.
-        compliance_values: Their compliances, shape (n_compliant,), [rad/Nm].
+        compliance_values: Their compliances, shape (n_compliant,), [rad/Nm] (the basis
+            model, ``compliance.model == "basis"``: its signed coefficients [rad]).
         cable: Hook [m, end frame] and anchor [m, base frame] of a drawstring whose pull
             the arm carries (only with ``compliance.cable_tension_n``); None: no cable.
     """

@@ -526,6 +526,17 @@ R3_WRONG: list[Case] = [
     (CAL, ["irb120", "--analyze", "--estimate", "anchor,anchor"], {}, 2, "--estimate: 'anchor' is given twice"),
     (CAL, ["irb120", "--analyze", "--compliance", " , "], {}, 2, "--compliance: expected joint names"),
     (CAL, ["irb120", "--analyze", "--compliance", "joint_2, joint_3"], {}, 0, "compliance_joint_3"),
+    # issue 23: the gravity basis model and compare --models
+    (CAL, ["irb120", "--analyze", "--compliance-model", "basis"], {}, 2, "--compliance-model needs compliant joints"),
+    (CAL, ["irb120", "--analyze", "--compliance", "joint_2", "--compliance-model", "basis", "--cable-tension-n", "5"],
+     {}, 2, "a cable tension needs the CAD compliance model"),
+    (CAL, ["irb120", "--analyze", "--compliance", "joint_2", "--compliance-model", "basis"], {}, 0, "basis_joint_2_1"),
+    (CMP, ["irb120", "--models", "geometric,stiff", "--trials", "1"], {}, 2, "models: 'stiff' is not a model"),
+    (CMP, ["irb120", "--models", "geometric,compliance:joint_9", "--trials", "1"], {}, 2, "no chain joint 'joint_9'"),
+    (CMP, ["irb120", "--models", "geometric,compliance:joint_2:fem", "--trials", "1"], {}, 2,
+     "the deflection model is one of cad, basis"),
+    (CMP, ["irb120", "--models", "geometric,geometric", "--trials", "1"], {}, 2, "a model is named twice"),
+    (CMP, ["irb120", "--models", "geometric", "--compliance", "joint_2"], {}, 2, "leave --compliance out"),
 ]
 
 

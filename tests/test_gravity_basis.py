@@ -191,3 +191,19 @@ def test_compliance_all_bounds_and_names_rigid_joints(tmp_path, capsys):
     bounded = json.loads((out / "report.json").read_text())["compliance"]["bounded_at_zero"]
     assert bounded and all(f"{j} 0.0 urad/Nm (rigid, bounded at zero" in printed for j in bounded)
     assert "compliance bounded at zero: " + ", ".join(bounded) in printed
+
+
+def test_gravity_agreement_flags_a_lift():
+    """A true CAD sag expressed in the basis agrees with gravity's sign pattern (cosine near
+    +1); the same deflection reversed (the arm lifted against gravity) is flagged (< 0)."""
+    from calib_pin.robot.deflection import StaticTorque
+
+    chain = load_chain("irb120")
+    basis = GravityBasis(chain, ("joint_2", "joint_3"))
+    q = random_poses(chain, 200, np.random.default_rng(2))
+    sag = -StaticTorque(chain)(q)[:, [1, 2]] * np.array([3e-5, 6e-5])
+    b = basis.values(q)
+    beta = np.concatenate([np.linalg.lstsq(b[:, basis.columns == j], sag[:, i], rcond=None)[0]
+                           for i, j in enumerate((1, 2))])
+    assert np.all(basis.gravity_agreement(q, beta) > 0.8)
+    assert np.all(basis.gravity_agreement(q, -beta) < -0.8)
