@@ -58,6 +58,8 @@ class CalibrationResult:
             then the :class:`~calib_pin.stacked.StackedProblem`, ``data`` every set's rows
             in turn, ``train``/``test`` index its rows, and ``metrics`` pools every set's
             row errors, each in its own set's units [mm]. Empty for one set.
+        cross_validation: K-fold held-out metrics of this model on the training poses
+            (:meth:`calib_pin.studies.cross_validation.CrossValidation.as_dict`), when asked.
     """
 
     chain: Chain
@@ -76,6 +78,7 @@ class CalibrationResult:
     warnings: tuple[str, ...] = ()
     test_source: str = ""
     sets: tuple[Any, ...] = ()
+    cross_validation: dict[str, Any] | None = None
 
     @property
     def model_name(self) -> str:

@@ -28,6 +28,7 @@ from .common import (
     add_compliance_arguments,
     add_robot_arguments,
     compliance_options,
+    count,
     fail,
     fraction,
     positive_float,
@@ -89,6 +90,9 @@ def calibrate_parser() -> argparse.ArgumentParser:
                    "xacro.load_yaml; ur_description's default_kinematics.yaml too for ur* robots), dh (DH table TOML, "
                    "dh and hayati models)")
     p.add_argument("--no-html", action="store_true", help="do not write DIR/report.html")
+    p.add_argument("--cv", type=count(1000), metavar="K",
+                   help="also K-fold cross-validate the model on the training poses (split by pose): its held-out "
+                   "error in the report and the printout")
     p.add_argument("--analyze", action="store_true",
                    help="only print the identifiability report of the data's poses, estimate nothing")
     return p
@@ -238,6 +242,8 @@ def _calibrate(args: argparse.Namespace) -> int:
     result = calibrate(args.robot, _data(args), method=args.method, seed=args.seed,
                        test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
                        progress=_announce, **_setup_options(args))
+    if args.cv:
+        result = _cross_validated(args, result)
     data = _data_files(args)  # --data may be given once per set
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
     inputs = {**robot_inputs(args.robot), **sets, "--test-data": args.test_data}
@@ -253,6 +259,21 @@ def _calibrate(args: argparse.Namespace) -> int:
     for path in done.files:
         print(f"wrote {path}")
     return 0
+
+
+def _cross_validated(args: argparse.Namespace, result: Any) -> Any:
+    """``result`` with the K-fold cross-validation of its model on its training poses."""
+    import dataclasses
+
+    from ..exceptions import CalibPinError
+    from ..pipeline import CalibrationSetup, prepare
+    from ..studies.cross_validation import cross_validate
+
+    setup = prepare(args.robot, _data(args), **_setup_options(args))
+    if not isinstance(setup, CalibrationSetup) or result.sets:
+        raise CalibPinError("--cv cross-validates one measurement set: give one --data")
+    cv = cross_validate(setup, args.method, result.train, args.cv, seed=args.seed, loss=args.loss)
+    return dataclasses.replace(result, cross_validation=cv.as_dict())
 
 
 #: Rows from which a calibration is announced on stderr before it starts (it may take minutes).
@@ -340,6 +361,11 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     if soft:
         print(f"joint compliance ({soft.get('compliance_model', 'cad')} model): {compliance_cells(soft)}; "
               "deflection is not in the URDF")
+    cv = report.get("cross_validation")
+    if cv:
+        cells = ", ".join(f"{k.removesuffix('_mm')} {cv[k]['mean']:.4f} ± {cv[k]['sd']:.4f}"
+                          for k in ("rmse_mm", "mean_mm", "max_mm"))
+        print(f"{cv['folds']}-fold cross-validation on the training poses (held-out mm): {cells}")
     est = result.estimate
     print(f"estimation: {est.time_s:.3f} s, {est.iterations} iterations ({est.message})")
     u = report["uncertainty"]

@@ -113,6 +113,8 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
     if result.sets:  # several measurement sets: a table each; the metrics above pool them
         report["sets"] = [s.as_dict() for s in result.sets]
         report["metrics_pooled"] = "every set's row errors together, each in its own set's units (mm)"
+    if result.cross_validation is not None:
+        report["cross_validation"] = result.cross_validation
     spec = result.problem.model.compliance_spec
     if spec is not None:
         from ..robot.deflection import against_gravity_warning, compliance_report, deflection_effects
