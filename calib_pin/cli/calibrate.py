@@ -54,7 +54,7 @@ def assumed_noise(text: str) -> float:
         if float(text) == 0:
             raise argparse.ArgumentTypeError(
                 "0 is not a sensor sigma the Kalman filters can assume (they weigh each reading by 1/sigma^2): "
-                "give the sensor's noise, e.g. 0.01, or leave it out for the file's (else 0.05)")
+                "give the sensor's noise, e.g. 0.01, or leave it out for the file's (else estimated from the data)")
     except ValueError:
         pass
     return positive_float(100.0)(text)
@@ -79,7 +79,8 @@ def calibrate_parser() -> argparse.ArgumentParser:
     p.add_argument("--test-fraction", type=fraction, default=0.2, help="share of poses held out for testing (default 0.2)")
     p.add_argument("--out", default="out", help="output folder (default ./out)")
     p.add_argument("--noise-mm", type=assumed_noise,
-                   help="sensor noise (1 sigma) for the Kalman filters, mm, > 0 (default: the file's, else 0.05)")
+                   help="sensor noise (1 sigma) for the Kalman filters, mm, > 0 (default: the file's, else estimated "
+                   "from the residual of a first LM fit, printed and in report.json's noise_mm)")
     p.add_argument("--loss", default="linear", help="linear (default), or a robust loss: huber, soft_l1, cauchy")
     p.add_argument("--model", choices=MODELS,
                    help="parameter model: dh (default with a DH table), hayati (dh with a tilt beta for parallel "
@@ -361,6 +362,8 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     if soft:
         print(f"joint compliance ({soft.get('compliance_model', 'cad')} model): {compliance_cells(soft)}; "
               "deflection is not in the URDF")
+    if result.noise_from.startswith("estimated"):  # the set states no noise: the Kalman filters got the data's
+        print(f"noise for {result.method}: {result.noise * 1e3:.4f} mm per value, {result.noise_from}")
     cv = report.get("cross_validation")
     if cv:
         cells = ", ".join(f"{k.removesuffix('_mm')} {cv[k]['mean']:.4f} ± {cv[k]['sd']:.4f}"

@@ -101,6 +101,7 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "identifiability": result.identifiability.as_dict(),
         **result.problem.model.geometry_report(result.x),
         "noise_mm": result.noise * 1e3,
+        "noise_from": result.noise_from,
         "loss": result.loss,
         **_outliers(result),
         "split": {"train": result.train.tolist(), "test": result.test.tolist()},
