@@ -131,17 +131,20 @@ def test_basis_recovers_a_cad_deflection_with_payload(ur5_pair):
 
 def test_cli_basis_on_stripped_irb120_and_calibration_file(bare_irb120, tmp_path, capsys):
     """--compliance joint_2,joint_3 on the Wu set with a URDF without inertias runs the basis
-    model, reports each joint's peak deflection and end-frame effect, and writes a
-    calibration file that loads and compensates with the same deflection."""
+    model, reports each joint's peak deflection and end-frame effect, says a given payload is
+    in the basis, and writes a calibration file that loads with the same deflection (and is
+    refused when its basis is not the robot's)."""
     from calib_pin import load_calibration
     from calib_pin.cli import main
 
     out = tmp_path / "out"
     code = main(["calibrate", str(bare_irb120), "--data", str(ROOT / "robots" / "irb120_wu2015.csv"),
-                 "--method", "lm", "--compliance", "joint_2,joint_3", "--out", str(out), "--no-html"])
+                 "--method", "lm", "--compliance", "joint_2,joint_3", "--payload-kg", "2", "--out", str(out),
+                 "--no-html"])
     printed = capsys.readouterr().out
     assert code == 0
     assert "basis model" in printed and "mm at the end frame" in printed
+    assert "the payload given is not used: the gravity basis already holds" in printed
     report = json.loads((out / "report.json").read_text())
     soft = report["compliance"]
     assert soft["compliance_model"] == "basis"
@@ -153,6 +156,12 @@ def test_cli_basis_on_stripped_irb120_and_calibration_file(bare_irb120, tmp_path
     q = np.deg2rad(np.array([[10.0, 30.0, 20.0, 5.0, 40.0, 0.0]]))
     shifted = robot.joint_angles(q) - q
     assert np.abs(shifted[0, 1]) > 1e-5 and shifted[0, 0] == 0.0
+    path = next(out.glob("*_calibration.json"))
+    doc = json.loads(path.read_text())
+    doc["compliance"]["basis_directions"]["joint_3"]["directions"][0][0] += 0.5  # another URDF's basis
+    path.write_text(json.dumps(doc))
+    with pytest.raises(Exception, match="compliance.basis_directions.joint_3"):
+        load_calibration(out)
 
 
 def test_compare_models_on_the_wu_set(bare_irb120):
@@ -181,8 +190,8 @@ def test_compliance_all_bounds_and_names_rigid_joints(tmp_path, capsys):
     from calib_pin.cli import main
 
     out = tmp_path / "out"
-    code = main(["calibrate", "irb120", "--method", "lm", "--compliance", "all", "--payload-kg", "1.5", "--payload-com-mm", "0,0,60",
-                 "--out", str(out), "--no-html"])
+    code = main(["calibrate", "irb120", "--method", "lm", "--compliance", "all", "--payload-kg", "1.5",
+                 "--payload-com-mm", "0,0,60", "--out", str(out), "--no-html"])
     printed = capsys.readouterr().out
     assert code == 0
     doc = json.loads(next(out.glob("*_calibration.json")).read_text())

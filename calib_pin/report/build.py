@@ -132,6 +132,9 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
             report["warnings"].append(bounded_warning(result.bounded_compliance))
         if effects.get("against_gravity"):
             report["warnings"].append(against_gravity_warning(effects["against_gravity"]))
+        if spec.model == "basis" and spec.payload is not None:
+            report["warnings"].append("the payload given is not used: the gravity basis already holds any load the "
+                                      "end frame carries (its mass and centre of mass are fitted with the links')")
     ident = report["identifiability"]
     if kinematic and 2 * ident["rank"] < ident["unknowns"]:  # normal, but more varied poses would see more
         report["warnings"].append(rank_warning(ident["rank"], ident["unknowns"]))
