@@ -537,6 +537,7 @@ R3_WRONG: list[Case] = [
      "the deflection model is one of cad, basis"),
     (CMP, ["irb120", "--models", "geometric,geometric", "--trials", "1"], {}, 2, "a model is named twice"),
     (CMP, ["irb120", "--models", "geometric", "--compliance", "joint_2"], {}, 2, "leave --compliance out"),
+    (CMP, ["irb120", "--models", "geometric", "--methods", "ekf"], {}, 2, "leave --methods out"),
     (CAL, ["irb120", "--method", "lm", "--cv", "500", "--no-html"], {}, 2, "--cv 500: needs 2 to 96 folds"),
     (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--compliance", "joint_2", "--compliance-model", "basis",
            "--true-compliance-urad-per-nm", "20"], {}, 2, "a simulated compliant arm needs the CAD compliance model"),

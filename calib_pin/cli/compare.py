@@ -89,6 +89,8 @@ def compare_main(argv: Sequence[str] | None = None) -> int:
         return fail("give either --data or --simulate, not both")
     if args.models and args.simulate:
         return fail("--models compares on measured data: give --data, not --simulate")
+    if args.models and any(a == "--methods" or a.startswith("--methods=") for a in argv):
+        return fail("--models fits every model with one method, --method-of-models (default lm): leave --methods out")
     with quiet_progress(args.quiet):
         return run(lambda: _compare_models(args, argv) if args.models else _compare(args, argv))
 
