@@ -71,6 +71,19 @@ class CalibrationSetup:
     data: MeasurementSet
     noise: float
     options: dict[str, Any] = field(default_factory=dict)
+    noise_stated: bool = True
+
+    def noise_for(self, method: str, training: Any) -> tuple[float, str]:
+        """The noise [m] ``method`` is given on ``training`` and where it came from: the
+        stated one (``stated``), or for a method that weighs rows by it (a Kalman filter)
+        on a set that states none, the residual's of a first LM fit (``estimated: ...``,
+        :mod:`calib_pin.analysis.noise`)."""
+        if self.noise_stated or not get_method(method).weighs_noise:
+            return self.noise, "stated" if self.noise_stated else "default"
+        from .analysis.noise import noise_from_data
+
+        found = noise_from_data(training)
+        return found.sigma, found.words()
 
     def problem_on(self, fit_rows: np.ndarray) -> CalibrationProblem:
         """Every row of the data, with the sensor's starting geometry fitted on ``fit_rows``."""
@@ -138,20 +151,21 @@ class CalibrationSetup:
         if unsupported:
             raise DataError(self.data.source, unsupported)
         x0 = np.zeros(problem.n_params)
-        estimate = run_estimator(method, training, x0, seed=seed, noise=self.noise, loss=loss)
+        noise, noise_from = self.noise_for(method, training)
+        estimate = run_estimator(method, training, x0, seed=seed, noise=noise, loss=loss)
         metrics = {}
         for split, rows in (("train", train), ("test", test)):
             if len(rows):
                 part = problem.subset(rows)
                 metrics[split] = {"before": Metrics.of(part.row_errors(part.residual(x0))),
                                   "after": Metrics.of(part.row_errors(estimate.residual(part)))}
-        mixed = mixed_setups_warning(self.data, train, metrics["train"]["after"].rmse_mm, self.noise)
+        mixed = mixed_setups_warning(self.data, train, metrics["train"]["after"].rmse_mm, noise)
         if mixed:  # several set-ups in one file (its session column says so)
             warnings.append(mixed)
         result = CalibrationResult(
             chain=self.chain, params=self.params, method=method, x=estimate.x, estimate=estimate,
             problem=problem, data=self.data, train=train, test=test, metrics=metrics, seed=seed,
-            noise=self.noise, loss=loss, warnings=tuple(warnings))
+            noise=noise, loss=loss, warnings=tuple(warnings), noise_from=noise_from)
         if session is None:
             return result
         if session.register is None:
@@ -299,7 +313,8 @@ def prepare(
     noise = noise_mm * 1e-3 if noise_mm is not None else (data.noise or DEFAULT_NOISE_MM * 1e-3)
     soft = record.spec(chain) if record is not None else None
     prepared = CalibrationSetup(chain, parameter_model(chain, parameters), data, noise,
-                                {**sensor_options, "compliance": soft})
+                                {**sensor_options, "compliance": soft},
+                                noise_stated=noise_mm is not None or data.noise is not None)
     prepared.problem  # noqa: B018 (refuse options the sensor does not take now; the problem is kept for --analyze)
     return prepared
 
@@ -387,7 +402,9 @@ def calibrate(
             point (end frame), 3 numbers each, [mm].
         length_offset_mm: Override the file's sensor zero offset, [mm].
         noise_mm: Sensor noise (1 sigma) [mm] for the Kalman filters; default the
-            file's ``noise_mm`` or 0.05. With several sets: one for all, or one per set;
+            file's ``noise_mm``, else estimated from the residual of a first LM fit on
+            the training rows (:mod:`calib_pin.analysis.noise`; ``result.noise_from``
+            says which). With several sets: one for all, or one per set;
             default each file's, else estimated from the residual.
         loss: ``linear``, or a robust loss (``huber``, ``soft_l1``, ``cauchy``).
         parameters: Parameter model: ``dh`` (default with a DH table), ``hayati`` or

@@ -61,6 +61,11 @@ class CalibrationResult:
             then the :class:`~calib_pin.stacked.StackedProblem`, ``data`` every set's rows
             in turn, ``train``/``test`` index its rows, and ``metrics`` pools every set's
             row errors, each in its own set's units [mm]. Empty for one set.
+        noise_from: Where ``noise`` came from: ``stated`` (the caller's or the file's),
+            ``default`` (none stated, a method that does not weigh rows by it), or
+            ``estimated: ...`` (none stated: the residual of a first LM fit).
+        cross_validation: K-fold held-out metrics of this model on the training poses
+            (:meth:`calib_pin.studies.cross_validation.CrossValidation.as_dict`), when asked.
     """
 
     chain: Chain
@@ -80,6 +85,8 @@ class CalibrationResult:
     test_source: str = ""
     sets: tuple[Any, ...] = ()
     test_registration: dict[str, Any] | None = None
+    cross_validation: dict[str, Any] | None = None
+    noise_from: str = "stated"
 
     @property
     def model_name(self) -> str:

@@ -447,6 +447,10 @@ def _true_compliance(chain: Chain, compliance: Any, values: Any) -> tuple[Compli
 
 def _true_values(spec: ComplianceSpec | None, values: Any) -> np.ndarray:
     """The true compliances [rad/Nm] of ``spec``'s joints (empty for a rigid arm)."""
+    if spec is not None and spec.model != "cad":  # the true arm's torques come from its inertias
+        raise ArgumentError("compliance", "a simulated compliant arm needs the CAD compliance model (the URDF's "
+                                          "inertias, true compliances in rad/Nm); this robot's model is "
+                                          f"'{spec.model}' (a URDF without inertial data)")
     if spec is None:
         if values is not None and np.size(values):
             raise ArgumentError("true_compliance", "true compliances need compliant joints (compliance)")

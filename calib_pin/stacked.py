@@ -145,8 +145,8 @@ class StackedModel:
 
     @property
     def nonnegative(self) -> tuple[int, ...]:
-        """The compliances (shared by every set): they must be >= 0."""
-        return tuple(range(self.n_robot, self.sensor_start))
+        """The compliances (shared by every set): they must be >= 0 (none for the gravity basis)."""
+        return tuple(self.first.nonnegative)
 
     def part_x(self, x: np.ndarray | None, k: int) -> np.ndarray | None:
         """Set k's own unknown vector within the stacked x (None stays None)."""

@@ -566,6 +566,21 @@ R3_WRONG: list[Case] = [
     (CAL, ["irb120", "--analyze", "--estimate", "anchor,anchor"], {}, 2, "--estimate: 'anchor' is given twice"),
     (CAL, ["irb120", "--analyze", "--compliance", " , "], {}, 2, "--compliance: expected joint names"),
     (CAL, ["irb120", "--analyze", "--compliance", "joint_2, joint_3"], {}, 0, "compliance_joint_3"),
+    # issue 23: the gravity basis model and compare --models
+    (CAL, ["irb120", "--analyze", "--compliance-model", "basis"], {}, 2, "--compliance-model needs compliant joints"),
+    (CAL, ["irb120", "--analyze", "--compliance", "joint_2", "--compliance-model", "basis", "--cable-tension-n", "5"],
+     {}, 2, "a cable tension needs the CAD compliance model"),
+    (CAL, ["irb120", "--analyze", "--compliance", "joint_2", "--compliance-model", "basis"], {}, 0, "basis_joint_2_1"),
+    (CMP, ["irb120", "--models", "geometric,stiff", "--trials", "1"], {}, 2, "models: 'stiff' is not a model"),
+    (CMP, ["irb120", "--models", "geometric,compliance:joint_9", "--trials", "1"], {}, 2, "no chain joint 'joint_9'"),
+    (CMP, ["irb120", "--models", "geometric,compliance:joint_2:fem", "--trials", "1"], {}, 2,
+     "the deflection model is one of cad, basis"),
+    (CMP, ["irb120", "--models", "geometric,geometric", "--trials", "1"], {}, 2, "a model is named twice"),
+    (CMP, ["irb120", "--models", "geometric", "--compliance", "joint_2"], {}, 2, "leave --compliance out"),
+    (CMP, ["irb120", "--models", "geometric", "--methods", "ekf"], {}, 2, "leave --methods out"),
+    (CAL, ["irb120", "--method", "lm", "--cv", "500", "--no-html"], {}, 2, "--cv 500: needs 2 to 96 folds"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--compliance", "joint_2", "--compliance-model", "basis",
+           "--true-compliance-urad-per-nm", "20"], {}, 2, "a simulated compliant arm needs the CAD compliance model"),
 ]
 
 

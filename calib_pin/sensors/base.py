@@ -303,7 +303,10 @@ class MeasurementModel(ABC):
     @property
     def nonnegative(self) -> tuple[int, ...]:
         """Indices of the unknowns that must be >= 0: the joint compliances (a spring gives
-        way along its load, never against it); every estimator keeps them so."""
+        way along its load, never against it); every estimator keeps them so. The gravity
+        basis's coefficients are signed: none."""
+        if self.deflection is not None and not self.deflection.nonnegative:
+            return ()
         return tuple(range(self.n_robot, self.sensor_start))
 
     def robot(self, x: np.ndarray) -> np.ndarray:
