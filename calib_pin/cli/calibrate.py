@@ -22,14 +22,15 @@ from ..analysis.metrics import Metrics
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..export.bundle import EXPORTS, write_outputs
 from ..export.outputs import robot_inputs
-from ..parameters import MODELS
+from . import parse_args
 from .common import (
-    OneLineParser,
     add_compliance_arguments,
+    add_loss_argument,
+    add_model_argument,
     add_robot_arguments,
+    add_test_fraction_argument,
     compliance_options,
     fail,
-    fraction,
     positive_float,
     run,
 )
@@ -60,11 +61,16 @@ def assumed_noise(text: str) -> float:
 
 
 def calibrate_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(
-        prog="calib-pin calibrate",
-        description="Calibrate a robot's kinematics from drawstring readings or marker positions and "
-        "write the corrected URDF and a JSON report.",
-    )
+    """The ``calib-pin calibrate`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
+
+    return command_parser(parser(), "calibrate")
+
+
+def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """calibrate's arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
+    p.description = ("Calibrate a robot's kinematics from drawstring readings or marker positions and "
+                     "write the corrected URDF and a JSON report.")
     add_robot_arguments(p, "default: the file's", "default: the file's")
     p.add_argument("--data", action="append",
                    help="measurement set CSV (default: the robot's shipped set); repeat it to fit several sets "
@@ -75,14 +81,12 @@ def calibrate_parser() -> argparse.ArgumentParser:
                    "e.g. s2.csv:anchor_mm=600,200,-100:noise_mm=0.3")
     p.add_argument("--test-data", help="a separate validation session CSV: train on all of --data, test on this")
     p.add_argument("--method", default=DEFAULT_METHOD, help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})")
-    p.add_argument("--test-fraction", type=fraction, default=0.2, help="share of poses held out for testing (default 0.2)")
+    add_test_fraction_argument(p)
     p.add_argument("--out", default="out", help="output folder (default ./out)")
     p.add_argument("--noise-mm", type=assumed_noise,
                    help="sensor noise (1 sigma) for the Kalman filters, mm, > 0 (default: the file's, else 0.05)")
-    p.add_argument("--loss", default="linear", help="linear (default), or a robust loss: huber, soft_l1, cauchy")
-    p.add_argument("--model", choices=MODELS,
-                   help="parameter model: dh (default with a DH table), hayati (dh with a tilt beta for parallel "
-                   "axes), placement (6D offset per joint, any URDF; default without a DH table)")
+    add_loss_argument(p)
+    add_model_argument(p)
     add_compliance_arguments(p)
     p.add_argument("--export", type=export_formats, default=("urdf",),
                    help="formats of the corrected robot, comma-separated: urdf (default), yaml (joint origins for "
@@ -96,7 +100,7 @@ def calibrate_parser() -> argparse.ArgumentParser:
 
 def calibrate_main(argv: Sequence[str] | None = None) -> int:
     """``calibrate.py ROBOT [--data CSV] [--method NAME] [--seed N] [--test-fraction F] [--out DIR]``."""
-    args = calibrate_parser().parse_args(argv)
+    args = parse_args("calibrate", argv)
     return run(lambda: _analyze(args) if args.analyze else _calibrate(args))
 
 
