@@ -108,7 +108,8 @@ def _filler(name: str) -> Callable[[argparse.ArgumentParser], Any]:
     """The function that adds command ``name``'s arguments, importing its module when called."""
     def fill(p: argparse.ArgumentParser) -> Any:
         module = importlib.import_module(f"{__name__}.{COMMANDS[name][0]}")
-        return getattr(module, arguments_function(name))(p)
+        add = getattr(module, arguments_function(name), None)
+        return add(p) if add is not None else None  # a command whose main builds its own parser adds none here
 
     return fill
 

@@ -29,6 +29,7 @@ from .common import (
     non_negative,
     one_line,
     run,
+    xyz_mm,
 )
 from .outputs import add_force_argument
 
@@ -114,8 +115,6 @@ def collect_parser() -> argparse.ArgumentParser:
 
 def add_collect_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     """collect's arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
-    from ..sensors.setup import xyz_mm
-
     p.description = ("Read a drawstring sensor at each pose of a pose list and append the "
                      "readings to a measurement set (resumable); or --probe the sensor.")
     p.add_argument("robot", nargs="?", help="robot name (irb120) or URDF path; not needed with --probe")
