@@ -15,17 +15,32 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..estimators import ESTIMATORS
-from ..parameters import MODELS
-from .common import INTERRUPTED_EXIT, OneLineParser, count, fail, fraction, non_negative, one_line, run
+from . import parse_args
+from .common import (
+    INTERRUPTED_EXIT,
+    add_loss_argument,
+    add_model_argument,
+    add_parallel_arguments,
+    add_seed_argument,
+    add_test_fraction_argument,
+    fail,
+    one_line,
+    run,
+)
 
 
 def batch_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(
-        prog="calib-pin batch",
-        description="Calibrate many measurement sets, here (--jobs) or on a Dask cluster "
-        "(--scheduler): per set OUT/<set>/report.json and the corrected URDF, plus "
-        "OUT/summary.csv with one row per set.",
-    )
+    """The ``calib-pin batch`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
+
+    return command_parser(parser(), "batch")
+
+
+def add_batch_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """batch's arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
+    p.description = ("Calibrate many measurement sets, here (--jobs) or on a Dask cluster "
+                     "(--scheduler): per set OUT/<set>/report.json and the corrected URDF, plus "
+                     "OUT/summary.csv with one row per set.")
     p.add_argument("sessions", nargs="+", metavar="SESSION",
                    help="measurement set CSVs, one calibration each (file stems must differ); "
                    "a.csv+b.csv+c.csv is ONE calibration of those three sets together (one robot, each "
@@ -36,19 +51,17 @@ def batch_parser() -> argparse.ArgumentParser:
     p.add_argument("--robot", help="robot name or URDF path (default: each file's '# robot:' line)")
     p.add_argument("--method", default="lm", choices=ESTIMATORS, metavar="METHOD",
                    help=f"estimator: {', '.join(ESTIMATORS)} (default lm)")
-    p.add_argument("--seed", type=non_negative(int), default=0, help="seed of every set's split and estimator (default 0)")
-    p.add_argument("--test-fraction", type=fraction, default=0.2, help="held-out share (default 0.2)")
-    p.add_argument("--model", choices=MODELS, help="parameter model (default dh with a DH table, else placement)")
-    p.add_argument("--loss", default="linear", help="linear (default), huber, soft_l1 or cauchy")
-    p.add_argument("--jobs", type=count(1024), default=1, help="local worker processes (default 1)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run on this Dask scheduler (tcp://host:8786) instead of local processes")
+    add_seed_argument(p)
+    add_test_fraction_argument(p)
+    add_model_argument(p)
+    add_loss_argument(p)
+    add_parallel_arguments(p)
     return p
 
 
 def batch_main(argv: Sequence[str] | None = None) -> int:
     """``calib-pin batch SESSIONS... --out DIR [--method M] [--jobs N] [--scheduler ADDRESS]``."""
-    args = batch_parser().parse_args(argv)
+    args = parse_args("batch", argv)
     return run(lambda: _batch(args))
 
 

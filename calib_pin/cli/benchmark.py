@@ -8,15 +8,24 @@ import platform
 from collections.abc import Sequence
 
 from ..estimators import DEFAULT_METHOD, PAPER_METHODS
-from .common import OneLineParser, count, methods, non_negative, run
+from . import parse_args
+from .common import add_seed_argument, count, methods, run
 
 
 def benchmark_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(prog="calib-pin benchmark", description="Time calib-pin's estimators on a seeded simulated IRB120 session.")
+    """The ``calib-pin benchmark`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
+
+    return command_parser(parser(), "benchmark")
+
+
+def add_benchmark_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """benchmark's arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
+    p.description = "Time calib-pin's estimators on a seeded simulated IRB120 session."
     p.add_argument("--repeats", type=count(1000), default=5, help="timed runs per method (5)")
     p.add_argument("--methods", type=methods,
                    help=f"comma-separated methods (the paper's nine; against FIGAROH: {DEFAULT_METHOD},lm)")
-    p.add_argument("--seed", type=non_negative(int), default=0, help="seed (0)")
+    add_seed_argument(p)
     p.add_argument("--poses", type=count(100_000), default=120, help="poses of the simulated set, 80 %% train (120)")
     p.add_argument("--scaling", action="store_true",
                    help="also print the scaling table: lm, ekf, ekf-qibas, qibas at 100, 1 000, 10 000 poses (minutes)")
@@ -27,7 +36,7 @@ def benchmark_parser() -> argparse.ArgumentParser:
 
 def benchmark_main(argv: Sequence[str] | None = None) -> int:
     """``benchmark.py [--repeats 5] [--methods ekf-qibas,lm] [--seed 0] [--poses 120]``."""
-    args = benchmark_parser().parse_args(argv)
+    args = parse_args("benchmark", argv)
     return run(lambda: _benchmark(args))
 
 

@@ -22,15 +22,16 @@ from ..analysis.metrics import Metrics
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..export.bundle import EXPORTS, write_outputs
 from ..export.outputs import robot_inputs
-from ..parameters import MODELS
+from . import parse_args
 from .common import (
-    OneLineParser,
     add_compliance_arguments,
+    add_loss_argument,
+    add_model_argument,
     add_robot_arguments,
+    add_test_fraction_argument,
     compliance_options,
     count,
     fail,
-    fraction,
     positive_float,
     run,
 )
@@ -61,11 +62,16 @@ def assumed_noise(text: str) -> float:
 
 
 def calibrate_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(
-        prog="calib-pin calibrate",
-        description="Calibrate a robot's kinematics from drawstring readings or marker positions and "
-        "write the corrected URDF and a JSON report.",
-    )
+    """The ``calib-pin calibrate`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
+
+    return command_parser(parser(), "calibrate")
+
+
+def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """calibrate's arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
+    p.description = ("Calibrate a robot's kinematics from drawstring readings or marker positions and "
+                     "write the corrected URDF and a JSON report.")
     add_robot_arguments(p, "default: the file's", "default: the file's")
     p.add_argument("--data", action="append",
                    help="measurement set CSV (default: the robot's shipped set); repeat it to fit several sets "
@@ -80,15 +86,13 @@ def calibrate_parser() -> argparse.ArgumentParser:
                    "poses with the calibrated robot fixed, the other poses scored; FILE:register=role: on its rows "
                    "whose role column says 'register'")
     p.add_argument("--method", default=DEFAULT_METHOD, help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})")
-    p.add_argument("--test-fraction", type=fraction, default=0.2, help="share of poses held out for testing (default 0.2)")
+    add_test_fraction_argument(p)
     p.add_argument("--out", default="out", help="output folder (default ./out)")
     p.add_argument("--noise-mm", type=assumed_noise,
                    help="sensor noise (1 sigma) for the Kalman filters, mm, > 0 (default: the file's, else estimated "
                    "from the residual of a first LM fit, printed and in report.json's noise_mm)")
-    p.add_argument("--loss", default="linear", help="linear (default), or a robust loss: huber, soft_l1, cauchy")
-    p.add_argument("--model", choices=MODELS,
-                   help="parameter model: dh (default with a DH table), hayati (dh with a tilt beta for parallel "
-                   "axes), placement (6D offset per joint, any URDF; default without a DH table)")
+    add_loss_argument(p)
+    add_model_argument(p)
     add_compliance_arguments(p)
     p.add_argument("--export", type=export_formats, default=("urdf",),
                    help="formats of the corrected robot, comma-separated: urdf (default), yaml (joint origins for "
@@ -105,7 +109,7 @@ def calibrate_parser() -> argparse.ArgumentParser:
 
 def calibrate_main(argv: Sequence[str] | None = None) -> int:
     """``calibrate.py ROBOT [--data CSV] [--method NAME] [--seed N] [--test-fraction F] [--out DIR]``."""
-    args = calibrate_parser().parse_args(argv)
+    args = parse_args("calibrate", argv)
     return run(lambda: _analyze(args) if args.analyze else _calibrate(args))
 
 

@@ -19,7 +19,18 @@ import numpy as np
 
 from ..export.outputs import Outputs, refuse_input, robot_inputs
 from ..progress import quiet_progress
-from .common import SENSOR_FAULT_EXIT, OneLineParser, count, fail, non_negative, one_line, run, xyz_mm
+from . import parse_args
+from .common import (
+    SENSOR_FAULT_EXIT,
+    add_end_frame_argument,
+    add_quiet_argument,
+    count,
+    fail,
+    non_negative,
+    one_line,
+    run,
+    xyz_mm,
+)
 from .outputs import add_force_argument
 
 if TYPE_CHECKING:
@@ -96,11 +107,16 @@ def _save(outputs: Outputs, args: argparse.Namespace) -> None:
 
 
 def collect_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(
-        prog="calib-pin collect",
-        description="Read a drawstring sensor at each pose of a pose list and append the "
-        "readings to a measurement set (resumable); or --probe the sensor.",
-    )
+    """The ``calib-pin collect`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
+
+    return command_parser(parser(), "collect")
+
+
+def add_collect_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """collect's arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
+    p.description = ("Read a drawstring sensor at each pose of a pose list and append the "
+                     "readings to a measurement set (resumable); or --probe the sensor.")
     p.add_argument("robot", nargs="?", help="robot name (irb120) or URDF path; not needed with --probe")
     p.add_argument("--poses", help="pose list CSV (make_poses.py writes one)")
     p.add_argument("--port", required=True, help="serial device, e.g. /dev/ttyUSB0")
@@ -109,18 +125,18 @@ def collect_parser() -> argparse.ArgumentParser:
                    help="do not wait for Enter: wait this long at each pose, then read")
     p.add_argument("--probe", action="store_true", help="only read and print a few values")
     p.add_argument("--count", type=count(10_000), default=5, help="values read by --probe (5)")
-    p.add_argument("--end-frame", help="end frame (default tool0)")
+    add_end_frame_argument(p)
     p.add_argument("--anchor-mm", type=xyz_mm, help="sensor point P0 in the base frame, x,y,z mm (written to the file)")
     p.add_argument("--tool-mm", type=xyz_mm, help="hook point in the end frame, x,y,z mm (written to the file)")
     _add_sensor_arguments(p)
     add_force_argument(p, "--save-profile file")
-    p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
+    add_quiet_argument(p)
     return p
 
 
 def collect_main(argv: Sequence[str] | None = None) -> int:
     """``collect.py ROBOT --poses P.csv --port DEV --out F.csv [--auto S] [sensor flags]``."""
-    args = collect_parser().parse_args(argv)
+    args = parse_args("collect", argv)
     if not args.probe:
         missing = [name for name in ("robot", "poses", "out") if not getattr(args, name)]
         if missing:

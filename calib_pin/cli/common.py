@@ -1,4 +1,12 @@
-"""What every command shares: one-line errors, argument types, the exit codes.
+"""What every command shares: one-line errors, argument types, the exit codes, and the
+argument groups several commands hold (:func:`add_robot_arguments`, :func:`add_seed_argument`,
+:func:`add_compliance_arguments`, :func:`add_parallel_arguments`, ...): each option is
+defined once here and added to every ``calib-pin`` subcommand that takes it, under the same
+group title, with the same help.
+
+This module imports no numpy, scipy or Pinocchio (``calib-pin --help`` and the parser's
+skeleton stay quick): a group that needs a registry (the parameter models, the sensors'
+set-up records) imports it when it is added to a command's parser.
 
 Exit status: 0 done; 2 bad input, one line on stderr naming the file, line or field
 (never a traceback for a user's mistake); 3 a sensor fault (collect); 130 stopped by
@@ -13,9 +21,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any, NoReturn
 
-from ..arguments import as_names
 from ..exceptions import ArgumentError, CalibPinError
-from ..sensors.setup import estimate_names, finite, xyz_mm  # noqa: F401 (the sensors' flag parsers)
 
 BAD_INPUT_EXIT = 2
 SENSOR_FAULT_EXIT = 3
@@ -210,6 +216,8 @@ def methods(text: str) -> list[str]:
 
 def joint_names(text: str) -> tuple[str, ...]:
     """Comma-separated joint names (or ``all``), each once."""
+    from ..arguments import as_names
+
     try:
         names = as_names(text, "compliance")
     except ArgumentError as e:
@@ -217,6 +225,83 @@ def joint_names(text: str) -> tuple[str, ...]:
     if not names:
         raise argparse.ArgumentTypeError(f"expected joint names, comma-separated (joint_2,joint_3) or all, got '{text[:40]}'")
     return names
+
+
+#: The titles of the shared argument groups: a section of each command's ``--help``.
+ROBOT_GROUP = "robot"
+FIT_GROUP = "method and seed"
+COMPLIANCE_GROUP = "compliance (joint deflection under gravity, payload and cable pull)"
+PARALLEL_GROUP = "parallel (local processes or a Dask cluster)"
+
+#: The shared options' types: one object each, so every command parses an option alike.
+SEED_TYPE = non_negative(int)
+LOAD_TYPE = non_negative(float, 1e4)
+JOBS_TYPE = count(1024)
+
+#: The shared options' help texts, the same in every command.
+ROBOT_HELP = "robot name (irb120, or an example-robot-data name) or URDF path"
+END_FRAME_HELP = "end frame (default: the data file's, else tool0)"
+SEED_HELP = ("seed, a whole number >= 0, of the split, the estimator and simulated data; repeats "
+             "(trials, sessions) take seed, seed+1, ... (default 0)")
+TEST_FRACTION_HELP = "share of poses held out for testing, per set (default 0.2)"
+LOSS_HELP = "linear (default), or a robust loss: huber, soft_l1, cauchy"
+MODEL_HELP = ("parameter model: dh (default with a DH table), hayati (dh with a tilt beta for parallel "
+              "axes), placement (6D offset per joint, any URDF; default without a DH table)")
+QUIET_HELP = "no progress bar (it is drawn on stderr, only on a terminal)"
+
+
+def group(p: argparse.ArgumentParser, title: str) -> Any:
+    """``p``'s argument group ``title``, made on first use (so the shared options of a
+    group land in one section of ``--help`` wherever a command adds them)."""
+    for g in p._action_groups:
+        if g.title == title:
+            return g
+    return p.add_argument_group(title)
+
+
+def add_robot_argument(p: argparse.ArgumentParser) -> None:
+    """The positional ROBOT (name or URDF path)."""
+    group(p, ROBOT_GROUP).add_argument("robot", help=ROBOT_HELP)
+
+
+def add_end_frame_argument(p: argparse.ArgumentParser) -> None:
+    """``--end-frame``: the frame whose pose the sensor measures."""
+    group(p, ROBOT_GROUP).add_argument("--end-frame", help=END_FRAME_HELP)
+
+
+def add_seed_argument(p: argparse.ArgumentParser) -> None:
+    """``--seed``: a whole number >= 0, default 0."""
+    group(p, FIT_GROUP).add_argument("--seed", type=SEED_TYPE, default=0, help=SEED_HELP)
+
+
+def add_test_fraction_argument(p: argparse.ArgumentParser) -> None:
+    """``--test-fraction``: the held-out share of poses, in [0, 1)."""
+    group(p, FIT_GROUP).add_argument("--test-fraction", type=fraction, default=0.2, help=TEST_FRACTION_HELP)
+
+
+def add_loss_argument(p: argparse.ArgumentParser) -> None:
+    """``--loss``: linear or a robust loss (checked by the estimator, once)."""
+    group(p, FIT_GROUP).add_argument("--loss", default="linear", help=LOSS_HELP)
+
+
+def add_model_argument(p: argparse.ArgumentParser) -> None:
+    """``--model``: the parameter model (:data:`calib_pin.parameters.MODELS`)."""
+    from ..parameters import MODELS
+
+    group(p, FIT_GROUP).add_argument("--model", choices=MODELS, help=MODEL_HELP)
+
+
+def add_quiet_argument(p: argparse.ArgumentParser) -> None:
+    """``--quiet``: no progress bar."""
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+
+
+def add_parallel_arguments(p: argparse.ArgumentParser) -> None:
+    """``--jobs N`` local processes or ``--scheduler ADDRESS`` of a Dask cluster."""
+    g = group(p, PARALLEL_GROUP)
+    g.add_argument("--jobs", type=JOBS_TYPE, default=1, help="run in N local worker processes (default 1)")
+    g.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on this Dask scheduler (tcp://host:8786) instead of local processes")
 
 
 def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str, *,
@@ -229,22 +314,25 @@ def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_de
     per session, a list)."""
     from ..sensors import add_sensor_arguments
 
-    p.add_argument("robot", help="robot name (irb120, or an example-robot-data name) or URDF path")
-    p.add_argument("--end-frame", help="end frame (default: the data file's, else tool0)")
-    p.add_argument("--seed", type=non_negative(int), default=0, help="seed, a whole number >= 0 (default 0)")
+    add_robot_argument(p)
+    add_end_frame_argument(p)
+    add_seed_argument(p)
     add_sensor_arguments(p, {"anchor_mm": anchor_default, "tool_mm": tool_default}, skip, defaults,
                          append=("anchor_mm",) if anchor_per_session else ())
 
 
 def add_compliance_arguments(p: argparse.ArgumentParser, what: str = "estimate") -> None:
     """Joint compliance and its loads (see :mod:`calib_pin.robot.deflection`)."""
-    p.add_argument("--compliance", metavar="JOINTS", type=joint_names,
+    from ..sensors.setup import xyz_mm
+
+    g = group(p, COMPLIANCE_GROUP)
+    g.add_argument("--compliance", metavar="JOINTS", type=joint_names,
                    help=f"{what} the compliance [rad/Nm] of these joints under gravity (and payload, cable pull): "
                    "joint names comma-separated (joint_2,joint_3) or all (see --compliance-model)")
-    p.add_argument("--payload-kg", type=non_negative(float, 1e4), help="payload mass carried by the end frame, kg")
-    p.add_argument("--payload-com-mm", type=xyz_mm, help="payload centre of mass in the end frame, 'x,y,z' mm (default 0,0,0)")
-    p.add_argument("--cable-tension-n", type=non_negative(float, 1e4), help="the drawstring's pull on the tool point, N")
-    p.add_argument("--compliance-model", choices=("cad", "basis"),
+    g.add_argument("--payload-kg", type=LOAD_TYPE, help="payload mass carried by the end frame, kg")
+    g.add_argument("--payload-com-mm", type=xyz_mm, help="payload centre of mass in the end frame, 'x,y,z' mm (default 0,0,0)")
+    g.add_argument("--cable-tension-n", type=LOAD_TYPE, help="the drawstring's pull on the tool point, N")
+    g.add_argument("--compliance-model", choices=("cad", "basis"),
                    help="cad: compliances on the URDF's inertias; basis: the gravity torque patterns of the "
                    "kinematics, no inertias needed (default: cad when the URDF has inertial data, else basis)")
 
@@ -268,3 +356,16 @@ def compliance_options(args: argparse.Namespace) -> dict[str, Any]:
                                 "(--compliance joint_2,joint_3 or all)")
         return {"compliance": None}
     return {"compliance": Compliance(args.compliance, **loads, model=model)}
+
+
+#: The sensors' flag parsers, re-exported from :mod:`calib_pin.sensors.setup` on first use
+#: (importing it loads numpy: this module stays light).
+_SENSOR_PARSERS = ("estimate_names", "finite", "xyz_mm")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _SENSOR_PARSERS:
+        from ..sensors import setup
+
+        return getattr(setup, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -17,20 +17,23 @@ from typing import Any
 
 from ..estimators import PAPER_METHODS
 from ..export.outputs import Outputs, robot_inputs
-from ..parameters import MODELS as PARAMETER_MODELS
 from ..progress import quiet_progress
 from ..simulation import NOISE_KINDS
+from . import parse_args
 from .common import (
     INTERRUPTED_EXIT,
-    OneLineParser,
     add_compliance_arguments,
+    add_model_argument,
+    add_parallel_arguments,
+    add_quiet_argument,
+    add_robot_argument,
+    add_seed_argument,
+    add_test_fraction_argument,
     compliance_options,
     count,
     estimate_names,
     fail,
-    fraction,
     methods,
-    non_negative,
     one_line,
     positive_float,
     run,
@@ -41,12 +44,17 @@ MAX_TRIALS = 100_000
 
 
 def compare_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(
-        prog="calib-pin compare",
-        description="Run the estimators side by side on one data set and split (the paper's "
-        "Table I, Fig. 2, Fig. 3); writes table1.csv, table1.md and two PNG figures.",
-    )
-    p.add_argument("robot", help="robot name (irb120) or URDF path")
+    """The ``calib-pin compare`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
+
+    return command_parser(parser(), "compare")
+
+
+def add_compare_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """compare's arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
+    p.description = ("Run the estimators side by side on one data set and split (the paper's "
+                     "Table I, Fig. 2, Fig. 3); writes table1.csv, table1.md and two PNG figures.")
+    add_robot_argument(p)
     p.add_argument("--data", action="append",
                    help="measurement set CSV (default: the robot's shipped set); give it once per set "
                    "(--data a.csv --data b.csv) to compare on the sets stacked: one robot, each set its own "
@@ -57,16 +65,15 @@ def compare_parser() -> argparse.ArgumentParser:
                    "kept in OUT/.calib-pin-checkpoint until the run completes: after Ctrl-C or a fault the same command resumes")
     p.add_argument("--methods", type=methods, default=list(PAPER_METHODS),
                    help=f"comma-separated methods (default the paper's nine: {','.join(PAPER_METHODS)})")
-    p.add_argument("--seed", type=non_negative(int), default=0, help="first seed (default 0)")
-    p.add_argument("--test-fraction", type=fraction, default=0.2, help="held-out share (default 0.2)")
+    add_seed_argument(p)
+    add_test_fraction_argument(p)
     p.add_argument("--simulate", choices=NOISE_KINDS,
                    help="run on seeded simulated sets with this noise kind instead of --data")
     p.add_argument("--noise-mm", type=positive_float(100.0), default=0.05,
                    help="noise of simulated sets, 1 sigma, mm (default 0.05)")
     p.add_argument("--poses", type=count(100_000), default=120, help="poses of simulated sets (default 120)")
     add_compliance_arguments(p)
-    p.add_argument("--model", choices=PARAMETER_MODELS,
-                   help="parameter model: dh (default with a DH table), hayati, placement (default without)")
+    add_model_argument(p)
     p.add_argument("--estimate", type=estimate_names, default=(),
                    help="sensor geometry to estimate with the robot, comma-separated: anchor, offset (drawstring)")
     p.add_argument("--models",
@@ -74,17 +81,15 @@ def compare_parser() -> argparse.ArgumentParser:
                    "comma-separated geometric, dh, hayati, placement, compliance:JOINT+JOINT[:cad|basis], "
                    "compliance:all; the first is the reference of the paired differences; writes models.md, models.csv")
     p.add_argument("--method-of-models", default="lm", help="the estimator of --models (default lm)")
-    p.add_argument("--jobs", type=count(1024), default=1, help="run the trials in N local processes (default 1)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run the trials on this Dask scheduler (tcp://host:8786) instead")
-    p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
+    add_parallel_arguments(p)
+    add_quiet_argument(p)
     return p
 
 
 def compare_main(argv: Sequence[str] | None = None) -> int:
     """``compare.py ROBOT [--data CSV] [--trials N] [--out DIR] [--methods a,b] [--simulate KIND]``."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = compare_parser().parse_args(argv)
+    args = parse_args("compare", argv)
     if args.simulate and args.data:
         return fail("give either --data or --simulate, not both")
     if args.models and args.simulate:

@@ -16,16 +16,22 @@ import numpy as np
 from ..compensation import CalibratedRobot, Compensation
 from ..exceptions import DataError
 from ..export.outputs import Outputs, robot_inputs
-from .common import OneLineParser, run
+from . import parse_args
+from .common import run
 from .outputs import add_force_argument
 
 
 def compensate_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(
-        prog="calib-pin compensate",
-        description="Correct a robot program's joint targets (computed with the nominal model) so that the "
-        "calibrated arm, deflection included, reaches the nominal end-frame poses.",
-    )
+    """The ``calib-pin compensate`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
+
+    return command_parser(parser(), "compensate")
+
+
+def add_compensate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """compensate's arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
+    p.description = ("Correct a robot program's joint targets (computed with the nominal model) so that the "
+                     "calibrated arm, deflection included, reaches the nominal end-frame poses.")
     p.add_argument("robot", help="robot name (irb120, ...) or URDF path; must be the calibration's")
     p.add_argument("--calibration", required=True,
                    help="folder of <robot>_calibration.json (the calibrate --out folder), or the file")
@@ -40,7 +46,7 @@ def compensate_parser() -> argparse.ArgumentParser:
 
 def compensate_main(argv: Sequence[str] | None = None) -> int:
     """``compensate.py ROBOT --calibration DIR --targets CSV --out CSV``."""
-    args = compensate_parser().parse_args(argv)
+    args = parse_args("compensate", argv)
     return run(lambda: _compensate(args))
 
 

@@ -2,20 +2,27 @@
 
 from __future__ import annotations
 
+import argparse
 import time
 from collections.abc import Sequence
 
 from ..exceptions import CalibPinError
-from .common import OneLineParser, non_negative
+from . import parse_args
+from .common import non_negative
 
 
-def fake_indicator_main(argv: Sequence[str] | None = None) -> int:
-    """``fake_indicator.py [--protocol modbus|ascii] [--value-mm V | --values F.csv --follow OUT.csv] ...``."""
-    from ..hardware.fake_indicator import FAULTS, FakeIndicator
-    from ..measurements import read_measurements
+def fake_indicator_parser() -> argparse.ArgumentParser:
+    """The ``calib-pin fake-indicator`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
 
-    p = OneLineParser(prog="calib-pin fake-indicator",
-                      description="Serve a simulated drawstring indicator on a pseudo-terminal; prints its device path.")
+    return command_parser(parser(), "fake-indicator")
+
+
+def add_fake_indicator_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """fake-indicator's arguments, added to its subparser ``p``."""
+    from ..hardware.fake_indicator import FAULTS
+
+    p.description = "Serve a simulated drawstring indicator on a pseudo-terminal; prints its device path."
     p.add_argument("--protocol", choices=["modbus", "ascii"], default="modbus")
     p.add_argument("--value-mm", type=float, default=1000.0, help="value served (1000)")
     p.add_argument("--values", help="measurement set whose length_mm values are served pose by pose (with --follow)")
@@ -30,7 +37,16 @@ def fake_indicator_main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--drift-mm-per-s", type=float, default=0.0)
     p.add_argument("--fault", choices=FAULTS, help="inject this fault ...")
     p.add_argument("--fault-every", type=int, default=0, help="... on every Nth answer (0: never)")
-    args = p.parse_args(argv)
+    return p
+
+
+def fake_indicator_main(argv: Sequence[str] | None = None) -> int:
+    """``fake_indicator.py [--protocol modbus|ascii] [--value-mm V | --values F.csv --follow OUT.csv] ...``."""
+    from ..hardware.fake_indicator import FakeIndicator
+    from ..measurements import read_measurements
+
+    args = parse_args("fake-indicator", argv)
+    p = fake_indicator_parser()  # its error(): one line, exit 2, as a bad argument's
     values = None
     if args.values:
         if not args.follow:

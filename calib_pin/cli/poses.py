@@ -10,10 +10,20 @@ import numpy as np
 
 from ..exceptions import CalibPinError
 from ..export.outputs import Outputs, robot_inputs
-from ..parameters import MODELS
 from ..progress import quiet_progress
 from ..sensors import SENSORS, add_sensor_arguments, default_kind
-from .common import OneLineParser, count, fail, non_negative, run
+from . import parse_args
+from .common import (
+    add_end_frame_argument,
+    add_model_argument,
+    add_quiet_argument,
+    add_robot_argument,
+    add_seed_argument,
+    count,
+    fail,
+    non_negative,
+    run,
+)
 from .outputs import add_force_argument
 
 #: Most poses or candidates a pose command draws (more would not fit in memory here).
@@ -21,13 +31,21 @@ MAX_POSES = 1_000_000
 
 
 def make_poses_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(prog="calib-pin make-poses", description="Write a random pose list within the joint limits.")
-    p.add_argument("robot", help="robot name (irb120) or URDF path")
+    """The ``calib-pin make-poses`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
+
+    return command_parser(parser(), "make-poses")
+
+
+def add_make_poses_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """make-poses' arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
+    p.description = "Write a random pose list within the joint limits."
+    add_robot_argument(p)
     p.add_argument("--n", type=count(MAX_POSES), default=120, help="number of poses (120)")
-    p.add_argument("--seed", type=non_negative(int), default=0, help="seed (0)")
+    add_seed_argument(p)
     p.add_argument("--margin-deg", type=non_negative(float), default=5.0,
                    help="keep this far inside every joint limit, deg (5)")
-    p.add_argument("--end-frame", help="end frame (default tool0)")
+    add_end_frame_argument(p)
     p.add_argument("--out", required=True, help="pose list CSV")
     add_force_argument(p, "--out file")
     return p
@@ -42,7 +60,7 @@ def _pose_output(args: argparse.Namespace) -> Outputs:
 
 def make_poses_main(argv: Sequence[str] | None = None) -> int:
     """``make_poses.py ROBOT --n 120 --seed S --out poses.csv [--margin-deg 5]``."""
-    args = make_poses_parser().parse_args(argv)
+    args = parse_args("make-poses", argv)
     return run(lambda: _make_poses(args))
 
 
@@ -93,14 +111,20 @@ def noise_list(text: str) -> tuple[float, ...]:
     return values
 
 
-def plan_poses_main(argv: Sequence[str] | None = None) -> int:
-    """``plan_poses.py ROBOT --n 40 --candidates 5000 [--seed S] --out poses.csv``."""
-    p = OneLineParser(prog="calib-pin plan-poses",
-                      description="Choose poses that maximise the observability of the parameters (D-optimal).")
-    p.add_argument("robot", help="robot name (irb120) or URDF path")
+def plan_poses_parser() -> argparse.ArgumentParser:
+    """The ``calib-pin plan-poses`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
+
+    return command_parser(parser(), "plan-poses")
+
+
+def add_plan_poses_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """plan-poses' arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
+    p.description = "Choose poses that maximise the observability of the parameters (D-optimal)."
+    add_robot_argument(p)
     p.add_argument("--n", type=count(MAX_POSES), default=40, help="poses to choose (40)")
     p.add_argument("--candidates", type=count(MAX_POSES), default=5000, help="random candidates to choose from (5000)")
-    p.add_argument("--seed", type=non_negative(int), default=0, help="seed of the candidates (0)")
+    add_seed_argument(p)
     p.add_argument("--margin-deg", type=non_negative(float), default=5.0, help="distance from the joint limits, deg (5)")
     p.add_argument("--sensor", type=sensor_kinds, default=None,
                    help="the sensor(s) that will measure the poses, comma-separated for several reading at every "
@@ -111,13 +135,17 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
                    "sensor's rows by it (default: equal)")
     add_sensor_arguments(p, {"anchor_mm": "default 600,200,-100", "tool_mm": "default 0,0,50",
                              "estimate": "that will be estimated too"}, skip=("length_offset_mm",))
-    p.add_argument("--end-frame", help="end frame (default tool0)")
-    p.add_argument("--model", choices=MODELS,
-                   help="parameter model to plan for (default dh with a DH table, else placement)")
+    add_end_frame_argument(p)
+    add_model_argument(p)
     p.add_argument("--out", required=True, help="pose list CSV")
     add_force_argument(p, "--out file")
-    p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on stderr, only on a terminal)")
-    args = p.parse_args(argv)
+    add_quiet_argument(p)
+    return p
+
+
+def plan_poses_main(argv: Sequence[str] | None = None) -> int:
+    """``plan_poses.py ROBOT --n 40 --candidates 5000 [--seed S] --out poses.csv``."""
+    args = parse_args("plan-poses", argv)
     if args.candidates < args.n:
         return fail(f"--candidates ({args.candidates}) must be at least --n ({args.n})")
     with quiet_progress(args.quiet):

@@ -12,11 +12,11 @@ import numpy as np
 
 from ..exceptions import CalibPinError
 from ..export.outputs import Outputs, robot_inputs
-from ..parameters import MODELS
 from ..simulation import NOISE_KINDS
+from . import parse_args
 from .common import (
-    OneLineParser,
     add_compliance_arguments,
+    add_model_argument,
     add_robot_arguments,
     compliance_options,
     count,
@@ -33,14 +33,19 @@ MAX_POSES = 1_000_000
 
 
 def simulate_parser() -> argparse.ArgumentParser:
-    p = OneLineParser(
-        prog="calib-pin simulate",
-        description="Simulate a drawstring measurement set with known true deviations; "
-        "writes FILE.csv and FILE.truth.json. With --sessions K: K sessions of one true robot, "
-        "each with its own anchor, as FILE_1.csv .. FILE_K.csv, and one FILE.truth.json (the robot "
-        "and every session's true anchor). With --kinds: sessions of other sensors, or of several "
-        "(--kinds cable,position: a drawstring session and a tracker session of the one robot).",
-    )
+    """The ``calib-pin simulate`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
+    from . import command_parser, parser
+
+    return command_parser(parser(), "simulate")
+
+
+def add_simulate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """simulate's arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
+    p.description = ("Simulate a drawstring measurement set with known true deviations; "
+                     "writes FILE.csv and FILE.truth.json. With --sessions K: K sessions of one true robot, "
+                     "each with its own anchor, as FILE_1.csv .. FILE_K.csv, and one FILE.truth.json (the robot "
+                     "and every session's true anchor). With --kinds: sessions of other sensors, or of several "
+                     "(--kinds cable,position: a drawstring session and a tracker session of the one robot).")
     add_robot_arguments(p, "default 600,200,-100; sessions 2.. drawn around it", "default 0,0,50",
                         skip=("estimate",), defaults={"length_offset_mm": 0.0}, anchor_per_session=True)
     p.add_argument("--sessions", type=count(1000), default=1,
@@ -61,8 +66,7 @@ def simulate_parser() -> argparse.ArgumentParser:
     p.add_argument("--nominal-rmse-mm", type=non_negative(float, 1000.0), default=2.0,
                    help="reading error of the nominal model the true deviations cause, mm (default 2)")
     p.add_argument("--poses-file", help="simulate at the poses of this pose list (make_poses.py) instead of random ones")
-    p.add_argument("--model", choices=MODELS,
-                   help="parameter model of the true deviations (default dh with a DH table, else placement)")
+    add_model_argument(p)
     add_compliance_arguments(p, "simulate")
     p.add_argument("--true-compliance-urad-per-nm", type=_values,
                    help="true compliance of each --compliance joint, comma-separated, urad/Nm (e.g. 25,40)")
@@ -108,7 +112,7 @@ def _write_set(tmp: Path, data: MeasurementSet) -> None:
 
 def simulate_main(argv: Sequence[str] | None = None) -> int:
     """``simulate.py ROBOT --poses N --seed S --noise-mm SIGMA --out FILE.csv``."""
-    args = simulate_parser().parse_args(argv)
+    args = parse_args("simulate", argv)
     return run(lambda: _simulate(args))
 
 
