@@ -101,9 +101,9 @@ def _compensate(args: argparse.Namespace) -> int:
         line = f" (line {int(targets.lines[rows[k]])})" if targets.lines is not None else ""
         return f"pose {pose_ids[rows[k]]}{line}"
 
-    refused = {f"refused {where(k)}": result.reasons[k] for k in np.flatnonzero(~kept)}
+    refused = {f"refused_pose_{pose_ids[rows[k]]}": f"{where(k)}: {result.reasons[k]}" for k in np.flatnonzero(~kept)}
     own = {k: v for k, v in targets.notes.items()  # the targets' own notes, kept
-           if k != "compensated" and not k.startswith("refused pose")}
+           if k != "compensated" and not k.startswith("refused_pose_")}
     compensated = f"{source.name} (calib-pin {__version__}), targets {Path(targets.source).name}"
     notes = {**own, "robot": chain.name, "end_frame": chain.end_frame, "compensated": compensated, **refused}
     extra = {name: column[rows][kept] for name, column in targets.extra.items()}  # a program's speed, zone, name
@@ -115,7 +115,7 @@ def _compensate(args: argparse.Namespace) -> int:
     else:
         header = [f"calib-pin compensate: robot {chain.name}, end frame {chain.end_frame}, calibration {compensated}",
                   f"{int(kept.sum())} of {len(kept)} targets; refused (left out): "
-                  f"{', '.join(f'{k[8:]}: {v}' for k, v in refused.items()) or 'none'}"]
+                  f"{'; '.join(refused.values()) or 'none'}"]
         options = {k: v for k, v in (("speed_rad_s", args.speed_rad_s), ("accel_rad_s2", args.accel_rad_s2))
                    if v is not None}
         notes_per_target = tuple(f"position-only: {r}" if s == POSITION_ONLY else ""
