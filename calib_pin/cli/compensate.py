@@ -15,7 +15,7 @@ refused (the others written); 2 bad input (nothing written); 130 Ctrl-C.
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -67,7 +67,6 @@ def compensate_main(argv: Sequence[str] | None = None) -> int:
 
 def _compensate(args: argparse.Namespace) -> int:
     from .. import __version__
-    from ..atomic import write_text
     from ..export.calibration_file import find_calibration, load_calibration
     from ..measurements.csv_writer import write_compensated
     from ..measurements.pose_list import read_pose_list
@@ -101,7 +100,8 @@ def _compensate(args: argparse.Namespace) -> int:
         line = f" (line {int(targets.lines[rows[k]])})" if targets.lines is not None else ""
         return f"pose {pose_ids[rows[k]]}{line}"
 
-    refused = {f"refused_pose_{pose_ids[rows[k]]}": f"{where(k)}: {result.reasons[k]}" for k in np.flatnonzero(~kept)}
+    refused = {f"refused_pose_{pose_ids[rows[k]]}": f"{where(int(k))}: {result.reasons[k]}"
+               for k in np.flatnonzero(~kept)}
     own = {k: v for k, v in targets.notes.items()  # the targets' own notes, kept
            if k != "compensated" and not k.startswith("refused_pose_")}
     compensated = f"{source.name} (calib-pin {__version__}), targets {Path(targets.source).name}"
@@ -122,8 +122,8 @@ def _compensate(args: argparse.Namespace) -> int:
                                  for s, r in zip(result.status, result.reasons, strict=True) if s != REFUSED)
         program = Program(name, result.q[kept], pose_ids[rows][kept], chain.name, chain.joint_names,
                           tuple(header), notes_per_target, options)
-        for path, text in program_files(args.format, program, Path(args.out)).items():
-            out.add(path, lambda tmp, text=text: write_text(tmp, text))
+        for path, content in program_files(args.format, program, Path(args.out)).items():
+            out.add(path, _writer(content))
     written = out.commit()
     _summary(robot, q_nominal, result)
     for k, status in enumerate(result.status):
@@ -136,6 +136,13 @@ def _compensate(args: argparse.Namespace) -> int:
     if not kept.all():
         return EXIT_REFUSED
     return EXIT_OK if all(s == OK for s in result.status) else EXIT_POSITION_ONLY
+
+
+def _writer(text: str) -> Callable[[Path], object]:
+    """What the output writer calls to write ``text`` to its temporary file."""
+    from ..atomic import write_text
+
+    return lambda tmp: write_text(tmp, text)
 
 
 def _summary(robot: CalibratedRobot, q_nominal: np.ndarray, result: Compensation) -> None:
