@@ -126,9 +126,9 @@ def _compensate(args: argparse.Namespace) -> int:
             out.add(path, _writer(content))
     written = out.commit()
     _summary(robot, q_nominal, result)
-    for k, status in enumerate(result.status):
-        if status != OK:
-            print(f"{where(k)}: {status}: {result.reasons[k]}")
+    for k, state in enumerate(result.status):
+        if state != OK:
+            print(f"{where(k)}: {state}: {result.reasons[k]}")
     if extra and args.format == "csv":
         print(f"columns {', '.join(extra)} of {Path(targets.source).name}: copied to the output as they were")
     for path in written:
