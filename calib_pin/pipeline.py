@@ -70,6 +70,8 @@ class CalibrationSetup:
     data: MeasurementSet
     noise: float
     options: dict[str, Any] = field(default_factory=dict)
+    #: Unknowns held at their start (``fix``/``free`` of :func:`prepare`), by name.
+    fixed: tuple[str, ...] = ()
 
     def problem_on(self, fit_rows: np.ndarray) -> CalibrationProblem:
         """Every row of the data, with the sensor's starting geometry fitted on ``fit_rows``."""
@@ -131,7 +133,8 @@ class CalibrationSetup:
         if unsupported:
             raise DataError(self.data.source, unsupported)
         x0 = np.zeros(problem.n_params)
-        estimate = run_estimator(method, training, x0, seed=seed, noise=self.noise, loss=loss)
+        held = tuple(problem.model.names.index(n) for n in self.fixed)
+        estimate = run_estimator(method, training, x0, seed=seed, noise=self.noise, loss=loss, fixed=held)
         metrics = {}
         for split, rows in (("train", train), ("test", test)):
             if len(rows):
@@ -210,7 +213,8 @@ def prepare(robot: str | RobotDescription, data: str | Path | MeasurementSet | N
             length_offset_mm: float | None = None, noise_mm: Any = None, parameters: str | None = None,
             estimate: tuple[str, ...] = (), compliance: Compliance | str | tuple[str, ...] | None = None,
             payload_kg: float | None = None, payload_com_mm: Any = None,
-            cable_tension_n: float | None = None, setup: SensorSetup | None = None) -> CalibrationSetup: ...
+            cable_tension_n: float | None = None, setup: SensorSetup | None = None,
+            fix: Any = None, free: Any = None) -> CalibrationSetup: ...
 
 
 @overload
@@ -219,7 +223,8 @@ def prepare(robot: str | RobotDescription, data: list[Any] | tuple[Any, ...],
             length_offset_mm: float | None = None, noise_mm: Any = None, parameters: str | None = None,
             estimate: tuple[str, ...] = (), compliance: Compliance | str | tuple[str, ...] | None = None,
             payload_kg: float | None = None, payload_com_mm: Any = None,
-            cable_tension_n: float | None = None, setup: SensorSetup | None = None) -> CalibrationSetup | StackedSetup: ...
+            cable_tension_n: float | None = None, setup: SensorSetup | None = None,
+            fix: Any = None, free: Any = None) -> CalibrationSetup | StackedSetup: ...
 
 
 def prepare(
@@ -238,6 +243,8 @@ def prepare(
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
     setup: SensorSetup | None = None,
+    fix: Any = None,
+    free: Any = None,
 ) -> CalibrationSetup | StackedSetup:
     """Load a robot and a measurement set for calibration (arguments as :func:`calibrate`).
 
@@ -246,6 +253,7 @@ def prepare(
     a list of one set is that set. ``setup`` (a sensor's set-up record,
     :class:`~calib_pin.sensors.CableSetup`) overrides the file's set-up; the loose
     ``anchor_mm``, ``tool_mm``, ``length_offset_mm`` and ``estimate`` are its shorthand.
+    ``fix``/``free``: unknowns held at their start (:mod:`calib_pin.parameters.held`).
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
@@ -262,6 +270,8 @@ def prepare(
         if sets[0].setup is not None:  # the set's own set-up wins over the shared one
             sensor_options = {**sensor_options, **setup_record(sets[0].setup).given()}  # type: ignore[union-attr]
     elif sets is not None:  # several sets
+        if fix is not None or free is not None:
+            raise ArgumentError("fix", "holding unknowns fixed works with one measurement set (not yet with several)")
         return _prepare_sets(robot, sets, end_frame=end_frame, sensor_options=sensor_options, noise_mm=noise_mm,
                              parameters=parameters, compliance=record)
     _check_data(data, "data")
@@ -276,6 +286,11 @@ def prepare(
     prepared = CalibrationSetup(chain, parameter_model(chain, parameters), data, noise,
                                 {**sensor_options, "compliance": soft})
     prepared.problem  # noqa: B018 (refuse options the sensor does not take now; the problem is kept for --analyze)
+    if fix is not None or free is not None:
+        from .parameters.held import held_names
+
+        model = prepared.problem.model
+        prepared.fixed = held_names(model.names, model.sensor_start, fix, free)
     return prepared
 
 
@@ -340,6 +355,8 @@ def calibrate(
     cable_tension_n: float | None = None,
     progress: Callable[[Any], object] | None = None,
     setup: SensorSetup | None = None,
+    fix: Any = None,
+    free: Any = None,
 ) -> CalibrationResult:
     """Calibrate a robot's kinematic deviations from drawstring readings or positions.
 
@@ -376,6 +393,9 @@ def calibrate(
         setup: The sensor's set-up record (:class:`~calib_pin.sensors.CableSetup`):
             overrides of the file's; ``anchor_mm``, ``tool_mm``, ``length_offset_mm`` and
             ``estimate`` are its shorthand, laid over it.
+        fix: Unknowns held at their start (names, or a comma-separated str:
+            ``"theta_1,d_1"``, a compliance ``compliance_joint_2``, a sensor unknown).
+        free: The robot's deviations and compliances to estimate; the others are held.
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message; a
@@ -393,7 +413,7 @@ def calibrate(
     prepared: CalibrationSetup | StackedSetup = prepare(
         robot, cast(Any, data), end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
         length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters, estimate=estimate,
-        compliance=record, setup=setup)
+        compliance=record, setup=setup, fix=fix, free=free)
     if isinstance(prepared, StackedSetup):
         if test_data is not None:
             raise CalibPinError("test_data with several sets: give the validation set as one of the sets, "

@@ -221,7 +221,12 @@ class CalibrationResult:
         """What the training poses can identify (:func:`calib_pin.analysis.identifiability.analyze` at zero)."""
         from .analysis.identifiability import analyze
 
-        return analyze(self.problem.subset(self.train))
+        return analyze(self.problem.subset(self.train), fixed=self.fixed)
+
+    @property
+    def fixed(self) -> tuple[str, ...]:
+        """Unknowns held at their start (``calibrate --fix``/``--free``), by name; empty if none."""
+        return tuple(self.problem.model.names[i] for i in self.estimate.extras.get("fixed", ()))
 
 
 def _joint_angles(q: Any, n_joints: int) -> np.ndarray:

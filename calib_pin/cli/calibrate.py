@@ -84,6 +84,10 @@ def calibrate_parser() -> argparse.ArgumentParser:
                    help="parameter model: dh (default with a DH table), hayati (dh with a tilt beta for parallel "
                    "axes), placement (6D offset per joint, any URDF; default without a DH table)")
     add_compliance_arguments(p)
+    p.add_argument("--fix", help="unknowns held at their nominal value, comma-separated: robot deviations "
+                   "(theta_1,d_1), compliances (compliance_joint_2) or sensor unknowns (device_rz)")
+    p.add_argument("--free", help="the robot deviations and compliances to estimate, comma-separated; every "
+                   "other one is held at its nominal value (the sensor's unknowns stay free)")
     p.add_argument("--export", type=export_formats, default=("urdf",),
                    help="formats of the corrected robot, comma-separated: urdf (default), yaml (joint origins for "
                    "xacro.load_yaml; ur_description's default_kinematics.yaml too for ur* robots), dh (DH table TOML, "
@@ -193,7 +197,8 @@ def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
     from ..sensors import setup_from_args, setup_record
 
     return {"end_frame": args.end_frame, "setup": setup_record(**setup_from_args(args)), "noise_mm": args.noise_mm,
-            "parameters": args.model, **compliance_options(args)}
+            "parameters": args.model, **compliance_options(args),
+            **{k: v for k, v in (("fix", args.fix), ("free", args.free)) if v is not None}}
 
 
 def _analyze(args: argparse.Namespace) -> int:
@@ -203,7 +208,7 @@ def _analyze(args: argparse.Namespace) -> int:
     setup = prepare(args.robot, _data(args), **_setup_options(args))
     print(f"{setup.chain.name}: {setup.data.describe_rows()} from {setup.data.source}, "
           f"{setup.params.name} model, {setup.problem.model.describe()}")
-    print(analyze(setup.problem).report())
+    print(analyze(setup.problem, fixed=getattr(setup, "fixed", ())).report())
     print("the estimators move only the identifiable directions: the deviations along the blind "
           "ones above stay at zero in the export")
     return 0
@@ -330,6 +335,8 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     print(f"identifiable: {ident['rank']} of {ident['unknowns']} directions on the training poses; "
           f"not identifiable: {', '.join(ident['unidentifiable']) or 'none'}; {len(ident['combinations'])} "
           "combination(s) only together (--analyze lists them); blind directions stay at zero")
+    if report.get("fixed"):
+        print(f"fixed (held at their nominal value, --fix/--free): {', '.join(report['fixed'])}")
     if result.loss != "linear":
         lines = ", ".join(str(line) for line in report["outlier_lines"]) or "none"
         print(f"outliers ({result.loss} loss): {len(result.outlier_rows)} training rows, file lines {lines}")

@@ -110,6 +110,8 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "identifiability_spectrum": _spectrum(result),
         "workspace_uncertainty": _workspace(result),
     }
+    if result.fixed:  # unknowns held at their start (--fix/--free)
+        report["fixed"] = list(result.fixed)
     if result.sets:  # several measurement sets: a table each; the metrics above pool them
         report["sets"] = [s.as_dict() for s in result.sets]
         report["metrics_pooled"] = "every set's row errors together, each in its own set's units (mm)"
