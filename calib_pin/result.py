@@ -58,6 +58,8 @@ class CalibrationResult:
             then the :class:`~calib_pin.stacked.StackedProblem`, ``data`` every set's rows
             in turn, ``train``/``test`` index its rows, and ``metrics`` pools every set's
             row errors, each in its own set's units [mm]. Empty for one set.
+        start: The start of ``--nominal`` (None: the catalogue geometry); ``x`` stays the
+            deviations from the catalogue URDF.
     """
 
     chain: Chain
@@ -76,6 +78,9 @@ class CalibrationResult:
     warnings: tuple[str, ...] = ()
     test_source: str = ""
     sets: tuple[Any, ...] = ()
+    #: Where the estimate started (``calibrate --nominal``, a
+    #: :class:`~calib_pin.parameters.start.Start`); None: the catalogue URDF (zero).
+    start: Any = None
 
     @property
     def model_name(self) -> str:

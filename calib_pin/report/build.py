@@ -112,6 +112,8 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
     }
     if result.fixed:  # unknowns held at their start (--fix/--free)
         report["fixed"] = list(result.fixed)
+    if result.start is not None:  # --nominal: where the estimate started
+        report["start"] = result.start.as_dict(result.params, result.problem.model.robot(result.x))
     if result.sets:  # several measurement sets: a table each; the metrics above pool them
         report["sets"] = [s.as_dict() for s in result.sets]
         report["metrics_pooled"] = "every set's row errors together, each in its own set's units (mm)"
