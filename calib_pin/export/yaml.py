@@ -268,20 +268,18 @@ def read_ur_kinematics_yaml(chain: Chain, path: str | Path) -> list[pin.SE3]:
         raise DataError(str(path), f"not YAML: {str(e).splitlines()[0]}") from None
     body = doc.get("kinematics") if isinstance(doc, dict) else None
     if not isinstance(body, dict):
-        raise DataError(str(path), "no 'kinematics:' mapping (ur_description's default_kinematics.yaml layout)",
-                        None, "kinematics")
+        raise DataError(str(path), "no 'kinematics:' mapping (ur_description's default_kinematics.yaml layout)")
     origins = []
     for key in UR_KEYS:
         entry = body.get(key)
         if not isinstance(entry, dict):
-            raise DataError(str(path), f"no kinematics.{key} entry {{x, y, z, roll, pitch, yaw}}", None, key)
+            raise DataError(str(path), f"no kinematics.{key} entry {{x, y, z, roll, pitch, yaw}}")
         try:
             v = [float(entry[k]) for k in ("x", "y", "z", "roll", "pitch", "yaw")]
         except (KeyError, TypeError, ValueError):
-            raise DataError(str(path), f"kinematics.{key} needs numbers x, y, z [m], roll, pitch, yaw [rad]",
-                            None, key) from None
+            raise DataError(str(path), f"kinematics.{key} needs numbers x, y, z [m], roll, pitch, yaw [rad]") from None
         if not np.all(np.isfinite(v)) or max(abs(c) for c in v[:3]) > 10.0:
-            raise DataError(str(path), f"kinematics.{key}: {v} is not a joint origin in m and rad", None, key)
+            raise DataError(str(path), f"kinematics.{key}: {v} is not a joint origin in m and rad")
         origins.append(pin.SE3(pin.rpy.rpyToMatrix(*v[3:]), np.array(v[:3])))
     ur_kinematics(chain, [pin.SE3.Identity()] * (chain.n_joints + 1))  # a UR arm, or RobotError
     links = _ur_link_frames(chain)
