@@ -337,7 +337,8 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     ident = report["identifiability"]
     print(f"identifiable: {ident['rank']} of {ident['unknowns']} directions on the training poses; "
           f"not identifiable: {', '.join(ident['unidentifiable']) or 'none'}; {len(ident['combinations'])} "
-          "combination(s) only together (--analyze lists them); blind directions stay at zero")
+          "combination(s) only together (--analyze lists them); blind directions stay at "
+          f"{'the start' if result.start is not None else 'zero'}")
     if result.start is not None:
         print(f"start: {result.start.describe()}; 'before' is the start's error, the deviations "
               "(report.json) are from the catalogue URDF, deviations_from_start from the start")
