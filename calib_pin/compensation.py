@@ -343,7 +343,7 @@ class CalibratedRobot:
             elif position[k] <= TOLERANCE_M:
                 status.append(POSITION_ONLY)
                 held = _held(q[k], q_nom[k], lower, upper, names)
-                reasons.append(f"{held + ': ' if held else 'near a singularity: '}position met, orientation off by "
+                reasons.append(f"{held + '; ' if held else 'near a singularity: '}position met, orientation off by "
                                f"{orientation[k] * 1e6:.4g} urad (the least the joints allow)")
             else:
                 status.append(REFUSED)
@@ -362,5 +362,6 @@ def _held(q: np.ndarray, q_nom: np.ndarray, lower: np.ndarray, upper: np.ndarray
             return f"{names[j]} held at its limit {np.rad2deg(bound):g} deg"
     for j in range(len(q)):
         if abs(q[j] - q_nom[j]) >= MAX_CORRECTION_RAD - 1e-9:
-            return f"{names[j]} held at the largest correction, {np.rad2deg(MAX_CORRECTION_RAD):g} deg"
+            return (f"near a singularity: the full pose needs {names[j]} corrected by more than "
+                    f"{np.rad2deg(MAX_CORRECTION_RAD):g} deg, held there")
     return ""
