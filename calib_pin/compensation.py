@@ -150,6 +150,16 @@ class CalibratedRobot:
         self._real.set_perturbation(params.delta_matrices(self.deviations))
         self._nominal = Kinematics(chain)
 
+    def set_reference(self, deviations: np.ndarray | None) -> None:
+        """The model the targets were computed with (:meth:`nominal`, what :meth:`solve`
+        aims at): the catalogue URDF (None, the default) or that geometry corrected by
+        ``deviations`` (shape (len(params.names),), SI), e.g. a controller's own factory
+        calibration (``compensate --nominal``)."""
+        self._nominal = Kinematics(self.chain)
+        if deviations is not None:
+            deviations = as_array(deviations, "deviations", (len(self.params.names),))
+            self._nominal.set_perturbation(self.params.delta_matrices(deviations))
+
     @property
     def model(self) -> pin.Model:
         """Pinocchio model of the whole corrected robot (geometry only; a new model on each call)."""
@@ -184,7 +194,8 @@ class CalibratedRobot:
         return frames[0] if np.ndim(q) == 1 else frames
 
     def nominal(self, q: np.ndarray) -> pin.SE3 | list[pin.SE3]:
-        """The nominal model's end frame at q (as :meth:`forward`)."""
+        """The nominal model's end frame at q (as :meth:`forward`; the reference of
+        :meth:`set_reference` when one is set)."""
         q = as_angles_rad(q, "q", self.chain)
         rot, trans, _ = self._nominal.frames(np.atleast_2d(q))
         frames = [pin.SE3(r, t) for r, t in zip(rot, trans, strict=True)]

@@ -682,6 +682,8 @@ I25_CONTROLLER: list[Case] = [
      2, "--speed-rad-s and --accel-rad-s2 are for --format urscript"),
     (COMPENSATE, [*CAL_ARGS, "--format", "urscript", "--speed-rad-s", "0"], {"c.json": _calibration_file(),
                                                                             "p.csv": POSES}, 2, "expected a number in (0, 10]"),
+    (COMPENSATE, [*CAL_ARGS, "--nominal", "none.yaml"], {"c.json": _calibration_file(), "p.csv": POSES}, 2,
+     "none.yaml: no such start file"),
     (COMPENSATE, [*CAL_ARGS, "--format", "vbs"], {"c.json": _calibration_file(), "p.csv": POSES}, 2, "invalid choice"),
     (COMPENSATE, [*CAL_ARGS[:-1], "p.script", "--format", "urscript"], {"c.json": _calibration_file(), "p.csv": POSES},
      0, "wrote p.script"),

@@ -14,6 +14,7 @@ import calib_pin as cp
 from calib_pin.cli import command
 from calib_pin.export.calibration_file import calibration_path, write_calibration
 from calib_pin.export.yaml import write_ur_kinematics_yaml
+from calib_pin.measurements.pose_list import read_pose_list
 from calib_pin.parameters.start import load_start
 from calib_pin.robot.kinematics import Kinematics
 from calib_pin.robot.poses import random_poses
@@ -115,3 +116,29 @@ def test_start_from_a_calibration_file_and_bad_starts(tmp_path, capsys):
         assert calibrate(["irb120", "--data", WU, "--nominal", start, *argv, "--out", str(tmp_path / "o")]) == 2
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and message in err, err
+
+
+def test_compensate_against_the_robots_own_model(chain, params, tmp_path, capsys):
+    """compensate --nominal: the targets are poses of the controller's own model. A rigid
+    arm whose own model is its calibration needs no correction; a deflecting one only its
+    sag, and the commands put it on the own model's poses."""
+    x = np.random.default_rng(6).normal(0.0, 1.0, len(params.names)) * 2e-4
+    arm = cp.CalibratedRobot(chain, params, x)
+    q = random_poses(chain, 6, np.random.default_rng(7))
+    q = q[np.abs(q[:, 4]) > 0.3]
+    arm.set_reference(x)
+    assert np.abs(arm.solve(q).q - q).max() < 1e-9
+    first = cp.calibrate("irb120", WU, method="lm", compliance="joint_2,joint_3")
+    path = write_calibration(first, calibration_path(tmp_path, "irb120"))
+    program = ROOT / "robots" / "irb120_program.csv"
+    compensate = command("compensate")
+    assert compensate(["irb120", "--calibration", str(path), "--targets", str(program), "--out",
+                       str(tmp_path / "own.csv"), "--nominal", str(path)]) == 0
+    assert "targets: poses of the model irb120_calibration.json (calib-pin calibration file)" in capsys.readouterr().out
+    robot = cp.load_calibration(path)
+    own = read_pose_list(tmp_path / "own.csv", chain).q
+    targets = read_pose_list(program, chain).q
+    robot.set_reference(robot.deviations)
+    for command_q, target in zip(own, targets, strict=True):
+        assert np.linalg.norm(robot.forward(command_q).translation - robot.nominal(target).translation) < 1e-6
+    assert 1e-4 < np.rad2deg(np.abs(own - targets)).max() < 1.0  # the sag only, not the 2 deg of geometry

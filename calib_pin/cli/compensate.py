@@ -42,6 +42,9 @@ def compensate_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="corrected targets CSV (same columns, plus the remaining error)")
     p.add_argument("--with-cable", action="store_true",
                    help="keep the drawstring's pull of the calibration in the deflection (default: the arm without it)")
+    p.add_argument("--nominal", help="the model the targets were computed with, if not the catalogue URDF: a "
+                   "calib-pin calibration file or a UR default_kinematics.yaml (e.g. the controller's factory "
+                   "calibration); its geometry only")
     p.add_argument("--format", choices=FORMATS, default="csv",
                    help="csv (calib-pin's pose list, default), rapid (ABB .mod), krl (KUKA .src + .dat), "
                    "urscript (Universal Robots .script); the suffix is added to --out when it has none")
@@ -79,13 +82,20 @@ def _compensate(args: argparse.Namespace) -> int:
         raise CalibPinError(f"--out {args.out}: KRL names the program after its file: the stem must be a KRL name "
                             f"(a letter, then letters, digits or _, at most 24), e.g. {name}")
     out = Outputs(Path(args.out).parent, force=args.force,
-                  inputs={**robot_inputs(args.robot), "--calibration": args.calibration, "--targets": args.targets})
+                  inputs={**robot_inputs(args.robot), "--calibration": args.calibration, "--targets": args.targets,
+                          "--nominal": args.nominal})
     for path in paths:
         out.check(path)  # before the work; a calibration folder's file is checked once found
     source = find_calibration(Path(args.calibration))
     out.inputs["--calibration"] = source
     robot = load_calibration(source, args.robot, cable=args.with_cable)
     chain = robot.chain
+    reference = None
+    if args.nominal is not None:
+        from ..parameters.start import load_start
+
+        reference = load_start(Path(args.nominal), chain, robot.params)
+        robot.set_reference(reference.robot_x)
     targets = read_pose_list(args.targets, chain)
     if targets.end_frame and targets.end_frame != chain.end_frame:
         raise DataError(targets.source, f"targets of end frame '{targets.end_frame}', the calibration's is "
@@ -105,6 +115,8 @@ def _compensate(args: argparse.Namespace) -> int:
     own = {k: v for k, v in targets.notes.items()  # the targets' own notes, kept
            if k != "compensated" and not k.startswith("refused_pose_")}
     compensated = f"{source.name} (calib-pin {__version__}), targets {Path(targets.source).name}"
+    if reference is not None:
+        compensated += f" of the model {reference.describe()}"
     notes = {**own, "robot": chain.name, "end_frame": chain.end_frame, "compensated": compensated, **refused}
     extra = {name: column[rows][kept] for name, column in targets.extra.items()}  # a program's speed, zone, name
     if args.format == "csv":
@@ -126,6 +138,8 @@ def _compensate(args: argparse.Namespace) -> int:
             out.add(path, _writer(content))
     written = out.commit()
     _summary(robot, q_nominal, result)
+    if reference is not None:
+        print(f"targets: poses of the model {reference.describe()}, not of the catalogue URDF")
     for k, state in enumerate(result.status):
         if state != OK:
             print(f"{where(k)}: {state}: {result.reasons[k]}")
