@@ -17,6 +17,12 @@ geometry at the deflected angles. The deflection's own derivative (c dtau/dq, a 
 of the identity at the sizes of real arms) is left out of the Jacobian, not out of the
 error: the iteration is then a fixed point that converges linearly at that rate to the
 exact solution of the deflecting model, to 1 nm / 1 nrad in a handful of iterations.
+
+Near a wrist, elbow or shoulder singularity, or at a joint limit, the 6-D goal needs large
+joint swings or none exists within the limits; there the position is met first and the
+orientation error minimised (:meth:`CalibratedRobot.solve`, stage 2), and the target is
+reported ``position-only`` with its orientation residual. Each target gets a status
+(``ok``, ``position-only``, ``refused`` with the reason); one target never stops the others.
 """
 
 from __future__ import annotations
@@ -25,10 +31,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
+from scipy.optimize import lsq_linear
 
 from .arguments import (
     as_angles_rad,
     as_array,
+    as_bool,
     as_chain,
     as_instance,
     as_int,
@@ -52,30 +60,54 @@ _DAMPING = 1e-6
 _MAX_STEP_RAD = 0.05
 
 
+#: Per-target status of a compensation.
+OK, POSITION_ONLY, REFUSED = "ok", "position-only", "refused"
+#: Largest correction of one joint a command may carry, [rad] (10 deg): a full 6-D solution
+#: that needs more (a wrist swing near q5 = 0) is not taken; the position-first solve stays
+#: within it.
+MAX_CORRECTION_RAD = float(np.deg2rad(10.0))
+#: Weight of the joint correction against the orientation error in the position-first
+#: solve, [rad of orientation per rad of joints]^2: keeps an ill-conditioned orientation
+#: direction from swinging the wrist.
+_REGULARISATION = 1e-4
+#: Weight of the position error in the position-first solve, [1/m]: 1 um counts as 10 mrad.
+_POSITION_WEIGHT = 1e6
+
+
 @dataclass(frozen=True)
 class Compensation:
-    """Compensated commands for many targets.
+    """Compensated commands for many targets, with a status per target.
 
     Attributes:
-        q: Joint commands, shape (n_targets, n_joints), [rad].
+        q: Joint commands, shape (n_targets, n_joints), [rad]. A refused target's row is
+            the best command found, which must not be sent (see ``status``).
         position_error_m: Remaining end-frame position error of the calibrated arm, [m].
         orientation_error_rad: Remaining end-frame orientation error (rotation angle), [rad].
-        iterations: Gauss-Newton iterations taken.
-        problems: Per target, why it failed ("" when it did not): a joint limit or no
-            convergence.
+        iterations: Iterations taken (the most of any target, both stages).
+        status: Per target ``"ok"`` (position within 1 um and orientation within 1 urad),
+            ``"position-only"`` (position within 1 um, the orientation error minimised:
+            near a singularity; see ``orientation_error_rad``) or ``"refused"``.
+        reasons: Per target, why it was refused or is position-only ("" when ok).
     """
 
     q: np.ndarray
     position_error_m: np.ndarray
     orientation_error_rad: np.ndarray
     iterations: int
-    problems: tuple[str, ...]
+    status: tuple[str, ...]
+    reasons: tuple[str, ...]
 
-    def check(self) -> None:
-        """Raises CalibPinError naming the first target that failed (0-based index)."""
-        for k, problem in enumerate(self.problems):
-            if problem:
-                raise CalibPinError(f"target {k + 1}: {problem}")
+    @property
+    def problems(self) -> tuple[str, ...]:
+        """Per target, why it was refused ("" for ok and position-only targets)."""
+        return tuple(r if s == REFUSED else "" for s, r in zip(self.status, self.reasons, strict=True))
+
+    def check(self, position_only: bool = False) -> None:
+        """Raises CalibPinError naming the first target (1-based) refused, or position-only
+        unless ``position_only``."""
+        for k, (status, reason) in enumerate(zip(self.status, self.reasons, strict=True)):
+            if status == REFUSED or (status == POSITION_ONLY and not position_only):
+                raise CalibPinError(f"target {k + 1}: {status}: {reason}")
 
 
 class CalibratedRobot:
@@ -119,6 +151,16 @@ class CalibratedRobot:
         self._real.set_perturbation(params.delta_matrices(self.deviations))
         self._nominal = Kinematics(chain)
 
+    def set_reference(self, deviations: np.ndarray | None) -> None:
+        """The model the targets were computed with (:meth:`nominal`, what :meth:`solve`
+        aims at): the catalogue URDF (None, the default) or that geometry corrected by
+        ``deviations`` (shape (len(params.names),), SI), e.g. a controller's own factory
+        calibration (``compensate --nominal``)."""
+        self._nominal = Kinematics(self.chain)
+        if deviations is not None:
+            deviations = as_array(deviations, "deviations", (len(self.params.names),))
+            self._nominal.set_perturbation(self.params.delta_matrices(deviations))
+
     @property
     def model(self) -> pin.Model:
         """Pinocchio model of the whole corrected robot (geometry only; a new model on each call)."""
@@ -153,42 +195,70 @@ class CalibratedRobot:
         return frames[0] if np.ndim(q) == 1 else frames
 
     def nominal(self, q: np.ndarray) -> pin.SE3 | list[pin.SE3]:
-        """The nominal model's end frame at q (as :meth:`forward`)."""
+        """The nominal model's end frame at q (as :meth:`forward`; the reference of
+        :meth:`set_reference` when one is set)."""
         q = as_angles_rad(q, "q", self.chain)
         rot, trans, _ = self._nominal.frames(np.atleast_2d(q))
         frames = [pin.SE3(r, t) for r, t in zip(rot, trans, strict=True)]
         return frames[0] if np.ndim(q) == 1 else frames
 
-    def compensate(self, q_nominal: np.ndarray) -> np.ndarray:
+    def compensate(self, q_nominal: np.ndarray, position_only: bool = False) -> np.ndarray:
         """Joint commands that put the real end frame where the nominal model puts it at q_nominal.
 
         Args:
             q_nominal: Joint targets, shape (n_joints,) or (n_targets, n_joints), [rad].
+            position_only: Accept targets near a singularity where only the position is
+                met (the orientation error minimised); :meth:`solve` gives their residual.
 
         Returns:
             Commands of the same shape, [rad]; the calibrated arm's end frame there is
-            within 1 um and 1 urad of the nominal one.
+            within 1 um and 1 urad of the nominal one (1 um only for position-only targets).
 
         Raises:
-            CalibPinError: a target needs a joint beyond its limit, or does not converge
-                (near a singularity), naming the target (1-based).
+            CalibPinError: a target is refused (a joint beyond its limit, or out of reach),
+                or position-only without ``position_only``, naming the target (1-based).
         """
         q_nominal = as_angles_rad(q_nominal, "q_nominal", self.chain)
         result = self.solve(q_nominal)
-        result.check()
+        result.check(as_bool(position_only, "position_only"))
         return result.q[0] if np.ndim(q_nominal) == 1 else result.q
 
     def solve(self, q_nominal: np.ndarray, max_iterations: int = 50) -> Compensation:
-        """:meth:`compensate` for many targets, with the remaining errors; failures are
-        reported per target in ``problems`` instead of raised.
+        """:meth:`compensate` for many targets, with the remaining errors and a status per
+        target; a refused target never stops the others.
 
-        Levenberg-Marquardt per target: a step that raises the error is undone and the
-        damping raised tenfold; each step moves a joint by at most ``_MAX_STEP_RAD``.
+        Two stages, each started from the target itself:
+
+        1. The full 6-D goal: Levenberg-Marquardt per target on log6 of the end-frame
+           error (a step that raises the error is undone and the damping raised tenfold;
+           each step moves a joint by at most ``_MAX_STEP_RAD``). A target met to
+           1 um / 1 urad within the joint limits, no joint corrected by more than
+           :data:`MAX_CORRECTION_RAD`, is ``ok``.
+        2. The others (near a wrist or elbow singularity, or at a joint limit): position
+           first. Gauss-Newton with the position as a constraint and the orientation
+           error in its null space, regularised by the joint correction
+           (:func:`_prioritised_step`); joints held inside their URDF limits and within
+           :data:`MAX_CORRECTION_RAD` of the target. Position met: ``position-only`` (or
+           ``ok`` when the orientation is met too); not met: ``refused``, with the reason.
         """
         q_nom = np.atleast_2d(as_angles_rad(q_nominal, "q_nominal", self.chain))
         max_iterations = as_int(max_iterations, "max_iterations", 1, 10**6)
         rot_t, trans_t, _ = self._nominal.frames(q_nom)
         targets = [pin.SE3(r, t) for r, t in zip(rot_t, trans_t, strict=True)]
+        q, iterations = self._solve_full(q_nom, targets, max_iterations)
+        position, orientation = self._errors(q, targets)
+        lower, upper = self.chain.lower, self.chain.upper
+        full = ((position <= TOLERANCE_M) & (orientation <= TOLERANCE_RAD)
+                & np.all((q >= lower - 1e-12) & (q <= upper + 1e-12), axis=1)
+                & (np.abs(q - q_nom).max(axis=1) <= MAX_CORRECTION_RAD))
+        again = np.flatnonzero(~full)
+        if len(again):
+            q[again], more = self._solve_position_first(q_nom[again], [targets[k] for k in again], max_iterations)
+            iterations = max(iterations, more)
+        return self._result(q, q_nom, targets, iterations, full)
+
+    def _solve_full(self, q_nom: np.ndarray, targets: list[pin.SE3], max_iterations: int) -> tuple[np.ndarray, int]:
+        """Stage 1 of :meth:`solve`: the 6-D goal by Levenberg-Marquardt; (commands, iterations)."""
         q, best_q = q_nom.copy(), q_nom.copy()
         best = np.full(len(q), np.inf)
         damping = np.full(len(q), _DAMPING)
@@ -213,26 +283,97 @@ class CalibratedRobot:
                 q[k] = q[k] + step * min(1.0, _MAX_STEP_RAD / max(np.abs(step).max(), 1e-300))
             active = active[~done]
             iterations += 1
-        return self._result(q, targets, iterations)
+        return q, iterations
 
-    def _result(self, q: np.ndarray, targets: list[pin.SE3], iterations: int) -> Compensation:
+    def _solve_position_first(self, q_nom: np.ndarray, targets: list[pin.SE3],
+                              max_iterations: int) -> tuple[np.ndarray, int]:
+        """Stage 2 of :meth:`solve`: position first, then the orientation; (commands, iterations).
+
+        Per target, Gauss-Newton on the merit ||r(q)||^2 with r(q) = [W (p(q) - p_t),
+        log3(R_t^T R(q)), sqrt(mu) (q - q_t)] (W = ``_POSITION_WEIGHT`` per m, mu =
+        ``_REGULARISATION``): each step is the bounded linear least-squares step (scipy's
+        ``lsq_linear``, exact active set) that keeps every joint within [max(lower, q_t -
+        B), min(upper, q_t + B)], B = :data:`MAX_CORRECTION_RAD`, halved until the merit
+        falls. The weight makes 1 um of position cost as much as 10 mrad of orientation:
+        the position is met wherever it can be, the orientation error is the least the
+        joints allow without swinging far for little gain.
+        """
+        lo = np.maximum(self.chain.lower, q_nom - MAX_CORRECTION_RAD)
+        hi = np.minimum(self.chain.upper, q_nom + MAX_CORRECTION_RAD)
+        mu = np.sqrt(_REGULARISATION)
+        q = np.clip(q_nom, lo, hi)
+        n = q.shape[1]
+        iterations = 0
+
+        def residual(x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+            rot, trans, jac = self._frames(x[None], jacobian=True)
+            assert jac is not None
+            relative = targets[k].rotation.T @ rot[0]
+            r = np.concatenate([_POSITION_WEIGHT * (trans[0] - targets[k].translation), pin.log3(relative),
+                                mu * (x - q_nom[k])])
+            j = np.vstack([_POSITION_WEIGHT * rot[0] @ jac[0][:3], pin.Jlog3(relative) @ jac[0][3:], mu * np.eye(n)])
+            return r, j
+
+        for k in range(len(q)):
+            r, j = residual(q[k], k)
+            merit = float(r @ r)
+            for it in range(1, max(max_iterations, 100) + 1):
+                iterations = max(iterations, it)
+                step = lsq_linear(j, -r, bounds=(lo[k] - q[k], hi[k] - q[k] + 1e-300), method="bvls").x
+                step *= min(1.0, _MAX_STEP_RAD / max(np.abs(step).max(), 1e-300))
+                for _ in range(30):  # halve until the merit falls
+                    trial = np.clip(q[k] + step, lo[k], hi[k])
+                    r_t, j_t = residual(trial, k)
+                    if float(r_t @ r_t) < merit:
+                        break
+                    step = step / 2
+                else:
+                    break
+                moved = np.abs(trial - q[k]).max()
+                q[k], r, j, merit = trial, r_t, j_t, float(r_t @ r_t)
+                if moved < 1e-13:
+                    break
+        return q, iterations
+
+    def _errors(self, q: np.ndarray, targets: list[pin.SE3]) -> tuple[np.ndarray, np.ndarray]:
+        """Position [m] and orientation [rad] error of the real arm at q against the targets."""
         rot, trans, _ = self._frames(q)
         position = np.array([np.linalg.norm(t - target.translation) for t, target in zip(trans, targets, strict=True)])
         orientation = np.array([np.linalg.norm(pin.log3(r.T @ target.rotation))
                                 for r, target in zip(rot, targets, strict=True)])
-        problems = []
+        return position, orientation
+
+    def _result(self, q: np.ndarray, q_nom: np.ndarray, targets: list[pin.SE3], iterations: int,
+                full: np.ndarray) -> Compensation:
+        position, orientation = self._errors(q, targets)
         names, lower, upper = self.chain.joint_names, self.chain.lower, self.chain.upper
+        status, reasons = [], []
         for k in range(len(q)):
-            below, above = q[k] < lower - 1e-12, q[k] > upper + 1e-12
-            if below.any() or above.any():
-                j = int(np.flatnonzero(below | above)[0])
-                bound = lower[j] if below[j] else upper[j]
-                problems.append(f"needs {names[j]} at {np.rad2deg(q[k, j]):.6f} deg, beyond its limit "
-                                f"{np.rad2deg(bound):g} deg")
-            elif position[k] > TOLERANCE_M or orientation[k] > TOLERANCE_RAD:
-                problems.append(f"no convergence to 1 um / 1 urad after {iterations} iterations (position "
-                                f"{position[k] * 1e6:.3g} um, orientation {orientation[k] * 1e6:.3g} urad; "
-                                "near a singularity, or beyond the real arm's reach)")
+            if full[k] or (position[k] <= TOLERANCE_M and orientation[k] <= TOLERANCE_RAD):
+                status.append(OK)
+                reasons.append("")
+            elif position[k] <= TOLERANCE_M:
+                status.append(POSITION_ONLY)
+                held = _held(q[k], q_nom[k], lower, upper, names)
+                reasons.append(f"{held + '; ' if held else 'near a singularity: '}position met, orientation off by "
+                               f"{orientation[k] * 1e6:.4g} urad (the least the joints allow)")
             else:
-                problems.append("")
-        return Compensation(q, position, orientation, iterations, tuple(problems))
+                status.append(REFUSED)
+                held = _held(q[k], q_nom[k], lower, upper, names)
+                miss = f"the position is {position[k] * 1e6:.4g} um off"
+                reasons.append(f"{'joint limit' if 'its limit' in held else 'out of reach'}: "
+                               f"{held + ', ' if held else ''}{miss}")
+        return Compensation(q, position, orientation, iterations, tuple(status), tuple(reasons))
+
+
+def _held(q: np.ndarray, q_nom: np.ndarray, lower: np.ndarray, upper: np.ndarray, names: tuple[str, ...]) -> str:
+    """Which joint of command q (n,) [rad] the position-first solve held on a bound ("" if none)."""
+    for j in range(len(q)):
+        if q[j] <= lower[j] + 1e-9 or q[j] >= upper[j] - 1e-9:
+            bound = lower[j] if q[j] <= lower[j] + 1e-9 else upper[j]
+            return f"{names[j]} held at its limit {np.rad2deg(bound):g} deg"
+    for j in range(len(q)):
+        if abs(q[j] - q_nom[j]) >= MAX_CORRECTION_RAD - 1e-9:
+            return (f"near a singularity: the full pose needs {names[j]} corrected by more than "
+                    f"{np.rad2deg(MAX_CORRECTION_RAD):g} deg, held there")
+    return ""

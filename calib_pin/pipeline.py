@@ -84,6 +84,10 @@ class CalibrationSetup:
 
         found = noise_from_data(training)
         return found.sigma, found.words()
+    #: Unknowns held at their start (``fix``/``free`` of :func:`prepare`), by name.
+    fixed: tuple[str, ...] = ()
+    #: Where the estimate starts (``nominal`` of :func:`prepare`); None: zero deviations.
+    start: Any = None
 
     def problem_on(self, fit_rows: np.ndarray) -> CalibrationProblem:
         """Every row of the data, with the sensor's starting geometry fitted on ``fit_rows``."""
@@ -151,8 +155,15 @@ class CalibrationSetup:
         if unsupported:
             raise DataError(self.data.source, unsupported)
         x0 = np.zeros(problem.n_params)
+        if self.start is not None:  # the robot's own kinematics (--nominal)
+            model = problem.model
+            x0[:model.n_robot] = self.start.robot_x
+            if self.start.compliance is not None:
+                x0[model.n_robot:model.sensor_start] = self.start.compliance
+            x0 = self.start.sensor_fit(training, x0)  # the sensor's geometry as seen by the start
+        held = tuple(problem.model.names.index(n) for n in self.fixed)
         noise, noise_from = self.noise_for(method, training)
-        estimate = run_estimator(method, training, x0, seed=seed, noise=noise, loss=loss)
+        estimate = run_estimator(method, training, x0, seed=seed, noise=noise, loss=loss, fixed=held)
         metrics = {}
         for split, rows in (("train", train), ("test", test)):
             if len(rows):
@@ -165,7 +176,8 @@ class CalibrationSetup:
         result = CalibrationResult(
             chain=self.chain, params=self.params, method=method, x=estimate.x, estimate=estimate,
             problem=problem, data=self.data, train=train, test=test, metrics=metrics, seed=seed,
-            noise=noise, loss=loss, warnings=tuple(warnings), noise_from=noise_from)
+            noise=noise, loss=loss, warnings=tuple(warnings), noise_from=noise_from,
+            start=self.start)
         if session is None:
             return result
         if session.register is None:
@@ -249,7 +261,8 @@ def prepare(robot: str | RobotDescription, data: str | Path | MeasurementSet | N
             length_offset_mm: float | None = None, noise_mm: Any = None, parameters: str | None = None,
             estimate: tuple[str, ...] = (), compliance: Compliance | str | tuple[str, ...] | None = None,
             payload_kg: float | None = None, payload_com_mm: Any = None,
-            cable_tension_n: float | None = None, setup: SensorSetup | None = None) -> CalibrationSetup: ...
+            cable_tension_n: float | None = None, setup: SensorSetup | None = None,
+            fix: Any = None, free: Any = None, nominal: Any = None) -> CalibrationSetup: ...
 
 
 @overload
@@ -258,7 +271,8 @@ def prepare(robot: str | RobotDescription, data: list[Any] | tuple[Any, ...],
             length_offset_mm: float | None = None, noise_mm: Any = None, parameters: str | None = None,
             estimate: tuple[str, ...] = (), compliance: Compliance | str | tuple[str, ...] | None = None,
             payload_kg: float | None = None, payload_com_mm: Any = None,
-            cable_tension_n: float | None = None, setup: SensorSetup | None = None) -> CalibrationSetup | StackedSetup: ...
+            cable_tension_n: float | None = None, setup: SensorSetup | None = None,
+            fix: Any = None, free: Any = None, nominal: Any = None) -> CalibrationSetup | StackedSetup: ...
 
 
 def prepare(
@@ -277,6 +291,9 @@ def prepare(
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
     setup: SensorSetup | None = None,
+    fix: Any = None,
+    free: Any = None,
+    nominal: Any = None,
 ) -> CalibrationSetup | StackedSetup:
     """Load a robot and a measurement set for calibration (arguments as :func:`calibrate`).
 
@@ -285,6 +302,8 @@ def prepare(
     a list of one set is that set. ``setup`` (a sensor's set-up record,
     :class:`~calib_pin.sensors.CableSetup`) overrides the file's set-up; the loose
     ``anchor_mm``, ``tool_mm``, ``length_offset_mm`` and ``estimate`` are its shorthand.
+    ``fix``/``free``: unknowns held at their start (:mod:`calib_pin.parameters.held`);
+    ``nominal``: the start, a robot's own kinematics (:mod:`calib_pin.parameters.start`).
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
@@ -301,6 +320,9 @@ def prepare(
         if sets[0].setup is not None:  # the set's own set-up wins over the shared one
             sensor_options = {**sensor_options, **setup_record(sets[0].setup).given()}  # type: ignore[union-attr]
     elif sets is not None:  # several sets
+        if fix is not None or free is not None or nominal is not None:
+            raise ArgumentError("fix" if nominal is None else "nominal",
+                                "works with one measurement set (not yet with several)")
         return _prepare_sets(robot, sets, end_frame=end_frame, sensor_options=sensor_options, noise_mm=noise_mm,
                              parameters=parameters, compliance=record)
     _check_data(data, "data")
@@ -316,6 +338,15 @@ def prepare(
                                 {**sensor_options, "compliance": soft},
                                 noise_stated=noise_mm is not None or data.noise is not None)
     prepared.problem  # noqa: B018 (refuse options the sensor does not take now; the problem is kept for --analyze)
+    if fix is not None or free is not None:
+        from .parameters.held import held_names
+
+        model = prepared.problem.model
+        prepared.fixed = held_names(model.names, model.sensor_start, fix, free)
+    if nominal is not None:
+        from .parameters.start import load_start
+
+        prepared.start = load_start(as_path(nominal, "nominal"), chain, prepared.params, soft.joints if soft else ())
     return prepared
 
 
@@ -380,6 +411,9 @@ def calibrate(
     cable_tension_n: float | None = None,
     progress: Callable[[Any], object] | None = None,
     setup: SensorSetup | None = None,
+    fix: Any = None,
+    free: Any = None,
+    nominal: Any = None,
 ) -> CalibrationResult:
     """Calibrate a robot's kinematic deviations from drawstring readings or positions.
 
@@ -421,6 +455,12 @@ def calibrate(
         setup: The sensor's set-up record (:class:`~calib_pin.sensors.CableSetup`):
             overrides of the file's; ``anchor_mm``, ``tool_mm``, ``length_offset_mm`` and
             ``estimate`` are its shorthand, laid over it.
+        fix: Unknowns held at their start (names, or a comma-separated str:
+            ``"theta_1,d_1"``, a compliance ``compliance_joint_2``, a sensor unknown).
+        free: The robot's deviations and compliances to estimate; the others are held.
+        nominal: Start from a robot's own kinematics instead of the catalogue URDF: a
+            calib-pin calibration file or a UR ``default_kinematics.yaml``
+            (:mod:`calib_pin.parameters.start`); ``result.x`` stays relative to the URDF.
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message; a
@@ -439,7 +479,7 @@ def calibrate(
     prepared: CalibrationSetup | StackedSetup = prepare(
         robot, cast(Any, data), end_frame=end_frame, anchor_mm=anchor_mm, tool_mm=tool_mm,
         length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters, estimate=estimate,
-        compliance=record, setup=setup)
+        compliance=record, setup=setup, fix=fix, free=free, nominal=nominal)
     if isinstance(prepared, StackedSetup):
         if test_data is not None:
             raise CalibPinError("test_data with several sets: give the validation set as one of the sets, "

@@ -66,6 +66,8 @@ class CalibrationResult:
             ``estimated: ...`` (none stated: the residual of a first LM fit).
         cross_validation: K-fold held-out metrics of this model on the training poses
             (:meth:`calib_pin.studies.cross_validation.CrossValidation.as_dict`), when asked.
+        start: The start of ``--nominal`` (None: the catalogue geometry); ``x`` stays the
+            deviations from the catalogue URDF.
     """
 
     chain: Chain
@@ -87,6 +89,9 @@ class CalibrationResult:
     test_registration: dict[str, Any] | None = None
     cross_validation: dict[str, Any] | None = None
     noise_from: str = "stated"
+    #: Where the estimate started (``calibrate --nominal``, a
+    #: :class:`~calib_pin.parameters.start.Start`); None: the catalogue URDF (zero).
+    start: Any = None
 
     @property
     def model_name(self) -> str:
@@ -232,7 +237,12 @@ class CalibrationResult:
         """What the training poses can identify (:func:`calib_pin.analysis.identifiability.analyze` at zero)."""
         from .analysis.identifiability import analyze
 
-        return analyze(self.problem.subset(self.train))
+        return analyze(self.problem.subset(self.train), fixed=self.fixed)
+
+    @property
+    def fixed(self) -> tuple[str, ...]:
+        """Unknowns held at their start (``calibrate --fix``/``--free``), by name; empty if none."""
+        return tuple(self.problem.model.names[i] for i in self.estimate.extras.get("fixed", ()))
 
 
 def _joint_angles(q: Any, n_joints: int) -> np.ndarray:

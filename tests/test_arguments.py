@@ -174,6 +174,10 @@ CASES = [
     ("CalibratedRobot.compensate", "q_nominal", lambda f: f.arm.compensate(q_deg(f.chain))),
     ("CalibratedRobot.compensate", "q_nominal", lambda f: f.arm.compensate([[0, 0, 0, 0, 0, None]])),
     ("CalibratedRobot.solve", "max_iterations", lambda f: f.arm.solve(np.zeros(6), max_iterations=0)),
+    ("CalibratedRobot.compensate", "position_only", lambda f: f.arm.compensate(np.zeros(6), position_only="yes")),
+    ("CalibratedRobot.set_reference", "deviations", lambda f: f.arm.set_reference(np.zeros(3))),
+    ("run_estimator", "fixed", lambda f: cp.run_estimator("lm", f.setup.problem, np.zeros(f.setup.problem.n_params),
+                                                          fixed=(10**6,))),
     # run_estimator
     ("run_estimator", "name", lambda f: cp.run_estimator(5, f.setup.problem, np.zeros(f.setup.problem.n_params))),
     ("run_estimator", "problem", lambda f: cp.run_estimator("lm", "problem", np.zeros(3))),

@@ -715,6 +715,35 @@ R3_FILES: list[Case] = [
      2, "d.csv:7: has both length and a point_id column (the marker labels of a position set)"),  # said x/y/z columns
 ]
 
+#: Issue 25: parameters held fixed, a start file, controller programs.
+I25_CONTROLLER: list[Case] = [
+    (CAL, ["irb120", "--data", "d.csv", "--fix", "theta_9"], {"d.csv": data()}, 2,
+     "argument fix: no unknown 'theta_9' in this calibration (valid: a_1, d_1, alpha_1, theta_1,"),
+    (CAL, ["irb120", "--data", "d.csv", "--free", "device_x"], {"d.csv": data()}, 2,
+     "argument free: no unknown 'device_x' in this calibration (valid: a_1,"),
+    (CAL, ["irb120", "--data", "d.csv", "--fix", "d_1", "--free", "d_1,a_2"], {"d.csv": data()}, 2,
+     "'d_1' is both fixed and free"),
+    (CAL, ["irb120", "--data", "d.csv", "--fix", "theta_1,theta_1"], {"d.csv": data()}, 2, "'theta_1' is given twice"),
+    (CAL, ["irb120", "--data", "d.csv", "--nominal", "none.json"], {"d.csv": data()}, 2, "none.json: no such start file"),
+    (CAL, ["irb120", "--data", "d.csv", "--nominal", "k.yaml"], {"d.csv": data(), "k.yaml": "kinematics: 3\n"}, 2,
+     "k.yaml: no 'kinematics:' mapping"),
+    (CAL, ["irb120", "--data", "d.csv", "--nominal", "k.yaml"], {"d.csv": data(), "k.yaml": "a: [1\n"}, 2,
+     "k.yaml: not YAML"),
+    (COMPENSATE, [*CAL_ARGS[:-1], "9p.src", "--format", "krl"], {"c.json": _calibration_file(), "p.csv": POSES},
+     2, "must be a KRL name"),
+    (COMPENSATE, [*CAL_ARGS[:-1], "p.src", "--format", "rapid"], {"c.json": _calibration_file(), "p.csv": POSES},
+     2, "a rapid program is .mod, not '.src'"),
+    (COMPENSATE, [*CAL_ARGS, "--speed-rad-s", "1"], {"c.json": _calibration_file(), "p.csv": POSES},
+     2, "--speed-rad-s and --accel-rad-s2 are for --format urscript"),
+    (COMPENSATE, [*CAL_ARGS, "--format", "urscript", "--speed-rad-s", "0"], {"c.json": _calibration_file(),
+                                                                            "p.csv": POSES}, 2, "expected a number in (0, 10]"),
+    (COMPENSATE, [*CAL_ARGS, "--nominal", "none.yaml"], {"c.json": _calibration_file(), "p.csv": POSES}, 2,
+     "none.yaml: no such start file"),
+    (COMPENSATE, [*CAL_ARGS, "--format", "vbs"], {"c.json": _calibration_file(), "p.csv": POSES}, 2, "invalid choice"),
+    (COMPENSATE, [*CAL_ARGS[:-1], "p.script", "--format", "urscript"], {"c.json": _calibration_file(), "p.csv": POSES},
+     0, "wrote p.script"),
+]
+
 
 #: The rows of the earlier rounds, then round 3's by class (docs/bad_input.md lists them all).
 BASE_CASES = list(CASES)
@@ -724,6 +753,7 @@ SECTIONS: list[tuple[str, list[Case]]] = [
     ("Round 3: no silent wrong result; calibration files and the parser", R3_WRONG),
     ("Round 3: compliance >= 0, rank-deficient sets calibrate, figures optional", R3_COMPLIANCE),
     ("Round 3: real files (extra columns, string labels, ';' and decimal comma)", R3_FILES),
+    ("Issue 25: parameters held fixed, a start file, controller programs", I25_CONTROLLER),
 ]
 CASES += [row for _, rows in SECTIONS for row in rows]
 

@@ -3,7 +3,9 @@ nominal targets, checked against a simulated true arm; its failures; the CLI."""
 
 from __future__ import annotations
 
+import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -19,6 +21,7 @@ from calib_pin.measurements.csv_writer import write_poses
 from calib_pin.robot.deflection import ComplianceSpec
 from calib_pin.robot.poses import random_poses
 
+ROOT = Path(__file__).resolve().parents[1]
 SPEC = ComplianceSpec(("joint_2", "joint_3"))
 TRUE_C = np.array([2.5e-5, 4e-5])
 
@@ -85,6 +88,9 @@ def test_deflection_is_compensated(chain, params):
 
 
 def test_joint_limit_and_unreachable_targets(chain, params):
+    """A target at a joint limit whose 6-D solution lies beyond it: the joint is held at
+    the limit and the position met by the others (position-only); a target the shorter
+    real arm cannot reach: refused, and it does not stop the next target."""
     x = np.zeros(len(params.names))
     x[params.names.index("theta_1")] = 0.01  # the real joint 1 sits 10 mrad off
     arm = CalibratedRobot(chain, params, x)
@@ -92,16 +98,75 @@ def test_joint_limit_and_unreachable_targets(chain, params):
     shift = arm.compensate(q)[0] - q[0]
     assert abs(abs(shift) - 0.01) < 1e-6
     q[0] = chain.upper[0] if shift > 0 else chain.lower[0]
-    with pytest.raises(cp.CalibPinError, match="target 1: needs joint_1 at .* beyond its limit"):
+    result = arm.solve(q)
+    assert result.status == ("position-only",) and "joint_1 held at its limit" in result.reasons[0]
+    assert chain.lower[0] - 1e-12 <= result.q[0, 0] <= chain.upper[0] + 1e-12
+    real, target = arm.forward(result.q[0]), arm.nominal(q)
+    assert _pose_error(real, target)[0] < 1e-6 and abs(_pose_error(real, target)[1] - result.orientation_error_rad[0]) < 1e-12
+    assert result.orientation_error_rad[0] > 1e-4  # the limit costs orientation, and it is reported
+    with pytest.raises(cp.CalibPinError, match="target 1: position-only: joint_1 held at its limit"):
         arm.compensate(q)
+    assert np.allclose(arm.compensate(q, position_only=True), result.q[0])
     x = np.zeros(len(params.names))
     x[params.names.index("a_2")] = -0.005  # 5 mm shorter upper arm: no longer reaches stretched poses
     short = CalibratedRobot(chain, params, x)
     stretched = np.deg2rad([[0.0, 30.0, -77.0, 0.0, 40.0, 0.0], [0.0, 0.0, 0.0, 0.0, 40.0, 0.0]])
     result = short.solve(stretched)
-    assert result.problems[0].startswith("no convergence") and result.problems[1] == ""
-    with pytest.raises(cp.CalibPinError, match="target 1: no convergence"):
+    assert result.status == ("refused", "ok")
+    assert result.reasons[0].startswith("out of reach") and result.position_error_m[0] > 1e-4
+    assert result.problems == (result.reasons[0], "")
+    with pytest.raises(cp.CalibPinError, match="target 1: refused: out of reach"):
         short.compensate(stretched)
+
+
+@pytest.fixture(scope="module")
+def wu_calibrated(tmp_path_factory):
+    """The real Wu set calibrated by LM with the compliance of joints 2 and 3, written and read back."""
+    result = cp.calibrate("irb120", str(ROOT / "robots" / "irb120_wu2015.csv"), method="lm",
+                          compliance="joint_2,joint_3")
+    folder = tmp_path_factory.mktemp("wu")
+    write_calibration(result, calibration_path(folder, "irb120"))
+    return folder
+
+
+def _wu_targets(chain) -> np.ndarray:
+    """The 120 shipped IRB120 poses and 40 random targets within 60 % of the joint ranges,
+    15 of them with q5 within +-2 deg of 0 (the wrist singularity)."""
+    shipped = read_pose_list(ROOT / "robots" / "irb120_default.csv", chain).q
+    rng = np.random.default_rng(25)
+    middle, half = (chain.lower + chain.upper) / 2, 0.6 * (chain.upper - chain.lower) / 2
+    random = middle + half * rng.uniform(-1.0, 1.0, (40, 6))
+    random[:15, 4] = np.deg2rad(rng.uniform(-2.0, 2.0, 15))
+    return np.vstack([shipped, random])
+
+
+def test_every_target_of_a_real_calibration_is_compensated(wu_calibrated, chain):
+    """Issue 25: after the Wu calibration with compliance, every shipped pose and every
+    random target (wrist-singular ones included) is ok or position-only; the calibrated arm
+    (load_calibration(...).forward) at the commands is within 2 um of the nominal target
+    position (Pinocchio on the nominal URDF), ok rows within 2 urad in orientation too;
+    every command within the URDF limits."""
+    robot = cp.load_calibration(wu_calibrated)
+    q = _wu_targets(chain)
+    result = robot.solve(q)
+    assert set(result.status) <= {"ok", "position-only"}
+    assert result.status.count("ok") > 140 and result.status.count("position-only") >= 3
+    model = pin.buildModelFromUrdf(str(ROOT / "robots" / "irb120.urdf"))
+    data, frame = model.createData(), model.getFrameId("tool0")
+    for k, status in enumerate(result.status):
+        pin.framesForwardKinematics(model, data, q[k])
+        target = data.oMf[frame]
+        real = robot.forward(result.q[k])
+        position, orientation = _pose_error(real, target)
+        assert position < 2e-6, (k, position)
+        if status == "ok":
+            assert orientation < 2e-6, (k, orientation)
+        else:
+            assert abs(orientation - result.orientation_error_rad[k]) < 1e-9
+            assert "position met" in result.reasons[k]
+    assert np.all(result.q >= chain.lower - 1e-12) and np.all(result.q <= chain.upper + 1e-12)
+    wrist = np.abs(np.rad2deg(q[:, 4])) < 2.0
+    assert wrist.sum() >= 15  # the wrist-singular targets are among them, and none refused
 
 
 def test_cli(calibrated, chain, tmp_path, capsys):
@@ -118,26 +183,61 @@ def test_cli(calibrated, chain, tmp_path, capsys):
     assert np.abs(corrected.q - robot.compensate(q)).max() < 1e-9
     assert corrected.notes.get("compensated", "").startswith("irb120_calibration.json")
     header = [line for line in out.read_text().splitlines() if line.startswith("pose")][0]
-    assert header.endswith("q6_deg,position_error_mm,orientation_error_urad")
+    assert header.endswith("q6_deg,status,position_error_mm,orientation_error_urad")
     # a measurement set works as a program too (its angle columns)
     write_measurements(tmp_path / "set.csv", cp.simulate(chain, cp.parameter_model(chain), 0, seed=1, poses=q)[0])
     assert compensate(["irb120", "--calibration", str(folder), "--targets", str(tmp_path / "set.csv"),
                        "--out", str(tmp_path / "c2.csv")]) == 0
     assert np.allclose(read_pose_list(tmp_path / "c2.csv", chain).q, corrected.q, atol=1e-12)
     capsys.readouterr()
-    q_limit = q.copy()
-    q_limit[2, 0] = chain.upper[0] if robot.compensate(q[2])[0] > q[2, 0] else chain.lower[0]
-    write_poses(program, q_limit, robot="irb120")
     for argv, message in (
         (["irb120", "--calibration", str(tmp_path / "none"), "--targets", str(program)], "no such calibration file"),
         (["ur5", "--calibration", str(folder), "--targets", str(program)], "not 'ur5'"),
-        (["irb120", "--calibration", str(folder), "--targets", str(program)], r"csv:5: pose 3: needs joint_1 at"),
     ):
         assert compensate([*argv, "--out", str(tmp_path / "bad.csv")]) == 2
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1
         assert re.search(message, err), err
     assert not (tmp_path / "bad.csv").exists()
+
+
+def test_cli_status_per_target_and_exit_codes(calibrated, chain, tmp_path, capsys):
+    """A target held at a joint limit is written position-only (exit 3); a target the
+    arm cannot reach is refused, named in the output and left out, and the others are
+    still written (exit 4)."""
+    robot, _, folder = calibrated
+    q = _regular_targets(chain, 4, 4)
+    q[2, 0] = chain.upper[0] if robot.compensate(q[2])[0] > q[2, 0] else chain.lower[0]
+    program = tmp_path / "program.csv"
+    write_poses(program, q, robot="irb120")
+    compensate = command("compensate")
+    out = tmp_path / "corrected.csv"
+    assert compensate(["irb120", "--calibration", str(folder), "--targets", str(program), "--out", str(out)]) == 3
+    text = capsys.readouterr().out
+    assert "status: 3 ok, 1 position-only, 0 refused" in text
+    assert re.search(r"pose 3 \(line 5\): position-only: joint_1 held at its limit", text)
+    corrected = read_pose_list(out, chain)
+    assert len(corrected) == 4 and np.all(np.abs(corrected.q[:, 0]) <= chain.upper[0] + 1e-9)
+    rows = [line.split(",") for line in out.read_text().splitlines() if line[:1].isdigit()]
+    assert [r[7] for r in rows] == ["ok", "ok", "position-only", "ok"]
+    # a 5 mm shorter upper arm cannot reach a stretched pose
+    doc = json.loads(calibration_path(folder, "irb120").read_text())
+    doc["deviations_si"]["a_2"], doc["deviations"]["a_2_mm"] = -0.005, -5.0
+    short = tmp_path / "short" / "irb120_calibration.json"
+    short.parent.mkdir()
+    short.write_text(json.dumps(doc))
+    q[2] = np.deg2rad([0.0, 30.0, -77.0, 0.0, 40.0, 0.0])
+    write_poses(program, q, robot="irb120")
+    for fmt, name in (("csv", "c.csv"), ("rapid", "c.mod")):
+        assert compensate(["irb120", "--calibration", str(short), "--targets", str(program), "--out",
+                           str(tmp_path / name), "--format", fmt]) == 4
+        text = capsys.readouterr().out
+        assert "0 position-only, 1 refused" in text and "pose 3 (line 5): refused: out of reach" in text
+    corrected = read_pose_list(tmp_path / "c.csv", chain)
+    np.testing.assert_array_equal(corrected.pose_ids, [1, 2, 4])
+    assert corrected.notes["refused_pose_3"].startswith("pose 3 (line 5): out of reach")
+    rapid = (tmp_path / "c.mod").read_text()
+    assert "jt_3:=" not in rapid and "refused (left out): pose 3 (line 5): out of reach" in rapid
 
 
 def test_cli_keeps_the_programs_other_columns(calibrated, chain, tmp_path, capsys):

@@ -58,6 +58,8 @@ class Identifiability:
     unidentifiable: tuple[str, ...]
     combinations: tuple[str, ...]
     base: tuple[str, ...]
+    #: Unknowns held at their start (``--fix``/``--free``), left out of the analysis.
+    fixed: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
         """JSON-ready summary (no singular values)."""
@@ -65,7 +67,7 @@ class Identifiability:
             "rank": self.rank, "unknowns": len(self.names), "condition": self.condition,
             "o1": self.o1, "o3": self.o3, "o4": self.o4,
             "unidentifiable": list(self.unidentifiable), "combinations": list(self.combinations),
-            "base": list(self.base),
+            "base": list(self.base), **({"fixed": list(self.fixed)} if self.fixed else {}),
             "note": "the estimators move only the identifiable directions; the blind ones stay at their start (zero)",
         }
 
@@ -84,6 +86,8 @@ class Identifiability:
         ]
         lines += [f"  {c}" for c in self.combinations] or ["  none"]
         lines.append(f"base parameter set ({len(self.base)}, QR with column pivoting): " + ", ".join(self.base))
+        if self.fixed:
+            lines.append(f"held at their start (--fix/--free), left out: {', '.join(self.fixed)}")
         return "\n".join(lines)
 
 
@@ -118,10 +122,13 @@ def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list
     return out
 
 
-def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None = None, rcond: float = RCOND) -> Identifiability:
+def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None = None, rcond: float = RCOND,
+            fixed: tuple[str, ...] = ()) -> Identifiability:
     """Identifiability of ``problem``'s unknowns at x (default zero).
 
     Args:
+        fixed: Unknowns held at their start (``calibrate --fix``): their columns are left
+            out, so the directions shown are those of the unknowns estimated.
         rcond: Singular values below ``rcond`` times the largest count as zero (the
             same cut the estimators' search space uses, :data:`calib_pin.analysis.subspace.RCOND`).
 
@@ -134,9 +141,12 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
     names = list(model.names)
     x = np.zeros(len(names)) if x is None else as_array(x, "x", (len(names),))
     rcond = as_float(rcond, "rcond", 0.0, 1.0, low_open=True, high_open=True)
-    jacobian = problem.jacobian(x)
-    space = Subspace.of(jacobian, model.scale, x, rcond)
-    scaled = jacobian * model.scale
+    keep = np.array([n not in fixed for n in names], dtype=bool)
+    jacobian = problem.jacobian(x)[:, keep]
+    scale, units = np.asarray(model.scale)[keep], [u for u, k in zip(model.units, keep, strict=True) if k]
+    names = [n for n, k in zip(names, keep, strict=True) if k]
+    space = Subspace.of(jacobian, scale, x[keep], rcond)
+    scaled = jacobian * scale
     m, n = scaled.shape
     s, rank, kept = space.singular_values, space.rank, space.kept
     column = np.linalg.norm(scaled, axis=0)
@@ -159,9 +169,10 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
         o4=float(kept[-1] ** 2 / kept[0]),
         unidentifiable=tuple(names[i] for i in np.flatnonzero(dead)),
         combinations=tuple(_readable(
-            null, [names[i] for i in live], model.scale[live],
-            [model.units[i] for i in live])) if len(null) else (),
+            null, [names[i] for i in live], scale[live],
+            [units[i] for i in live])) if len(null) else (),
         base=tuple(names[i] for i in sorted(pivots[:rank])),
+        fixed=tuple(n for n in model.names if n in fixed),
     )
 
 

@@ -94,6 +94,13 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
     add_loss_argument(p)
     add_model_argument(p)
     add_compliance_arguments(p)
+    p.add_argument("--fix", help="unknowns held at their nominal value, comma-separated: robot deviations "
+                   "(theta_1,d_1), compliances (compliance_joint_2) or sensor unknowns (device_rz)")
+    p.add_argument("--free", help="the robot deviations and compliances to estimate, comma-separated; every "
+                   "other one is held at its nominal value (the sensor's unknowns stay free)")
+    p.add_argument("--nominal", help="start from the robot's own calibrated kinematics instead of the catalogue "
+                   "URDF: a calib-pin <robot>_calibration.json, or a UR default_kinematics.yaml (ur_description's "
+                   "layout; what --export yaml writes); deviations are still written from the URDF")
     p.add_argument("--export", type=export_formats, default=("urdf",),
                    help="formats of the corrected robot, comma-separated: urdf (default), yaml (joint origins for "
                    "xacro.load_yaml; ur_description's default_kinematics.yaml too for ur* robots), dh (DH table TOML, "
@@ -246,7 +253,8 @@ def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
     from ..sensors import setup_from_args, setup_record
 
     return {"end_frame": args.end_frame, "setup": setup_record(**setup_from_args(args)), "noise_mm": args.noise_mm,
-            "parameters": args.model, **compliance_options(args)}
+            "parameters": args.model, **compliance_options(args),
+            **{k: v for k, v in (("fix", args.fix), ("free", args.free), ("nominal", args.nominal)) if v is not None}}
 
 
 def _analyze(args: argparse.Namespace) -> int:
@@ -256,7 +264,7 @@ def _analyze(args: argparse.Namespace) -> int:
     setup = prepare(args.robot, _data(args), **_setup_options(args))
     print(f"{setup.chain.name}: {setup.data.describe_rows()} from {setup.data.source}, "
           f"{setup.params.name} model, {setup.problem.model.describe()}")
-    print(analyze(setup.problem).report())
+    print(analyze(setup.problem, fixed=getattr(setup, "fixed", ())).report())
     print("the estimators move only the identifiable directions: the deviations along the blind "
           "ones above stay at zero in the export")
     return 0
@@ -296,7 +304,8 @@ def _calibrate(args: argparse.Namespace) -> int:
     data = _data_files(args)  # --data may be given once per set
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
     test_file = validation_argument(args.test_data)
-    inputs = {**robot_inputs(args.robot), **sets, "--test-data": getattr(test_file, "data", test_file)}
+    inputs = {**robot_inputs(args.robot), **sets, "--test-data": getattr(test_file, "data", test_file),
+              "--nominal": args.nominal}
     # an input in --out is never replaced, nor removed as stale; all files together or none
     done = write_outputs(result, Path(args.out), args.export, html=not args.no_html, inputs=inputs,
                          silence="--no-html silences this")
@@ -440,7 +449,13 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     ident = report["identifiability"]
     print(f"identifiable: {ident['rank']} of {ident['unknowns']} directions on the training poses; "
           f"not identifiable: {', '.join(ident['unidentifiable']) or 'none'}; {len(ident['combinations'])} "
-          "combination(s) only together (--analyze lists them); blind directions stay at zero")
+          "combination(s) only together (--analyze lists them); blind directions stay at "
+          f"{'the start' if result.start is not None else 'zero'}")
+    if result.start is not None:
+        print(f"start: {result.start.describe()}; 'before' is the start's error, the deviations "
+              "(report.json) are from the catalogue URDF, deviations_from_start from the start")
+    if report.get("fixed"):
+        print(f"fixed (held at their nominal value, --fix/--free): {', '.join(report['fixed'])}")
     if result.loss != "linear":
         lines = ", ".join(str(line) for line in report["outlier_lines"]) or "none"
         print(f"outliers ({result.loss} loss): {len(result.outlier_rows)} training rows, file lines {lines}")

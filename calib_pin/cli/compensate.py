@@ -2,22 +2,30 @@
 
 The targets were computed with the nominal model; each corrected target puts the
 calibrated arm's end frame (geometry and joint deflection) where the nominal model puts
-it, to 1 um and 1 urad (:meth:`calib_pin.compensation.CalibratedRobot.compensate`).
+it, to 1 um and 1 urad (:meth:`calib_pin.compensation.CalibratedRobot.solve`). Each target
+gets a status: ``ok``, ``position-only`` (near a singularity or a joint limit: the position
+met, the orientation residual reported) or ``refused`` (with the reason; left out of the
+program, named in it). ``--format`` writes the program as calib-pin's CSV or in a
+controller's language (:mod:`calib_pin.export.programs`).
+
+Exit codes: 0 every target ok; 3 some targets position-only, none refused; 4 some targets
+refused (the others written); 2 bad input (nothing written); 130 Ctrl-C.
 """
 
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from ..compensation import CalibratedRobot, Compensation
-from ..exceptions import DataError
+from ..compensation import OK, POSITION_ONLY, REFUSED, CalibratedRobot, Compensation
+from ..exceptions import CalibPinError, DataError
 from ..export.outputs import Outputs, robot_inputs
+from ..export.programs import FORMATS, Program, identifier, program_files, program_paths
 from . import parse_args
-from .common import run
+from .common import positive_float, run
 from .outputs import add_force_argument
 
 
@@ -40,8 +48,24 @@ def add_compensate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPar
     p.add_argument("--out", required=True, help="corrected targets CSV (same columns, plus the remaining error)")
     p.add_argument("--with-cable", action="store_true",
                    help="keep the drawstring's pull of the calibration in the deflection (default: the arm without it)")
+    p.add_argument("--nominal", help="the model the targets were computed with, if not the catalogue URDF: a "
+                   "calib-pin calibration file or a UR default_kinematics.yaml (e.g. the controller's factory "
+                   "calibration); its geometry only")
+    p.add_argument("--format", choices=FORMATS, default="csv",
+                   help="csv (calib-pin's pose list, default), rapid (ABB .mod), krl (KUKA .src + .dat), "
+                   "urscript (Universal Robots .script); the suffix is added to --out when it has none")
+    p.add_argument("--speed-rad-s", type=positive_float(10.0), default=None,
+                   help="urscript: movej joint speed v= [rad/s] (default 1.05, UR's own)")
+    p.add_argument("--accel-rad-s2", type=positive_float(100.0), default=None,
+                   help="urscript: movej joint acceleration a= [rad/s^2] (default 1.4, UR's own)")
     add_force_argument(p, "--out file")
+    p.epilog = ("exit codes: 0 every target ok; 3 some targets position-only (position met, orientation "
+                "residual reported), none refused; 4 some targets refused (the others written); 2 bad input")
     return p
+
+
+#: Exit codes: every target ok; some position-only (none refused); some refused.
+EXIT_OK, EXIT_POSITION_ONLY, EXIT_REFUSED = 0, 3, 4
 
 
 def compensate_main(argv: Sequence[str] | None = None) -> int:
@@ -56,13 +80,28 @@ def _compensate(args: argparse.Namespace) -> int:
     from ..measurements.csv_writer import write_compensated
     from ..measurements.pose_list import read_pose_list
 
+    if args.format != "urscript" and (args.speed_rad_s is not None or args.accel_rad_s2 is not None):
+        raise CalibPinError("--speed-rad-s and --accel-rad-s2 are for --format urscript")
+    paths = [Path(args.out)] if args.format == "csv" else program_paths(args.format, Path(args.out))
+    name = identifier(paths[0].stem)
+    if args.format == "krl" and name != paths[0].stem:
+        raise CalibPinError(f"--out {args.out}: KRL names the program after its file: the stem must be a KRL name "
+                            f"(a letter, then letters, digits or _, at most 24), e.g. {name}")
     out = Outputs(Path(args.out).parent, force=args.force,
-                  inputs={**robot_inputs(args.robot), "--calibration": args.calibration, "--targets": args.targets})
-    out.check(args.out)  # before the work; a calibration folder's file is checked once found
+                  inputs={**robot_inputs(args.robot), "--calibration": args.calibration, "--targets": args.targets,
+                          "--nominal": args.nominal})
+    for path in paths:
+        out.check(path)  # before the work; a calibration folder's file is checked once found
     source = find_calibration(Path(args.calibration))
     out.inputs["--calibration"] = source
     robot = load_calibration(source, args.robot, cable=args.with_cable)
     chain = robot.chain
+    reference = None
+    if args.nominal is not None:
+        from ..parameters.start import load_start
+
+        reference = load_start(Path(args.nominal), chain, robot.params)
+        robot.set_reference(reference.robot_x)
     targets = read_pose_list(args.targets, chain)
     if targets.end_frame and targets.end_frame != chain.end_frame:
         raise DataError(targets.source, f"targets of end frame '{targets.end_frame}', the calibration's is "
@@ -71,23 +110,59 @@ def _compensate(args: argparse.Namespace) -> int:
     rows = np.sort(np.unique(pose_ids, return_index=True)[1])  # one row per pose
     q_nominal = targets.q[rows]
     result = robot.solve(q_nominal)
-    for k, problem in enumerate(result.problems):
-        if problem:
-            line = int(targets.lines[rows[k]]) if targets.lines is not None else None
-            raise DataError(targets.source, f"pose {pose_ids[rows[k]]}: {problem}", line)
-    own = {k: v for k, v in targets.notes.items() if k != "compensated"}  # the targets' own notes, kept
-    notes = {**own, "robot": chain.name, "end_frame": chain.end_frame,
-             "compensated": f"{source.name} (calib-pin {__version__}), targets {Path(targets.source).name}"}
-    extra = {name: column[rows] for name, column in targets.extra.items()}  # a program's speed, zone, name
-    out.add(Path(args.out), lambda tmp: write_compensated(tmp, result.q, pose_ids[rows], result.position_error_m,
-                                                        result.orientation_error_rad, notes, extra))
+    kept = np.array([s != REFUSED for s in result.status], dtype=bool)
+
+    def where(k: int) -> str:
+        line = f" (line {int(targets.lines[rows[k]])})" if targets.lines is not None else ""
+        return f"pose {pose_ids[rows[k]]}{line}"
+
+    refused = {f"refused_pose_{pose_ids[rows[k]]}": f"{where(int(k))}: {result.reasons[k]}"
+               for k in np.flatnonzero(~kept)}
+    own = {k: v for k, v in targets.notes.items()  # the targets' own notes, kept
+           if k != "compensated" and not k.startswith("refused_pose_")}
+    compensated = f"{source.name} (calib-pin {__version__}), targets {Path(targets.source).name}"
+    if reference is not None:
+        compensated += f" of the model {reference.describe()}"
+    notes = {**own, "robot": chain.name, "end_frame": chain.end_frame, "compensated": compensated, **refused}
+    extra = {name: column[rows][kept] for name, column in targets.extra.items()}  # a program's speed, zone, name
+    if args.format == "csv":
+        status = {"status": np.array(result.status, dtype=object)[kept]}
+        out.add(paths[0], lambda tmp: write_compensated(
+            tmp, result.q[kept], pose_ids[rows][kept], result.position_error_m[kept],
+            result.orientation_error_rad[kept], notes, {**extra, **status}))
+    else:
+        header = [f"calib-pin compensate: robot {chain.name}, end frame {chain.end_frame}, calibration {compensated}",
+                  f"{int(kept.sum())} of {len(kept)} targets; refused (left out): "
+                  f"{'; '.join(refused.values()) or 'none'}"]
+        options = {k: v for k, v in (("speed_rad_s", args.speed_rad_s), ("accel_rad_s2", args.accel_rad_s2))
+                   if v is not None}
+        notes_per_target = tuple(f"position-only: {r}" if s == POSITION_ONLY else ""
+                                 for s, r in zip(result.status, result.reasons, strict=True) if s != REFUSED)
+        program = Program(name, result.q[kept], pose_ids[rows][kept], chain.name, chain.joint_names,
+                          tuple(header), notes_per_target, options)
+        for path, content in program_files(args.format, program, Path(args.out)).items():
+            out.add(path, _writer(content))
     written = out.commit()
     _summary(robot, q_nominal, result)
-    if extra:
+    if reference is not None:
+        print(f"targets: poses of the model {reference.describe()}, not of the catalogue URDF")
+    for k, state in enumerate(result.status):
+        if state != OK:
+            print(f"{where(k)}: {state}: {result.reasons[k]}")
+    if extra and args.format == "csv":
         print(f"columns {', '.join(extra)} of {Path(targets.source).name}: copied to the output as they were")
     for path in written:
         print(f"wrote {path}")
-    return 0
+    if not kept.all():
+        return EXIT_REFUSED
+    return EXIT_OK if all(s == OK for s in result.status) else EXIT_POSITION_ONLY
+
+
+def _writer(text: str) -> Callable[[Path], object]:
+    """What the output writer calls to write ``text`` to its temporary file."""
+    from ..atomic import write_text
+
+    return lambda tmp: write_text(tmp, text)
 
 
 def _summary(robot: CalibratedRobot, q_nominal: np.ndarray, result: Compensation) -> None:
@@ -96,9 +171,15 @@ def _summary(robot: CalibratedRobot, q_nominal: np.ndarray, result: Compensation
     nominal = robot.nominal(q_nominal)
     off = np.array([np.linalg.norm(r.translation - n.translation) for r, n in zip(real, nominal, strict=True)]) * 1e3
     change = np.rad2deg(np.abs(result.q - q_nominal)).max(axis=1)
+    counts = {s: result.status.count(s) for s in (OK, POSITION_ONLY, REFUSED)}
     print(f"{robot.chain.name}: {len(q_nominal)} targets compensated in {result.iterations} iterations "
           f"({'geometry and deflection of ' + ', '.join(robot.deflection.spec.joints) if robot.deflection else 'geometry'})")
     print(f"uncompensated, the calibrated arm misses the nominal end frame by {off.mean():.3f} mm mean, {off.max():.3f} mm max")
     print(f"largest joint correction per target: {change.mean():.4f} deg mean, {change.max():.4f} deg max")
-    print(f"remaining: position {result.position_error_m.max() * 1e6:.2g} um max, "
-          f"orientation {result.orientation_error_rad.max() * 1e6:.2g} urad max")
+    met = np.array([s != REFUSED for s in result.status], dtype=bool)
+    full = np.array([s == OK for s in result.status], dtype=bool)
+    if met.any():
+        orientation = f"{result.orientation_error_rad[full].max() * 1e6:.2g} urad max" if full.any() else "-"
+        print(f"remaining: position {result.position_error_m[met].max() * 1e6:.2g} um max, "
+              f"orientation {orientation} (ok targets)")
+    print(f"status: {counts[OK]} ok, {counts[POSITION_ONLY]} position-only, {counts[REFUSED]} refused")

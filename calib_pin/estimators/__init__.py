@@ -21,7 +21,7 @@ from ..arguments import as_array, as_bool, as_float, as_instance, as_int
 from ..exceptions import ArgumentError, EstimatorError
 from ..problem import LeastSquares
 from ..progress import progress_bar
-from .active_set import estimate_nonnegative
+from .active_set import Fixed, estimate_nonnegative, expanded
 from .base import EstimateResult, History
 
 #: Robust losses (scipy.optimize.least_squares names); "linear" is plain least squares.
@@ -140,7 +140,7 @@ def get_estimator(name: str, loss: str = "linear") -> Any:
 
 def run_estimator(
     name: str, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
-    loss: str = "linear", history: bool = True,
+    loss: str = "linear", history: bool = True, fixed: tuple[int, ...] = (),
 ) -> EstimateResult:
     """Run the estimator ``name`` (with ``loss``), recording its convergence history
     (unless ``history`` is False) and its wall time ``time_s``. PSO and DE show a bar
@@ -150,6 +150,10 @@ def run_estimator(
     for every method: one fitted negative is fixed at zero and the method runs again
     without it (:mod:`.active_set`; ``result.bounded`` lists them, ``time_s`` covers
     every run, ``history`` is the last run's).
+
+    Unknowns ``fixed`` (indices into x) are held at their x0 value: the estimator sees the
+    others only (the active set's :class:`~.active_set.Fixed` problem); ``result.extras
+    ["fixed"]`` lists them and the covariance has zero rows and columns for them.
 
     Raises:
         CalibPinError: an unknown method or loss; an ArgumentError naming a bad
@@ -181,8 +185,17 @@ def run_estimator(
             return estimator(part, start, seed=seed, noise=noise, callback=recorder if bar is None else callback)
 
     nonnegative = tuple(getattr(problem, "nonnegative", ()))
+    held = sorted({as_int(i, "fixed", 0, problem.n_params - 1) for i in fixed})
     start = time.perf_counter()
-    result = estimate_nonnegative(once, problem, x0, nonnegative) if nonnegative else once(problem, x0)
+    if held:
+        reduced = Fixed(problem, np.setdiff1d(np.arange(problem.n_params), held), x0)
+        inner = tuple(int(np.searchsorted(reduced.free, i)) for i in nonnegative if i not in held)
+        part = estimate_nonnegative(once, reduced, x0[reduced.free], inner) if inner else once(reduced, x0[reduced.free])
+        bounded = tuple(int(reduced.free[i]) for i in part.bounded)
+        result = expanded(part, reduced, bounded, part.nfev, 1)
+        result = dataclasses.replace(result, extras={**result.extras, "fixed": tuple(held)})
+    else:
+        result = estimate_nonnegative(once, problem, x0, nonnegative) if nonnegative else once(problem, x0)
     elapsed = time.perf_counter() - start
     if not recorders:
         return dataclasses.replace(result, time_s=elapsed)

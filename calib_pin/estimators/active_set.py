@@ -97,7 +97,7 @@ class Fixed(RowProblem):
         return getattr(self.problem, name)
 
 
-def _expanded(result: EstimateResult, fixed: Fixed, bounded: tuple[int, ...], nfev: float,
+def expanded(result: EstimateResult, fixed: Fixed, bounded: tuple[int, ...], nfev: float,
               rounds: int) -> EstimateResult:
     """``result`` of the reduced problem in the full problem's unknowns."""
     extras = dict(result.extras)
@@ -150,7 +150,7 @@ def estimate_nonnegative(
         if not len(negative):
             break
         fixed_at_zero = sorted([*fixed_at_zero, *negative.tolist()])
-    out = _expanded(result, reduced, tuple(fixed_at_zero), nfev, rounds)
+    out = expanded(result, reduced, tuple(fixed_at_zero), nfev, rounds)
     x = np.array(out.x)
     x[bounds] = np.where(x[bounds] <= 0.0, 0.0, x[bounds])  # rounding of a blind direction (or -0.0): zero
     return dataclasses.replace(out, x=x)

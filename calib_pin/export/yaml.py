@@ -6,12 +6,15 @@
   Pinocchio's ``matrixToRpy``). The same origins :func:`calib_pin.export.write_calibrated_urdf`
   writes, for a xacro that loads them with ``xacro.load_yaml``.
 - :func:`write_ur_kinematics_yaml`: for Universal Robots arms, the layout of
-  ur_description's ``config/<type>/default_kinematics.yaml`` (see :func:`ur_kinematics`).
+  ur_description's ``config/<type>/default_kinematics.yaml`` (see :func:`ur_kinematics`);
+  :func:`read_ur_kinematics_yaml` reads that layout back (a controller's own calibration,
+  extracted by ``ur_calibration``, or the file calib-pin wrote) as the chain's corrections.
 """
 
 from __future__ import annotations
 
 import hashlib
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -21,7 +24,7 @@ import yaml
 from lxml import etree
 
 from ..atomic import write_text
-from ..exceptions import RobotError
+from ..exceptions import DataError, RobotError
 from ..robot.chain import Chain
 from .urdf import corrected_origins, top_level_joints
 
@@ -226,10 +229,73 @@ def write_ur_kinematics_yaml(chain: Chain, deltas: Sequence[pin.SE3], path: str 
         "layout: joint origins relative to the parent link of ur_description's URDF; x y z [m],",
         "roll pitch yaw [rad]. The hash is calib-pin's, not the controller's calibration checksum.",
         "tool0 correction this layout cannot hold (calibrated tool0 = ur_description tool0 * T):",
-        (f"T xyz [mm] = {shift[0]:.6f} {shift[1]:.6f} {shift[2]:.6f}; "
-        f"rpy [deg] = {turn[0]:.6f} {turn[1]:.6f} {turn[2]:.6f}"),
+        (f"T xyz [mm] = {shift[0]:.9f} {shift[1]:.9f} {shift[2]:.9f}; "  # read back by read_ur_kinematics_yaml
+        f"rpy [deg] = {turn[0]:.9f} {turn[1]:.9f} {turn[2]:.9f}"),
     ]
     _write_yaml(path, header, {"kinematics": {**body, "hash": f"calib_pin_{digest}"}})
     return rest
 
 
+
+
+#: The header line write_ur_kinematics_yaml writes for the tool0 part the layout cannot hold.
+_REST = re.compile(r"T xyz \[mm\] = (\S+) (\S+) (\S+); rpy \[deg\] = (\S+) (\S+) (\S+)")
+
+
+def read_ur_kinematics_yaml(chain: Chain, path: str | Path) -> list[pin.SE3]:
+    """The corrections of ``chain`` that a ``default_kinematics.yaml`` holds (the inverse of
+    :func:`write_ur_kinematics_yaml`).
+
+    Each key's origin gives the joint placement P_i = G_{i-1} O_i G_i^-1 (the link frames
+    G_i of :func:`ur_kinematics`); wrist_3's screw about axis 6 stays in P_6 (it commutes
+    with joint 6), and a calib-pin header's tool0 line (the part the layout cannot hold)
+    becomes the end frame's correction. A controller's own file has no such line: tool0
+    is ur_description's.
+
+    Returns:
+        ``n_joints + 1`` transforms right-multiplied onto the chain's joint placements and
+        end frame (:meth:`calib_pin.robot.chain.Chain.perturbed_model`).
+
+    Raises:
+        DataError: not the layout (naming the missing key or bad value).
+        RobotError: the chain is not a UR arm.
+    """
+    path = Path(path)
+    text = path.read_text(encoding="utf-8-sig")
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        raise DataError(str(path), f"not YAML: {str(e).splitlines()[0]}") from None
+    body = doc.get("kinematics") if isinstance(doc, dict) else None
+    if not isinstance(body, dict):
+        raise DataError(str(path), "no 'kinematics:' mapping (ur_description's default_kinematics.yaml layout)")
+    origins = []
+    for key in UR_KEYS:
+        entry = body.get(key)
+        if not isinstance(entry, dict):
+            raise DataError(str(path), f"no kinematics.{key} entry {{x, y, z, roll, pitch, yaw}}")
+        try:
+            v = [float(entry[k]) for k in ("x", "y", "z", "roll", "pitch", "yaw")]
+        except (KeyError, TypeError, ValueError):
+            raise DataError(str(path), f"kinematics.{key} needs numbers x, y, z [m], roll, pitch, yaw [rad]") from None
+        if not np.all(np.isfinite(v)) or max(abs(c) for c in v[:3]) > 10.0:
+            raise DataError(str(path), f"kinematics.{key}: {v} is not a joint origin in m and rad")
+        origins.append(pin.SE3(pin.rpy.rpyToMatrix(*v[3:]), np.array(v[:3])))
+    ur_kinematics(chain, [pin.SE3.Identity()] * (chain.n_joints + 1))  # a UR arm, or RobotError
+    links = _ur_link_frames(chain)
+    data = chain.model.createData()
+    pin.forwardKinematics(chain.model, data, chain.configuration(np.zeros(6)))
+    g = [data.oMi[i + 1].actInv(link) for i, link in enumerate(links)]
+    deltas, previous = [], UR_BASE_INERTIA
+    for i, origin in enumerate(origins):
+        placement = previous * origin * g[i].inverse()
+        deltas.append(chain.model.jointPlacements[i + 1].actInv(placement))
+        previous = g[i]
+    rest = pin.SE3.Identity()
+    found = _REST.search(text)
+    if found:
+        values = [float(v) for v in found.groups()]
+        rest = pin.SE3(pin.rpy.rpyToMatrix(*np.deg2rad(values[3:])), np.array(values[:3]) * 1e-3)
+    end = chain.model.frames[chain.frame_id].placement
+    deltas.append(end.actInv(g[5] * UR_WRIST3_TOOL0 * rest))
+    return deltas

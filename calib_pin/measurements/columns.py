@@ -15,8 +15,8 @@ The rule:
   ``comment``; an unnamed one is ``column <k>``) is read and kept as
   :attr:`MeasurementSet.extra <calib_pin.measurements.MeasurementSet.extra>`, reported as
   ignored; an unnamed column with no value in any row (a trailing separator) is dropped.
-  ``position_error_mm`` and ``orientation_error_urad`` (what ``calib-pin compensate``
-  writes beside the joints) are read past.
+  ``position_error_mm``, ``orientation_error_urad`` and ``status`` (what ``calib-pin
+  compensate`` writes beside the joints) are read past.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from ..exceptions import DataError
 from .dialect import quote
 
 #: Columns a compensated pose list carries beside the joints (calib-pin compensate); read past.
-ANNOTATIONS = ("position_error_mm", "orientation_error_urad")
+ANNOTATIONS = ("position_error_mm", "orientation_error_urad", "status")
 _JOINT = re.compile(r"^q(\d+)_(deg|rad|mm|m)$")
 _LENGTH = re.compile(r"^length_(mm|m)$")
 _COORD = re.compile(r"^([xyz])_(mm|m)$")

@@ -113,6 +113,10 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
     }
     if result.test_registration is not None:  # a validation session on a new set-up: which rows did what
         report["test_registration"] = result.test_registration
+    if result.fixed:  # unknowns held at their start (--fix/--free)
+        report["fixed"] = list(result.fixed)
+    if result.start is not None:  # --nominal: where the estimate started
+        report["start"] = result.start.as_dict(result.params, result.problem.model.robot(result.x))
     if result.sets:  # several measurement sets: a table each; the metrics above pool them
         report["sets"] = [s.as_dict() for s in result.sets]
         report["metrics_pooled"] = "every set's row errors together, each in its own set's units (mm)"

@@ -1,0 +1,46 @@
+"""KUKA KRL: a ``.src``/``.dat`` pair, ``E6AXIS`` points in the ``.dat``, a PTP sequence in the ``.src``.
+
+``<name>.dat``: ``DEFDAT <name> PUBLIC`` with ``DECL E6AXIS XP<pose>={A1 ..,A6 ..,E1 0.0,...,E6 0.0}``
+in degrees; ``<name>.src``: ``DEF <name>( )``, the BAS initialisation, then ``PTP XP<pose>``
+in order. Comments start with ``;``. KRL names the program after its files: ``<name>`` is
+the ``--out`` file's stem (a KRL name: a letter, then letters, digits or ``_``, at most 24).
+
+Joint convention (:data:`CONVENTIONS`): KUKA's axis values differ from many URDFs (A1
+positive clockwise seen from above, A2 = -90 deg with the upper arm upright). No KUKA arm
+ships with calib-pin, so no convention is known: a robot is written in its URDF's
+convention, and the file says so; add a :class:`~calib_pin.export.programs.Convention`
+here for a KUKA URDF whose joints differ from the controller's.
+"""
+
+from __future__ import annotations
+
+from . import Convention, Program, note, same_convention, six_axes
+
+#: Robot name -> the controller's joint convention against the URDF's.
+CONVENTIONS: dict[str, Convention] = {}
+
+
+def convention(robot: str) -> Convention:
+    """The KUKA convention of ``robot`` (the URDF's, said so, when none is known)."""
+    return CONVENTIONS.get(robot, same_convention(6, f"URDF joint angles of '{robot}' as they are: "
+                                                     "no KUKA convention known for it, check signs and zeros"))
+
+
+def write(program: Program) -> dict[str, str]:
+    """The KRL pair of ``program``: {".src": text, ".dat": text}."""
+    six_axes(program, "KRL")
+    conv = convention(program.robot)
+    values = conv.to_controller_deg(program.q)
+    comments = [f";{line}" for line in (*program.header, f"joint convention: {conv.note}", "A1..A6 in degrees")]
+    src = ["&ACCESS RVP", "&REL 1", f"DEF {program.name}( )", *comments, ";FOLD INI",
+           "  BAS (#INITMOV,0 )", ";ENDFOLD (INI)"]
+    src += [f"  PTP XP{int(pose)}" for pose in program.pose_ids]
+    src.append("END")
+    dat = ["&ACCESS RVP", "&REL 1", f"DEFDAT {program.name} PUBLIC", *comments]
+    for k, (pose, row) in enumerate(zip(program.pose_ids, values, strict=True)):
+        if note(program, k):
+            dat.append(f";pose {int(pose)}: {note(program, k)}")
+        axes = ",".join(f"A{i + 1} {v:.9f}" for i, v in enumerate(row))
+        dat.append(f"DECL E6AXIS XP{int(pose)}={{{axes},E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}}")
+    dat.append("ENDDAT")
+    return {".src": "\n".join(src) + "\n", ".dat": "\n".join(dat) + "\n"}

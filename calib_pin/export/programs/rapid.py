@@ -1,0 +1,53 @@
+"""ABB RAPID: a module of ``CONST jointtarget`` declarations and a ``MoveAbsJ`` routine.
+
+Each target is ``CONST jointtarget jt_<pose>:=[[rax_1,...,rax_6],[9E9,...]];`` in degrees
+(the six external axes unused: 9E9), and the routine ``PROC <name>()`` visits them in
+order with ``MoveAbsJ jt_<pose>\\NoEOffs, v100, fine, tool0;``. Comments start with ``!``.
+Values are written with 9 decimals; the controller stores a ``num`` in single precision
+(about 7 significant digits, 1e-5 deg at 100 deg).
+
+Joint convention (:data:`CONVENTIONS`): for the IRB120 of calib-pin (robots/irb120.urdf,
+ROS-Industrial abb_irb120_support's frames) the controller's axis values are the URDF
+joint angles: the same zero (upper arm upright, forearm horizontal: ABB's calibration
+position) and the same signs (joint_3's asymmetric range -110..+70 deg is axis 3's range in
+ABB's product specification). Another robot is written in its URDF's convention, and the
+file says so.
+"""
+
+from __future__ import annotations
+
+from . import Convention, Program, note, same_convention, six_axes
+
+#: Robot name -> the controller's joint convention against the URDF's.
+CONVENTIONS: dict[str, Convention] = {
+    "irb120": same_convention(6, "ABB axis values = URDF joint angles (same zero and signs)"),
+}
+#: MoveAbsJ's speed data, zone data and tool.
+SPEED, ZONE, TOOL = "v100", "fine", "tool0"
+#: Unused external axes.
+UNUSED = "9E9"
+
+
+def convention(robot: str) -> Convention:
+    """The ABB convention of ``robot`` (the URDF's, said so, when none is known)."""
+    return CONVENTIONS.get(robot, same_convention(6, f"URDF joint angles of '{robot}' as they are: "
+                                                     "no ABB convention known for it, check signs and zeros"))
+
+
+def write(program: Program) -> dict[str, str]:
+    """The RAPID module of ``program``: {".mod": text}."""
+    six_axes(program, "RAPID")
+    conv = convention(program.robot)
+    values = conv.to_controller_deg(program.q)
+    lines = [f"MODULE {program.name}"]
+    lines += [f"    ! {line}" for line in (*program.header, f"joint convention: {conv.note}",
+                                           "axis values in degrees; external axes unused (9E9)")]
+    for k, (pose, row) in enumerate(zip(program.pose_ids, values, strict=True)):
+        if note(program, k):
+            lines.append(f"    ! pose {int(pose)}: {note(program, k)}")
+        axes = ",".join(f"{v:.9f}" for v in row)
+        lines.append(f"    CONST jointtarget jt_{int(pose)}:=[[{axes}],[{','.join([UNUSED] * 6)}]];")
+    lines.append(f"    PROC {program.name}_run()")
+    lines += [f"        MoveAbsJ jt_{int(pose)}\\NoEOffs, {SPEED}, {ZONE}, {TOOL};" for pose in program.pose_ids]
+    lines += ["    ENDPROC", "ENDMODULE"]
+    return {".mod": "\n".join(lines) + "\n"}

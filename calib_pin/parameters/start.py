@@ -1,0 +1,144 @@
+"""Where a calibration starts (``calibrate --nominal FILE``): a robot's own calibrated kinematics.
+
+By default the deviations start at zero: the catalogue geometry of the URDF. A start file
+gives the robot's own kinematics instead, and the estimate starts there: what the poses
+identify moves, the blind directions keep the start's value (not zero), and ``--fix``
+holds a parameter at the start's value. The deviations written stay those from the
+catalogue URDF (a calibration file, compensate and the URDF export need nothing new);
+the report adds the start and the deviations relative to it.
+
+Two files are read:
+
+- a calib-pin calibration file (``<robot>_calibration.json``,
+  :func:`calib_pin.export.calibration_file.load_calibration`): its deviations, in the same
+  parameter model, and its compliances when the same joints are compliant;
+- ur_description's ``default_kinematics.yaml`` layout
+  (:func:`calib_pin.export.yaml.read_ur_kinematics_yaml`; the file ``--export yaml``
+  writes, and that ``ur_calibration`` extracts from a controller): its corrections are
+  expressed in the parameter model by Gauss-Newton on the corrections' twists
+  (:meth:`~calib_pin.parameters.base.ParameterModel.delta_jacobian`), exact for the
+  ``placement`` model; what the model cannot hold is reported (``fit_m``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import CalibPinError, DataError
+from ..robot.chain import Chain
+from .base import ParameterModel
+
+#: A start whose corrections the parameter model holds worse than this is refused, [m, rad].
+FIT_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True)
+class Start:
+    """A calibration's start.
+
+    Attributes:
+        source: The file.
+        kind: ``calibration`` (a calib-pin calibration file) or ``ur-kinematics-yaml``.
+        robot_x: The robot deviations from the catalogue URDF, shape (len(params.names),), SI.
+        compliance: Start compliances [rad/Nm] of the run's compliant joints, or None (zero).
+        fit_m: How far the parameter model is from the file's corrections (largest twist
+            entry, [m] / [rad]); 0 for a calibration file.
+    """
+
+    source: str
+    kind: str
+    robot_x: np.ndarray
+    compliance: np.ndarray | None
+    fit_m: float
+
+    def sensor_fit(self, problem: Any, x0: np.ndarray) -> np.ndarray:
+        """x0 with its sensor unknowns (device frame, markers, anchor) fitted to ``problem``'s
+        rows with the robot held at the start (scipy least squares on the active set's
+        :class:`~calib_pin.estimators.active_set.Fixed` problem): the sensor's starting
+        geometry was fitted with the catalogue robot, and would otherwise carry the
+        start's difference from it."""
+        from scipy.optimize import least_squares
+
+        from ..estimators.active_set import Fixed
+
+        sensor = np.arange(problem.model.sensor_start, problem.n_params)
+        if not len(sensor):
+            return x0
+        part = Fixed(problem, sensor, x0)
+        fit = least_squares(part.residual, x0[sensor], jac=part.jacobian, method="lm", x_scale=part.scale)
+        return part.expand(fit.x)
+
+    def describe(self) -> str:
+        """One line for people."""
+        what = "calib-pin calibration file" if self.kind == "calibration" else "UR default_kinematics.yaml"
+        fit = f", held by the model to {self.fit_m:.1g}" if self.kind != "calibration" else ""
+        return f"{Path(self.source).name} ({what}{fit})"
+
+    def as_dict(self, params: ParameterModel, x: np.ndarray) -> dict:
+        """JSON-ready: the file, its kind and the deviations relative to it (x the run's robot part)."""
+        from ..units import for_humans
+
+        return {"source": self.source, "kind": self.kind, "fit": self.fit_m,
+                "deviations_from_start": for_humans(np.asarray(x) - self.robot_x, params.names, params.units)}
+
+
+def fit_deltas(params: ParameterModel, deltas: list[pin.SE3], iterations: int = 30) -> tuple[np.ndarray, float]:
+    """Deviations x whose ``params.deltas(x)`` are closest to ``deltas`` (least squares on
+    the twists log6(delta(x)^-1 target)); (x, largest remaining twist entry)."""
+    x = np.zeros(len(params.names))
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        return np.concatenate([pin.log6(d.actInv(t)).vector for d, t in zip(params.deltas(x), deltas, strict=True)])
+
+    r = residual(x)
+    for _ in range(iterations):
+        step = np.linalg.lstsq(params.delta_jacobian(x), r, rcond=None)[0]
+        x = x + step
+        r = residual(x)
+        if np.abs(step).max() < 1e-15:
+            break
+    return x, float(np.abs(r).max())
+
+
+def load_start(path: str | Path, chain: Chain, params: ParameterModel, compliant: tuple[str, ...] = ()) -> Start:
+    """The start of ``--nominal path`` for a calibration of ``chain`` in ``params``.
+
+    Args:
+        compliant: The run's compliant joints (their start compliances come from a
+            calibration file with the same joints).
+
+    Raises:
+        CalibPinError: unreadable or another robot's file, another parameter model, a
+            start the model cannot hold.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(str(path), "no such start file (--nominal: a calib-pin calibration .json or a UR "
+                        "default_kinematics.yaml)")
+    if path.suffix.lower() in (".yaml", ".yml"):
+        from ..export.yaml import read_ur_kinematics_yaml
+
+        x, fit = fit_deltas(params, read_ur_kinematics_yaml(chain, path))
+        if fit > FIT_TOLERANCE:
+            raise CalibPinError(f"{path}: the {params.name} model holds this start only to {fit:.2g} m/rad; "
+                                "use --model placement")
+        return Start(str(path), "ur-kinematics-yaml", x, None, fit)
+    from ..export.calibration_file import load_calibration
+
+    robot = load_calibration(path, chain.name)
+    if robot.chain.end_frame != chain.end_frame:
+        raise DataError(str(path), f"a calibration of end frame '{robot.chain.end_frame}', this one's is "
+                        f"'{chain.end_frame}'", None, "end_frame")
+    if robot.params.name != params.name:
+        raise DataError(str(path), f"deviations of the {robot.params.name} model; give --model {robot.params.name} "
+                        "to start from them", None, "parameter_model")
+    spec = robot.compliance_spec
+    compliance = None
+    if compliant and spec is not None and tuple(spec.joints) == tuple(compliant):
+        compliance = np.array(robot.compliance, dtype=float)
+    return Start(str(path), "calibration", np.array(robot.deviations, dtype=float), compliance, 0.0)

@@ -1,0 +1,130 @@
+"""Controller programs (calib_pin.export.programs): each writer's file parsed back by a
+reader written here from the language's syntax, every axis value checked against the
+compensated CSV to 1e-6 deg; the joint conventions; the CLI's --format."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import calib_pin as cp
+from calib_pin.cli import command
+from calib_pin.export.calibration_file import calibration_path, write_calibration
+from calib_pin.export.programs import PROGRAMS, Convention, Program, program_files
+from calib_pin.export.programs import rapid, urscript
+from calib_pin.measurements.pose_list import read_pose_list
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "robots" / "irb120_program.csv"
+NUMBER = r"[-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?"
+
+
+def read_rapid(text: str) -> tuple[list[int], np.ndarray]:
+    """Pose numbers in MoveAbsJ order and their robot axes [deg] from a RAPID module."""
+    assert text.startswith("MODULE ") and text.rstrip().endswith("ENDMODULE")
+    targets = {}
+    for name, robax, extax in re.findall(r"CONST jointtarget (\w+):=\[\[([^\]]*)\],\[([^\]]*)\]\];", text):
+        assert extax.split(",") == ["9E9"] * 6
+        targets[name] = [float(v) for v in robax.split(",")]
+    body = text[text.index("PROC "):text.index("ENDPROC")]
+    order = re.findall(r"MoveAbsJ (\w+)\\NoEOffs, v\d+, fine, tool0;", body)
+    assert sorted(order) == sorted(targets)
+    return [int(name.split("_")[1]) for name in order], np.array([targets[name] for name in order])
+
+
+def read_krl(src: str, dat: str) -> tuple[list[int], np.ndarray]:
+    """Pose numbers in PTP order and A1..A6 [deg] from a KRL .src/.dat pair."""
+    name = re.search(r"^DEF (\w+)\( \)$", src, re.M).group(1)
+    assert re.search(rf"^DEFDAT {name} PUBLIC$", dat, re.M) and src.rstrip().endswith("END")
+    points = {}
+    for point, body in re.findall(r"^DECL E6AXIS (\w+)=\{([^}]*)\}$", dat, re.M):
+        fields = dict(f.split(" ") for f in body.split(","))
+        assert list(fields) == [f"A{i}" for i in range(1, 7)] + [f"E{i}" for i in range(1, 7)]
+        points[point] = [float(fields[f"A{i}"]) for i in range(1, 7)]
+    order = re.findall(r"^  PTP (\w+)$", src, re.M)
+    assert sorted(order) == sorted(points)
+    return [int(p[2:]) for p in order], np.array([points[p] for p in order])
+
+
+def read_urscript(text: str) -> tuple[list[int], np.ndarray, list[tuple[float, float]]]:
+    """Pose numbers, joint positions [rad] and (a, v) of each movej of a URScript function."""
+    assert re.search(r"^def \w+\(\):$", text, re.M) and text.rstrip().endswith("end")
+    poses = [int(p) for p in re.findall(r"^  # pose (\d+)", text, re.M)]
+    moves = re.findall(rf"^  movej\(\[([^\]]*)\], a=({NUMBER}), v=({NUMBER})\)$", text, re.M)
+    assert len(moves) == len(poses)
+    return poses, np.array([[float(v) for v in q.split(",")] for q, _, _ in moves]), \
+        [(float(a), float(v)) for _, a, v in moves]
+
+
+@pytest.fixture(scope="module")
+def calibration(chain, params, tmp_path_factory):
+    data, _ = cp.simulate(chain, params, 80, seed=4)
+    result = cp.calibrate("irb120", data, method="lm", test_fraction=0)
+    folder = tmp_path_factory.mktemp("programs")
+    write_calibration(result, calibration_path(folder, "irb120"))
+    return folder
+
+
+def test_every_format_of_the_example_program_reads_back(calibration, chain, tmp_path, capsys):
+    """The shipped example program in CSV, RAPID, KRL and URScript: the same targets in
+    the same order, every value within 1e-6 deg of the CSV's."""
+    compensate = command("compensate")
+    base = ["irb120", "--calibration", str(calibration), "--targets", str(EXAMPLE)]
+    assert compensate([*base, "--out", str(tmp_path / "c.csv")]) == 0
+    csv = read_pose_list(tmp_path / "c.csv", chain)
+    expected = np.rad2deg(csv.q)
+    assert np.abs(expected - np.rad2deg(read_pose_list(EXAMPLE, chain).q)).max() > 1e-3  # corrected
+    for fmt in PROGRAMS:
+        assert compensate([*base, "--out", str(tmp_path / "prog"), "--format", fmt]) == 0
+    capsys.readouterr()
+    poses, values = read_rapid((tmp_path / "prog.mod").read_text())
+    assert poses == [1, 2, 3, 4, 5] and np.abs(values - expected).max() < 1e-6
+    poses, values = read_krl((tmp_path / "prog.src").read_text(), (tmp_path / "prog.dat").read_text())
+    assert poses == [1, 2, 3, 4, 5] and np.abs(values - expected).max() < 1e-6
+    poses, q, speeds = read_urscript((tmp_path / "prog.script").read_text())
+    assert poses == [1, 2, 3, 4, 5] and np.abs(np.rad2deg(q) - expected).max() < 1e-6
+    assert speeds == [(1.4, 1.05)] * 5
+    assert "ABB axis values = URDF joint angles" in (tmp_path / "prog.mod").read_text()
+    # existing outputs are refused without --force (both KRL files checked), replaced with it
+    assert compensate([*base, "--out", str(tmp_path / "prog.src"), "--format", "krl"]) == 2
+    assert "prog.src exists" in capsys.readouterr().err
+    (tmp_path / "prog.src").unlink()
+    assert compensate([*base, "--out", str(tmp_path / "prog"), "--format", "krl"]) == 2
+    assert "prog.dat exists" in capsys.readouterr().err and not (tmp_path / "prog.src").exists()
+    assert compensate([*base, "--out", str(tmp_path / "prog"), "--format", "krl", "--force"]) == 0
+    assert compensate([*base, "--out", str(tmp_path / "u.script"), "--format", "urscript",
+                       "--speed-rad-s", "0.5", "--accel-rad-s2", "0.8"]) == 0
+    assert read_urscript((tmp_path / "u.script").read_text())[2] == [(0.8, 0.5)] * 5
+    for argv, message in ((["--out", str(tmp_path / "x.mod"), "--format", "krl"], "a krl program is .src"),
+                          (["--out", str(tmp_path / "9x"), "--format", "krl"], "must be a KRL name"),
+                          (["--out", str(tmp_path / "x.csv"), "--speed-rad-s", "1"], "are for --format urscript")):
+        assert compensate([*base, *argv]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1
+
+
+def test_conventions_and_a_ur5_urscript(tmp_path):
+    """A convention's sign and zero are applied on writing and undone on reading; the UR5
+    is written in the URDF's joint values (they are UR's); a 7-joint arm is refused."""
+    conv = Convention((1.0, -1.0, 1.0, -1.0, 1.0, 1.0), (0.0, -90.0, 90.0, 0.0, 0.0, 180.0), "test")
+    q = np.random.default_rng(2).uniform(-2.0, 2.0, (7, 6))
+    assert np.allclose(conv.to_urdf_rad(conv.to_controller_deg(q)), q, atol=1e-14)
+    assert np.allclose(conv.to_controller_deg(np.zeros((1, 6))), [[0, -90, 90, 0, 0, 180]])
+    program = Program("ur_test", q, np.arange(1, 8), "ur5", tuple(f"j{i}" for i in range(6)))
+    files = program_files("urscript", program, tmp_path / "ur_test")
+    (path, text), = files.items()
+    assert path.name == "ur_test.script" and "UR joint values = URDF joint angles" in text
+    poses, values, _ = read_urscript(text)
+    assert poses == list(range(1, 8)) and np.abs(np.rad2deg(values - q)).max() < 1e-6
+    rapid.CONVENTIONS["signed_test"] = conv  # a robot whose controller differs from its URDF
+    try:
+        text = rapid.write(Program("m", q, np.arange(1, 8), "signed_test", ()))[".mod"]
+    finally:
+        del rapid.CONVENTIONS["signed_test"]
+    _, values = read_rapid(text)
+    assert np.abs(conv.to_urdf_rad(values) - q).max() < 1e-9
+    with pytest.raises(cp.CalibPinError, match="holds 6 robot axes; robot 'arm7' has 7 joints"):
+        urscript.write(Program("p", np.zeros((1, 7)), np.ones(1), "arm7", ()))
