@@ -48,6 +48,19 @@ def swap(row: str, column: int, value: str) -> str:
     return ",".join(fields)
 
 
+POSE_SHIPPED = (ROOT / "robots" / "irb120_pose_example.csv").read_text().splitlines()
+POSE_HEAD = next(k for k, line in enumerate(POSE_SHIPPED) if not line.startswith("#"))
+POSE_ROWS = POSE_SHIPPED[POSE_HEAD + 1 :]
+
+
+def pose_set(quaternion: str | None = None) -> str:
+    """The shipped 6-D pose example's first 40 rows; ``quaternion``: the 3rd row's (file line 9) instead."""
+    rows = POSE_ROWS[:40]
+    if quaternion is not None:
+        rows[2] = ",".join(rows[2].split(",")[:-4] + quaternion.split(","))
+    return "\n".join([*POSE_SHIPPED[: POSE_HEAD + 1], *rows]) + "\n"
+
+
 def urdf(old: str, new: str, count: int = 1) -> str:
     assert old in URDF
     return URDF.replace(old, new, count)
@@ -483,7 +496,7 @@ R3_WRONG: list[Case] = [
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=600,200,-100:noise_mm=0.05", "--data", "b.csv", "--analyze"],
      {"a.csv": data(), "b.csv": data()}, 0, "rank"),
     (CAL, ["irb120", "--data", "a.csv:colour=red", "--data", "b.csv", "--analyze"], {"a.csv": data(), "b.csv": data()},
-     2, "--data 'a.csv:colour=red': unknown key 'colour' (valid: anchor_mm, tool_mm, length_offset_mm, noise_mm"),
+     2, "--data 'a.csv:colour=red': unknown key 'colour' (valid: anchor_mm, tool_mm, length_offset_mm, noise_deg, noise_mm"),
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=600,200", "--data", "b.csv", "--analyze"],
      {"a.csv": data(), "b.csv": data()}, 2, "--data 'a.csv:anchor_mm=600,200': anchor_mm: expected 3 numbers"),
     (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv:role=validate", "--analyze"],
@@ -658,6 +671,15 @@ R3_FILES: list[Case] = [
     (CAL, ["irb120", "--data", "d.csv"], {"d.csv": "# csv: sep=|\n" + data()}, 2, "d.csv:1: csv"),
     (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(*(r + ",T1" for r in ROWS[:30]), head=HEAD + ",point_id")},
      2, "d.csv:7: has both length and a point_id column (the marker labels of a position set)"),  # said x/y/z columns
+    # 6-D pose sets (calib_pin/sensors/pose.py): a non-unit quaternion, a missing or foreign column, a bad noise
+    (CAL, ["irb120", "--data", "p.csv"], {"p.csv": pose_set(quaternion="0.5,0.5,0.5,0.6")}, 2,
+     "p.csv:9: quaternion (qw, qx, qy, qz) has norm 1.05357, not 1 within 0.001"),
+    (CAL, ["irb120", "--data", "p.csv"], {"p.csv": pose_set().replace(",qz\n", "\n")}, 2,
+     "p.csv:6: missing column qz of a pose set (qw, qx, qy, qz)"),
+    (CAL, ["irb120", "--data", "p.csv"], {"p.csv": pose_set().replace(",qz\n", ",qz,length_mm\n")}, 2,
+     "has pose columns and length"),
+    (CAL, ["irb120", "--data", "p.csv"], {"p.csv": pose_set().replace("# noise_deg: 0.01", "# noise_deg: -1")}, 2,
+     "p.csv: noise_deg: '-1' is not a positive angle in degrees"),
 ]
 
 

@@ -313,6 +313,8 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
               f"({n_train} train, {test}, seed {result.seed}), {result.model_name} model, method {result.method}")
         print(f"error per row: {result.problem.model.error_name}")
         print(table(result.metrics))
+        if hasattr(result.problem, "part_summary") and result.estimate.correction is None:  # rows of mixed units
+            print(result.problem.part_summary(result.x, {"train": result.train, "test": result.test}))
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")

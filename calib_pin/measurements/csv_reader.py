@@ -39,7 +39,7 @@ from __future__ import annotations
 import csv
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -50,7 +50,16 @@ from ..exceptions import DataError
 from ..input_files import check_regular
 from ..robot.chain import Chain
 from . import dialect
-from .columns import ANNOTATIONS, Columns, check_columns, check_near_misses, classify, kind_of_columns, plugin_columns
+from .columns import (
+    ANNOTATIONS,
+    Columns,
+    check_columns,
+    check_near_misses,
+    classify,
+    kind_of_columns,
+    plain_columns,
+    plugin_columns,
+)
 from .dataset import MeasurementSet, point_label
 from .dialect import Dialect, Override, number, quote, shown_separator
 
@@ -219,6 +228,7 @@ def _numeric_fields(parsed: _Parsed, cols: Columns):
     numeric = [c for c, _ in cols.joints.values()] + [c for c, _ in cols.coords.values()]
     numeric += [cols.length[0]] if cols.length is not None else []
     numeric += [c for c, _ in cols.sensor.values()]
+    numeric += list(cols.plain.values())
     for number_, fields in parsed.rows:
         for col in numeric:
             yield fields[col], number_, parsed.header[col]
@@ -257,6 +267,10 @@ def _angles(fields: list[str], header: list[str], cols: Columns, chain: Chain | 
 
 
 def _values(fields: list[str], header: list[str], cols: Columns, path: Path, line: int, decimal: str) -> np.ndarray:
+    if cols.plain_kind:  # a sensor's unit-free columns after its value columns (a pose: x, y, z, then qw .. qz)
+        plain = np.array([number(fields[col], path, line, header[col], decimal) for col in cols.plain.values()])
+        return np.concatenate([_values(fields, header, replace(cols, plain={}, plain_kind=""), path, line, decimal),
+                               plain])
     if cols.sensor_kind:  # a registered sensor's columns, in its order
         return np.array([number(fields[col], path, line, header[col], decimal) * (1e-3 if unit == "mm" else 1.0)
                          for col, unit in cols.sensor.values()])
@@ -368,7 +382,10 @@ def read_measurements(
     if cols.sensor_kind:  # its columns in the sensor's order
         order = {q: k for k, q in enumerate(plugin_columns()[next(iter(cols.sensor))][1])}
         cols.sensor = dict(sorted(cols.sensor.items(), key=lambda item: order[item[0]]))
-    values = np.empty((n, len(cols.sensor) if cols.sensor_kind else 3 if cols.position else 1))
+    if cols.plain_kind:  # in the sensor's order
+        order = {name: k for k, name in enumerate(plain_columns()[next(iter(cols.plain))][1])}
+        cols.plain = dict(sorted(cols.plain.items(), key=lambda item: order[item[0]]))
+    values = np.empty((n, (len(cols.sensor) if cols.sensor_kind else 3 if cols.position else 1) + len(cols.plain)))
     pose_ids = np.empty(n, dtype=int)
     for r, (number_, fields) in enumerate(parsed.rows):
         q[r] = _angles(fields, header, cols, chain, n_joints, path, number_, decimal)
@@ -378,11 +395,11 @@ def read_measurements(
     point_ids = _point_ids(parsed, cols.point, path) if cols.point is not None else np.ones(n, dtype=int)
     lines = [number_ for number_, _ in parsed.rows]
     if cols.pose is not None:
-        _check_unique(pose_ids, point_ids if cols.position else None, lines, path)
+        _check_unique(pose_ids, point_ids if cols.position and not cols.plain_kind else None, lines, path)
     meta = parsed.meta
     if chain is not None and meta.get("robot") not in (None, chain.name, robot_label):
         raise DataError(str(path), f"is for robot '{meta['robot']}', not '{chain.name}'", None, "robot")
-    kind = cols.sensor_kind or (kind_of_columns(("x", "y", "z")) if cols.position else (
+    kind = cols.plain_kind or cols.sensor_kind or (kind_of_columns(("x", "y", "z")) if cols.position else (
         kind_of_columns(("length",)) if cols.length is not None else "poses"))
     from ..sensors import SENSORS
 
@@ -393,6 +410,6 @@ def read_measurements(
         noise=meta.get("noise"), robot=meta.get("robot"), end_frame=meta.get("end_frame"),
         lines=np.array(lines, dtype=int), source=str(path), notes=parsed.notes,
         pose_ids=pose_ids if cols.pose is not None else None,
-        point_ids=point_ids if cols.position else None, extra=_extra(parsed, cols),
+        point_ids=point_ids if cols.position and not cols.plain_kind else None, extra=_extra(parsed, cols),
         sensor_meta={k: meta[k] for k in own if k in meta},
     )

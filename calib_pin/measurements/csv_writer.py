@@ -70,16 +70,19 @@ def header(n_joints: int, kind: str, with_pose: bool = False) -> str:
     model = SENSORS.get(kind)
     joints = [f"q{i}_deg" for i in range(1, n_joints + 1)]
     values = [f"{c}_mm" for c in model.value_columns] if model is not None else []
+    values += list(getattr(model, "plain_columns", ()))  # unit-free, after the others (a pose's quaternion)
     if model is not None and model.point_labels:
         return ",".join(["pose", "point_id", *joints, *values])
     return ",".join((["pose"] if with_pose else []) + joints + values)
 
 
-def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[PointLabel] = ()) -> str:
+def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[PointLabel] = (),
+        plain: Iterable[float] = ()) -> str:
     """One data row: labels (whole numbers, or text), angles [rad] written in degrees (9
-    decimals), values [m] written in mm (6 decimals: 1 nm, far below any sensor's resolution)."""
+    decimals), values [m] written in mm (6 decimals: 1 nm, far below any sensor's resolution),
+    then unit-free values (``plain``: a quaternion, 12 decimals)."""
     return ",".join([_label(v) for v in labels] + [f"{v:.9f}" for v in np.rad2deg(q)]
-                    + [f"{v * 1e3:.6f}" for v in values])
+                    + [f"{v * 1e3:.6f}" for v in values] + [f"{v:.12f}" for v in plain])
 
 
 def write_measurements(path: str | Path, data: MeasurementSet) -> None:
@@ -99,13 +102,17 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
     lines.append(",".join([header(data.q.shape[1], data.kind), *map(text_field, data.extra)]))
     values = np.asarray(data.values, dtype=float).reshape(len(data), -1)
     labelled = _point_labels(data.kind)
+    from ..sensors import SENSORS
+
+    n_plain = len(getattr(SENSORS.get(data.kind), "plain_columns", ()))
+    plain, values = values[:, values.shape[1] - n_plain :], values[:, : values.shape[1] - n_plain]
     for k in range(len(data)):
         labels: tuple[PointLabel, ...] = ()
         if labelled:
             pose = data.pose_ids[k] if data.pose_ids is not None else k + 1
             point = data.point_ids[k] if data.point_ids is not None else 1
             labels = (int(pose), point_label(point))
-        lines.append(",".join([row(data.q[k], values[k], labels), *_extra_fields(data, k)]))
+        lines.append(",".join([row(data.q[k], values[k], labels, plain[k]), *_extra_fields(data, k)]))
     write_text(path, "\n".join(lines) + "\n")
 
 
