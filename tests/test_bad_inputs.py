@@ -61,6 +61,22 @@ def pose_set(quaternion: str | None = None) -> str:
     return "\n".join([*POSE_SHIPPED[: POSE_HEAD + 1], *rows]) + "\n"
 
 
+CONTACT_SHIPPED = (ROOT / "robots" / "irb120_contact_example.csv").read_text().splitlines()
+CONTACT_HEAD = next(k for k, line in enumerate(CONTACT_SHIPPED) if not line.startswith("#"))
+CONTACT_ROWS = CONTACT_SHIPPED[CONTACT_HEAD + 1 :]
+
+
+def contact_set(*meta: str, planes: int = 0, label: str | None = None) -> str:
+    """The shipped contact example (its metadata, then ``meta``); ``planes``: that many of
+    socket A's rows touch plane W instead; ``label``: the 2nd row's two ids (file line 8)."""
+    rows = list(CONTACT_ROWS)
+    for k in range(planes):
+        rows[k] = rows[k].rsplit(",", 2)[0] + ",,W"
+    if label is not None:
+        rows[1] = rows[1].rsplit(",", 2)[0] + "," + label
+    return "\n".join([*CONTACT_SHIPPED[:CONTACT_HEAD], *meta, CONTACT_SHIPPED[CONTACT_HEAD], *rows]) + "\n"
+
+
 def urdf(old: str, new: str, count: int = 1) -> str:
     assert old in URDF
     return URDF.replace(old, new, count)
@@ -680,6 +696,18 @@ R3_FILES: list[Case] = [
      "has pose columns and length"),
     (CAL, ["irb120", "--data", "p.csv"], {"p.csv": pose_set().replace("# noise_deg: 0.01", "# noise_deg: -1")}, 2,
      "p.csv: noise_deg: '-1' is not a positive angle in degrees"),
+    # contact fixtures (calib_pin/sensors/contact.py): a plane of 2 points, a distance to an unknown id, a row with
+    # both ids or neither, distances in mixed units
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set(planes=2)}, 2,
+     "c.csv: plane_id: plane_id W is touched at 2 distinct configuration(s) of the training rows: a plane needs 3"),
+    (CAL, ["irb120", "--data", "c.csv"], {"c.csv": contact_set("# distance_mm: A, Z, 300")}, 2,
+     "c.csv:6: distance_mm: A, Z: Z is no contact_id of this set (contact_ids: A, B, C)"),
+    (CAL, ["irb120", "--data", "c.csv"], {"c.csv": contact_set(label="A,W")}, 2,
+     "c.csv:8: contact_id: has both contact_id and plane_id: a row touches one fixture"),
+    (CAL, ["irb120", "--data", "c.csv"], {"c.csv": contact_set(label=",")}, 2,
+     "c.csv:8: contact_id: has neither contact_id nor plane_id"),
+    (CAL, ["irb120", "--data", "c.csv"], {"c.csv": contact_set("# distance_m: A, C, 0.3")}, 2,
+     "c.csv:6: distance_m: distance_mm on line 3 and distance_m here mix units"),
 ]
 
 

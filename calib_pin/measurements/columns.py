@@ -60,6 +60,11 @@ class Columns:
     plain: dict[str, int] = field(default_factory=dict)
     #: That sensor's kind ("" without such columns).
     plain_kind: str = ""
+    #: A registered sensor's text label columns (its ``label_columns``: a contact set's
+    #: ``contact_id``, ``plane_id``): name -> column index.
+    labels: dict[str, int] = field(default_factory=dict)
+    #: That sensor's kind ("" without such columns).
+    label_kind: str = ""
 
     @property
     def position(self) -> bool:
@@ -86,6 +91,15 @@ def plain_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
 
     plain = {kind: tuple(getattr(model, "plain_columns", ())) for kind, model in SENSORS.items()}
     return {c: (kind, names) for kind, names in plain.items() for c in names}
+
+
+def label_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
+    """Name -> (kind, all its label columns) of every registered sensor with
+    ``label_columns`` (text naming what a row touched; a row may leave some empty)."""
+    from ..sensors import SENSORS
+
+    labels = {kind: tuple(getattr(model, "label_columns", ())) for kind, model in SENSORS.items()}
+    return {c: (kind, names) for kind, names in labels.items() for c in names}
 
 
 def kind_of_columns(columns: tuple[str, ...]) -> str:
@@ -153,6 +167,11 @@ def classify(header: list[str], path: Path, line: int) -> Columns:
                 raise DataError(str(path), "columns of two sensors: one set holds one sensor's data", line, name)
             cols.plain[name] = col
             cols.plain_kind = plain[name][0]
+        elif name in (labelled := label_columns()):
+            if cols.label_kind and cols.label_kind != labelled[name][0]:
+                raise DataError(str(path), "columns of two sensors: one set holds one sensor's data", line, name)
+            cols.labels[name] = col
+            cols.label_kind = labelled[name][0]
         elif name in ANNOTATIONS:
             continue  # what calib-pin compensate adds to the joint targets; not data
         elif name == "pose":
@@ -217,6 +236,13 @@ def check_columns(cols: Columns, n_joints: int, robot: str | None, end_frame: st
     for i in sorted(expected):
         if i not in cols.joints:
             raise DataError(str(path), f"missing column q{i}_deg (or q{i}_rad; q{i}_mm for a prismatic joint)", line)
+    if cols.label_kind:
+        other = ("length" if cols.length is not None else "x/y/z" if cols.coords else "point_id" if cols.point is not None
+                 else cols.sensor_kind or cols.plain_kind)
+        if other:
+            raise DataError(str(path), f"has {cols.label_kind} columns ({', '.join(cols.labels)}) and {other}: one set "
+                            "holds one sensor's data", line)
+        return
     if cols.plain_kind:
         _check_plain(cols, path, line)
         return

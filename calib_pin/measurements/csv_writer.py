@@ -56,6 +56,8 @@ def metadata_lines(data: MeasurementSet) -> list[str]:
             continue
         text = _mm(np.asarray(value, dtype=float).reshape(-1)) if size > 1 else f"{float(value) * 1e3:.6f}"
         lines.append(f"# {key}_mm: {text}")
+    for key in getattr(SENSORS.get(data.kind), "pair_metadata", ()):  # one line a pair: label, label, length
+        lines += [f"# {key}_mm: {a}, {b}, {length * 1e3:.6f}" for a, b, length, *_ in data.sensor_meta.get(key, ())]
     if data.noise is not None:
         lines.append(f"# noise_mm: {data.noise * 1e3:.6f}")
     return lines + [f"# {k}: {v}" for k, v in data.notes.items()]
@@ -71,6 +73,7 @@ def header(n_joints: int, kind: str, with_pose: bool = False) -> str:
     joints = [f"q{i}_deg" for i in range(1, n_joints + 1)]
     values = [f"{c}_mm" for c in model.value_columns] if model is not None else []
     values += list(getattr(model, "plain_columns", ()))  # unit-free, after the others (a pose's quaternion)
+    values += list(getattr(model, "label_columns", ()))  # text naming what a row touched (a contact's fixture)
     if model is not None and model.point_labels:
         return ",".join(["pose", "point_id", *joints, *values])
     return ",".join((["pose"] if with_pose else []) + joints + values)
@@ -105,6 +108,7 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
     from ..sensors import SENSORS
 
     n_plain = len(getattr(SENSORS.get(data.kind), "plain_columns", ()))
+    label_names = tuple(getattr(SENSORS.get(data.kind), "label_columns", ()))
     plain, values = values[:, values.shape[1] - n_plain :], values[:, : values.shape[1] - n_plain]
     for k in range(len(data)):
         labels: tuple[PointLabel, ...] = ()
@@ -112,7 +116,8 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
             pose = data.pose_ids[k] if data.pose_ids is not None else k + 1
             point = data.point_ids[k] if data.point_ids is not None else 1
             labels = (int(pose), point_label(point))
-        lines.append(",".join([row(data.q[k], values[k], labels, plain[k]), *_extra_fields(data, k)]))
+        texts = [text_field(str(data.labels[name][k])) if name in data.labels else "" for name in label_names]
+        lines.append(",".join([row(data.q[k], values[k], labels, plain[k]), *texts, *_extra_fields(data, k)]))
     write_text(path, "\n".join(lines) + "\n")
 
 
