@@ -417,6 +417,10 @@ def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...
     kinds = {d.kind for d in loaded}
     if len(kinds) > 1:
         raise CalibPinError("mixing cable and position sets in one fit is not supported yet: calibrate them one kind at a time")
+    for data in loaded:  # a sensor whose rows differ in size within a set (contact fixtures) is fitted alone for now
+        if getattr(sensor_for(data.kind), "rows_differ", False):
+            raise CalibPinError(f"{data.source or data.kind}: a set of {sensor_for(data.kind).data_name} is fitted "
+                                "alone for now (its rows differ in size): give one --data")
     for s, data, label in zip(sets, loaded, labels, strict=True):
         if s.role == "test" and sensor_for(data.kind).fits_setup:
             raise DataError(data.source or label, f"a {data.kind} set with role 'test' has no training rows to fit "

@@ -212,11 +212,6 @@ class ContactProblem(CalibrationProblem):
     n_poses = n_rows
 
     @property
-    def values_per_row(self) -> int:
-        """Rows differ in size (see :attr:`row_offsets`); 1, the smallest, for a count of values."""
-        return 1
-
-    @property
     def row_sizes(self) -> np.ndarray:
         """Residual entries of each row, shape (n_rows,)."""
         assert self.points is not None
@@ -232,8 +227,12 @@ class ContactProblem(CalibrationProblem):
         return int(np.sum(self.row_sizes))
 
     def subset(self, rows: np.ndarray | slice) -> ContactProblem:
-        """The same problem restricted to some data rows (the distance rows stay)."""
+        """The same problem restricted to some rows: data rows (indices past them, the
+        distance rows', are dropped: the distance rows always stay)."""
         assert self.points is not None
+        if not isinstance(rows, slice):
+            rows = np.asarray(rows, dtype=int)
+            rows = rows[rows < self.n_data]
         return replace(self, q=self.q[rows], readings=self.readings[rows], points=self.points[rows])
 
     def residual(self, x: np.ndarray | None) -> np.ndarray:
@@ -328,8 +327,13 @@ class ContactModel(MeasurementModel):
     """Touches of fixed points and planes by a tool point on a chain whose deviations follow a parameter model."""
 
     kind = "contact"
+    #: Residual entries differ by row (3 a point, 1 a plane or a distance: see
+    #: ``ContactProblem.row_offsets``); 1, the fewest, for a count of values.
+    values_per_row = 1
     #: A contact row holds no measured value: it says which fixture the tool point touches.
-    values_per_row = 0
+    data_values_per_row = 0
+    #: Rows differ in size within a set (a set of several is not stacked yet: it is fitted alone).
+    rows_differ = True
     geometry_type = Fixtures
     error_name = "contact error (distance of the tool point from its point or plane)"
     setup_type = ContactSetup

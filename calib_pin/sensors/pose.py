@@ -177,10 +177,6 @@ class PoseProblem(CalibrationProblem):
     ``readings`` of 7 numbers a row (position [m], quaternion)."""
 
     @property
-    def values_per_row(self) -> int:
-        return 6
-
-    @property
     def n_values(self) -> int:
         return 6 * self.n_rows
 
@@ -230,8 +226,10 @@ class PoseModel(MeasurementModel):
     """Device-frame poses of a body on a chain whose deviations follow a parameter model."""
 
     kind = "pose"
-    #: Numbers a data row holds: position [m] and quaternion (w, x, y, z); its residual has 6.
-    values_per_row = 7
+    #: Residual entries a row holds: position error [m], weighted orientation error.
+    values_per_row = 6
+    #: Numbers a data row holds: position [m] and quaternion (w, x, y, z).
+    data_values_per_row = 7
     geometry_type = PoseRig
     error_name = "pose error (position mm, orientation scaled by noise_mm/noise_deg)"
     setup_type = PoseSetup
