@@ -120,3 +120,29 @@ def test_a_60_pose_set_calibrates_within_1_1_times_the_oracle(robot):
     assert ours[0] <= 1.1 * best[0] and ours[1] <= 1.1 * best[1], (ours, best)
     train_mm, train_deg = problem.part_errors(result.x)
     assert np.sqrt(np.mean(train_mm**2)) < 2.0 * 0.05 * np.sqrt(3)
+
+
+@pytest.mark.xfail(strict=True, raises=cp.CalibPinError,
+                   reason="WIRED AT MERGE: a cable set and a pose set in one fit needs the mixed-kinds change of "
+                          "calib_pin/stacked.py and multiset.py (another branch); drop this mark then")
+def test_a_cable_set_and_a_pose_set_together_beat_each_alone(robot):
+    """One true robot, a small drawstring set and a small 6-D pose set: calibrated together,
+    each sensor's fresh-pose error (against the noise-free truth) is below what its own set
+    alone gives."""
+    chain, params = robot
+    cable, truth = cp.simulate(chain, params, 30, seed=21, noise_mm=0.05)
+    poses, _ = simulate_poses(chain, params, 12, seed=22, true_x=truth.x)
+    fresh_cable, _ = cp.simulate(chain, params, 500, seed=23, noise_mm=0.0, _true_x=truth.x)
+    fresh_poses, _ = simulate_poses(chain, params, 500, seed=24, noise_mm=1e-9, noise_deg=1e-9, true_x=truth.x)
+
+    def fresh(model, x, data) -> float:
+        return float(np.sqrt(np.mean(model.session_errors(x, data) ** 2)))
+
+    alone_cable = cp.calibrate("irb120", cable, method="lm", test_fraction=0.0)
+    alone_poses = cp.calibrate("irb120", poses, method="lm", test_fraction=0.0)
+    both = cp.calibrate("irb120", [cp.FitSet(cable, label="c"), cp.FitSet(poses, label="p")], method="lm",
+                        test_fraction=0.0)
+    c, p = both.sets
+    # the pose errors are whitened with the model's weight: score both fits with the same model's
+    assert fresh(c.model, c.x, fresh_cable) < fresh(alone_cable.problem.model, alone_cable.x, fresh_cable)
+    assert fresh(p.model, p.x, fresh_poses) < fresh(alone_poses.problem.model, alone_poses.x, fresh_poses)
