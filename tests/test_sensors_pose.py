@@ -122,6 +122,18 @@ def test_a_60_pose_set_calibrates_within_1_1_times_the_oracle(robot):
     assert np.sqrt(np.mean(train_mm**2)) < 2.0 * 0.05 * np.sqrt(3)
 
 
+def test_a_validation_session_is_scored_on_the_same_placement_and_refused_on_another(robot):
+    chain, params = robot
+    data, truth = simulate_poses(chain, params, 30, seed=5)
+    same, _ = simulate_poses(chain, params, 20, seed=6, true_x=truth.x, rig=truth.sensor)
+    moved_rig = PoseRig(pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.03, 2.0), np.array([1.5, -0.8, -0.2])), truth.sensor.body)
+    moved, _ = simulate_poses(chain, params, 20, seed=6, true_x=truth.x, rig=moved_rig)
+    result = cp.calibrate("irb120", data, method="lm", test_data=same)
+    assert result.metrics["test"]["after"].rmse_mm < 0.05 * np.sqrt(6) * 1.5  # the noise floor of a 6-entry row
+    with pytest.raises(cp.DataError, match="device frame.*the device was moved"):
+        cp.calibrate("irb120", data, method="lm", test_data=moved)
+
+
 @pytest.mark.xfail(strict=True, raises=cp.CalibPinError,
                    reason="WIRED AT MERGE: a cable set and a pose set in one fit needs the mixed-kinds change of "
                           "calib_pin/stacked.py and multiset.py (another branch); drop this mark then")

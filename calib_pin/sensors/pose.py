@@ -418,6 +418,25 @@ class PoseModel(MeasurementModel):
             raise CalibPinError("a learnt correction (rbf, lm-rbf) cannot be scored on a separate 6-D pose session")
         return np.linalg.norm(self.residual(x, data.q, data.values), axis=1)
 
+    def session_frame_shift(self, x: np.ndarray | None, data: MeasurementSet) -> float | None:
+        """How far a separate session's own device frame is from the calibration's, [m]:
+        the RMS distance, over the session's rows, between where the calibration's frame
+        and the session's best-fit frame (the rotation by SVD projection, then the
+        translation, with the model at x and its body) put the body. None with fewer than
+        3 rows."""
+        if len(data) < 3:
+            return None
+        rig = self.geometry_at(x)
+        rot_be, p_be = self.end_frames(x, data.q)
+        p_bk = p_be + rot_be @ rig.body.translation
+        values = np.asarray(data.values, dtype=float).reshape(len(data), 7)
+        rot_dk = quaternion_matrices(values[:, 3:])
+        rot = _project(np.einsum("nij,kj,nlk->il", rot_dk, rig.body.rotation, rot_be))
+        trans = np.mean(values[:, :3] - p_bk @ rot.T, axis=0)
+        ours = p_bk @ rig.device.rotation.T + rig.device.translation
+        theirs = p_bk @ rot.T + trans
+        return float(np.sqrt(np.mean(np.sum((theirs - ours) ** 2, axis=1))))
+
     # --- simulation -----------------------------------------------------------------------
 
     def simulate_rows(self, x: np.ndarray | None, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
