@@ -708,6 +708,8 @@ R3_FILES: list[Case] = [
      "c.csv:8: contact_id: has neither contact_id nor plane_id"),
     (CAL, ["irb120", "--data", "c.csv"], {"c.csv": contact_set("# distance_m: A, C, 0.3")}, 2,
      "c.csv:6: distance_m: distance_mm on line 3 and distance_m here mix units"),
+    (CAL, ["irb120", "--data", "c.csv", "--method", "ukf"], {"c.csv": contact_set()}, 2,
+     "method 'ukf' needs rows of one size, and contact fixtures rows differ in size: use ekf, bas, pso, lm"),
     (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv"], {"a.csv": contact_set(), "b.csv": contact_set()}, 2,
      "a.csv: a set of contact fixtures is fitted alone for now (its rows differ in size): give one --data"),
 ]

@@ -334,6 +334,8 @@ class ContactModel(MeasurementModel):
     data_values_per_row = 0
     #: Rows differ in size within a set (a set of several is not stacked yet: it is fitted alone).
     rows_differ = True
+    #: Methods that need rows of one size (a sigma-point batch, a correction per row's values).
+    unsupported_methods = ("ukf", "rbf", "lm+rbf")
     geometry_type = Fixtures
     error_name = "contact error (distance of the tool point from its point or plane)"
     setup_type = ContactSetup
