@@ -80,7 +80,7 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed of the candidates (0)")
     p.add_argument("--margin-deg", type=non_negative(float), default=5.0, help="distance from the joint limits, deg (5)")
     add_sensor_arguments(p, {"anchor_mm": "default 600,200,-100", "tool_mm": "default 0,0,50",
-                             "estimate": "that will be estimated too"}, skip=("length_offset_mm",))
+                             "estimate": "that will be estimated too"}, skip=("length_offset_mm", "noise_deg"))
     p.add_argument("--end-frame", help="end frame (default tool0)")
     p.add_argument("--model", choices=MODELS,
                    help="parameter model to plan for (default dh with a DH table, else placement)")
