@@ -86,7 +86,8 @@ class CalibratedRobot:
         params: Its parameter model.
         deviations: The robot's deviations, shape (len(params.names),), SI ([m], [rad]).
         compliance: Compliant joints and loads, or None for a rigid arm.
-        compliance_values: Their compliances, shape (n_compliant,), [rad/Nm].
+        compliance_values: Their compliances, shape (n_compliant,), [rad/Nm] (the basis
+            model, ``compliance.model == "basis"``: its signed coefficients [rad]).
         cable: Hook [m, end frame] and anchor [m, base frame] of a drawstring whose pull
             the arm carries (only with ``compliance.cable_tension_n``); None: no cable.
     """
@@ -101,7 +102,7 @@ class CalibratedRobot:
                     "a ComplianceSpec (calib_pin.robot.deflection) or None")
         if compliance_values is not None:
             values = as_array(compliance_values, "compliance_values", (None,), unit="rad/Nm")
-            if np.any(values < 0):
+            if np.any(values < 0) and not (compliance is not None and compliance.model == "basis"):  # signed
                 raise ArgumentError("compliance_values", f"a compliance is >= 0 [rad/Nm], got {values.tolist()}")
         if cable is not None and (not isinstance(cable, tuple) or len(cable) != 2):
             raise ArgumentError("cable", "expected (hook, anchor), each 3 numbers in m, or None")

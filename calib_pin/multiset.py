@@ -165,15 +165,28 @@ class StackedSetup:
         """The first set's sigma (the Kalman filters' noise; the default until estimated) [m]."""
         return self.sigmas[0] or DEFAULT_NOISE_MM * 1e-3
 
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The sets' data kinds, each once, in the sets' order."""
+        return tuple(dict.fromkeys(s.kind for s in self.sets))
+
     @cached_property
     def data(self) -> MeasurementSet:
-        """Every set's rows in turn, as one set (pose labels ``<label>:<pose>``)."""
+        """Every set's rows in turn, as one set (pose labels ``<label>:<pose>``). Sets of
+        several kinds (rows of different sizes) make one of kind ``<kind>+<kind>`` whose
+        ``values`` hold each row's values as an object, shape (n_rows,) (each set's own
+        values are in ``sets``)."""
         first = self.sets[0]
         lines = [s.lines for s in self.sets]
         points = [s.point_ids for s in self.sets]
+        if len(self.kinds) == 1:
+            values = np.concatenate([s.values for s in self.sets])
+        else:
+            values = np.empty(sum(len(s) for s in self.sets), dtype=object)
+            values[:] = [row for s in self.sets for row in s.values]
         return MeasurementSet(
-            q=np.concatenate([s.q for s in self.sets]), values=np.concatenate([s.values for s in self.sets]),
-            kind=first.kind, robot=first.robot, end_frame=first.end_frame,
+            q=np.concatenate([s.q for s in self.sets]), values=values,
+            kind="+".join(self.kinds), robot=first.robot, end_frame=first.end_frame,
             lines=None if any(x is None for x in lines) else np.concatenate(lines),  # type: ignore[arg-type]
             source=", ".join(s.source or label for s, label in zip(self.sets, self.labels, strict=True)),
             pose_ids=np.concatenate([np.array([f"{label}:{g}" for g in s.groups], dtype=object)
@@ -233,7 +246,8 @@ class StackedSetup:
         if test_data is not None:
             raise CalibPinError("test_data with several sets: give the validation set as one of the sets, "
                                 "with role 'test'")
-        spec.check(loss, self.sets[0].kind)
+        for kind in self.kinds:
+            spec.check(loss, kind)
         for d in self.sets:
             check_measurements(self.chain, d)
         splits = self.split(test_fraction, seed)
@@ -414,9 +428,6 @@ def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...
         if label in labels:
             raise CalibPinError(f"two sets are labelled '{label}': give each set its own label (or file name)")
         labels.append(label)
-    kinds = {d.kind for d in loaded}
-    if len(kinds) > 1:
-        raise CalibPinError("mixing cable and position sets in one fit is not supported yet: calibrate them one kind at a time")
     for data in loaded:  # a sensor whose rows differ in size within a set (contact fixtures) is fitted alone for now
         if getattr(sensor_for(data.kind), "rows_differ", False):
             raise CalibPinError(f"{data.source or data.kind}: a set of {sensor_for(data.kind).data_name} is fitted "

@@ -49,6 +49,7 @@ from .result import CalibrationResult
 from .robot import Chain, RobotDescription, load_chain, resolve_robot
 from .robot.deflection import Compliance, as_compliance
 from .sensors import DEFAULT_NOISE_MM, SensorSetup, check_estimate, sensor_for, setup_record
+from .validation import TestSet, as_test_set, register_session
 
 
 @dataclass
@@ -70,6 +71,19 @@ class CalibrationSetup:
     data: MeasurementSet
     noise: float
     options: dict[str, Any] = field(default_factory=dict)
+    noise_stated: bool = True
+
+    def noise_for(self, method: str, training: Any) -> tuple[float, str]:
+        """The noise [m] ``method`` is given on ``training`` and where it came from: the
+        stated one (``stated``), or for a method that weighs rows by it (a Kalman filter)
+        on a set that states none, the residual's of a first LM fit (``estimated: ...``,
+        :mod:`calib_pin.analysis.noise`)."""
+        if self.noise_stated or not get_method(method).weighs_noise:
+            return self.noise, "stated" if self.noise_stated else "default"
+        from .analysis.noise import noise_from_data
+
+        found = noise_from_data(training)
+        return found.sigma, found.words()
 
     def problem_on(self, fit_rows: np.ndarray) -> CalibrationProblem:
         """Every row of the data, with the sensor's starting geometry fitted on ``fit_rows``."""
@@ -96,11 +110,13 @@ class CalibrationSetup:
         return train, test
 
     def run(self, method: str = DEFAULT_METHOD, *, seed: int = 0, test_fraction: float = 0.2,
-            loss: str = "linear", test_data: MeasurementSet | None = None) -> CalibrationResult:
+            loss: str = "linear", test_data: MeasurementSet | TestSet | None = None) -> CalibrationResult:
         """Estimate with ``method`` (and ``loss``) on the training rows and score both splits.
 
         With ``test_data`` (a separate session, a set or its CSV) every row of ``data``
-        trains and the test metrics come from ``test_data``. Both sets are checked against
+        trains and the test metrics come from ``test_data``; a
+        :class:`~calib_pin.validation.TestSet` says whether the session shares the
+        training set's sensor set-up or is re-registered first. Both sets are checked against
         the chain first (:func:`~calib_pin.measurements.checks.check_measurements`).
 
         Raises:
@@ -111,11 +127,15 @@ class CalibrationSetup:
         test_fraction = check_fraction(test_fraction)
         spec.check(as_instance(loss, "loss", str, "a loss name (linear, huber, soft_l1, cauchy)"), self.data.kind)
         check_measurements(self.chain, self.data)
-        _check_data(test_data, "test_data")
-        if test_data is not None:
-            test_data = _validation(self, test_data, "")
+        session = as_test_set(test_data)
+        _check_data(None if session is None else session.data, "test_data")
+        if session is not None:
+            session = _validation(self, session, "")
+            if session.register is not None and not spec.kinematic:
+                raise CalibPinError(f"method '{method}' learns a correction of the training set-up's values: a "
+                                    "re-registered validation session needs a parameter method (lm, ekf-qibas, ...)")
         warnings = [note for note in (self.data.ignored_note(),) if note]  # extra columns, read past
-        if test_data is None:
+        if session is None:
             train, test = self.split(test_fraction, seed)
             if test_fraction > 0 and not len(test):
                 warnings.append(f"test fraction {test_fraction:g} holds out no pose of {len(self.data)}: "
@@ -131,21 +151,26 @@ class CalibrationSetup:
         if unsupported:
             raise DataError(self.data.source, unsupported)
         x0 = np.zeros(problem.n_params)
-        estimate = run_estimator(method, training, x0, seed=seed, noise=self.noise, loss=loss)
+        noise, noise_from = self.noise_for(method, training)
+        estimate = run_estimator(method, training, x0, seed=seed, noise=noise, loss=loss)
         metrics = {}
         for split, rows in (("train", train), ("test", test)):
             if len(rows):
                 part = problem.subset(rows)
                 metrics[split] = {"before": Metrics.of(part.row_errors(part.residual(x0))),
                                   "after": Metrics.of(part.row_errors(estimate.residual(part)))}
-        mixed = mixed_setups_warning(self.data, train, metrics["train"]["after"].rmse_mm, self.noise)
+        mixed = mixed_setups_warning(self.data, train, metrics["train"]["after"].rmse_mm, noise)
         if mixed:  # several set-ups in one file (its session column says so)
             warnings.append(mixed)
         result = CalibrationResult(
             chain=self.chain, params=self.params, method=method, x=estimate.x, estimate=estimate,
             problem=problem, data=self.data, train=train, test=test, metrics=metrics, seed=seed,
-            noise=self.noise, loss=loss, warnings=tuple(warnings))
-        return result if test_data is None else score_session(result, test_data)
+            noise=noise, loss=loss, warnings=tuple(warnings), noise_from=noise_from)
+        if session is None:
+            return result
+        if session.register is None:
+            return score_session(result, cast(MeasurementSet, session.data))
+        return _score_registered(result, session, self.options)
 
 
 #: A validation session whose own device frame puts its points farther than this from
@@ -165,13 +190,27 @@ def score_session(result: CalibrationResult, session: MeasurementSet) -> Calibra
     shift = getattr(model, "session_frame_shift", lambda x, data: None)(result.x, session)
     if shift is not None and shift > DEVICE_SHIFT_M:  # scored with the calibration's frame, every row would be off
         raise DataError(session.source or "test_data", f"the session's own is {shift * 1e3:.3g} mm (RMS over its "
-                        "points) from the calibration's: the device was moved between the sessions? One device "
-                        "placement per calibration for now; measure both from the same placement", None, "device frame")
+                        "points) from the calibration's: the device was moved between the sessions? Measure both "
+                        "from the same placement, or re-register the session on its own first poses "
+                        "(--test-data FILE:register=K)", None, "device frame")
     before = model.session_errors(None, session)
     after = model.session_errors(result.x, session, result.estimate.correction)
     metrics = {**result.metrics, "test": {"before": Metrics.of(before), "after": Metrics.of(after)}}
     notes = tuple(note for note in (session.ignored_note(),) if note)  # its extra columns, read past
     return dataclasses.replace(result, metrics=metrics, test_source=session.source, warnings=result.warnings + notes)
+
+
+def _score_registered(result: CalibrationResult, test: TestSet, options: dict[str, Any]) -> CalibrationResult:
+    """``result`` with its ``test`` metrics from a validation session on a new set-up,
+    re-registered on its stated rows (:func:`calib_pin.validation.register_session`)."""
+    session = test.data
+    assert isinstance(session, MeasurementSet)
+    scored, info = register_session(result, test, session, options)
+    extra = [c for c in session.extra if not (c == "role" and test.register == "role")]
+    notes = (f"ignored columns: {', '.join(extra)} (in {Path(session.source).name or 'test_data'}; read and kept, "
+             "not used)",) if extra else ()
+    return dataclasses.replace(result, metrics={**result.metrics, "test": scored}, test_source=session.source,
+                               test_registration=info, warnings=result.warnings + notes)
 
 
 def _load_robot(robot: str | RobotDescription, data: str | Path | MeasurementSet | None,
@@ -274,7 +313,8 @@ def prepare(
     noise = noise_mm * 1e-3 if noise_mm is not None else (data.noise or DEFAULT_NOISE_MM * 1e-3)
     soft = record.spec(chain) if record is not None else None
     prepared = CalibrationSetup(chain, parameter_model(chain, parameters), data, noise,
-                                {**sensor_options, "compliance": soft})
+                                {**sensor_options, "compliance": soft},
+                                noise_stated=noise_mm is not None or data.noise is not None)
     prepared.problem  # noqa: B018 (refuse options the sensor does not take now; the problem is kept for --analyze)
     return prepared
 
@@ -325,7 +365,7 @@ def calibrate(
     method: str = DEFAULT_METHOD,
     seed: int = 0,
     test_fraction: float = 0.2,
-    test_data: str | Path | MeasurementSet | None = None,
+    test_data: str | Path | MeasurementSet | TestSet | None = None,
     end_frame: str | None = None,
     anchor_mm: Any = None,
     tool_mm: Any = None,
@@ -353,13 +393,18 @@ def calibrate(
         method: Estimator name (see ``calib_pin.ESTIMATORS``; default ``ekf-qibas``).
         seed: Seed of the train/test split and of the estimator.
         test_fraction: Share of poses held out for the test metrics.
-        test_data: A separate validation session: train on all of ``data``, test on it.
+        test_data: A separate validation session: train on all of ``data``, test on it. A
+            :class:`~calib_pin.validation.TestSet` says its set-up: the training set's
+            (checked), or a new one re-registered on its first k poses or its rows with
+            ``role`` ``register`` (``result.test_registration`` lists the rows).
         end_frame: End frame; default the file's ``end_frame`` or the robot's.
         anchor_mm, tool_mm: Override the file's sensor point (base frame) and tool
             point (end frame), 3 numbers each, [mm].
         length_offset_mm: Override the file's sensor zero offset, [mm].
         noise_mm: Sensor noise (1 sigma) [mm] for the Kalman filters; default the
-            file's ``noise_mm`` or 0.05. With several sets: one for all, or one per set;
+            file's ``noise_mm``, else estimated from the residual of a first LM fit on
+            the training rows (:mod:`calib_pin.analysis.noise`; ``result.noise_from``
+            says which). With several sets: one for all, or one per set;
             default each file's, else estimated from the residual.
         loss: ``linear``, or a robust loss (``huber``, ``soft_l1``, ``cauchy``).
         parameters: Parameter model: ``dh`` (default with a DH table), ``hayati`` or
@@ -385,7 +430,8 @@ def calibrate(
         as_instance(loss, "loss", str, "a loss name (linear, huber, soft_l1, cauchy)"))
     check_fraction(test_fraction)
     as_int(seed, "seed", 0)
-    _check_data(test_data, "test_data")
+    test = as_test_set(test_data)
+    _check_data(None if test is None else test.data, "test_data")
     if progress is not None and not callable(progress):
         raise ArgumentError("progress", f"expected a function of the setup, or None, got {type(progress).__name__}")
     record = as_compliance(compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm,
@@ -401,7 +447,7 @@ def calibrate(
         if progress is not None:
             progress(prepared)
         return prepared.run(method, seed=seed, test_fraction=test_fraction, loss=loss)
-    validation = None if test_data is None else _validation(prepared, test_data, str(robot))
+    validation = None if test is None else _validation(prepared, test, str(robot))
     if progress is not None:
         progress(prepared)
     return prepared.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)
@@ -425,15 +471,23 @@ def _same_rows(a: MeasurementSet, b: MeasurementSet) -> bool:
             and np.array_equal(a.q, b.q) and np.array_equal(a.values, b.values, equal_nan=True))
 
 
-def _validation(setup: CalibrationSetup, test_data: str | Path | MeasurementSet, robot_label: str) -> MeasurementSet:
-    """A separate validation session for ``setup``'s robot, of the same kind of data and
-    the same drawstring set-up (its own ``anchor_mm``/``tool_mm``/``length_offset_mm``
-    must agree: :func:`~calib_pin.measurements.checks.check_same_setup`)."""
-    _, validation = load_data(setup.chain, test_data, robot_label, setup.chain.end_frame)
+def _validation(setup: CalibrationSetup, test: TestSet, robot_label: str) -> TestSet:
+    """A separate validation session for ``setup``'s robot (``test`` with its data
+    loaded), of the same kind of data; on the same set-up (``test.register`` None) its own
+    ``anchor_mm``/``tool_mm``/``length_offset_mm`` must agree
+    (:func:`~calib_pin.measurements.checks.check_same_setup`) and ``test.same`` name the
+    training set."""
+    _, validation = load_data(setup.chain, test.data, robot_label, setup.chain.end_frame)
     if validation.kind != setup.data.kind:
         raise DataError(validation.source, f"holds {validation.kind} data, the calibration set {setup.data.kind} data")
-    check_same_setup(validation, setup.data, setup.options)
+    if test.same:
+        names = {Path(setup.data.source).stem, Path(setup.data.source).name} if setup.data.source else set()
+        if test.same not in names:
+            raise ArgumentError("same", f"'{test.same}' is not the training set (its label: "
+                                f"{Path(setup.data.source).stem if setup.data.source else 'none, in memory'})")
+    if test.register is None:
+        check_same_setup(validation, setup.data, setup.options)
     if _same_rows(validation, setup.data):  # its score would be the training fit's, shown as a test
         raise DataError(validation.source or "test_data", "holds the training set's own rows: a validation "
                         "session must be another one (or leave it out to hold out a test fraction)")
-    return validation
+    return dataclasses.replace(test, data=validation)

@@ -52,12 +52,20 @@ class CalibrationResult:
         loss: ``linear`` or the robust loss used.
         warnings: What a person must know about this result (one line each).
         test_source: The separate validation session scored as ``test``, if any.
+        test_registration: A validation session on a new set-up: which of its rows
+            re-registered it and which were scored (:func:`calib_pin.validation.register_session`);
+            None when it shares the training set-up, or without one.
         sets: With several measurement sets, each set's
             :class:`~calib_pin.multiset.SetResult` (its sigma and where it came from, its
             rows, its metrics before/after per split, its sensor geometry); ``problem`` is
             then the :class:`~calib_pin.stacked.StackedProblem`, ``data`` every set's rows
             in turn, ``train``/``test`` index its rows, and ``metrics`` pools every set's
             row errors, each in its own set's units [mm]. Empty for one set.
+        noise_from: Where ``noise`` came from: ``stated`` (the caller's or the file's),
+            ``default`` (none stated, a method that does not weigh rows by it), or
+            ``estimated: ...`` (none stated: the residual of a first LM fit).
+        cross_validation: K-fold held-out metrics of this model on the training poses
+            (:meth:`calib_pin.studies.cross_validation.CrossValidation.as_dict`), when asked.
     """
 
     chain: Chain
@@ -76,6 +84,9 @@ class CalibrationResult:
     warnings: tuple[str, ...] = ()
     test_source: str = ""
     sets: tuple[Any, ...] = ()
+    test_registration: dict[str, Any] | None = None
+    cross_validation: dict[str, Any] | None = None
+    noise_from: str = "stated"
 
     @property
     def model_name(self) -> str:

@@ -1,16 +1,21 @@
-"""Simulated sessions with known true deviations: drawstring readings or positions.
+"""Simulated sessions with known true deviations, of any registered sensor.
 
-The simulator draws true kinematic deviations, random poses within the joint limits
-(:func:`calib_pin.robot.poses.random_poses`),
-and what the sensor would read on the true robot plus noise. The truth
-(:class:`Truth`) is kept so every estimate can be checked against it.
+The simulator draws what every sensor shares (:class:`SimulationDraw`): true kinematic
+deviations, random poses within the joint limits (:func:`calib_pin.robot.poses.random_poses`),
+the true compliances and the noise. What the sensor would read on the true robot is the
+sensor's own: its ``simulate_rows`` (:meth:`calib_pin.sensors.base.MeasurementModel.simulate_rows`),
+so a new sensor simulates by implementing that one method (:func:`simulate_set`). The truth
+(:class:`Truth`) is kept so every estimate can be checked against it. :func:`simulate`
+(drawstring) and :func:`simulate_positions` (a position device) are the two sensors'
+shorthands; :func:`simulate_sessions` writes several sessions, of one kind or several,
+of one true robot.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,13 +44,13 @@ from .parameters import ParameterModel
 from .robot import Chain
 from .robot.deflection import Compliance, ComplianceSpec, as_compliance
 from .robot.poses import random_poses
-from .sensors import CableModel, Drawstring, MeasurementModel, PositionDevice, PositionModel, sensor_for
+from .sensors import SENSORS, CableModel, Drawstring, MeasurementModel, PositionDevice, PositionModel, default_kind, sensor_for
+from .sensors.cable import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
+from .sensors.cable import SESSION_ANCHOR_SPREAD_MM as SESSION_ANCHOR_SPREAD_MM  # re-exported
+from .sensors.position import DEFAULT_MARKERS_MM, default_device_frame
+from .sensors.position import SESSION_DEVICE_SHIFT_MM as SESSION_DEVICE_SHIFT_MM  # re-exported
+from .sensors.position import SESSION_DEVICE_TURN_DEG as SESSION_DEVICE_TURN_DEG  # re-exported
 from .units import for_humans, from_humans
-
-#: Default sensor geometry of simulated sessions: the sensor body on the floor in
-#: front of the robot, the cable hooked on the tool axis 50 mm out of the flange.
-DEFAULT_ANCHOR_MM = (600.0, 200.0, -100.0)
-DEFAULT_TOOL_MM = (0.0, 0.0, 50.0)
 
 #: Kinds of reading noise the simulator draws (see :func:`reading_noise`).
 NOISE_KINDS = ("gauss", "student", "outliers", "student-outliers")
@@ -111,6 +116,9 @@ class Truth:
         sessions: With several sessions of the one true robot
             (:func:`simulate_sessions`), each session's true sensor geometry in turn
             (the first is :attr:`sensor`); empty for one session.
+        session_kinds, session_noise: Each session's data kind and noise [m] when the
+            sessions differ in either (sensors of several kinds); else empty (``kind``
+            and ``noise`` are every session's).
     """
 
     x: np.ndarray
@@ -125,6 +133,8 @@ class Truth:
     compliance: ComplianceSpec | None = None
     compliance_values: np.ndarray | None = None
     sessions: tuple[Any, ...] = ()
+    session_kinds: tuple[str, ...] = ()
+    session_noise: tuple[float, ...] = ()
 
     def session(self, k: int) -> Truth:
         """The truth of session ``k`` (0-based): the one robot, that session's sensor."""
@@ -133,7 +143,10 @@ class Truth:
                 raise ArgumentError("k", f"a truth of one session has no session {k}")
             return self
         as_int(k, "k", 0, len(self.sessions) - 1)
-        return dataclasses.replace(self, sensor=self.sessions[k], sessions=())
+        kind = self.session_kinds[k] if self.session_kinds else self.kind
+        noise = self.session_noise[k] if self.session_noise else self.noise
+        return dataclasses.replace(self, sensor=self.sessions[k], kind=kind, noise=noise, sessions=(),
+                                   session_kinds=(), session_noise=())
 
     def model(self, chain: Chain, params: ParameterModel) -> MeasurementModel:
         """The true sensor's measurement model (nothing of the sensor estimated; the true
@@ -160,7 +173,10 @@ class Truth:
         if self.compliance is not None and self.compliance_values is not None:
             doc["compliance"] = {**self.compliance.to_dict(),
                                  "compliance_rad_per_Nm": np.asarray(self.compliance_values).tolist()}
-        if self.sessions:
+        if self.sessions and self.session_kinds:  # sessions of several kinds or noises: each says its own
+            doc["sessions"] = [{"data_kind": kind, "noise_mm": noise * 1e3, **g.to_dict()} for kind, noise, g
+                               in zip(self.session_kinds, self.session_noise, self.sessions, strict=True)]
+        elif self.sessions:
             doc["sessions"] = [g.to_dict() for g in self.sessions]
         write_text(path, json.dumps(doc, indent=2) + "\n")
 
@@ -174,37 +190,117 @@ class Truth:
         try:
             check_regular(path)
             doc = json.loads(Path(path).read_text())
-            kind = doc.get("data_kind", "cable")
+            kind = doc.get("data_kind", default_kind())
             x = from_humans(doc["deviations"], params.names, params.units)
             sensor = sensor_for(kind).geometry_type.from_dict(doc)
             soft = doc.get("compliance")
             spec = ComplianceSpec.from_dict(soft) if soft else None
             values = np.asarray(soft["compliance_rad_per_Nm"], dtype=float) if soft else None
-            sessions = tuple(sensor_for(kind).geometry_type.from_dict(g) for g in doc.get("sessions", ()))
+            listed = doc.get("sessions", ())
+            kinds = tuple(g["data_kind"] for g in listed) if any("data_kind" in g for g in listed) else ()
+            noise = tuple(float(g["noise_mm"]) * 1e-3 for g in listed) if kinds else ()
+            sessions = tuple(sensor_for(kinds[k] if kinds else kind).geometry_type.from_dict(g)
+                             for k, g in enumerate(listed))
             return cls(x, tuple(params.names), tuple(params.units), sensor, kind,
                        float(doc["noise_mm"]) * 1e-3, int(doc["seed"]),
-                       doc.get("noise_kind", "gauss"), tuple(doc.get("outlier_rows", ())), spec, values, sessions)
+                       doc.get("noise_kind", "gauss"), tuple(doc.get("outlier_rows", ())), spec, values, sessions,
+                       kinds, noise)
         except OSError as e:
             raise DataError(str(path), f"cannot read: {e.strerror or e}") from None
         except (ValueError, KeyError, TypeError) as e:
             raise DataError(str(path), f"not a calib-pin truth file ({type(e).__name__}: {e})") from None
 
 
-def _poses_above_base(chain: Chain, cable: CableModel, n_poses: int, rng: np.random.Generator) -> np.ndarray:
-    """Random poses within the limits with the tool point above the mounting plane."""
-    poses = np.empty((0, chain.n_joints))
-    for _ in range(50):
-        batch = random_poses(chain, 2 * n_poses, rng)
-        above = cable.tool_positions(None, batch)[:, 2] > 0.0
-        poses = np.vstack([poses, batch[above]])
-        if len(poses) >= n_poses:
-            break
-    else:
-        raise CalibPinError(
-            f"robot '{chain.name}': only {len(poses)} of {100 * n_poses} random poses put the "
-            "tool point above the base's mounting plane (z > 0); check the tool point"
-        )
-    return poses[:n_poses]
+@dataclass
+class SimulationDraw:
+    """What every simulated set shares, handed to its sensor's
+    :meth:`~calib_pin.sensors.base.MeasurementModel.simulate_rows`: the robot, the seeded
+    random draws (poses, true deviations, noise, in the order the sensor asks for them) and
+    the true compliances.
+
+    Attributes:
+        chain, params: The robot and how its deviations are parametrised.
+        seed: Seed of the draws (``rng = numpy.random.default_rng(seed)``).
+        n_poses: Poses to draw (unused when ``given_poses`` is set).
+        noise_mm: Noise of each value, 1 sigma, [mm]; ``noise_kind``: see :func:`reading_noise`.
+        nominal_rmse_mm: The nominal model's row-error RMSE the drawn deviations give, [mm].
+        compliance, true_compliance: The true arm's compliance spec (or None, rigid) and
+            its compliances [rad/Nm].
+        given_poses: The caller's joint angles [rad], or None (random ones).
+        given_x: The true deviations of a robot already drawn (several sessions), or None.
+        x: The true deviations, once :meth:`deviations` ran; ``outliers``: rows given a
+            gross error by :meth:`noise`.
+    """
+
+    chain: Chain
+    params: ParameterModel
+    seed: int
+    n_poses: int
+    noise_mm: float = 0.05
+    noise_kind: str = "gauss"
+    nominal_rmse_mm: float = 2.0
+    compliance: ComplianceSpec | None = None
+    true_compliance: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+    given_poses: np.ndarray | None = None
+    given_x: np.ndarray | None = None
+    x: np.ndarray | None = None
+    outliers: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=bool))
+
+    def __post_init__(self) -> None:
+        self.rng = np.random.default_rng(self.seed)
+
+    def poses(self, keep: Callable[[np.ndarray], np.ndarray] | None = None, why: str = "") -> np.ndarray:
+        """The set's joint angles, shape (n_poses, n_joints), [rad]: the caller's, or random
+        within the limits (:func:`calib_pin.robot.poses.random_poses`), only those with
+        ``keep(q)`` True when given (``why``: what they must do, for the refusal).
+
+        Raises:
+            CalibPinError: too few random poses kept.
+        """
+        if self.given_poses is not None:
+            return self.given_poses
+        if keep is None:
+            return random_poses(self.chain, self.n_poses, self.rng)
+        poses = np.empty((0, self.chain.n_joints))
+        for _ in range(50):
+            batch = random_poses(self.chain, 2 * self.n_poses, self.rng)
+            poses = np.vstack([poses, batch[keep(batch)]])
+            if len(poses) >= self.n_poses:
+                break
+        else:
+            raise CalibPinError(f"robot '{self.chain.name}': only {len(poses)} of {100 * self.n_poses} random "
+                                f"poses {why}")
+        return poses[: self.n_poses]
+
+    def deviations(self, gap: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+        """The true deviations, shape (n_params,), SI: ``given_x``, or drawn normal with the
+        model's typical sizes and scaled so the nominal model's row errors ``gap(x)`` [m]
+        have RMSE ``nominal_rmse_mm`` (0: all zero)."""
+        self.x = _true_deviations(self.params, self.rng, self.nominal_rmse_mm, gap) \
+            if self.given_x is None else self.given_x
+        return self.x
+
+    @property
+    def x_model(self) -> np.ndarray:
+        """The true unknowns of a model with :attr:`compliance`: deviations, then compliances."""
+        assert self.x is not None, "deviations() first"
+        return np.concatenate([self.x, self.true_compliance])
+
+    def noise(self, shape: int | tuple[int, ...]) -> np.ndarray:
+        """Noise of the values [m]: ``shape`` an int (one value a row): of ``noise_kind``
+        (:func:`reading_noise`, its gross-error rows kept in :attr:`outliers`); a tuple (rows
+        of several values): each value normal, 1 sigma ``noise_mm``.
+
+        Raises:
+            ArgumentError: a heavy-tailed or outlier kind for rows of several values.
+        """
+        if isinstance(shape, int | np.integer):
+            noise, self.outliers = reading_noise(self.noise_kind, int(shape), self.noise_mm, self.rng)
+            return noise
+        if self.noise_kind != "gauss":
+            raise ArgumentError("noise_kind", f"'{self.noise_kind}' is drawn for rows of one value; rows of "
+                                f"{shape[1:]} values get 'gauss'")
+        return self.rng.normal(size=shape) * self.noise_mm * 1e-3
 
 
 def _true_deviations(params: ParameterModel, rng: np.random.Generator, nominal_rmse_mm: float,
@@ -215,6 +311,51 @@ def _true_deviations(params: ParameterModel, rng: np.random.Generator, nominal_r
     if nominal_rmse_mm <= 0:
         return np.zeros_like(x)
     return x * (nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap(x) ** 2)))
+
+
+
+def simulate_set(
+    sensor: type[MeasurementModel],
+    chain: Chain,
+    params: ParameterModel,
+    n_poses: int,
+    seed: int,
+    geometry: Any = None,
+    *,
+    noise_mm: float = 0.05,
+    nominal_rmse_mm: float = 2.0,
+    noise_kind: str = "gauss",
+    poses: np.ndarray | None = None,
+    compliance: Compliance | ComplianceSpec | str | None = None,
+    true_compliance: Any = None,
+    true_x: np.ndarray | None = None,
+) -> tuple[MeasurementSet, Truth]:
+    """Simulate a session of any registered sensor: the common draws (:class:`SimulationDraw`)
+    and the sensor's own rows (its ``simulate_rows``).
+
+    Args:
+        sensor: The sensor's measurement model (``calib_pin.sensors.sensor_for(kind)``).
+        chain, params, n_poses, seed, noise_mm, nominal_rmse_mm, noise_kind, poses,
+            compliance, true_compliance: As :func:`simulate`.
+        geometry: The sensor's true set-up (its ``geometry_type``); None: its default.
+        true_x: The true deviations of a robot already drawn, used instead of drawing them.
+
+    Raises:
+        ArgumentError: a bad argument, named.
+    """
+    seed, n_poses, noise_mm, nominal_rmse_mm = _common_arguments(chain, params, n_poses, seed, noise_mm, nominal_rmse_mm,
+                                                                 poses is not None)
+    noise_kind = as_choice(noise_kind, "noise_kind", NOISE_KINDS)
+    if poses is not None:
+        poses = np.atleast_2d(as_angles_rad(poses, "poses", chain))
+    spec, soft = _true_compliance(chain, compliance, true_compliance)
+    draw = SimulationDraw(chain, params, seed, n_poses, noise_mm, noise_kind, nominal_rmse_mm, spec, soft, poses, true_x)
+    data, true_geometry = sensor.simulate_rows(draw, geometry)
+    assert draw.x is not None, f"{sensor.__name__}.simulate_rows must draw the deviations"
+    data.notes.setdefault("source", f"calib-pin simulator ({sensor.data_name}), seed {seed}, noise {noise_mm:g} mm")
+    truth = Truth(draw.x, tuple(params.names), tuple(params.units), true_geometry, sensor.kind, noise_mm * 1e-3, seed,
+                  noise_kind, tuple(int(i) for i in np.flatnonzero(draw.outliers)), spec, soft if spec else None)
+    return data, truth
 
 
 def simulate(
@@ -234,7 +375,7 @@ def simulate(
     *,
     _true_x: np.ndarray | None = None,
 ) -> tuple[MeasurementSet, Truth]:
-    """Simulate a drawstring session.
+    """Simulate a drawstring session (:func:`simulate_set` of the drawstring).
 
     True deviations are drawn normal with the parameter model's typical sizes, then
     scaled so that the nominal model's reading error on the drawn poses has RMSE
@@ -257,41 +398,25 @@ def simulate(
         compliance, true_compliance: The true arm's compliant joints and loads (a
             :class:`~calib_pin.robot.deflection.Compliance`, joint names as shorthand, or
             a resolved ``ComplianceSpec``), and their compliances [rad/Nm]; None: a rigid arm.
-        _true_x: Internal (:func:`simulate_sessions`): the true deviations of a robot
-            already drawn, used instead of drawing them.
+        _true_x: Internal: the true deviations of a robot already drawn, used instead of drawing them.
 
     Raises:
         ArgumentError: a bad argument, named (a chain or parameter model of another
             type, a count, seed or noise out of range, a point not 3 finite numbers [mm],
             poses not within the joint limits in [rad], negative true compliances).
     """
-    seed, n_poses, noise_mm, nominal_rmse_mm = _common_arguments(chain, params, n_poses, seed, noise_mm, nominal_rmse_mm,
-                                                                 poses is not None)
-    noise_kind = as_choice(noise_kind, "noise_kind", NOISE_KINDS)
+    _common_arguments(chain, params, n_poses, seed, noise_mm, nominal_rmse_mm, poses is not None)
+    as_choice(noise_kind, "noise_kind", NOISE_KINDS)
+    return simulate_set(CableModel, chain, params, n_poses, seed, _drawstring(anchor_mm, tool_mm, length_offset_mm),
+                        noise_mm=noise_mm, nominal_rmse_mm=nominal_rmse_mm, noise_kind=noise_kind, poses=poses,
+                        compliance=compliance, true_compliance=true_compliance, true_x=_true_x)
+
+
+def _drawstring(anchor_mm: Any, tool_mm: Any, length_offset_mm: Any) -> Drawstring:
+    """A drawstring's true geometry from points and offset in mm, checked."""
     anchor, tool = as_xyz_mm(anchor_mm, "anchor_mm"), as_xyz_mm(tool_mm, "tool_mm")
     offset = as_float(length_offset_mm, "length_offset_mm", -MAX_MM, MAX_MM, unit="mm")
-    if poses is not None:
-        poses = np.atleast_2d(as_angles_rad(poses, "poses", chain))
-    rng = np.random.default_rng(seed)
-    sensor = Drawstring(anchor * 1e-3, tool * 1e-3, offset * 1e-3)
-    cable = CableModel(chain, params, sensor)
-    poses = _poses_above_base(chain, cable, n_poses, rng) if poses is None else poses
-    n_poses = len(poses)
-    nominal = cable.predict(np.zeros(len(params.names)), poses)
-    x = _true_deviations(params, rng, nominal_rmse_mm, lambda x: np.abs(cable.predict(x, poses) - nominal)) \
-        if _true_x is None else _true_x
-    noise, outliers = reading_noise(noise_kind, n_poses, noise_mm, rng)
-    compliance, soft = _true_compliance(chain, compliance, true_compliance)
-    true_model = CableModel(chain, params, sensor, compliance=compliance)
-    readings = true_model.predict(np.concatenate([x, soft]), poses) + noise
-    data = MeasurementSet(q=poses, values=readings, kind="cable", anchor=sensor.anchor, tool=sensor.tool,
-                          length_offset=sensor.length_offset, robot=chain.name, end_frame=chain.end_frame,
-                          notes={"source": f"calib-pin simulator, seed {seed}, noise {noise_mm:g} mm ({noise_kind})"})
-    truth = Truth(
-        x, tuple(params.names), tuple(params.units), sensor, "cable", noise_mm * 1e-3, seed,
-        noise_kind, tuple(int(i) for i in np.flatnonzero(outliers)), compliance, soft if compliance else None,
-    )
-    return data, truth
+    return Drawstring(anchor * 1e-3, tool * 1e-3, offset * 1e-3)
 
 
 def _common_arguments(chain: Any, params: Any, n_poses: Any, seed: Any, noise_mm: Any, nominal_rmse_mm: Any,
@@ -322,6 +447,10 @@ def _true_compliance(chain: Chain, compliance: Any, values: Any) -> tuple[Compli
 
 def _true_values(spec: ComplianceSpec | None, values: Any) -> np.ndarray:
     """The true compliances [rad/Nm] of ``spec``'s joints (empty for a rigid arm)."""
+    if spec is not None and spec.model != "cad":  # the true arm's torques come from its inertias
+        raise ArgumentError("compliance", "a simulated compliant arm needs the CAD compliance model (the URDF's "
+                                          "inertias, true compliances in rad/Nm); this robot's model is "
+                                          f"'{spec.model}' (a URDF without inertial data)")
     if spec is None:
         if values is not None and np.size(values):
             raise ArgumentError("true_compliance", "true compliances need compliant joints (compliance)")
@@ -331,11 +460,6 @@ def _true_values(spec: ComplianceSpec | None, values: Any) -> np.ndarray:
         raise ArgumentError("true_compliance", f"give {len(spec.joints)} true compliance(s) >= 0 for "
                             f"{', '.join(spec.joints)} [rad/Nm], got {c.tolist()}")
     return c
-
-
-#: Default marker points of simulated position sets, end frame, [mm].
-DEFAULT_MARKERS_MM = ((60.0, 0.0, 40.0), (-30.0, 52.0, 40.0), (-30.0, -52.0, 40.0))
-
 
 def simulate_positions(
     chain: Chain,
@@ -351,7 +475,8 @@ def simulate_positions(
     *,
     _true_x: np.ndarray | None = None,
 ) -> tuple[MeasurementSet, Truth]:
-    """Simulate a position session: every marker measured at each pose by a device.
+    """Simulate a position session: every marker measured at each pose by a device
+    (:func:`simulate_set` of the position device).
 
     True deviations are drawn like :func:`simulate`'s, scaled so the nominal model's
     position error (Euclidean, over all rows) has RMSE ``nominal_rmse_mm``. Each
@@ -366,55 +491,43 @@ def simulate_positions(
         ArgumentError: a bad argument, named (as :func:`simulate`; ``markers_mm`` not
             (k, 3) finite numbers [mm], ``device`` not a pinocchio.SE3).
     """
-    seed, n_poses, noise_mm, nominal_rmse_mm = _common_arguments(chain, params, n_poses, seed, noise_mm, nominal_rmse_mm)
+    _common_arguments(chain, params, n_poses, seed, noise_mm, nominal_rmse_mm)
+    return simulate_set(PositionModel, chain, params, n_poses, seed, _device(markers_mm, device), noise_mm=noise_mm,
+                        nominal_rmse_mm=nominal_rmse_mm, compliance=compliance, true_compliance=true_compliance,
+                        true_x=_true_x)
+
+
+def _device(markers_mm: Any, device: Any) -> PositionDevice:
+    """A position device's true geometry from its frame T_DB (None: the default) and
+    marker points in mm (labelled 1..k), checked."""
     markers = as_array(markers_mm, "markers_mm", (None, 3), unit="mm") * 1e-3
     if not len(markers):
         raise ArgumentError("markers_mm", "give at least one marker point (x, y, z in mm)")
     as_optional(as_instance, device, "device", pin.SE3, "the device frame T_DB as a pinocchio.SE3, or None")
-    compliance, soft = _true_compliance(chain, compliance, true_compliance)
-    rng = np.random.default_rng(seed)
-    if device is None:
-        device = pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4]))
-    labels = tuple(range(1, len(markers) + 1))
-    truth_device = PositionDevice(device, markers, labels)
-    model = PositionModel(chain, params, truth_device, estimate=())
-    q = np.repeat(random_poses(chain, n_poses, rng), len(markers), axis=0)
-    index = np.tile(np.arange(len(markers)), n_poses)
-    nominal = model.predict(None, q, index)
-    x = _true_deviations(params, rng, nominal_rmse_mm,
-                         lambda x: np.linalg.norm(model.predict(x, q, index) - nominal, axis=1)) \
-        if _true_x is None else _true_x
-    true_model = PositionModel(chain, params, truth_device, estimate=(), compliance=compliance)
-    positions = true_model.predict(np.concatenate([x, soft]), q, index) + rng.normal(size=q.shape[:1] + (3,)) * noise_mm * 1e-3
-    data = MeasurementSet(
-        q=q, values=positions, kind="position", robot=chain.name, end_frame=chain.end_frame,
-        notes={"source": f"calib-pin position simulator, seed {seed}, noise {noise_mm:g} mm per axis"},
-        pose_ids=np.repeat(np.arange(1, n_poses + 1), len(markers)),
-        point_ids=np.array(labels)[index], noise=noise_mm * 1e-3 or None,  # noise-free: no sensor sigma to state
-    )
-    truth = Truth(x, tuple(params.names), tuple(params.units), truth_device, "position", noise_mm * 1e-3, seed,
-                  compliance=compliance, compliance_values=soft if compliance else None)
-    return data, truth
+    return PositionDevice(device if device is not None else default_device_frame(), markers,
+                          tuple(range(1, len(markers) + 1)))
 
 
-#: Spread of the anchors drawn for sessions 2.. around the first, base frame, per axis, [mm]
-#: (a drawstring re-anchored elsewhere on the floor or a fixture).
-SESSION_ANCHOR_SPREAD_MM = (400.0, 400.0, 150.0)
-#: Spread of the device placements drawn for position sessions 2..: a turn about the
-#: vertical [deg] and a shift per axis [mm] (a tracker moved to another station).
-SESSION_DEVICE_TURN_DEG = 60.0
-SESSION_DEVICE_SHIFT_MM = (400.0, 400.0, 100.0)
+def _per_session(value: Any, name: str, sessions: int, check: Callable[[Any], Any]) -> list[Any]:
+    """One value for every session, or one per session (a list or tuple), each checked."""
+    if isinstance(value, list | tuple | np.ndarray) and np.ndim(value) == 1:
+        if len(value) != sessions:
+            raise ArgumentError(name, f"{len(value)} values for {sessions} sessions (give one, or one per session)")
+        return [check(v) for v in value]
+    return [check(value)] * sessions
 
 
 def simulate_sessions(
     chain: Chain,
     params: ParameterModel,
-    n_poses: int,
+    n_poses: int | Sequence[int],
     seed: int,
-    sessions: int = 3,
+    sessions: int | None = None,
     *,
-    kind: str = "cable",
-    noise_mm: float = 0.05,
+    kind: str | None = None,
+    kinds: Sequence[str] | None = None,
+    geometries: Sequence[Any] | None = None,
+    noise_mm: float | Sequence[float] = 0.05,
     nominal_rmse_mm: float = 2.0,
     anchors_mm: Any = None,
     tool_mm: tuple[float, float, float] = DEFAULT_TOOL_MM,
@@ -426,83 +539,124 @@ def simulate_sessions(
     compliance: Compliance | ComplianceSpec | str | None = None,
     true_compliance: Any = None,
 ) -> tuple[list[MeasurementSet], Truth]:
-    """Simulate several sessions of one true robot, each with its own sensor set-up.
+    """Simulate several sessions of one true robot, each with its own sensor and set-up.
 
     The true deviations (and compliances) are drawn once, in session 1, exactly as
-    :func:`simulate` (or :func:`simulate_positions`) of ``seed`` draws them: session 1 is
-    that function's set. Session k (k = 1..sessions) has its own poses and noise (seed
-    ``seed + k - 1``) and its own set-up: a drawstring its own anchor, a position device
-    its own device frame (the markers are the one tool's, shared).
+    :func:`simulate_set` of session 1's sensor and ``seed`` draws them: session 1 is that
+    function's set (:func:`simulate`'s, or :func:`simulate_positions`'). Session k
+    (k = 1..sessions) has its own poses and noise (seed ``seed + k - 1``), its own sensor
+    kind (``kinds``) and its own set-up: the caller's, session 1 of a kind the sensor's
+    default, a later one of that kind drawn by the sensor's ``session_geometry`` (a
+    drawstring re-anchored, a position device moved; the markers are the one tool's).
 
     Args:
-        chain, params, n_poses, noise_mm, nominal_rmse_mm, noise_kind, compliance,
-            true_compliance: As :func:`simulate` (``noise_kind`` for cables only).
+        chain, params, nominal_rmse_mm, noise_kind, compliance, true_compliance: As
+            :func:`simulate` (``noise_kind`` other than gauss for one-value rows only).
+        n_poses, noise_mm: One for every session, or one per session (a list).
         seed: Seed of session 1 and of the set-ups drawn.
-        sessions: Number of sessions, >= 1.
-        kind: ``cable`` (a drawstring) or ``position`` (a position device).
-        anchors_mm: Cable: one anchor per session, shape (sessions, 3), base frame [mm];
-            None: the default anchor for session 1 and, for the others, anchors drawn
-            uniformly within :data:`SESSION_ANCHOR_SPREAD_MM` of it.
-        tool_mm, length_offset_mm: Cable: the tool point [mm, end frame] and the sensor's
-            zero offset [mm], the same in every session.
-        markers_mm: Position: marker points, shape (k, 3), end frame [mm].
-        devices: Position: one device frame T_DB (pinocchio.SE3) per session; None: the
-            default frame for session 1, the others turned about the vertical within
-            :data:`SESSION_DEVICE_TURN_DEG` and shifted within
-            :data:`SESSION_DEVICE_SHIFT_MM` of it.
-        poses: Cable: joint angles [rad], shape (n_poses, n_joints), used in every
-            session instead of random ones.
+        sessions: Number of sessions, >= 1 (default: one per ``kinds``, else 3).
+        kind: Every session's sensor kind (a key of ``calib_pin.sensors.SENSORS``;
+            default the registry's first, the drawstring).
+        kinds: One kind per session instead (sessions of different sensors of one robot).
+        geometries: One true set-up per session (each its sensor's ``geometry_type``, or
+            None for the default/drawn one), for any sensor.
+        anchors_mm: Drawstring sessions: one anchor per drawstring session, shape (n, 3),
+            base frame [mm]; None: the default anchor for the first and, for the others,
+            anchors drawn uniformly within ``SESSION_ANCHOR_SPREAD_MM`` of it.
+        tool_mm, length_offset_mm: Drawstring sessions: the tool point [mm, end frame] and
+            the sensor's zero offset [mm], the same in every session.
+        markers_mm: Position sessions: marker points, shape (k, 3), end frame [mm].
+        devices: Position sessions: one device frame T_DB (pinocchio.SE3) per position
+            session; None: the default frame for the first, the others turned about the
+            vertical within ``SESSION_DEVICE_TURN_DEG`` and shifted within
+            ``SESSION_DEVICE_SHIFT_MM`` of it.
+        poses: Joint angles [rad], shape (n_poses, n_joints), used in every session
+            instead of random ones.
 
     Returns:
         The sets, one per session (each carrying its own true set-up), and one truth:
-        the robot and, in ``sessions``, every session's true sensor geometry.
+        the robot and, in ``sessions``, every session's true sensor geometry (and, when
+        they differ, each session's kind and noise).
 
     Raises:
-        ArgumentError: a bad argument, named (as :func:`simulate`; anchors or devices not
-            one per session).
+        ArgumentError: a bad argument, named (as :func:`simulate`; anchors, devices,
+            geometries, kinds, poses counts or noises not one per session).
     """
-    sessions = as_int(sessions, "sessions", 1, 1000)
-    kind = as_choice(kind, "kind", ("cable", "position"))
+    if kinds is not None:
+        if not isinstance(kinds, list | tuple) or not kinds:
+            raise ArgumentError("kinds", "give one sensor kind per session (a list, e.g. ['cable', 'position'])")
+        kinds = [as_choice(k, "kinds", tuple(SENSORS)) for k in kinds]
+        if sessions is not None and as_int(sessions, "sessions", 1, 1000) != len(kinds):
+            raise ArgumentError("kinds", f"{len(kinds)} kinds for {sessions} sessions (give one per session)")
+        if kind is not None:
+            raise ArgumentError("kind", "give kind (every session's) or kinds (one per session), not both")
+    sessions = as_int(len(kinds) if kinds is not None else 3 if sessions is None else sessions, "sessions", 1, 1000)
+    kind = as_choice(kind if kind is not None else default_kind(), "kind", tuple(SENSORS))
+    every = list(kinds) if kinds is not None else [kind] * sessions
     seed = as_int(seed, "seed", 0)
+    counts = _per_session(n_poses, "n_poses", sessions, lambda n: n)
+    noises = _per_session(noise_mm, "noise_mm", sessions, lambda n: n)
+    given = _given_geometries(every, geometries, anchors_mm, tool_mm, length_offset_mm, markers_mm, devices)
     rng = np.random.default_rng([seed, sessions, 7])  # the set-ups' own draws
     sets: list[MeasurementSet] = []
     truths: list[Truth] = []
-    if kind == "cable":
-        if anchors_mm is None:
-            first = np.asarray(DEFAULT_ANCHOR_MM)
-            spread = np.asarray(SESSION_ANCHOR_SPREAD_MM)
-            anchors = np.vstack([first] + [first + rng.uniform(-spread, spread) for _ in range(sessions - 1)])
-        else:
-            anchors = as_array(anchors_mm, "anchors_mm", (sessions, 3), unit="mm")
-        for k in range(sessions):
-            data, truth = simulate(chain, params, n_poses, seed + k, noise_mm, nominal_rmse_mm,
-                                   anchor_mm=tuple(anchors[k]), tool_mm=tool_mm, length_offset_mm=length_offset_mm,
-                                   noise_kind=noise_kind, poses=poses, compliance=compliance,
-                                   true_compliance=true_compliance, _true_x=truths[0].x if truths else None)
-            sets.append(data)
-            truths.append(truth)
-    else:
-        if poses is not None:
-            raise ArgumentError("poses", "given poses are for drawstring sessions (kind 'cable') only")
-        if devices is None:
-            frames = [None] + [pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, np.deg2rad(rng.uniform(-1, 1) * SESSION_DEVICE_TURN_DEG)),
-                                       rng.uniform(-1, 1, 3) * np.asarray(SESSION_DEVICE_SHIFT_MM) * 1e-3)
-                               for _ in range(sessions - 1)]
-        else:
-            if not isinstance(devices, (list, tuple)) or len(devices) != sessions:
-                raise ArgumentError("devices", f"give one device frame (pinocchio.SE3) per session ({sessions})")
-            frames = list(devices)
-        for k in range(sessions):
-            frame = frames[k]
-            if devices is None and k > 0:  # moved from session 1's placement
-                frame = frames[k] * truths[0].sensor.frame
-            data, truth = simulate_positions(chain, params, n_poses, seed + k, noise_mm, nominal_rmse_mm,
-                                             markers_mm=markers_mm, device=frame, compliance=compliance,
-                                             true_compliance=true_compliance,
-                                             _true_x=truths[0].x if truths else None)
-            sets.append(data)
-            truths.append(truth)
+    first: dict[str, Any] = {}  # each kind's first session's true geometry
+    for k, this in enumerate(every):
+        sensor = sensor_for(this)
+        geometry = given[k]
+        if geometry is None and this in first:
+            geometry = sensor.session_geometry(first[this], rng)
+        data, truth = simulate_set(sensor, chain, params, counts[k], seed + k, geometry, noise_mm=noises[k],
+                                   nominal_rmse_mm=nominal_rmse_mm, noise_kind=noise_kind, poses=poses,
+                                   compliance=compliance, true_compliance=true_compliance,
+                                   true_x=truths[0].x if truths else None)
+        first.setdefault(this, truth.sensor)
+        sets.append(data)
+        truths.append(truth)
     for k, data in enumerate(sets):
         data.notes["source"] = f"{data.notes['source']}, session {k + 1} of {sessions}"
-    truth = dataclasses.replace(truths[0], sessions=tuple(t.sensor for t in truths)) if sessions > 1 else truths[0]
-    return sets, truth
+    if sessions == 1:
+        return sets, truths[0]
+    alike = len(set(every)) == 1 and len({t.noise for t in truths}) == 1
+    return sets, dataclasses.replace(truths[0], sessions=tuple(t.sensor for t in truths),
+                                     session_kinds=() if alike else tuple(every),
+                                     session_noise=() if alike else tuple(t.noise for t in truths))
+
+
+def _given_geometries(kinds: list[str], geometries: Any, anchors_mm: Any, tool_mm: Any, length_offset_mm: Any,
+                      markers_mm: Any, devices: Any) -> list[Any]:
+    """Each session's true set-up the caller gave (None: the sensor's default or drawn):
+    ``geometries``, else the drawstring sessions' from ``anchors_mm`` and the position
+    sessions' from ``devices`` (each one per session of that kind, in turn)."""
+    sessions = len(kinds)
+    if geometries is not None:
+        if not isinstance(geometries, list | tuple) or len(geometries) != sessions:
+            raise ArgumentError("geometries", f"give one true set-up (or None) per session ({sessions})")
+        for k, (g, this) in enumerate(zip(geometries, kinds, strict=True)):
+            if g is not None and not isinstance(g, sensor_for(this).geometry_type):
+                raise ArgumentError("geometries", f"session {k + 1} ({this}): expected a "
+                                    f"{sensor_for(this).geometry_type.__name__}, got {type(g).__name__}")
+        return list(geometries)
+    out: list[Any] = [None] * sessions
+    cables = [k for k, this in enumerate(kinds) if this == CableModel.kind]
+    stations = [k for k, this in enumerate(kinds) if this == PositionModel.kind]
+    if cables:
+        tool = _drawstring(DEFAULT_ANCHOR_MM, tool_mm, length_offset_mm)
+        if anchors_mm is not None:
+            anchors = as_array(anchors_mm, "anchors_mm", (len(cables), 3), unit="mm")
+            for k, anchor in zip(cables, anchors, strict=True):
+                out[k] = _drawstring(tuple(anchor), tool_mm, length_offset_mm)
+        else:
+            out[cables[0]] = tool
+    elif anchors_mm is not None:
+        raise ArgumentError("anchors_mm", "anchors are for drawstring sessions: no session is one")
+    if stations:
+        if devices is not None:
+            if not isinstance(devices, list | tuple) or len(devices) != len(stations):
+                raise ArgumentError("devices", f"give one device frame (pinocchio.SE3) per position session "
+                                    f"({len(stations)})")
+            for k, frame in zip(stations, devices, strict=True):
+                out[k] = _device(markers_mm, frame)
+        else:
+            out[stations[0]] = _device(markers_mm, None)
+    return out

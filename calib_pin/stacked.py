@@ -9,7 +9,10 @@ anchor, a device frame and markers) and its own noise. The stacked unknown vecto
 and the stacked residual is every set's residual in turn, set k's multiplied by
 w_k = sigma_0 / sigma_k (sigma_0: the first set's noise), so that every row weighs as its
 noise says and the whole residual is in units of sigma_0 (the noise the Kalman filters
-are given). :class:`StackedProblem` implements :class:`calib_pin.problem.LeastSquares`
+are given). The sets may be of different sensors, their rows of different sizes (a
+cable's one length, a tracker's three coordinates): a row's entries are found from
+``row_offsets``, each set's errors are sized by its own problem, in its own units.
+:class:`StackedProblem` implements :class:`calib_pin.problem.LeastSquares`
 exactly as :class:`~calib_pin.problem.CalibrationProblem` does, so every estimator, the
 identifiability analysis, the uncertainty and the active set see it unchanged. One set is
 never stacked: the pipeline uses its own problem, bit for bit as before.
@@ -50,9 +53,6 @@ class StackedModel:
             if tuple(part.names[: part.sensor_start]) != tuple(first.names[: first.sensor_start]):
                 raise CalibPinError(f"set {label}: its robot unknowns differ from set {self.labels[0]}'s "
                                     "(one robot, one parameter model, one compliance spec for every set)")
-            if part.values_per_row != first.values_per_row:
-                raise CalibPinError("mixing cable and position sets in one fit is not supported yet: "
-                                    "calibrate them one kind at a time")
 
     @property
     def first(self) -> Any:
@@ -83,12 +83,33 @@ class StackedModel:
         return self.first.deflection
 
     @property
+    def mixed(self) -> bool:
+        """The sets' rows differ in size (sensors of different kinds, say a cable and a tracker)."""
+        return len({int(part.values_per_row) for part in self.parts}) > 1
+
+    @property
     def values_per_row(self) -> int:
+        """Values of each row, when every set's rows hold the same number.
+
+        Raises:
+            CalibPinError: sets whose rows differ in size (use ``row_offsets``).
+        """
+        if self.mixed:
+            raise CalibPinError("the sets' rows differ in size (" + ", ".join(
+                f"{label}: {part.values_per_row}" for label, part in zip(self.labels, self.parts, strict=True))
+                + "): find a row's values with calib_pin.problem.row_offsets")
         return int(self.first.values_per_row)
 
     @property
     def error_name(self) -> str:
-        return str(self.first.error_name)
+        """What a row's error is: the sets' one name, or each kind's with its sets
+        (``reading error (cable); position error (tracker)``)."""
+        names: dict[str, list[str]] = {}
+        for label, part in zip(self.labels, self.parts, strict=True):
+            names.setdefault(str(part.error_name), []).append(label)
+        if len(names) == 1:
+            return next(iter(names))
+        return "; ".join(f"{name} ({', '.join(labels)})" for name, labels in names.items())
 
     @cached_property
     def columns(self) -> tuple[np.ndarray, ...]:
@@ -124,8 +145,8 @@ class StackedModel:
 
     @property
     def nonnegative(self) -> tuple[int, ...]:
-        """The compliances (shared by every set): they must be >= 0."""
-        return tuple(range(self.n_robot, self.sensor_start))
+        """The compliances (shared by every set): they must be >= 0 (none for the gravity basis)."""
+        return tuple(self.first.nonnegative)
 
     def part_x(self, x: np.ndarray | None, k: int) -> np.ndarray | None:
         """Set k's own unknown vector within the stacked x (None stays None)."""
@@ -161,8 +182,9 @@ class StackedModel:
 
     def geometry_report(self, x: np.ndarray | None) -> dict:
         """Each set's geometry at x for report.json, by label."""
-        return {"set_geometry": {label: part.geometry_report(self.part_x(x, k))
-                                 for k, (label, part) in enumerate(zip(self.labels, self.parts, strict=True))}}
+        pairs = list(enumerate(zip(self.labels, self.parts, strict=True)))
+        return {"set_geometry": {label: part.geometry_report(self.part_x(x, k)) for k, (label, part) in pairs},
+                "set_kinds": {label: part.kind for _, (label, part) in pairs}}
 
     def describe(self) -> str:
         return f"{len(self.parts)} sets: " + "; ".join(
@@ -219,6 +241,8 @@ class StackedProblem(RowProblem):
 
     @property
     def values_per_row(self) -> int:
+        """Values of each row when every set's rows hold the same number (else refused:
+        rows of mixed sets are found with :attr:`row_offsets`)."""
         return self.model.values_per_row
 
     @property
@@ -282,7 +306,8 @@ class StackedProblem(RowProblem):
         return jac
 
     def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:
-        """Row ``row``'s weighted residual (values_per_row,) and Jacobian (values_per_row, n_params)."""
+        """Row ``row``'s weighted residual (its set's values per row,) and Jacobian
+        (its set's values per row, n_params)."""
         k = int(np.searchsorted(self._offsets, row, side="right")) - 1
         r, j = self.parts[k].row_residual_with_jacobian(self._x(x, k), row - int(self._offsets[k]))
         w = self.weights[k]
@@ -306,9 +331,14 @@ class StackedProblem(RowProblem):
 
     def row_errors(self, residual: np.ndarray) -> np.ndarray:
         """Size of each row's error in its own set's units (the weight divided out),
-        shape (n_rows,), [m]."""
-        sizes = np.linalg.norm(np.asarray(residual).reshape(self.n_rows, -1), axis=1)
-        return sizes / np.repeat(self.weights, [p.n_rows for p in self.parts])
+        shape (n_rows,), [m]: each set's rows as its own problem sizes them (a reading's
+        |error|, a position's Euclidean error), so sets of rows of different sizes mix."""
+        residual = np.asarray(residual)
+        if not self.parts:
+            return np.zeros(0)
+        starts = np.cumsum([0] + [p.n_values for p in self.parts])
+        return np.concatenate([p.row_errors(residual[lo:hi]) / w for p, w, lo, hi
+                               in zip(self.parts, self.weights, starts[:-1], starts[1:], strict=True)])
 
     def part_rows(self, part: int) -> np.ndarray:
         """The stacked rows of part ``part``."""

@@ -10,7 +10,9 @@ This module is all a new sensor needs (plus one registry line, :func:`register` 
 or ``SENSORS[DistanceModel.kind] = DistanceModel`` in ``calib_pin/sensors/__init__.py``):
 its set-up record (CLI flags from its fields), its CSV value column (``distance_mm``)
 and metadata keys (``# target_mm``, ``# zero_mm``), its geometry, its predictions and
-their Jacobian, its report section. No other module of calib-pin is touched.
+their Jacobian, its report section, and its simulated rows (``simulate_rows``: then
+``calib_pin.simulation.simulate_set`` and ``simulate_sessions(kinds=[..., "distance"])``
+simulate it with truth). No other module of calib-pin is touched.
 """
 
 from __future__ import annotations
@@ -80,9 +82,27 @@ class DistanceModel(MeasurementModel):
     value_columns = ("distance",)
     metadata_keys: ClassVar[dict[str, int]] = {"target": 3, "zero": 1}
 
-    def __init__(self, chain: Any, params: Any, beam: Beam, compliance: Any = None) -> None:
-        super().__init__(chain, params, [("zero", "m", 1e-3)], compliance)
+    def __init__(self, chain: Any, params: Any, beam: Beam, compliance: Any = None,
+                 estimate: tuple[str, ...] = ("zero",)) -> None:
+        self.estimate = tuple(estimate)  # () : nothing of the laser estimated (the simulator's truth)
+        super().__init__(chain, params, [("zero", "m", 1e-3)] if "zero" in self.estimate else [], compliance)
         self.beam = beam
+
+    @classmethod
+    def simulate_rows(cls, draw: Any, geometry: Beam | None) -> tuple[Any, Beam]:
+        """Simulated laser distances (the one simulate method): random poses, each reading
+        with the draw's noise; default beam +x, target 50 mm out of the flange, no zero."""
+        from calib_pin.measurements import MeasurementSet
+
+        beam = geometry if geometry is not None else Beam(np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 0.05]))
+        laser = cls(draw.chain, draw.params, beam, estimate=())
+        q = draw.poses()
+        nominal = laser.predict(None, q)
+        draw.deviations(lambda x: np.abs(laser.predict(x, q) - nominal))
+        values = cls(draw.chain, draw.params, beam, draw.compliance, estimate=()).predict(draw.x_model, q)
+        data = MeasurementSet(q=q, values=values + draw.noise(len(q)), kind=cls.kind, robot=draw.chain.name,
+                              end_frame=draw.chain.end_frame, sensor_meta={"target": beam.target, "zero": beam.zero})
+        return data, beam
 
     @classmethod
     def setup_of(cls, data: Any) -> DistanceSetup | None:
@@ -104,7 +124,7 @@ class DistanceModel(MeasurementModel):
         return CalibrationProblem(model, data.q, data.values)
 
     def geometry_at(self, x: np.ndarray | None) -> Beam:
-        if x is None:
+        if x is None or not self.estimate:
             return self.beam
         return Beam(self.beam.direction, self.beam.target, self.beam.zero + float(self.sensor_part(x)[0]))
 
@@ -127,7 +147,8 @@ class DistanceModel(MeasurementModel):
         beam = self.geometry_at(x)
         tips, d_tips = self.point_jacobian(x, q, beam.target)
         jac = np.einsum("i,nij->nj", beam.direction, d_tips)
-        jac[:, self.sensor_start] = 1.0
+        if self.estimate:
+            jac[:, self.sensor_start] = 1.0
         return tips @ beam.direction + beam.zero, jac
 
 

@@ -143,7 +143,11 @@ CASES = [
     ("simulate_sessions", "devices", lambda f: cp.simulate_sessions(f.chain, f.params, 10, 0, 2, kind="position",
                                                                     devices=np.eye(4))),
     ("simulate_sessions", "poses", lambda f: cp.simulate_sessions(f.chain, f.params, 10, 0, 2, kind="position",
-                                                                  poses=np.zeros((3, 6)))),
+                                                                  poses=np.full((3, 6), 10.0))),  # rad, past the limits
+    ("simulate_sessions", "kinds", lambda f: cp.simulate_sessions(f.chain, f.params, 10, 0, 3, kinds=["cable", "position"])),
+    ("simulate_sessions", "noise_mm", lambda f: cp.simulate_sessions(f.chain, f.params, 10, 0, 2, noise_mm=[0.1])),
+    ("simulate_sessions", "geometries", lambda f: cp.simulate_sessions(f.chain, f.params, 10, 0, 2,
+                                                                       geometries=[None, "anchor"])),
     ("simulate_positions", "markers_mm", lambda f: cp.simulate_positions(f.chain, f.params, 10, 0, markers_mm=(1, 2, 3))),
     ("simulate_positions", "device", lambda f: cp.simulate_positions(f.chain, f.params, 10, 0, device=np.eye(4))),
     ("simulate_positions", "n_poses", lambda f: cp.simulate_positions(f.chain, f.params, "10", 0)),

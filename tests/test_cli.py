@@ -63,7 +63,7 @@ def _run(*args, script="calibrate.py"):
         (["ur5", "--model", "dh"], "robot 'ur5' has no DH table for the 'dh' model"),
         (["ur5"], "robot 'ur5' has no default measurement set"),
         (["irb120", "--model", "mdh"], "invalid choice: 'mdh'"),
-        (["irb120", "--estimate", "anchor,tool"], "cannot estimate 'tool'"),
+        (["irb120", "--estimate", "anchor,hook"], "cannot estimate 'hook'"),
         (["irb120", "--seed", "-1"], "expected a non-negative int, got '-1'"),
         (["irb120", "--length-offset-mm", "nan"], "expected a finite number, got 'nan'"),
     ],

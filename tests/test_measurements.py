@@ -94,9 +94,13 @@ def test_too_few_rows_for_the_parameters(tmp_path):
 
 
 def test_missing_sensor_geometry(tmp_path):
-    """Without anchor_mm in the file or the call, calibration says where to give it."""
+    """Without anchor_mm the anchor is pre-fitted (tests/test_cable_prefit.py), which one
+    pose cannot do; without tool_mm calibration says where to give it."""
     path = _write(tmp_path, "# tool_mm: 0,0,50\n" + HEADER + "\n" + "\n".join([ROW] * 40) + "\n")
-    with pytest.raises(cp.DataError, match=r"anchor_mm: no sensor point"):
+    with pytest.raises(cp.DataError, match=r"1 distinct pose"):
+        cp.calibrate("irb120", path)
+    path = _write(tmp_path, HEADER + "\n" + "\n".join([ROW] * 40) + "\n")
+    with pytest.raises(cp.DataError, match=r"tool_mm: no tool point: .* or estimate it \(--estimate tool\)"):
         cp.calibrate("irb120", path)
 
 

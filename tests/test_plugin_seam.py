@@ -27,10 +27,10 @@ OWNERS = ("sensors/", "measurements/csv_reader.py", "measurements/csv_writer.py"
 ALLOWED = {
     # The public API re-exports the sensor classes by name (calib_pin.CableModel, ...).
     "__init__.py": "public re-exports of the sensor classes",
-    # One simulate function per sensor (simulate, simulate_positions); moving them into the
-    # sensor modules rewrites their signatures, which the compliance-record part of this
-    # issue is changing now: next, as each sensor's simulate(chain, params, truth, setup).
-    "simulation.py": "per-sensor simulate functions, pending the compliance-record merge",
+    # Each sensor simulates its own rows (MeasurementModel.simulate_rows); what is left here
+    # are the two sensors' public shorthands (simulate, simulate_positions and the anchors_mm /
+    # devices arguments of simulate_sessions), whose signatures the users and the tests keep.
+    "simulation.py": "the drawstring and position shorthands of the sensor-owned simulate_rows",
     # The collector drives a drawstring through its serial reader and writes its sessions;
     # a collector per sensor is the follow-up issue's (more low-cost sensors).
     "hardware/session.py": "the drawstring collector",

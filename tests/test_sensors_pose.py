@@ -134,27 +134,30 @@ def test_a_validation_session_is_scored_on_the_same_placement_and_refused_on_ano
         cp.calibrate("irb120", data, method="lm", test_data=moved)
 
 
-@pytest.mark.xfail(strict=True, raises=cp.CalibPinError,
-                   reason="WIRED AT MERGE: a cable set and a pose set in one fit needs the mixed-kinds change of "
-                          "calib_pin/stacked.py and multiset.py (another branch); drop this mark then")
 def test_a_cable_set_and_a_pose_set_together_beat_each_alone(robot):
-    """One true robot, a small drawstring set and a small 6-D pose set: calibrated together,
-    each sensor's fresh-pose error (against the noise-free truth) is below what its own set
-    alone gives."""
+    """One true robot, a drawstring set (40 readings) and a 6-D pose set (8 poses), three
+    seeds: calibrated together, each sensor's fresh-pose error (against the noise-free
+    truth, 500 poses) is on average below what its own set alone gives (measured: cable
+    0.66, 1.05, 0.81 and pose 0.89, 0.90, 0.78 of the alone errors on seeds 21, 31, 41)."""
     chain, params = robot
-    cable, truth = cp.simulate(chain, params, 30, seed=21, noise_mm=0.05)
-    poses, _ = simulate_poses(chain, params, 12, seed=22, true_x=truth.x)
-    fresh_cable, _ = cp.simulate(chain, params, 500, seed=23, noise_mm=0.0, _true_x=truth.x)
-    fresh_poses, _ = simulate_poses(chain, params, 500, seed=24, noise_mm=1e-9, noise_deg=1e-9, true_x=truth.x)
 
     def fresh(model, x, data) -> float:
         return float(np.sqrt(np.mean(model.session_errors(x, data) ** 2)))
 
-    alone_cable = cp.calibrate("irb120", cable, method="lm", test_fraction=0.0)
-    alone_poses = cp.calibrate("irb120", poses, method="lm", test_fraction=0.0)
-    both = cp.calibrate("irb120", [cp.FitSet(cable, label="c"), cp.FitSet(poses, label="p")], method="lm",
-                        test_fraction=0.0)
-    c, p = both.sets
-    # the pose errors are whitened with the model's weight: score both fits with the same model's
-    assert fresh(c.model, c.x, fresh_cable) < fresh(alone_cable.problem.model, alone_cable.x, fresh_cable)
-    assert fresh(p.model, p.x, fresh_poses) < fresh(alone_poses.problem.model, alone_poses.x, fresh_poses)
+    ratios = []
+    for seed in (21, 31, 41):
+        cable, truth = cp.simulate(chain, params, 40, seed=seed, noise_mm=0.05)
+        poses, _ = simulate_poses(chain, params, 8, seed=seed + 1, true_x=truth.x)
+        fresh_cable, _ = cp.simulate(chain, params, 500, seed=seed + 2, noise_mm=0.0, _true_x=truth.x)
+        fresh_poses, _ = simulate_poses(chain, params, 500, seed=seed + 3, noise_mm=1e-9, noise_deg=1e-9,
+                                        true_x=truth.x)
+        alone_cable = cp.calibrate("irb120", cable, method="lm", test_fraction=0.0)
+        alone_poses = cp.calibrate("irb120", poses, method="lm", test_fraction=0.0)
+        both = cp.calibrate("irb120", [cp.FitSet(cable, label="c"), cp.FitSet(poses, label="p")], method="lm",
+                            test_fraction=0.0)
+        c, p = both.sets
+        assert (c.kind, p.kind) == ("cable", "pose")
+        ratios.append((fresh(c.model, c.x, fresh_cable) / fresh(alone_cable.problem.model, alone_cable.x, fresh_cable),
+                       fresh(p.model, p.x, fresh_poses) / fresh(alone_poses.problem.model, alone_poses.x, fresh_poses)))
+    mean = np.mean(ratios, axis=0)
+    assert mean[0] < 0.95 and mean[1] < 0.95, ratios

@@ -76,3 +76,26 @@ def test_three_simulated_sessions_calibrate_to_the_truth(tmp_path, capsys):
     assert files[0].read_bytes() == before and "exists" in capsys.readouterr().err
     assert simulate_main(["irb120", "--sessions", "2", "--anchor-mm", "1,2,3", "--out", str(tmp_path / "t.csv")]) == 2
     assert "once per session" in capsys.readouterr().err
+
+
+def test_simulate_sessions_of_two_kinds_write_one_truth_and_calibrate_together(tmp_path, capsys):
+    """calib-pin simulate --kinds cable,position: a drawstring session and a tracker session
+    of one true robot, one truth naming each session's kind and noise; the two files fit
+    together and each set's model is near its noise-free truth on fresh poses."""
+    out = tmp_path / "m.csv"
+    assert simulate_main(["irb120", "--kinds", "cable,position", "--poses", "60,10", "--noise-mm", "0.05,0.02",
+                          "--seed", "1", "--out", str(out)]) == 0
+    assert "2 session(s) (cable: 60 poses; position: 30 rows at 10 poses" in capsys.readouterr().out
+    doc = json.loads((tmp_path / "m.truth.json").read_text())
+    assert [(g["data_kind"], g["noise_mm"]) for g in doc["sessions"]] == [("cable", 0.05), ("position", 0.02)]
+    chain = cp.load_chain("irb120")
+    params = cp.parameter_model(chain)
+    truth = Truth.from_json(tmp_path / "m.truth.json", params)
+    result = cp.calibrate("irb120", [str(tmp_path / "m_1.csv"), str(tmp_path / "m_2.csv")], method="lm")
+    assert [s.kind for s in result.sets] == ["cable", "position"]
+    assert _fresh_rmse_mm(chain, params, truth, result.sets[0], 0) < 0.04  # reading noise 0.05 mm
+    q = np.repeat(random_poses(chain, 200, np.random.default_rng(9)), 3, axis=0)
+    index = np.tile(np.arange(3), 200)
+    s, true = result.sets[1], truth.session(1)
+    error = s.model.predict(s.x, q, index) - true.model(chain, params).predict(true.x_model, q, index)
+    assert np.sqrt(np.mean(np.sum(error ** 2, axis=1))) * 1e3 < 0.05  # 0.02 mm per axis, 8 training poses

@@ -176,7 +176,6 @@ def test_roles_train_and_test(chain, params, three):
     ({"anchor_mm": (0, 0, 0)}, "anchor_mm: one value for several sets"),
     ({"test_data": "robots/irb120_default.csv"}, "role 'test'"),
     ({"method": "rbf"}, "with several sets use a parameter method"),
-    ({"data": "mixed"}, "mixing cable and position sets in one fit is not supported yet"),
 ])
 def test_several_sets_refusals(three, kwargs, message):
     _, sets = three
@@ -185,8 +184,6 @@ def test_several_sets_refusals(three, kwargs, message):
         data = [FitSet(sets[0], "x"), FitSet(sets[1], "x")]
     elif kwargs.get("data") == "same file":
         data = ["robots/irb120_default.csv", "robots/irb120_default.csv"]
-    elif kwargs.get("data") == "mixed":
-        data = [sets[0], "robots/irb120_wu2015.csv"]
     options = {k: v for k, v in kwargs.items() if k != "data"}
     with pytest.raises(cp.CalibPinError, match=message.replace("(", r"\(")):
         cp.calibrate("irb120", data, method=options.pop("method", "lm"), **options)

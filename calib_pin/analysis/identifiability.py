@@ -25,7 +25,7 @@ import numpy as np
 from scipy.linalg import qr
 
 from ..arguments import as_array, as_float, as_instance
-from ..problem import CalibrationProblem
+from ..problem import CalibrationProblem, row_offsets
 from ..stacked import StackedProblem
 from .subspace import RCOND, Subspace
 
@@ -180,6 +180,18 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
     )
 
 
+def distinct_values(problem: CalibrationProblem | StackedProblem) -> int:
+    """How many values the distinct rows of ``problem`` hold: a row repeated (the same pose
+    and point) counts once, each row its own size (``row_offsets``); a stacked problem's
+    sets in turn (a cable's length and a tracker's position at one pose are both counted)."""
+    parts = getattr(problem, "parts", None)
+    if parts is not None:
+        return sum(distinct_values(p) for p in parts)
+    rows = problem.q if problem.points is None else np.column_stack([problem.q, problem.points])
+    _, first = np.unique(rows, axis=0, return_index=True)
+    return int(np.diff(row_offsets(problem))[first].sum())
+
+
 def support_error(problem: CalibrationProblem | StackedProblem, rcond: float = RCOND) -> str | None:
     """Why the rows of ``problem`` (the training rows) cannot calibrate anything, or None.
 
@@ -200,8 +212,7 @@ def support_error(problem: CalibrationProblem | StackedProblem, rcond: float = R
     scaled = problem.jacobian(np.zeros(n)) * model.scale
     space = Subspace.of(scaled, np.ones(n), rcond=rcond)
     poses = len(np.unique(problem.q, axis=0))
-    rows = problem.q if problem.points is None else np.column_stack([problem.q, problem.points])
-    values = len(np.unique(rows, axis=0)) * problem.values_per_row
+    values = distinct_values(problem)
     reason = None
     if poses < 2:
         reason = (f"all {problem.n_rows} rows are at 1 distinct pose (identical poses?): one pose cannot tell the "

@@ -5,19 +5,28 @@ plane), the planner picks ``n`` one at a time, each the candidate that most incr
 log det of the information matrix of the identifiable directions (the scaled
 identification Jacobian projected on the directions the whole candidate set can see).
 That maximises the observability index O1 (the geometric mean of the singular values).
+
+Any sensor is planned for through its measurement model; several sensors at once (a
+drawstring and a tracker reading at every pose) through a :class:`SensorMix`: one robot,
+each sensor's own unknowns, each sensor's rows weighted by sigma_0 / sigma_k (its noise),
+so that the design is D-optimal on the stacked, weighted identification Jacobian the
+calibration will see. :attr:`Plan.identifiability` says what the chosen set can identify.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from ..exceptions import ArgumentError, CalibPinError
 from ..problem import CalibrationProblem
 from ..progress import progress
 from ..robot.poses import random_poses
 from ..sensors.base import MeasurementModel
-from .identifiability import analyze
+from .identifiability import Identifiability, analyze
 from .subspace import Subspace
 
 #: Regularisation of the starting information matrix (relative to the largest row norm^2).
@@ -35,6 +44,8 @@ class Plan:
         reach: Poses of the plan whose total information (geometric mean of the
             singular values, O1 x sqrt(poses)) reaches ``target``, or None.
         target: That total information of the n random poses, unless given.
+        identifiability: What the chosen poses can identify (rank, the unknowns they
+            cannot see, the combinations seen only together), for the planned model.
     """
 
     q: np.ndarray
@@ -44,6 +55,113 @@ class Plan:
     random_o3: float
     reach: int | None
     target: float
+    identifiability: Identifiability | None = None
+
+
+class SensorMix(MeasurementModel):
+    """Several sensors reading at every pose, as one measurement model to plan for.
+
+    A row is one pose: every value of every part (each part's :meth:`grid_points`: all its
+    points), part k's multiplied by w_k = sigma_0 / sigma_k. The unknowns are the robot's
+    (deviations and compliances, shared) and then each part's own, named ``<label>:<name>``.
+
+    Args:
+        parts: The sensors' measurement models (one chain, one parameter model and
+            compliance spec).
+        noise: Each part's noise (1 sigma) [m]; None: equal weights.
+        labels: Each part's name in the unknowns; default its kind (``k2`` when repeated).
+
+    Raises:
+        ArgumentError: no parts, or noise or labels not one per part.
+        CalibPinError: parts of different robots or parameter models.
+    """
+
+    kind = "mix"
+    data_name = "several sensors' values"
+    error_name = "every sensor's weighted errors at a pose"
+
+    def __init__(self, parts: Sequence[MeasurementModel], noise: Sequence[float] | None = None,
+                 labels: Sequence[str] | None = None) -> None:
+        parts = tuple(parts)
+        if not parts or not all(isinstance(p, MeasurementModel) for p in parts):
+            raise ArgumentError("parts", "give one measurement model or more (CableModel, PositionModel, ...)")
+        sigma = np.ones(len(parts)) if noise is None else np.asarray(noise, dtype=float)
+        if sigma.shape != (len(parts),) or not np.all(np.isfinite(sigma) & (sigma > 0)):
+            raise ArgumentError("noise", f"give one noise > 0 [m] per sensor ({len(parts)})")
+        if labels is None:
+            kinds = [p.kind for p in parts]
+            labels = [k if kinds.count(k) == 1 else f"{k}{i + 1}" for i, k in enumerate(kinds)]
+        if len(labels) != len(parts) or len(set(labels)) != len(parts):
+            raise ArgumentError("labels", f"give one distinct label per sensor ({len(parts)})")
+        first = parts[0]
+        for label, part in zip(labels, parts, strict=True):
+            if tuple(part.names[: part.sensor_start]) != tuple(first.names[: first.sensor_start]) or \
+                    part.chain is not first.chain:
+                raise CalibPinError(f"sensor {label}: its robot unknowns differ from the first sensor's "
+                                    "(plan one robot, one parameter model, one compliance spec)")
+        extra = [(f"{label}:{n}", u, float(c)) for label, part in zip(labels, parts, strict=True)
+                 for n, u, c in zip(part.names[part.sensor_start :], part.units[part.sensor_start :],
+                                    part.scale[part.sensor_start :], strict=True)]
+        super().__init__(first.chain, first.params, extra)
+        start = first.sensor_start  # the robot's unknowns as the parts have them (with compliances)
+        self.names = tuple(first.names[:start]) + tuple(e[0] for e in extra)
+        self.units = tuple(first.units[:start]) + tuple(e[1] for e in extra)
+        self.scale = np.concatenate([first.scale[:start], [e[2] for e in extra]])
+        self.sensor_start, self.deflection, self.compliance_spec = start, first.deflection, first.compliance_spec
+        self.parts, self.labels = parts, tuple(labels)
+        self.weights = sigma[0] / sigma
+        sizes = [p.n_params - p.sensor_start for p in parts]
+        self._slots = [slice(start + a, start + a + n) for a, n in zip(np.cumsum([0, *sizes[:-1]]), sizes, strict=True)]
+        self.values_per_pose = sum(p.values_per_row * len(p.grid_points(1)[0]) for p in parts)
+
+    @classmethod
+    def problem_for(cls, chain: Any, params: Any, data: Any, fit_rows: np.ndarray, options: Any) -> CalibrationProblem:
+        raise CalibPinError("a sensor mix plans poses; its sets are calibrated together with several --data")
+
+    def _part_x(self, x: np.ndarray | None, k: int) -> np.ndarray | None:
+        if x is None:
+            return None
+        x = np.asarray(x, dtype=float)
+        return np.concatenate([x[: self.sensor_start], x[self._slots[k]]])
+
+    def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """Weighted values of every part at each pose, shape (n_poses, values_per_pose), [m]."""
+        out = []
+        for k, part in enumerate(self.parts):
+            rows, index = part.grid_points(len(q))
+            out.append(part.predict(self._part_x(x, k), q[rows], index).reshape(len(q), -1) * self.weights[k])
+        return np.concatenate(out, axis=1)
+
+    def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
+                              points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`predict` and its derivative, shape (n_poses, values_per_pose, n_params)."""
+        values, jacobians = [], []
+        for k, part in enumerate(self.parts):
+            rows, index = part.grid_points(len(q))
+            v, j = part.predict_with_jacobian(self._part_x(x, k), q[rows], index)  # type: ignore[arg-type]
+            j = j.reshape(len(q), -1, part.n_params) * self.weights[k]
+            block = np.zeros(j.shape[:2] + (self.n_params,))
+            block[:, :, : self.sensor_start] = j[:, :, : self.sensor_start]
+            block[:, :, self._slots[k]] = j[:, :, self.sensor_start :]
+            values.append(v.reshape(len(q), -1) * self.weights[k])
+            jacobians.append(block)
+        return np.concatenate(values, axis=1), np.concatenate(jacobians, axis=1)
+
+    def geometry_at(self, x: np.ndarray | None) -> dict[str, Any]:
+        return {label: part.geometry_at(self._part_x(x, k))
+                for k, (label, part) in enumerate(zip(self.labels, self.parts, strict=True))}
+
+    def geometry_report(self, x: np.ndarray | None) -> dict:
+        return {label: part.geometry_report(self._part_x(x, k))
+                for k, (label, part) in enumerate(zip(self.labels, self.parts, strict=True))}
+
+    def describe(self) -> str:
+        return "; ".join(f"{label}: {part.describe()} (weight {w:.3g})"
+                         for label, part, w in zip(self.labels, self.parts, self.weights, strict=True))
+
+    @property
+    def reference_point(self) -> np.ndarray:
+        return self.parts[0].reference_point
 
 
 def _above_base(model: MeasurementModel, q: np.ndarray) -> np.ndarray:
@@ -66,7 +184,7 @@ def _greedy(z: np.ndarray, n: int) -> list[int]:
     chosen: list[int] = []
     available = np.ones(len(z), dtype=bool)
     for _ in progress(range(n), desc="choosing poses"):
-        inner = np.eye(z.shape[1]) + np.einsum("nij,jk,nlk->nil", z, inverse, z)
+        inner = np.eye(z.shape[1]) + (z @ inverse) @ z.transpose(0, 2, 1)
         gain = np.linalg.slogdet(inner)[1]
         gain[~available] = -np.inf
         k = int(np.argmax(gain))
@@ -84,7 +202,8 @@ def plan_poses(
     """Pick ``n`` of ``candidates`` random poses that maximise O1 for ``model``'s sensor.
 
     Args:
-        model: The measurement model (robot, parameter model, sensor geometry).
+        model: The measurement model (robot, parameter model, sensor geometry), or a
+            :class:`SensorMix` of several sensors reading at every pose.
         n: Poses to choose.
         candidates: Random poses to choose from.
         seed: Seed of the candidates.
@@ -100,14 +219,18 @@ def plan_poses(
     basis = Subspace.of(blocks.reshape(-1, model.n_params), np.ones(model.n_params)).vt.T
     q = pool[_greedy(blocks @ basis, n)]  # candidates in the identifiable directions
 
-    def indices(qs: np.ndarray) -> tuple[float, float, float]:
+    def analysis(qs: np.ndarray) -> Identifiability:
         rows, points = model.grid_points(len(qs))
         predicted = model.predict(None, qs[rows], points)  # the readings do not matter here, only the Jacobian
-        result = analyze(CalibrationProblem(model, qs[rows], predicted, points))
+        return analyze(CalibrationProblem(model, qs[rows], predicted, points))
+
+    def indices(qs: np.ndarray) -> tuple[float, float, float]:
+        result = analysis(qs)
         return result.o1, result.o3, result.o1 * np.sqrt(len(qs))
 
-    o1, o3, _ = indices(q)
+    chosen = analysis(q)
+    o1, o3 = chosen.o1, chosen.o3
     random_o1, random_o3, random_total = indices(pool[:n])
     target = random_total if target is None else target
     reach = next((k for k in range(basis.shape[1], n + 1) if indices(q[:k])[2] >= target), None)
-    return Plan(q, o1, o3, random_o1, random_o3, reach, target)
+    return Plan(q, o1, o3, random_o1, random_o3, reach, target, chosen)

@@ -28,6 +28,7 @@ from .common import (
     add_compliance_arguments,
     add_robot_arguments,
     compliance_options,
+    count,
     fail,
     fraction,
     positive_float,
@@ -53,7 +54,7 @@ def assumed_noise(text: str) -> float:
         if float(text) == 0:
             raise argparse.ArgumentTypeError(
                 "0 is not a sensor sigma the Kalman filters can assume (they weigh each reading by 1/sigma^2): "
-                "give the sensor's noise, e.g. 0.01, or leave it out for the file's (else 0.05)")
+                "give the sensor's noise, e.g. 0.01, or leave it out for the file's (else estimated from the data)")
     except ValueError:
         pass
     return positive_float(100.0)(text)
@@ -73,12 +74,17 @@ def calibrate_parser() -> argparse.ArgumentParser:
                    "argument overrides it: FILE:key=value[:key=value...] with keys anchor_mm, tool_mm, "
                    "length_offset_mm ('x,y,z' / number, mm), noise_mm, role (split, train, test), label; "
                    "e.g. s2.csv:anchor_mm=600,200,-100:noise_mm=0.3")
-    p.add_argument("--test-data", help="a separate validation session CSV: train on all of --data, test on this")
+    p.add_argument("--test-data", help="a separate validation session CSV: train on all of --data, test on this; "
+                   "FILE (or FILE:same=LABEL): measured with the training set's sensor set-up (checked); "
+                   "FILE:register=K: a new set-up (tracker moved, cable re-anchored), re-registered on its first K "
+                   "poses with the calibrated robot fixed, the other poses scored; FILE:register=role: on its rows "
+                   "whose role column says 'register'")
     p.add_argument("--method", default=DEFAULT_METHOD, help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})")
     p.add_argument("--test-fraction", type=fraction, default=0.2, help="share of poses held out for testing (default 0.2)")
     p.add_argument("--out", default="out", help="output folder (default ./out)")
     p.add_argument("--noise-mm", type=assumed_noise,
-                   help="sensor noise (1 sigma) for the Kalman filters, mm, > 0 (default: the file's, else 0.05)")
+                   help="sensor noise (1 sigma) for the Kalman filters, mm, > 0 (default: the file's, else estimated "
+                   "from the residual of a first LM fit, printed and in report.json's noise_mm)")
     p.add_argument("--loss", default="linear", help="linear (default), or a robust loss: huber, soft_l1, cauchy")
     p.add_argument("--model", choices=MODELS,
                    help="parameter model: dh (default with a DH table), hayati (dh with a tilt beta for parallel "
@@ -89,6 +95,9 @@ def calibrate_parser() -> argparse.ArgumentParser:
                    "xacro.load_yaml; ur_description's default_kinematics.yaml too for ur* robots), dh (DH table TOML, "
                    "dh and hayati models)")
     p.add_argument("--no-html", action="store_true", help="do not write DIR/report.html")
+    p.add_argument("--cv", type=count(1000), metavar="K",
+                   help="also K-fold cross-validate the model on the training poses (split by pose): its held-out "
+                   "error in the report and the printout")
     p.add_argument("--analyze", action="store_true",
                    help="only print the identifiability report of the data's poses, estimate nothing")
     return p
@@ -149,6 +158,46 @@ def data_argument(text: str) -> tuple[str, dict[str, Any]]:
         except argparse.ArgumentTypeError as e:
             raise CalibPinError(f"--data '{text}': {key}: {e}") from None
     return text[:cut], options
+
+
+def validation_argument(text: str | None) -> Any:
+    """A ``--test-data`` argument ``FILE[:register=K|role][:same=LABEL]`` as the library's
+    test_data: the file, or a :class:`~calib_pin.validation.TestSet` with its choice.
+
+    Raises:
+        CalibPinError: naming the argument and the key (unknown, twice, bad value).
+    """
+    from ..exceptions import CalibPinError
+    from ..validation import TestSet
+
+    if text is None or ":" not in text or Path(text).is_file():
+        return text
+    cut = next((i for i, c in enumerate(text) if c == ":" and Path(text[:i]).is_file()), None)
+    if cut is None:
+        head, _, rest = text.partition(":")
+        if "=" in rest.split(":")[0]:
+            raise CalibPinError(f"--test-data '{text}': no file '{head}' (its choice follows an existing file: "
+                                "FILE:register=K)")
+        return text
+    options: dict[str, Any] = {}
+    for item in text[cut + 1:].split(":"):
+        key, eq, value = (part.strip() for part in item.partition("="))
+        if not eq or key not in ("register", "same"):
+            raise CalibPinError(f"--test-data '{text}': '{item}' is not register=K, register=role or same=LABEL")
+        if key in options:
+            raise CalibPinError(f"--test-data '{text}': key '{key}' given twice")
+        if key == "register" and value != "role":
+            if not value.isdigit() or int(value) < 1:
+                raise CalibPinError(f"--test-data '{text}': register: expected a number of poses >= 1 or 'role', "
+                                    f"got '{value[:40]}'")
+            options[key] = int(value)
+        else:
+            if not value:
+                raise CalibPinError(f"--test-data '{text}': {key}: an empty value")
+            options[key] = value
+    if "register" in options and "same" in options:
+        raise CalibPinError(f"--test-data '{text}': register (a new set-up) or same (the training set's), not both")
+    return TestSet(text[:cut], **options)
 
 
 def _fit_set(path: str, options: dict[str, Any]) -> Any:
@@ -236,11 +285,14 @@ def _calibrate(args: argparse.Namespace) -> int:
 
     _check_dh_export(args)
     result = calibrate(args.robot, _data(args), method=args.method, seed=args.seed,
-                       test_fraction=args.test_fraction, test_data=args.test_data, loss=args.loss,
+                       test_fraction=args.test_fraction, test_data=validation_argument(args.test_data), loss=args.loss,
                        progress=_announce, **_setup_options(args))
+    if args.cv:
+        result = _cross_validated(args, result)
     data = _data_files(args)  # --data may be given once per set
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
-    inputs = {**robot_inputs(args.robot), **sets, "--test-data": args.test_data}
+    test_file = validation_argument(args.test_data)
+    inputs = {**robot_inputs(args.robot), **sets, "--test-data": getattr(test_file, "data", test_file)}
     # an input in --out is never replaced, nor removed as stale; all files together or none
     done = write_outputs(result, Path(args.out), args.export, html=not args.no_html, inputs=inputs,
                          silence="--no-html silences this")
@@ -253,6 +305,21 @@ def _calibrate(args: argparse.Namespace) -> int:
     for path in done.files:
         print(f"wrote {path}")
     return 0
+
+
+def _cross_validated(args: argparse.Namespace, result: Any) -> Any:
+    """``result`` with the K-fold cross-validation of its model on its training poses."""
+    import dataclasses
+
+    from ..exceptions import CalibPinError
+    from ..pipeline import CalibrationSetup, prepare
+    from ..studies.cross_validation import cross_validate
+
+    setup = prepare(args.robot, _data(args), **_setup_options(args))
+    if not isinstance(setup, CalibrationSetup) or result.sets:
+        raise CalibPinError("--cv cross-validates one measurement set: give one --data")
+    cv = cross_validate(setup, args.method, result.train, args.cv, seed=args.seed, loss=args.loss)
+    return dataclasses.replace(result, cross_validation=cv.as_dict())
 
 
 #: Rows from which a calibration is announced on stderr before it starts (it may take minutes).
@@ -272,13 +339,33 @@ RIGID_NM_PER_RAD = 1e9
 def compliance_cells(soft: dict[str, Any]) -> str:
     """The compliances of report.json's ``compliance`` section for people: urad/Nm and the
     stiffness in Nm/rad; a joint at zero is rigid (its stiffness is infinite, JSON null)."""
+    if soft.get("compliance_model") == "basis":
+        return basis_cells(soft)
     bounded = set(soft.get("bounded_at_zero", ()))
     cells = []
     for joint, c in soft["compliance_rad_per_Nm"].items():
         k = soft["stiffness_Nm_per_rad"].get(joint)
         stiff = f"stiffness {k:.3g} Nm/rad" if k is not None and k < RIGID_NM_PER_RAD else "rigid"
-        cells.append(f"{joint} {c * 1e6:.1f} urad/Nm ({stiff}{', bounded at zero' if joint in bounded else ''})")
+        cells.append(f"{joint} {c * 1e6:.1f} urad/Nm ({stiff}{', bounded at zero' if joint in bounded else ''}"
+                     f"{_effect(soft, joint)})")
     return ", ".join(cells)
+
+
+def _effect(soft: dict[str, Any], joint: str) -> str:
+    """``; peak 512 urad, 0.31 mm at the end frame`` of a joint over the data."""
+    peak, moved = soft.get("peak_deflection_urad", {}), soft.get("end_frame_effect_mm", {})
+    if joint not in peak:
+        return ""
+    return f"; peak {peak[joint]:.0f} urad, {moved[joint]:.3f} mm at the end frame"
+
+
+def basis_cells(soft: dict[str, Any]) -> str:
+    """The gravity basis model's joints for people: terms, peak deflection and end-frame effect."""
+    cells = []
+    for joint, n in soft["basis_terms"].items():
+        lifted = ", against gravity" if joint in soft.get("against_gravity", ()) else ""
+        cells.append(f"{joint} {n} terms{lifted}{_effect(soft, joint)}")
+    return "gravity basis model (no inertias): " + ", ".join(cells)
 
 
 def _sets_summary(result: Any) -> None:
@@ -309,18 +396,38 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     else:
         n_train, n_test = len(result.train), len(result.test)
         test = f"test rows from {result.test_source}" if result.test_source else f"{n_test} test rows"
+        registered = result.test_registration
         print(f"{result.chain.name}: {result.data.describe_rows()} from {result.data.source} "
               f"({n_train} train, {test}, seed {result.seed}), {result.model_name} model, method {result.method}")
         print(f"error per row: {result.problem.model.error_name}")
+        if registered:
+            lines = registered["registered_lines"]
+            where = f" (file lines {lines[0]}-{lines[-1]})" if lines and registered["registered_on"][0] == "f" else ""
+            print(f"validation on a new set-up: {len(registered['registered_rows'])} rows{where} re-registered it "
+                  f"({registered['registered_on']}; fitted {', '.join(registered['fitted'])} with the calibrated robot "
+                  f"fixed, RMS {registered['registration_rmse_mm']:.4f} mm); the other "
+                  f"{len(registered['scored_rows'])} rows are the test rows (rows in report.json)")
         print(table(result.metrics))
         if hasattr(result.problem, "part_summary") and result.estimate.correction is None:  # rows of mixed units
             print(result.problem.part_summary(result.x, {"train": result.train, "test": result.test}))
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
+    prefits = [(f"set {s['label']}: ", s["setup_prefit"]) for s in report.get("sets", ()) if "setup_prefit" in s]
+    for where, prefit in prefits or ([("", report["setup_prefit"])] if "setup_prefit" in report else []):
+        print(f"sensor set-up: {where}{prefit['summary']} ({prefit['how']}); then estimated with the "
+              "robot (report.json)")
     soft = report.get("compliance")
     if soft:
-        print(f"joint compliance: {compliance_cells(soft)}; deflection is not in the URDF")
+        print(f"joint compliance ({soft.get('compliance_model', 'cad')} model): {compliance_cells(soft)}; "
+              "deflection is not in the URDF")
+    if result.noise_from.startswith("estimated"):  # the set states no noise: the Kalman filters got the data's
+        print(f"noise for {result.method}: {result.noise * 1e3:.4f} mm per value, {result.noise_from}")
+    cv = report.get("cross_validation")
+    if cv:
+        cells = ", ".join(f"{k.removesuffix('_mm')} {cv[k]['mean']:.4f} ± {cv[k]['sd']:.4f}"
+                          for k in ("rmse_mm", "mean_mm", "max_mm"))
+        print(f"{cv['folds']}-fold cross-validation on the training poses (held-out mm): {cells}")
     est = result.estimate
     print(f"estimation: {est.time_s:.3f} s, {est.iterations} iterations ({est.message})")
     u = report["uncertainty"]

@@ -240,10 +240,13 @@ def add_compliance_arguments(p: argparse.ArgumentParser, what: str = "estimate")
     """Joint compliance and its loads (see :mod:`calib_pin.robot.deflection`)."""
     p.add_argument("--compliance", metavar="JOINTS", type=joint_names,
                    help=f"{what} the compliance [rad/Nm] of these joints under gravity (and payload, cable pull): "
-                   "joint names comma-separated (joint_2,joint_3) or all; needs the URDF's inertial data")
+                   "joint names comma-separated (joint_2,joint_3) or all (see --compliance-model)")
     p.add_argument("--payload-kg", type=non_negative(float, 1e4), help="payload mass carried by the end frame, kg")
     p.add_argument("--payload-com-mm", type=xyz_mm, help="payload centre of mass in the end frame, 'x,y,z' mm (default 0,0,0)")
     p.add_argument("--cable-tension-n", type=non_negative(float, 1e4), help="the drawstring's pull on the tool point, N")
+    p.add_argument("--compliance-model", choices=("cad", "basis"),
+                   help="cad: compliances on the URDF's inertias; basis: the gravity torque patterns of the "
+                   "kinematics, no inertias needed (default: cad when the URDF has inertial data, else basis)")
 
 
 def compliance_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -257,10 +260,11 @@ def compliance_options(args: argparse.Namespace) -> dict[str, Any]:
     from ..robot.deflection import LOAD_FIELDS, Compliance
 
     loads = {k: getattr(args, k) for k in LOAD_FIELDS}
+    model = getattr(args, "compliance_model", None)
     if args.compliance is None:
-        given = [k for k, v in loads.items() if v is not None]
+        given = [k for k, v in {**loads, "compliance_model": model}.items() if v is not None]
         if given:
             raise CalibPinError(f"--{given[0].replace('_', '-')} needs compliant joints "
                                 "(--compliance joint_2,joint_3 or all)")
         return {"compliance": None}
-    return {"compliance": Compliance(args.compliance, **loads)}
+    return {"compliance": Compliance(args.compliance, **loads, model=model)}

@@ -17,6 +17,7 @@ from typing import Any
 
 from ..estimators import PAPER_METHODS
 from ..export.outputs import Outputs, robot_inputs
+from ..parameters import MODELS as PARAMETER_MODELS
 from ..progress import quiet_progress
 from ..simulation import NOISE_KINDS
 from .common import (
@@ -25,6 +26,7 @@ from .common import (
     add_compliance_arguments,
     compliance_options,
     count,
+    estimate_names,
     fail,
     fraction,
     methods,
@@ -63,6 +65,15 @@ def compare_parser() -> argparse.ArgumentParser:
                    help="noise of simulated sets, 1 sigma, mm (default 0.05)")
     p.add_argument("--poses", type=count(100_000), default=120, help="poses of simulated sets (default 120)")
     add_compliance_arguments(p)
+    p.add_argument("--model", choices=PARAMETER_MODELS,
+                   help="parameter model: dh (default with a DH table), hayati, placement (default without)")
+    p.add_argument("--estimate", type=estimate_names, default=(),
+                   help="sensor geometry to estimate with the robot, comma-separated: anchor, offset (drawstring)")
+    p.add_argument("--models",
+                   help="compare models instead of methods, on the same splits by pose, fitted with --method-of-models: "
+                   "comma-separated geometric, dh, hayati, placement, compliance:JOINT+JOINT[:cad|basis], "
+                   "compliance:all; the first is the reference of the paired differences; writes models.md, models.csv")
+    p.add_argument("--method-of-models", default="lm", help="the estimator of --models (default lm)")
     p.add_argument("--jobs", type=count(1024), default=1, help="run the trials in N local processes (default 1)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the trials on this Dask scheduler (tcp://host:8786) instead")
@@ -76,8 +87,44 @@ def compare_main(argv: Sequence[str] | None = None) -> int:
     args = compare_parser().parse_args(argv)
     if args.simulate and args.data:
         return fail("give either --data or --simulate, not both")
+    if args.models and args.simulate:
+        return fail("--models compares on measured data: give --data, not --simulate")
+    if args.models and any(a == "--methods" or a.startswith("--methods=") for a in argv):
+        return fail("--models fits every model with one method, --method-of-models (default lm): leave --methods out")
     with quiet_progress(args.quiet):
-        return run(lambda: _compare(args, argv))
+        return run(lambda: _compare_models(args, argv) if args.models else _compare(args, argv))
+
+
+def _compare_models(args: argparse.Namespace, argv: list[str]) -> int:
+    """``--models``: the models side by side on the same splits; models.md and models.csv."""
+    from ..exceptions import CalibPinError
+    from ..studies.model_comparison import compare_models
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CalibPinError(f"{out}: the output folder is a file")
+    if args.data is not None and len(args.data) > 1:
+        raise CalibPinError("--models compares on one --data set")
+    data = args.data[0] if args.data else None
+    outputs = Outputs(out, inputs={**robot_inputs(args.robot), "--data": data})
+    for name in MODEL_OUTPUT_NAMES:
+        outputs.check(out / name)
+    if args.compliance:  # the loads (--payload-kg, ...) apply to every compliance model
+        raise CalibPinError("with --models the compliant joints are in each model (compliance:joint_2+joint_3): "
+                            "leave --compliance out")
+    result = compare_models(args.robot, data, models=args.models, method=args.method_of_models, trials=args.trials,
+                            seed=args.seed, test_fraction=args.test_fraction, parameters=args.model,
+                            estimate=args.estimate, jobs=args.jobs, scheduler=args.scheduler,
+                            payload_kg=args.payload_kg, payload_com_mm=args.payload_com_mm,
+                            cable_tension_n=args.cable_tension_n)
+    command = "python scripts/compare.py " + " ".join(argv)
+    outputs.add(out / "models.md", lambda tmp: result.write_markdown(tmp, command))
+    outputs.add(out / "models.csv", lambda tmp: result.write_csv(tmp))
+    written = outputs.commit()
+    print(result.format_table())
+    for path in written:
+        print(f"wrote {path}")
+    return 0
 
 
 def _compare(args: argparse.Namespace, argv: list[str]) -> int:
@@ -103,6 +150,7 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
             test_fraction=args.test_fraction, simulate_noise=args.simulate,
             noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
             checkpoint=out, notify=lambda line: print(line, flush=True), **compliance_options(args),
+            parameters=args.model, estimate=args.estimate,
         )
     except Interrupted as e:
         print(f"\n{one_line(str(e))}", file=sys.stderr)
@@ -146,6 +194,9 @@ def _write(result: Any, out: Path, command: str) -> list[Path]:
         print(f"warning: no figures: drawing failed ({type(e).__name__}: {e}) ({FIGURES_HINT})", file=sys.stderr)
         return _commit(out, tables)
 
+
+#: The files compare --models writes in its --out folder.
+MODEL_OUTPUT_NAMES = ("models.md", "models.csv")
 
 #: The files compare writes in its --out folder.
 OUTPUT_NAMES = ("table1.csv", "table1.md", "fig2_residuals.png", "fig3_convergence.png")

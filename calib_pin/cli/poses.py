@@ -12,7 +12,7 @@ from ..exceptions import CalibPinError
 from ..export.outputs import Outputs, robot_inputs
 from ..parameters import MODELS
 from ..progress import quiet_progress
-from ..sensors import add_sensor_arguments
+from ..sensors import SENSORS, add_sensor_arguments, default_kind
 from .common import OneLineParser, count, fail, non_negative, run
 from .outputs import add_force_argument
 
@@ -70,6 +70,29 @@ def _make_poses(args: argparse.Namespace) -> int:
     return 0
 
 
+def sensor_kinds(text: str) -> tuple[str, ...]:
+    """Comma-separated registered sensor kinds, each once."""
+    kinds = tuple(k.strip() for k in text.split(",") if k.strip())
+    unknown = [k for k in kinds if k not in SENSORS]
+    if not kinds or unknown:
+        raise argparse.ArgumentTypeError(f"expected sensor kinds ({', '.join(SENSORS)}), comma-separated, got "
+                                         f"'{text[:40]}'")
+    if len(set(kinds)) != len(kinds):
+        raise argparse.ArgumentTypeError(f"a sensor named twice in '{text[:40]}'")
+    return kinds
+
+
+def noise_list(text: str) -> tuple[float, ...]:
+    """Comma-separated noises > 0, mm."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if not values or not all(np.isfinite(v) and 0 < v < 1e6 for v in values):
+        raise argparse.ArgumentTypeError(f"expected noises > 0 in mm, comma-separated, got '{text[:40]}'")
+    return values
+
+
 def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     """``plan_poses.py ROBOT --n 40 --candidates 5000 [--seed S] --out poses.csv``."""
     p = OneLineParser(prog="calib-pin plan-poses",
@@ -79,6 +102,13 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--candidates", type=count(MAX_POSES), default=5000, help="random candidates to choose from (5000)")
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed of the candidates (0)")
     p.add_argument("--margin-deg", type=non_negative(float), default=5.0, help="distance from the joint limits, deg (5)")
+    p.add_argument("--sensor", type=sensor_kinds, default=None,
+                   help="the sensor(s) that will measure the poses, comma-separated for several reading at every "
+                   f"pose (a mix): {', '.join(SENSORS)} (default {default_kind()}); a position device is planned "
+                   "with the simulator's 3 markers")
+    p.add_argument("--noise-mm", type=noise_list, default=None,
+                   help="each sensor's noise (1 sigma), mm, comma-separated in --sensor's order: a mix weighs each "
+                   "sensor's rows by it (default: equal)")
     add_sensor_arguments(p, {"anchor_mm": "default 600,200,-100", "tool_mm": "default 0,0,50",
                              "estimate": "that will be estimated too"}, skip=("length_offset_mm", "noise_deg"))
     p.add_argument("--end-frame", help="end frame (default tool0)")
@@ -95,23 +125,37 @@ def plan_poses_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _plan_poses(args: argparse.Namespace) -> int:
-    from ..analysis.planning import plan_poses
+    from typing import Any
+
+    from ..analysis.planning import SensorMix, plan_poses
     from ..measurements import write_poses
     from ..parameters import parameter_model
     from ..robot import load_chain
-    from ..sensors import default_kind, sensor_for, setup_from_args, setup_record
+    from ..sensors import sensor_for, setup_from_args, setup_record
 
+    kinds = args.sensor or (default_kind(),)
+    if args.noise_mm is not None and len(args.noise_mm) != len(kinds):
+        raise CalibPinError(f"--noise-mm: {len(args.noise_mm)} values for {len(kinds)} sensor(s) ({', '.join(kinds)})")
     out = _pose_output(args)
     chain = load_chain(args.robot, args.end_frame)
     params = parameter_model(chain, args.model)
     name = params.name
-    model = sensor_for(default_kind()).planning_model(chain, params, setup_record(**setup_from_args(args)))
+    setup = setup_record(**setup_from_args(args))
+    sensors = [sensor_for(kind) for kind in kinds]
+    if setup is not None and not any(type(setup) is s.setup_type for s in sensors):
+        raise CalibPinError(f"{', '.join('--' + k.replace('_', '-') for k in setup.given())}: not an option of "
+                            f"{', '.join(s.data_name for s in sensors)}")
+    # the set-up options go to the sensor that takes them
+    parts = [s.planning_model(chain, params, setup if type(setup) is s.setup_type else None) for s in sensors]
+    noise = None if args.noise_mm is None else [v * 1e-3 for v in args.noise_mm]
+    model: Any = parts[0] if len(parts) == 1 else SensorMix(parts, noise, kinds)
     try:
         plan = plan_poses(model, args.n, args.candidates, seed=args.seed, margin=np.deg2rad(args.margin_deg))
     except ValueError as e:
         raise CalibPinError(str(e)) from None
+    what = " and ".join(f"the {s.setup_type.title}" for s in sensors) + (" sensor" if len(sensors) == 1 else " sensors")
     notes = {"source": f"plan_poses.py: {args.n} of {args.candidates} candidates (seed {args.seed}), "
-                       f"D-optimal for the {name} model and the drawstring sensor"
+                       f"D-optimal for the {name} model and {what}"
                        + (f" with {' and '.join(args.estimate)} estimated" if args.estimate else "")}
     out.add(args.out, lambda tmp: write_poses(tmp, plan.q, robot=chain.name, end_frame=chain.end_frame, notes=notes))
     out.commit()
@@ -119,8 +163,16 @@ def _plan_poses(args: argparse.Namespace) -> int:
           f"{name} model" + (f", {' and '.join(args.estimate)} estimated" if args.estimate else ""))
     print(f"observability O1 {plan.o1:.3g} (random poses: {plan.random_o1:.3g}), "
           f"O3 {plan.o3:.3g} (random: {plan.random_o3:.3g})")
+    if len(parts) > 1:
+        print(f"sensors at every pose: {model.describe()}")
     reach = f"the first {plan.reach}" if plan.reach else "none"
     print(f"information of {args.n} random poses is reached by {reach} of the planned poses")
+    ident = plan.identifiability
+    assert ident is not None
+    shown = "; ".join(ident.combinations[:3]) + ("; ..." if len(ident.combinations) > 3 else "")
+    print(f"the planned poses identify {ident.rank} of {len(ident.names)} directions; not identifiable: "
+          f"{', '.join(ident.unidentifiable) or 'none'}; {len(ident.combinations)} combination(s) only together"
+          + (f" ({shown})" if shown else ""))
     print(f"wrote {args.out}")
     return 0
 

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,16 +38,23 @@ def simulate_parser() -> argparse.ArgumentParser:
         description="Simulate a drawstring measurement set with known true deviations; "
         "writes FILE.csv and FILE.truth.json. With --sessions K: K sessions of one true robot, "
         "each with its own anchor, as FILE_1.csv .. FILE_K.csv, and one FILE.truth.json (the robot "
-        "and every session's true anchor).",
+        "and every session's true anchor). With --kinds: sessions of other sensors, or of several "
+        "(--kinds cable,position: a drawstring session and a tracker session of the one robot).",
     )
     add_robot_arguments(p, "default 600,200,-100; sessions 2.. drawn around it", "default 0,0,50",
                         skip=("estimate",), defaults={"length_offset_mm": 0.0}, anchor_per_session=True)
     p.add_argument("--sessions", type=count(1000), default=1,
                    help="number of sessions of the one true robot, each with its own anchor and poses "
                    "(seed, seed+1, ...); writes FILE_1.csv .. FILE_K.csv (default 1: FILE.csv)")
-    p.add_argument("--poses", type=count(MAX_POSES), default=120, help="number of poses (default 120)")
-    p.add_argument("--noise-mm", type=non_negative(float, 100.0), default=0.05,
-                   help="reading noise, 1 sigma, mm (default 0.05; 0: a noise-free set, e.g. the values of a dry run)")
+    p.add_argument("--kinds", type=_kinds,
+                   help="sensor kind of each session, comma-separated, one per session or one for all "
+                   "(e.g. cable,position: session 1 a drawstring, session 2 a tracker of 3 markers, its device "
+                   "frame its own; default cable); --sessions defaults to their number")
+    p.add_argument("--poses", type=_per_session(count(MAX_POSES)), default=120,
+                   help="number of poses (default 120); with several sessions one, or one per session (60,10)")
+    p.add_argument("--noise-mm", type=_per_session(non_negative(float, 100.0)), default=0.05,
+                   help="reading noise, 1 sigma, mm (default 0.05; 0: a noise-free set, e.g. the values of a dry run); "
+                   "with several sessions one, or one per session (0.05,0.02; a tracker's per axis)")
     p.add_argument("--noise-kind", choices=NOISE_KINDS, default="gauss",
                    help="gauss, student (t, 3 dof, heavy tails) or outliers (gauss + 5%% gross errors "
                    "of 1-3 mm) (default gauss)")
@@ -76,6 +83,22 @@ def _values(text: str) -> tuple[float, ...]:
     return values
 
 
+def _kinds(text: str) -> tuple[str, ...]:
+    """Comma-separated sensor kinds (checked against the registry when simulated)."""
+    kinds = tuple(k.strip() for k in text.split(","))
+    if not all(kinds):
+        raise argparse.ArgumentTypeError(f"expected sensor kinds 'a,b', got '{text[:40]}'")
+    return kinds
+
+
+def _per_session(one: Callable[[str], Any]) -> Callable[[str], Any]:
+    """A value parsed by ``one``, or comma-separated values, one per session (a tuple)."""
+    def parse(text: str) -> Any:
+        values = tuple(one(v.strip()) for v in text.split(","))
+        return values[0] if len(values) == 1 else values
+    return parse
+
+
 def _write_set(tmp: Path, data: MeasurementSet) -> None:
     """Write one simulated set to the staged file ``tmp``."""
     from ..measurements import write_measurements
@@ -93,6 +116,7 @@ def _simulate(args: argparse.Namespace) -> int:
     from ..measurements.pose_list import read_pose_list
     from ..parameters import parameter_model
     from ..robot import load_chain
+    from ..sensors import default_kind, sensor_for
     from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate, simulate_sessions
 
     out = Path(args.out)
@@ -101,7 +125,17 @@ def _simulate(args: argparse.Namespace) -> int:
     stem = out.name.removesuffix(".csv")
     truth_path = out.with_name(stem + ".truth.json")
     anchors = args.anchor_mm or []
-    if len(anchors) not in ((0, 1) if args.sessions == 1 else (0, args.sessions)):
+    kinds = list(args.kinds) if args.kinds else None
+    if kinds and len(kinds) > 1 and args.sessions == 1:
+        args.sessions = len(kinds)
+    if kinds and len(kinds) not in (1, args.sessions):
+        raise CalibPinError(f"--kinds names {len(kinds)} kinds for {args.sessions} sessions: give one, or one per session")
+    kinds = kinds * args.sessions if kinds and len(kinds) == 1 else kinds
+    for name, value in (("--poses", args.poses), ("--noise-mm", args.noise_mm)):
+        if isinstance(value, tuple) and len(value) != args.sessions:
+            raise CalibPinError(f"{name} gives {len(value)} values for {args.sessions} session(s): give one, "
+                                "or one per session")
+    if kinds is None and len(anchors) not in ((0, 1) if args.sessions == 1 else (0, args.sessions)):
         raise CalibPinError(f"--anchor-mm is given {len(anchors)} times for {args.sessions} session(s): "
                             "give it once per session, or leave it out")
     csvs = [out] if args.sessions == 1 else [out.with_name(f"{stem}_{k}.csv") for k in range(1, args.sessions + 1)]
@@ -117,25 +151,31 @@ def _simulate(args: argparse.Namespace) -> int:
     common = {"noise_mm": args.noise_mm, "nominal_rmse_mm": args.nominal_rmse_mm,
               "tool_mm": args.tool_mm or DEFAULT_TOOL_MM, "length_offset_mm": args.length_offset_mm,
               "noise_kind": args.noise_kind, "true_compliance": true_c, **compliance_options(args)}
-    if args.sessions == 1:
+    if args.sessions == 1 and kinds in (None, [default_kind()]):
         data, truth = simulate(chain, params, args.poses, args.seed, anchor_mm=anchors[0] if anchors else DEFAULT_ANCHOR_MM,
                                poses=poses, **common)
         sets = [data]
     else:
-        sets, truth = simulate_sessions(chain, params, args.poses, args.seed, args.sessions,
+        sets, truth = simulate_sessions(chain, params, args.poses, args.seed, args.sessions, kinds=kinds,
                                         anchors_mm=anchors or None, poses=poses, **common)
     for data in sets:
-        if not (data.lengths > 0).all():
-            raise CalibPinError(f"a simulated length is {data.lengths.min() * 1e3:.3f} mm, not positive: "
-                                "--length-offset-mm or the sensor geometry is wrong")
+        refused = sensor_for(data.kind).refuse_values(data.values)
+        if refused is not None:
+            raise CalibPinError(f"simulated row {refused[0] + 1}: {refused[1]}: --length-offset-mm or the sensor "
+                                "geometry is wrong")
     for path, data in zip(csvs, sets, strict=True):
         outputs.add(path, partial(_write_set, data=data))
     outputs.add(truth_path, lambda tmp: truth.to_json(tmp))
     written = outputs.commit()
-    what = f"{len(sets[0])} poses" if args.sessions == 1 else \
-        f"{args.sessions} sessions of {len(sets[0])} poses (seeds {args.seed}..{args.seed + args.sessions - 1})"
+    if kinds is None and not isinstance(args.poses, tuple):
+        what = f"{len(sets[0])} poses" if args.sessions == 1 else \
+            f"{args.sessions} sessions of {len(sets[0])} poses (seeds {args.seed}..{args.seed + args.sessions - 1})"
+    else:  # sessions of several kinds or sizes: each its own
+        what = f"{args.sessions} session(s) ({'; '.join(f'{d.kind}: {d.describe_rows()}' for d in sets)}; " \
+            f"seeds {args.seed}..{args.seed + args.sessions - 1})"
+    noise = ", ".join(f"{v:g}" for v in args.noise_mm) if isinstance(args.noise_mm, tuple) else f"{args.noise_mm:g}"
     print(f"{chain.name}: {what}, {kind} deviations (seed {args.seed}), "
-          f"noise {args.noise_mm:g} mm ({args.noise_kind})")
+          f"noise {noise} mm ({args.noise_kind})")
     for path in written:
         print(f"wrote {path}")
     return 0

@@ -43,6 +43,9 @@ class Method:
             values, so there is no URDF to write).
         kinds: Data kinds it takes (empty: every kind).
         paper: One of the paper's nine methods (a default of ``compare`` and ``benchmark``).
+        weighs_noise: Its estimate depends on the sensor noise it is given (R of the
+            Kalman filters); a set that states none gets it estimated
+            (:mod:`calib_pin.analysis.noise`).
     """
 
     name: str
@@ -53,6 +56,7 @@ class Method:
     kinematic: bool = True
     kinds: tuple[str, ...] = ()
     paper: bool = True
+    weighs_noise: bool = False
 
     def estimator(self, loss: str = "linear") -> Any:
         """The estimator with default settings and ``loss``.
@@ -98,15 +102,16 @@ class Method:
 
 #: The registry: the paper's M1..M9 in its order, then combinations of them.
 METHODS: dict[str, Method] = {m.name: m for m in (
-    Method("ekf", "M1", "extended Kalman filter (filterpy)", "ekf:EKF"),
+    Method("ekf", "M1", "extended Kalman filter (filterpy)", "ekf:EKF", weighs_noise=True),
     Method("bas", "M2", "beetle antennae search", "bas:BAS", robust="refit"),
-    Method("ukf", "M3", "unscented Kalman filter (filterpy)", "ukf:UKF"),
+    Method("ukf", "M3", "unscented Kalman filter (filterpy)", "ukf:UKF", weighs_noise=True),
     Method("pso", "M4", "particle swarm", "pso:PSO", robust="refit"),
     Method("rbf", "M5", "RBF network on the values' error (scipy)", "rbf:RBF", kinematic=False),
     Method("lm", "M6", "Levenberg-Marquardt (scipy)", "lm:LevenbergMarquardt", robust="native"),
     Method("de", "M7", "differential evolution (scipy)", "de:DE", robust="refit"),
     Method("qibas", "M8", "quadratic interpolated BAS", "qibas:QIBAS", robust="refit"),
-    Method("ekf-qibas", "M9", "EKF, then QIBAS (the paper's method)", "ekf_qibas:EKFQIBAS", robust="native"),
+    Method("ekf-qibas", "M9", "EKF, then QIBAS (the paper's method)", "ekf_qibas:EKFQIBAS", robust="native",
+           weighs_noise=True),
     Method("lm+rbf", "M6+M5", "LM, then an RBF network on what it leaves", "lm_rbf:LMRBF", kinematic=False,
            paper=False),
 )}

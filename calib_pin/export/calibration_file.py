@@ -62,6 +62,8 @@ def _compliance(result: CalibrationResult) -> dict[str, Any] | None:
     if spec is None or soft is None:
         return None
     c = model.compliance(result.x)
+    if soft.basis is not None:
+        return _basis_compliance(spec, soft.basis, c)
     cable = soft.torque.cable
     return {
         **spec.to_dict(),
@@ -71,6 +73,19 @@ def _compliance(result: CalibrationResult) -> dict[str, Any] | None:
         "cable_pull": None if cable is None else {"hook_mm": (cable.hook_m * 1e3).tolist(),
                                                   "anchor_mm": (cable.anchor_m * 1e3).tolist()},
         "model": "q_link = q - c tau(q), tau the static joint torque at the commanded q",
+    }
+
+
+def _basis_compliance(spec: ComplianceSpec, basis: Any, beta: np.ndarray) -> dict[str, Any]:
+    """The gravity basis model: its coefficients [rad] and the directions each term stands
+    for (checked against the robot's own basis when the file is loaded)."""
+    owner = np.repeat(np.arange(len(spec.joints)), basis.terms)
+    return {
+        **spec.to_dict(),
+        "basis_coefficients_rad": {j: beta[owner == i].tolist() for i, j in enumerate(spec.joints)},
+        "basis_directions": {j: {"columns": cols.tolist(), "directions": v.tolist()}
+                             for j, (cols, v) in zip(spec.joints, basis.directions, strict=True)},
+        "model": "q_link = q + sum_k beta_jk b_jk(q), b the gravity basis of calib_pin.robot.gravity_basis",
     }
 
 
@@ -281,6 +296,11 @@ def _compliance_of(soft: dict[str, Any], chain: Chain, source: Path,
             raise DataError(str(source), "a mass is >= 0", None, p + "payload.mass_kg")
         _xyz_mm(payload, "com_mm", source, p + "payload.")
     spec = ComplianceSpec.from_dict(soft)
+    if spec.model == "basis":
+        return spec, _basis_values(soft, spec, chain, source), None
+    if spec.model != "cad":
+        raise DataError(str(source), f"{json.dumps(spec.model)[:20]} is not a compliance model (cad, basis)", None,
+                        p + "compliance_model")
     stored = _field(soft, "compliance_rad_per_Nm", dict, "the compliance of each joint", source, p)
     if sorted(stored) != sorted(spec.joints):
         raise DataError(str(source), f"holds {', '.join(stored) or 'none'}, the compliant joints are "
@@ -307,6 +327,33 @@ def _compliance_of(soft: dict[str, Any], chain: Chain, source: Path,
         anchor = _xyz_mm(where, "anchor_mm", source, p + "cable_pull.")
         pull = (hook, anchor) if cable else None
     return spec, values, pull
+
+
+def _basis_values(soft: dict[str, Any], spec: ComplianceSpec, chain: Chain, source: Path) -> np.ndarray:
+    """The basis coefficients [rad] of the file, in the robot's basis order; the file's
+    basis directions must be the robot's (the same URDF gives the same basis)."""
+    from ..robot.gravity_basis import GravityBasis
+
+    p = "compliance."
+    basis = GravityBasis(chain, spec.joints)
+    stored = _field(soft, "basis_coefficients_rad", dict, "the basis coefficients of each joint", source, p)
+    directions = _field(soft, "basis_directions", dict, "the basis directions of each joint", source, p)
+    values = []
+    for j, n, (cols, v) in zip(spec.joints, basis.terms, basis.directions, strict=True):
+        given = stored.get(j)
+        if not isinstance(given, list) or len(given) != n:
+            raise DataError(str(source), f"needs {n} coefficient(s) for {j}, the terms of its gravity basis", None,
+                            f"{p}basis_coefficients_rad.{j}")
+        values += [_number({str(k): v for k, v in enumerate(given)}, str(k), source,
+                           f"{p}basis_coefficients_rad.{j}.", "rad") for k in range(n)]
+        d = directions.get(j)
+        given_v = d.get("directions") if isinstance(d, dict) else None
+        same = isinstance(d, dict) and d.get("columns") == cols.tolist() and given_v is not None and \
+            np.shape(given_v) == v.shape and np.allclose(given_v, v, rtol=1e-6, atol=1e-9)
+        if not same:
+            raise DataError(str(source), f"the gravity basis of {j} is not this robot's (another URDF or "
+                            "calib-pin version): calibrate again", None, f"{p}basis_directions.{j}")
+    return np.array(values, dtype=float)
 
 
 def _robot(doc: dict[str, Any], chain: Chain, source: Path, cable: bool) -> CalibratedRobot:

@@ -101,6 +101,7 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "identifiability": result.identifiability.as_dict(),
         **result.problem.model.geometry_report(result.x),
         "noise_mm": result.noise * 1e3,
+        "noise_from": result.noise_from,
         "loss": result.loss,
         **_outliers(result),
         "split": {"train": result.train.tolist(), "test": result.test.tolist()},
@@ -110,17 +111,32 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "identifiability_spectrum": _spectrum(result),
         "workspace_uncertainty": _workspace(result),
     }
+    if result.test_registration is not None:  # a validation session on a new set-up: which rows did what
+        report["test_registration"] = result.test_registration
     if result.sets:  # several measurement sets: a table each; the metrics above pool them
         report["sets"] = [s.as_dict() for s in result.sets]
         report["metrics_pooled"] = "every set's row errors together, each in its own set's units (mm)"
+    if result.cross_validation is not None:
+        report["cross_validation"] = result.cross_validation
     spec = result.problem.model.compliance_spec
     if spec is not None:
-        from ..robot.deflection import compliance_report
+        from ..robot.deflection import against_gravity_warning, compliance_report, deflection_effects
 
-        report["compliance"] = compliance_report(spec, result.problem.model.compliance(result.x),
-                                                 result.bounded_compliance)
+        model = result.problem.model
+        part: Any = getattr(model, "first", model)  # several sets: the first set's sensor (the robot is shared)
+        rigid = np.array(model.part_x(result.x, 0) if part is not model else result.x, dtype=float)
+        rigid[model.n_robot:model.sensor_start] = 0.0  # the calibrated geometry without deflection
+        effects = deflection_effects(model.deflection, lambda q: part.end_frames(rigid, q)[1], result.data.q,
+                                     model.compliance(result.x))
+        report["compliance"] = compliance_report(spec, model.compliance(result.x), result.bounded_compliance,
+                                                 effects)
         if result.bounded_compliance:
             report["warnings"].append(bounded_warning(result.bounded_compliance))
+        if effects.get("against_gravity"):
+            report["warnings"].append(against_gravity_warning(effects["against_gravity"]))
+        if spec.model == "basis" and spec.payload is not None:
+            report["warnings"].append("the payload given is not used: the gravity basis already holds any load the "
+                                      "end frame carries (its mass and centre of mass are fitted with the links')")
     ident = report["identifiability"]
     if kinematic and 2 * ident["rank"] < ident["unknowns"]:  # normal, but more varied poses would see more
         report["warnings"].append(rank_warning(ident["rank"], ident["unknowns"]))

@@ -37,6 +37,12 @@ q_eff = q - c tau(q_eff): with joints 2 and 3 at 3e-5 rad/Nm (deflections up to
 IRB120 set (6.6e-5 and 2.9e-4 rad/Nm, sag up to 1.7 mm) by at most 2.3 um, twenty
 times below the laser tracker's noise. The nominal-geometry torques differ from the
 deviated ones by the relative size of the deviations (1e-3), a further factor 1e-3 down.
+
+Two models (:data:`MODELS`): ``cad``, the above, needs the URDF's inertias; ``basis``
+(:mod:`calib_pin.robot.gravity_basis`) needs none: each joint's deflection is a linear
+combination of the gravity torque patterns its kinematics allows, with coefficients
+[rad] as unknowns. ``compliance_spec`` picks ``cad`` when the URDF has inertial data
+(:func:`has_inertial_data`), else ``basis``.
 """
 
 from __future__ import annotations
@@ -52,6 +58,7 @@ import pinocchio as pin
 from ..arguments import _shown, as_float, as_names, as_xyz_mm
 from ..exceptions import ArgumentError, CalibPinError, RobotError
 from .chain import Chain
+from .gravity_basis import BASIS_SCALE, GravityBasis
 
 #: Typical compliance [rad/Nm] (stiffness 5e4 Nm/rad, the order of a 3-25 kg
 #: industrial arm's joints): the column scale of the estimators and the Kalman prior.
@@ -89,6 +96,9 @@ class CablePull:
 #: Largest payload mass [kg] and cable tension [N] accepted (beyond: a unit mistake).
 MAX_LOAD = 1e6
 
+#: The deflection models: the URDF's inertias (``cad``) or the gravity basis (``basis``).
+MODELS = ("cad", "basis")
+
 #: The loads of a :class:`Compliance`, by field name, in the order of the record.
 LOAD_FIELDS = ("payload_kg", "payload_com_mm", "cable_tension_n")
 
@@ -107,6 +117,8 @@ class Compliance:
             None (the end frame's origin); stored as a tuple of floats.
         cable_tension_n: Drawstring tension [N] pulling the end effector towards the
             anchor (drawstring data only), or None (no pull).
+        model: ``cad`` (the URDF's inertias), ``basis`` (the gravity basis, no inertias
+            needed) or None: ``cad`` when the URDF has inertial data, else ``basis``.
 
     Which joints the robot has, and whether its URDF holds inertial data, is checked
     against the robot when the record is used (:meth:`spec`).
@@ -121,6 +133,7 @@ class Compliance:
     payload_kg: float | None = None
     payload_com_mm: tuple[float, float, float] | None = None
     cable_tension_n: float | None = None
+    model: str | None = None
 
     def __post_init__(self) -> None:
         names = as_names(self.joints, "joints")
@@ -136,6 +149,8 @@ class Compliance:
         object.__setattr__(self, "payload_kg", mass)
         object.__setattr__(self, "payload_com_mm", com)
         object.__setattr__(self, "cable_tension_n", tension)
+        if self.model is not None and self.model not in MODELS:
+            raise ArgumentError("model", f"expected one of {', '.join(MODELS)}, got {_shown(self.model)}")
 
     def __bool__(self) -> bool:
         """True when some joint is compliant."""
@@ -147,7 +162,8 @@ class Compliance:
         Raises:
             CalibPinError: a joint the chain does not have, or a URDF without inertial data.
         """
-        return compliance_spec(chain, self.joints, self.payload_kg, self.payload_com_mm, self.cable_tension_n)
+        return compliance_spec(chain, self.joints, self.payload_kg, self.payload_com_mm, self.cable_tension_n,
+                               model=self.model)
 
     def words(self) -> str:
         """The compliant joints, for people (``joint_2, joint_3``)."""
@@ -195,35 +211,54 @@ class ComplianceSpec:
         payload: Optional payload in the end frame.
         cable_tension_n: Drawstring tension [N]; only for cable models, which supply
             the hook and anchor.
+        model: ``cad`` (compliances [rad/Nm] on the URDF's inertias) or ``basis`` (the
+            gravity basis's coefficients [rad]; :mod:`calib_pin.robot.gravity_basis`).
     """
 
     joints: tuple[str, ...]
     payload: Payload | None = None
     cable_tension_n: float = 0.0
+    model: str = "cad"
 
     def to_dict(self) -> dict:
         """JSON-ready, in kg, mm and N."""
         payload = None if self.payload is None else {
             "mass_kg": self.payload.mass_kg, "com_mm": (np.asarray(self.payload.com_m) * 1e3).tolist()}
-        return {"joints": list(self.joints), "payload": payload, "cable_tension_n": self.cable_tension_n}
+        return {"joints": list(self.joints), "payload": payload, "cable_tension_n": self.cable_tension_n,
+                "compliance_model": self.model}
 
     @classmethod
     def from_dict(cls, doc: dict) -> ComplianceSpec:
         """Inverse of :meth:`to_dict`."""
         p = doc.get("payload")
         payload = None if p is None else Payload(float(p["mass_kg"]), np.asarray(p["com_mm"], dtype=float) * 1e-3)
-        return cls(tuple(doc["joints"]), payload, float(doc.get("cable_tension_n", 0.0)))
+        return cls(tuple(doc["joints"]), payload, float(doc.get("cable_tension_n", 0.0)),
+                   str(doc.get("compliance_model", "cad")))
 
 
-def compliance_report(spec: ComplianceSpec, compliance: np.ndarray, bounded: Sequence[str] = ()) -> dict:
+def compliance_report(spec: ComplianceSpec, compliance: np.ndarray, bounded: Sequence[str] = (),
+                      effects: dict | None = None) -> dict:
     """The compliances [rad/Nm] and stiffnesses [Nm/rad] of the joints of ``spec``, its
-    loads, and that the URDF does not hold them (for report.json).
+    loads, and that the URDF does not hold them (for report.json); for the basis model
+    its coefficients [rad] per joint instead.
 
     Args:
         bounded: Joints whose compliance fitted negative and was fixed at zero (a
             compliance is >= 0); their stiffness is infinite (JSON null).
+        effects: :func:`deflection_effects` over the data (peak deflection, end-frame
+            effect, gravity agreement), merged in.
     """
     c = np.asarray(compliance, dtype=float)
+    if spec.model == "basis":
+        return {
+            **spec.to_dict(),
+            **(effects or {}),
+            "model": "q_link = q + sum_k beta_jk b_jk(q): the gravity torque patterns of each joint's carried "
+                     "links (Pinocchio's static regressor, reduced by an SVD), coefficients fitted; no inertias",
+            "in_urdf": False,
+            "note": "the calibrated URDF holds the geometry only; joint deflection is not in it "
+                    "(the calibration JSON beside it holds the basis coefficients)",
+        }
     return {
         **spec.to_dict(),
         "compliance_rad_per_Nm": dict(zip(spec.joints, c.tolist(), strict=True)),
@@ -235,7 +270,53 @@ def compliance_report(spec: ComplianceSpec, compliance: np.ndarray, bounded: Seq
         "in_urdf": False,
         "note": "the calibrated URDF holds the geometry only; joint deflection is not in it "
                 "(the calibration JSON beside it holds the compliances)",
+        **(effects or {}),
     }
+
+
+def deflection_effects(deflection: Deflection, end_origins: Any, q: np.ndarray, c: np.ndarray) -> dict:
+    """What the fitted deflection does over poses q: each joint's peak deflection [urad]
+    and the largest move of the end frame's origin it alone causes [mm]; for the basis
+    model also each joint's coefficients and gravity agreement (see
+    :mod:`calib_pin.robot.gravity_basis`) and the joints that deflect against gravity.
+
+    Args:
+        deflection: The model's deflection.
+        end_origins: q (n, n_joints) [rad] -> end-frame origins (n, 3) [m] of the
+            calibrated geometry without deflection.
+        q: Commanded joint angles of the data, (n_poses, n_joints) [rad].
+        c: The deflection's unknowns (compliances [rad/Nm] or coefficients [rad]).
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    joints = deflection.spec.joints
+    dq = deflection.joint_deflections(q, c)
+    base = end_origins(q)
+    peak, moved = {}, {}
+    for i, joint in enumerate(joints):
+        shifted = q.copy()
+        shifted[:, deflection.chain.joint_names.index(joint)] += dq[:, i]
+        peak[joint] = float(np.max(np.abs(dq[:, i]), initial=0.0) * 1e6)
+        moved[joint] = float(np.max(np.linalg.norm(end_origins(shifted) - base, axis=1), initial=0.0) * 1e3)
+    out: dict[str, Any] = {"compliance_model": deflection.spec.model, "peak_deflection_urad": peak,
+                           "end_frame_effect_mm": moved}
+    basis = deflection.basis
+    if basis is not None:
+        owner = np.repeat(np.arange(len(joints)), basis.terms)
+        beta = np.asarray(c, dtype=float)
+        agree = basis.gravity_agreement(q, beta)
+        out["basis_terms"] = dict(zip(joints, basis.terms.tolist(), strict=True))
+        out["basis_coefficients_rad"] = {j: beta[owner == i].tolist() for i, j in enumerate(joints)}
+        out["gravity_agreement"] = {j: (float(a) if np.isfinite(a) else None)
+                                    for j, a in zip(joints, agree, strict=True)}
+        out["against_gravity"] = [j for j, a in zip(joints, agree, strict=True) if np.isfinite(a) and a < 0]
+    return out
+
+
+def against_gravity_warning(joints: Sequence[str]) -> str:
+    """The one line for basis deflections that lift the arm (sign-inconsistent with gravity)."""
+    return (f"basis deflection against gravity: {', '.join(joints)} (the fitted deflection lifts the links "
+            "this joint carries instead of letting them sag: a torque pattern gravity cannot produce; "
+            "the term fits something else, e.g. an unmodelled error or noise: drop the joint or check the data)")
 
 
 def has_inertial_data(chain: Chain) -> bool:
@@ -307,10 +388,15 @@ class Deflection:
         cable: Hook [m, end frame] and anchor [m, base frame] of the drawstring, when
             the measurement model is a cable; required for a cable tension.
 
+    With ``spec.model == "basis"`` the unknowns are the coefficients [rad] of the gravity
+    basis (:class:`~calib_pin.robot.gravity_basis.GravityBasis`), several per joint
+    (``columns`` then repeats a joint), and no inertias are needed.
+
     Raises:
         RobotError: no compliant joint, a name that is not a chain joint, or a URDF
-            without inertial data.
-        CalibPinError: a cable tension without a cable, or a negative mass or tension.
+            without inertial data (CAD model).
+        CalibPinError: a cable tension without a cable (or with the basis model), or a
+            negative mass or tension.
     """
 
     def __init__(self, chain: Chain, spec: ComplianceSpec,
@@ -323,11 +409,17 @@ class Deflection:
                 f"robot '{chain.name}' has no chain joint '{unknown[0]}' for compliance "
                 f"(joints: {', '.join(chain.joint_names)})"
             )
-        if not has_inertial_data(chain):
+        if spec.model not in MODELS:
+            raise CalibPinError(f"compliance model must be one of {', '.join(MODELS)}, got {spec.model!r}")
+        if spec.model == "cad" and not has_inertial_data(chain):
             raise RobotError(
                 f"{chain.description.urdf}: the URDF has no inertial data (all link masses are "
-                "zero); joint compliance needs the links' masses and centres of mass"
+                "zero); the CAD compliance model needs the links' masses and centres of mass "
+                "(the basis model needs none: --compliance-model basis)"
             )
+        if spec.model == "basis" and spec.cable_tension_n:
+            raise CalibPinError("a cable tension needs the CAD compliance model (the URDF's inertias): the "
+                                "gravity basis cannot hold the cable's pull")
         if spec.payload is not None and spec.payload.mass_kg < 0:
             raise CalibPinError(f"payload mass must be >= 0 kg, got {spec.payload.mass_kg:g}")
         if spec.cable_tension_n < 0:
@@ -339,11 +431,23 @@ class Deflection:
             pull = CablePull(spec.cable_tension_n, np.asarray(cable[0], float), np.asarray(cable[1], float))
         self.spec = spec
         self.chain = chain
-        self.columns = np.array([chain.joint_names.index(j) for j in spec.joints])
-        self.torque = StaticTorque(chain, spec.payload, pull)
-        self.names = tuple(f"compliance_{j}" for j in spec.joints)
-        self.units = ("rad/Nm",) * len(spec.joints)
-        self.scale = np.full(len(spec.joints), COMPLIANCE_SCALE)
+        self.torque = StaticTorque(chain, spec.payload if spec.model == "cad" else None, pull)
+        self.basis = GravityBasis(chain, spec.joints) if spec.model == "basis" else None
+        if self.basis is not None:
+            self.columns = self.basis.columns
+            self.names = self.basis.names
+            self.units = ("rad",) * self.basis.n
+            self.scale = np.full(self.basis.n, BASIS_SCALE)
+        else:
+            self.columns = np.array([chain.joint_names.index(j) for j in spec.joints])
+            self.names = tuple(f"compliance_{j}" for j in spec.joints)
+            self.units = ("rad/Nm",) * len(spec.joints)
+            self.scale = np.full(len(spec.joints), COMPLIANCE_SCALE)
+
+    @property
+    def nonnegative(self) -> bool:
+        """True when the unknowns are compliances (>= 0); the basis's coefficients are signed."""
+        return self.basis is None
 
     @property
     def n(self) -> int:
@@ -355,18 +459,27 @@ class Deflection:
 
         Args:
             q: Commanded joint angles, shape (n_poses, n_joints), [rad].
-            c: Compliances of the chosen joints, shape (n,), [rad/Nm].
+            c: Compliances of the chosen joints, shape (n,), [rad/Nm] (basis model: the
+                basis coefficients [rad]).
 
         Returns:
-            q_eff: shape (n_poses, n_joints), [rad]: q - c tau(q) on the chosen joints.
+            q_eff: shape (n_poses, n_joints), [rad]: q - c tau(q) on the chosen joints
+            (basis: q + sum_k beta_k b_k(q)).
             minus_tau: shape (n_poses, n), [Nm]: -tau of the chosen joints, which is
-            d q_eff[:, columns[i]] / d c_i.
+            d q_eff[:, columns[i]] / d c_i (basis: the basis b(q), dimensionless).
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        minus_tau = -self.torque(q)[:, self.columns]
+        factor = self.basis.values(q) if self.basis is not None else -self.torque(q)[:, self.columns]
         q_eff = q.copy()
-        q_eff[:, self.columns] += minus_tau * np.asarray(c, dtype=float)
-        return q_eff, minus_tau
+        np.add.at(q_eff.T, self.columns, (factor * np.asarray(c, dtype=float)).T)  # a joint may repeat (basis)
+        return q_eff, factor
+
+    def joint_deflections(self, q: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """delta q of each joint of the spec, shape (n_poses, len(spec.joints)), [rad]."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        if self.basis is not None:
+            return self.basis.deflections(q, c)
+        return -self.torque(q)[:, self.columns] * np.asarray(c, dtype=float)
 
 
 def fixed_point_angles(deflection: Deflection, q: np.ndarray, c: np.ndarray,
@@ -377,6 +490,8 @@ def fixed_point_angles(deflection: Deflection, q: np.ndarray, c: np.ndarray,
     """
     q = np.atleast_2d(np.asarray(q, dtype=float))
     q_eff = q.copy()
+    if deflection.basis is not None:
+        raise CalibPinError("the fixed point needs the CAD model's torques")
     for _ in range(iterations):
         tau = deflection.torque(q_eff)[:, deflection.columns]
         q_eff = q.copy()
@@ -393,7 +508,7 @@ def stiffness(compliance: Sequence[float] | np.ndarray) -> np.ndarray:
 
 def compliance_spec(chain: Chain, joints: str | Sequence[str] | None, payload_kg: float | None = None,
                     payload_com_mm: Sequence[float] | None = None,
-                    cable_tension_n: float | None = None) -> ComplianceSpec | None:
+                    cable_tension_n: float | None = None, model: str | None = None) -> ComplianceSpec | None:
     """The user's compliance options as a spec (None when no joint is compliant).
 
     Args:
@@ -402,10 +517,13 @@ def compliance_spec(chain: Chain, joints: str | Sequence[str] | None, payload_kg
         payload_kg: Payload mass [kg]; payload_com_mm: its centre of mass in the end
             frame, 3 numbers [mm] (default the end frame's origin).
         cable_tension_n: Drawstring tension [N].
+        model: ``cad``, ``basis``, or None: ``cad`` when the URDF has inertial data,
+            else ``basis``.
 
     Raises:
         CalibPinError: loads without compliant joints, a negative or non-finite value,
-            an unknown joint, or a URDF without inertial data.
+            an unknown joint, an unknown model, the CAD model on a URDF without inertial
+            data, or a cable tension with the basis model.
     """
     names = as_names(joints, "compliance")  # a joint named twice is refused
     if names == ("all",):
@@ -425,6 +543,8 @@ def compliance_spec(chain: Chain, joints: str | Sequence[str] | None, payload_kg
         if com.shape != (3,) or not np.all(np.isfinite(com)):
             raise CalibPinError("payload_com_mm needs 3 finite numbers (x, y, z in mm, end frame)")
         payload = Payload(float(payload_kg or 0.0), com * 1e-3)
-    spec = ComplianceSpec(names, payload, float(cable_tension_n or 0.0))
+    if model is None:
+        model = "cad" if has_inertial_data(chain) else "basis"
+    spec = ComplianceSpec(names, payload, float(cable_tension_n or 0.0), str(model))
     Deflection(chain, spec, (np.zeros(3), np.ones(3)))  # refuse a bad joint or a massless URDF now
     return spec

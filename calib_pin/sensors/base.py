@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
     from ..problem import CalibrationProblem
+    from ..simulation import SimulationDraw
     from .setup import SensorSetup
 
 
@@ -150,6 +151,18 @@ class MeasurementModel(ABC):
         return None
 
     @classmethod
+    def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
+                             calibrated: MeasurementModel, x: np.ndarray,
+                             options: Mapping[str, Any]) -> CalibrationProblem:
+        """The problem of a validation ``session`` on a new set-up of this sensor
+        (:mod:`calib_pin.validation`): every row, the unknowns a new placement changes after
+        the robot's, started from their fit on ``rows``. ``calibrated`` and ``x``: the
+        calibration's model and estimate (a sensor may take from them what the session does
+        not say). Default: :meth:`problem_for` with the caller's compliance only (a sensor
+        whose set-up is always fitted, e.g. a device frame and markers)."""
+        return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance")})
+
+    @classmethod
     def refuse_foreign(cls, options: Mapping[str, Any], data: MeasurementSet) -> None:
         """Refuse a given set-up option another sensor takes and this one does not.
 
@@ -208,6 +221,50 @@ class MeasurementModel(ABC):
     def describe(self) -> str:
         """One phrase for people: the sensor and what of it is known or estimated."""
 
+    # --- simulation (the one seam calib_pin.simulation asks a sensor for) ----------------
+
+    @classmethod
+    def simulate_rows(cls, draw: SimulationDraw, geometry: Any | None) -> tuple[MeasurementSet, Any]:
+        """A simulated set of this sensor read on the true robot: its rows, their values
+        with noise and the set-up metadata its file will carry.
+
+        ``draw`` (:class:`calib_pin.simulation.SimulationDraw`) holds what every simulation
+        shares; call it in this order, as the sensor needs:
+
+        1. ``draw.poses(keep, why)``: the joint angles (n, n_joints) [rad], random within
+           the limits (``keep(q)`` a mask of usable ones) or the caller's;
+        2. ``draw.deviations(gap)``: the true robot's deviations, drawn and scaled so that
+           the nominal model's row errors ``gap(x)`` (n_rows,) [m] have the asked RMSE (or
+           the one robot of several sessions);
+        3. ``draw.noise(shape)``: the values' noise [m] (``draw.noise_kind``; rows of one value).
+
+        Predict the true values with ``cls(chain, params, geometry, estimate=(),
+        compliance=draw.compliance)`` at ``draw.x_model`` (deviations, then the true
+        compliances): the truth file's model is built so (:meth:`calib_pin.simulation.Truth.model`),
+        so the sensor's model takes ``estimate=()`` for "nothing of the sensor unknown".
+        ``draw.chain``, ``draw.params``, ``draw.seed``, ``draw.noise_mm`` and
+        ``draw.noise_kind`` describe the run.
+
+        Args:
+            geometry: The true set-up (a :attr:`geometry_type`); None: the sensor's default.
+
+        Returns:
+            The set (``kind`` this sensor's) and the true geometry used (for the truth file).
+
+        Raises:
+            CalibPinError: a sensor that cannot be simulated (the default).
+        """
+        from ..exceptions import CalibPinError
+
+        raise CalibPinError(f"{cls.data_name} cannot be simulated (the sensor implements no simulate_rows)")
+
+    @classmethod
+    def session_geometry(cls, first: Any, rng: np.random.Generator) -> Any:
+        """The true set-up of a later simulated session of this sensor (the sensor
+        re-anchored, the device moved), drawn with ``rng`` (session 1's set-up ``first``);
+        default: ``first`` itself (one set-up for every session)."""
+        return first
+
     @property
     def reference_point(self) -> np.ndarray:
         """A point of the end frame the sensor measures, shape (3,), [m] (the planner keeps
@@ -246,7 +303,10 @@ class MeasurementModel(ABC):
     @property
     def nonnegative(self) -> tuple[int, ...]:
         """Indices of the unknowns that must be >= 0: the joint compliances (a spring gives
-        way along its load, never against it); every estimator keeps them so."""
+        way along its load, never against it); every estimator keeps them so. The gravity
+        basis's coefficients are signed: none."""
+        if self.deflection is not None and not self.deflection.nonnegative:
+            return ()
         return tuple(range(self.n_robot, self.sensor_start))
 
     def robot(self, x: np.ndarray) -> np.ndarray:

@@ -27,7 +27,18 @@ if TYPE_CHECKING:
     from ..parameters import ParameterModel
 
 #: Sensor quantities a cable model can estimate with the robot's parameters.
-CABLE_EXTRAS = ("anchor", "offset")
+CABLE_EXTRAS = ("anchor", "offset", "tool")
+
+#: The pre-fit's starts per axis (:func:`fit_drawstring`): a grid of PREFIT_GRID^3 anchors.
+PREFIT_GRID = 3
+
+#: Default sensor geometry of simulated sessions: the sensor body on the floor in
+#: front of the robot, the cable hooked on the tool axis 50 mm out of the flange.
+DEFAULT_ANCHOR_MM = (600.0, 200.0, -100.0)
+DEFAULT_TOOL_MM = (0.0, 0.0, 50.0)
+#: Spread of the anchors drawn for simulated sessions 2.. around the default anchor, base
+#: frame, per axis, [mm] (a drawstring re-anchored elsewhere on the floor or a fixture).
+SESSION_ANCHOR_SPREAD_MM = (400.0, 400.0, 150.0)
 
 
 @dataclass(frozen=True)
@@ -94,8 +105,9 @@ class CableSetup(SensorSetup):
     anchor_mm: Any = option(help="sensor point P0 in the base frame, 'x,y,z'", unit="mm", parser=xyz_mm)
     tool_mm: Any = option(help="cable tool point in the end frame, 'x,y,z'", unit="mm", parser=xyz_mm)
     length_offset_mm: Any = option(help="sensor zero offset", unit="mm", parser=finite)
-    estimate: Any = option((), help="drawstring geometry to estimate with the robot: anchor, offset or "
-                           "anchor,offset", parser=estimate_names)
+    estimate: Any = option((), help="drawstring geometry to estimate with the robot, comma-separated: anchor, "
+                           "offset, tool (the tool point in the end frame); a set without '# anchor_mm' has its "
+                           "anchor and offset pre-fitted and estimated", parser=estimate_names)
 
     def __post_init__(self) -> None:
         from . import check_estimate
@@ -106,6 +118,14 @@ class CableSetup(SensorSetup):
         set_(self, "length_offset_mm", as_optional(as_float, self.length_offset_mm, "length_offset_mm", -MAX_MM,
                                                    MAX_MM, unit="mm"))
         set_(self, "estimate", check_estimate(self.estimate))
+
+
+def _gives_offset(data: MeasurementSet) -> bool:
+    """The set's file (or, in memory, a non-zero value) gives the zero offset."""
+    from ..measurements.checks import _file_keys
+
+    keys = _file_keys(data.source) if data.source else None
+    return bool({"length_offset_mm", "length_offset_m"} & keys) if keys is not None else data.length_offset != 0.0
 
 
 def _vector_mm(value: Any, name: str) -> np.ndarray:
@@ -119,9 +139,16 @@ class CableModel(MeasurementModel):
     """Drawstring readings of a chain whose deviations follow a parameter model.
 
     With ``estimate`` the sensor's anchor P0 (``anchor_x/y/z`` [m], base frame, typical
-    error 2 mm) and its zero offset (``offset`` [m], 1 mm) join x after the robot's
-    deviations, as corrections to ``sensor``'s values.
+    error 2 mm), its zero offset (``offset`` [m], 1 mm) and the tool point (``tool_x/y/z``
+    [m], end frame, 1 mm) join x after the robot's deviations, as corrections to
+    ``sensor``'s values.
+
+    Attributes:
+        prefit: How ``sensor`` was found when the data did not give it (a set without
+            ``# anchor_mm``: :func:`fit_drawstring` on the training rows), else None.
     """
+
+    prefit: DrawstringPrefit | None = None
 
     kind = "cable"
     values_per_row = 1
@@ -141,6 +168,7 @@ class CableModel(MeasurementModel):
         self.estimate = chosen(estimate, CABLE_EXTRAS, "a drawstring")
         extra = [(f"anchor_{a}", "m", 2e-3) for a in "xyz"] if "anchor" in self.estimate else []
         extra += [("offset", "m", 1e-3)] if "offset" in self.estimate else []
+        extra += [(f"tool_{a}", "m", 1e-3) for a in "xyz"] if "tool" in self.estimate else []
         # The cable pulls from the given tool point towards the given anchor (not a correction of it).
         super().__init__(chain, params, extra, compliance, cable=(sensor.tool, sensor.anchor))
         self.sensor = sensor
@@ -149,8 +177,6 @@ class CableModel(MeasurementModel):
     def planning_model(cls, chain: Chain, params: ParameterModel, setup: Any) -> CableModel:
         """The drawstring at ``setup``'s points (a :class:`CableSetup`; the simulator's
         defaults for those not given), estimating ``setup.estimate``."""
-        from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
-
         setup = setup if setup is not None else CableSetup()
         anchor = setup.anchor_mm if setup.anchor_mm is not None else DEFAULT_ANCHOR_MM
         tool = setup.tool_mm if setup.tool_mm is not None else DEFAULT_TOOL_MM
@@ -173,15 +199,74 @@ class CableModel(MeasurementModel):
         get = options.get
         anchor = _vector_mm(get("anchor_mm"), "anchor_mm") if get("anchor_mm") is not None else data.anchor
         tool = _vector_mm(get("tool_mm"), "tool_mm") if get("tool_mm") is not None else data.tool
-        if anchor is None:
-            raise DataError(data.source, "no sensor point: add '# anchor_mm: x, y, z' or pass --anchor-mm", None, "anchor_mm")
-        if tool is None:
-            raise DataError(data.source, "no tool point: add '# tool_mm: x, y, z' or pass --tool-mm", None, "tool_mm")
+        estimate = tuple(get("estimate") or ())
+        if tool is None and "tool" not in estimate:
+            raise DataError(data.source, "no tool point: add '# tool_mm: x, y, z', pass --tool-mm, or estimate it "
+                            "(--estimate tool)", None, "tool_mm")
         given = get("length_offset_mm")
         offset = data.length_offset if given is None else float(given) * 1e-3
-        model = cls(chain, params, Drawstring(anchor, tool, offset), tuple(get("estimate") or ()),
-                    get("compliance"))
+        prefit = None
+        if anchor is None:  # no anchor known: fit the set-up on the training rows first, then estimate it
+            prefit = fit_drawstring(chain, params, data.q[fit_rows], data.values[fit_rows],
+                                    np.zeros(3) if tool is None else tool, "tool" in estimate, data.source)
+            anchor, tool, offset = prefit.sensor.anchor, prefit.sensor.tool, prefit.sensor.length_offset
+            estimate = tuple(dict.fromkeys(("anchor", "offset") + estimate))
+        assert tool is not None
+        model = cls(chain, params, Drawstring(anchor, tool, offset), estimate, get("compliance"))
+        model.prefit = prefit
         return CalibrationProblem(model, data.q, data.values)
+
+    @classmethod
+    def simulate_rows(cls, draw: Any, geometry: Drawstring | None) -> tuple[MeasurementSet, Drawstring]:
+        """A drawstring session (:meth:`MeasurementModel.simulate_rows`): poses with the tool
+        point above the mounting plane (z > 0), each reading's noise of ``draw.noise_kind``;
+        ``geometry`` None: the default anchor and tool point, no offset."""
+        from ..measurements import MeasurementSet
+
+        sensor = geometry if geometry is not None else Drawstring(
+            np.asarray(DEFAULT_ANCHOR_MM) * 1e-3, np.asarray(DEFAULT_TOOL_MM) * 1e-3, 0.0)
+        chain, params = draw.chain, draw.params
+        cable = cls(chain, params, sensor)
+        poses = draw.poses(lambda q: cable.tool_positions(None, q)[:, 2] > 0.0,
+                           "put the tool point above the base's mounting plane (z > 0); check the tool point")
+        nominal = cable.predict(np.zeros(len(params.names)), poses)
+        draw.deviations(lambda x: np.abs(cable.predict(x, poses) - nominal))
+        noise = draw.noise(len(poses))
+        readings = cls(chain, params, sensor, compliance=draw.compliance).predict(draw.x_model, poses) + noise
+        data = MeasurementSet(q=poses, values=readings, kind=cls.kind, anchor=sensor.anchor, tool=sensor.tool,
+                              length_offset=sensor.length_offset, robot=chain.name, end_frame=chain.end_frame,
+                              notes={"source": f"calib-pin simulator, seed {draw.seed}, noise {draw.noise_mm:g} mm "
+                                               f"({draw.noise_kind})"})
+        return data, sensor
+
+    @classmethod
+    def session_geometry(cls, first: Drawstring, rng: np.random.Generator) -> Drawstring:
+        """A later session's drawstring: re-anchored uniformly within
+        :data:`SESSION_ANCHOR_SPREAD_MM` of the default anchor, the same tool point and offset."""
+        spread = np.asarray(SESSION_ANCHOR_SPREAD_MM)
+        anchor = np.asarray(DEFAULT_ANCHOR_MM) + rng.uniform(-spread, spread)
+        return Drawstring(anchor * 1e-3, first.tool, first.length_offset)
+
+    @classmethod
+    def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
+                             calibrated: MeasurementModel, x: np.ndarray,
+                             options: Mapping[str, Any]) -> CalibrationProblem:
+        """A re-anchored session: its anchor estimated, from its file's anchor or, without
+        one, pre-fitted on ``rows`` (:func:`fit_drawstring`, the offset held). The tool point
+        and the zero offset belong to the tool and the instrument, not to where the sensor
+        sits: the session's file's when it gives them, else the calibration's (as calibrated)."""
+        assert isinstance(calibrated, CableModel)
+        known = calibrated.geometry_at(x)
+        tool = known.tool if session.tool is None else session.tool
+        offset = session.length_offset if _gives_offset(session) else known.length_offset
+        anchor, prefit = session.anchor, None
+        if anchor is None:
+            prefit = fit_drawstring(chain, params, session.q[rows], session.values[rows], tool, source=session.source,
+                                    offset=offset)
+            anchor = prefit.sensor.anchor
+        model = cls(chain, params, Drawstring(anchor, tool, offset), ("anchor",), options.get("compliance"))
+        model.prefit = prefit
+        return CalibrationProblem(model, session.q, session.values)
 
     @classmethod
     def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
@@ -208,14 +293,18 @@ class CableModel(MeasurementModel):
                 continue
             override = options.get(key)
             used = np.asarray(override, dtype=float) * 1e-3 if override is not None else getattr(training, name)
-            if used is None:
-                continue
+            if used is None:  # the calibration fitted it (pre-fit): a stated one cannot be checked against it
+                raise DataError(session.source or "test_data",
+                                f"the validation session has {_mm(own)} mm, the calibration's is fitted on its training "
+                                f"rows ({training.source or 'the training set'} gives none): leave the session's line "
+                                "out to score it with the calibrated one, or re-register the session on its own "
+                                "first poses (--test-data FILE:register=K)", None, key)
             if not np.allclose(np.asarray(own, dtype=float), used, rtol=0.0, atol=SETUP_TOLERANCE_M):
                 by = f"--{key.replace('_', '-')}" if override is not None else (training.source or "the training set")
                 raise DataError(session.source or "test_data",
                                 f"the validation session has {_mm(own)} mm, the calibration {_mm(used)} mm ({by}): "
-                                "one sensor set-up per calibration for now; measure both with the same set-up, or "
-                                "correct the file's line", None, key)
+                                "measure both with the same set-up, re-register the session on its own first poses "
+                                "(--test-data FILE:register=K), or correct the file's line", None, key)
 
     @classmethod
     def refuse_values(cls, values: np.ndarray) -> tuple[int, str] | None:
@@ -233,17 +322,25 @@ class CableModel(MeasurementModel):
         anchor, offset = self.sensor.anchor, self.sensor.length_offset
         if "anchor" in self.estimate:
             anchor, extra = anchor + extra[:3], extra[3:]
+        tool = self.sensor.tool
         if "offset" in self.estimate:
-            offset = offset + extra[0]
-        return Drawstring._unchecked(anchor, self.sensor.tool, offset)
+            offset, extra = offset + extra[0], extra[1:]
+        if "tool" in self.estimate:
+            tool = tool + extra[:3]
+        return Drawstring._unchecked(anchor, tool, offset)
 
     def geometry_report(self, x: np.ndarray | None) -> dict:
-        return self.geometry_at(x).to_dict()
+        """The geometry at x (mm), and ``setup_prefit`` when the anchor was pre-fitted."""
+        doc = self.geometry_at(x).to_dict()
+        if self.prefit is not None:
+            doc["setup_prefit"] = self.prefit.as_dict()
+        return doc
 
     def describe(self) -> str:
-        known = [p for p in CABLE_EXTRAS if p not in self.estimate]
+        known = [p for p in ("anchor", "offset") if p not in self.estimate]  # the tool point: known unless estimated
         text = "drawstring sensor, " + (f"{' and '.join(known)} known" if known else "nothing known")
-        return text + (f", {' and '.join(self.estimate)} estimated" if self.estimate else "")
+        text += f", {' and '.join(self.estimate)} estimated" if self.estimate else ""
+        return text + (f" ({self.prefit.how()})" if self.prefit is not None else "")
 
     @property
     def reference_point(self) -> np.ndarray:
@@ -251,7 +348,7 @@ class CableModel(MeasurementModel):
 
     def tool_positions(self, x: np.ndarray | None, q: np.ndarray) -> np.ndarray:
         """Tool point in the base frame, shape (n_rows, 3), [m]; x None: nominal."""
-        return self.points_at(x, q, self.sensor.tool)
+        return self.points_at(x, q, self.geometry_at(x).tool)
 
     def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
         """Predicted readings, shape (n_rows,), [m], for joint angles q (n_rows, n) [rad]."""
@@ -262,7 +359,7 @@ class CableModel(MeasurementModel):
                               points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Predicted readings (n_rows,) [m] and their derivative (n_rows, n_params)."""
         sensor = self.geometry_at(x)
-        tips, d_tips = self.point_jacobian(x, q, self.sensor.tool)
+        tips, end_rot, d_tips = self.points_with_jacobians(x, q, sensor.tool)
         cable = tips - sensor.anchor
         length = np.linalg.norm(cable, axis=1)
         direction = cable / length[:, None]
@@ -273,4 +370,115 @@ class CableModel(MeasurementModel):
             col += 3
         if "offset" in self.estimate:
             jac[:, col] = 1.0
+            col += 1
+        if "tool" in self.estimate:  # the tool point moves with the end frame: d p / d tool = R_end
+            jac[:, col : col + 3] = np.einsum("ni,nij->nj", direction, end_rot)
         return length + sensor.length_offset, jac
+
+
+@dataclass(frozen=True)
+class DrawstringPrefit:
+    """What :func:`fit_drawstring` found.
+
+    Attributes:
+        sensor: The fitted geometry (anchor [m] base frame, tool [m] end frame, offset [m]).
+        tool_fitted: The tool point was fitted too (else held at the given one).
+        starts: Starts tried; ``agreeing``: how many of them ended at the best fit (within 1 mm).
+        rows: Training rows fitted; ``rms``: their reading RMS with the nominal robot, [m].
+    """
+
+    sensor: Drawstring
+    tool_fitted: bool
+    starts: int
+    agreeing: int
+    rows: int
+    rms: float
+    offset_fitted: bool = True
+
+    def how(self) -> str:
+        """For people: how the anchor was obtained."""
+        what = ", ".join(self.fitted()[:-1]) + (" and " if len(self.fitted()) > 1 else "") + self.fitted()[-1]
+        return (f"{what} pre-fitted with the nominal robot on {self.rows} rows, best of {self.starts} "
+                f"starts ({self.agreeing} agree), reading RMS {self.rms * 1e3:.3g} mm")
+
+    def as_dict(self) -> dict:
+        """For report.json, in mm."""
+        return {**self.sensor.to_dict(), "fitted": self.fitted(),
+                "robot": "nominal", "rows": self.rows, "starts": self.starts, "starts_agreeing": self.agreeing,
+                "rms_mm": self.rms * 1e3, "how": self.how(), "summary": self.summary()}
+
+    def fitted(self) -> list[str]:
+        """What was fitted: ``anchor``, ``offset``, ``tool``."""
+        return ["anchor"] + (["offset"] if self.offset_fitted else []) + (["tool"] if self.tool_fitted else [])
+
+    def summary(self) -> str:
+        """The fitted values for people, [mm]."""
+        def mm(v: np.ndarray) -> str:
+            return ", ".join(f"{c * 1e3:.3f}" for c in v)
+
+        text = f"anchor {mm(self.sensor.anchor)} mm, offset {self.sensor.length_offset * 1e3:.3f} mm"
+        return text + (f", tool {mm(self.sensor.tool)} mm" if self.tool_fitted else "")
+
+
+def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings: np.ndarray, tool: np.ndarray,
+                   fit_tool: bool = False, source: str = "", offset: float | None = None) -> DrawstringPrefit:
+    """Best-fit anchor P0 [m, base frame] and zero offset [m] (and, with ``fit_tool``, the
+    tool point [m, end frame]) for the nominal robot, with no guess of the anchor.
+
+    The residual of row i is |c_i + R_i t - P0| + offset - reading_i (c_i, R_i: the nominal
+    end frame's origin and rotation at q_i; t the tool point). It is fitted by scipy's
+    least squares from PREFIT_GRID^3 = 27 anchors on a grid over the box of the nominal
+    tool points, widened on every side by half the median reading (a cable reaches its
+    anchor, so the anchor is within that box and one start lies within a grid cell of it);
+    the offset starts at 0, the tool at ``tool``. The best final cost wins. Several starts
+    because the problem has a local minimum for each side of the tool points' spread (the
+    mirror anchor, with a negative offset); 27 fits of 4 to 7 unknowns cost milliseconds.
+
+    Args:
+        q: Joint angles, shape (n_rows, n_joints), [rad]; readings: shape (n_rows,), [m].
+        tool: The tool point's start (or its fixed value without ``fit_tool``), shape (3,), [m].
+        offset: The zero offset [m] held fixed (a re-anchored instrument's, known), or None: fitted.
+
+    Raises:
+        DataError: fewer rows than unknowns, naming ``source``.
+    """
+    from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
+
+    fixed = offset is not None
+    n_unknowns = 3 + (not fixed) + 3 * fit_tool
+    if len(q) <= n_unknowns:
+        raise DataError(source, f"{len(q)} training rows cannot locate the drawstring's anchor ({n_unknowns} unknowns "
+                        "to pre-fit): add '# anchor_mm: x, y, z' or more rows", None, "anchor_mm")
+    model = CableModel(chain, params, Drawstring(np.zeros(3), np.zeros(3)))
+    end_rot, origin = model.end_frames(None, q)
+
+    def unpack(v: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+        rest = v[3:] if fixed else v[4:]
+        return v[:3], (offset if fixed else v[3]), (rest[:3] if fit_tool else tool)  # type: ignore[return-value]
+
+    def residual(v: np.ndarray) -> np.ndarray:
+        anchor, offset, t = unpack(v)
+        return np.linalg.norm(origin + end_rot @ t - anchor, axis=1) + offset - readings
+
+    def jacobian(v: np.ndarray) -> np.ndarray:
+        anchor, _, t = unpack(v)
+        cable = origin + end_rot @ t - anchor
+        u = cable / np.maximum(np.linalg.norm(cable, axis=1), 1e-12)[:, None]
+        cols = [-u] + ([] if fixed else [np.ones((len(q), 1))]) + ([np.einsum("ni,nij->nj", u, end_rot)] if fit_tool else [])
+        return np.hstack(cols)
+
+    tips = origin + end_rot @ tool
+    reach = 0.5 * float(np.median(readings))
+    low, high = tips.min(axis=0) - reach, tips.max(axis=0) + reach
+    axes = [np.linspace(lo, hi, PREFIT_GRID) for lo, hi in zip(low, high, strict=True)]
+    starts = np.array(np.meshgrid(*axes, indexing="ij")).reshape(3, -1).T
+    fits = []
+    for start in starts:
+        v0 = np.concatenate([start, [] if fixed else [0.0], tool if fit_tool else []])
+        fits.append(least_squares(residual, v0, jac=jacobian, method="lm"))
+    best = min(fits, key=lambda f: f.cost)
+    agreeing = sum(int(np.linalg.norm(f.x[:3] - best.x[:3]) < 1e-3) for f in fits)
+    anchor, found, t = unpack(best.x)
+    rms = float(np.sqrt(2.0 * best.cost / len(q)))
+    return DrawstringPrefit(Drawstring(anchor.copy(), np.array(t, dtype=float), float(found)), fit_tool,
+                            len(starts), agreeing, len(q), rms, not fixed)

@@ -536,7 +536,7 @@ class ContactModel(MeasurementModel):
 
     # --- simulation -----------------------------------------------------------------------
 
-    def simulate_rows(self, x: np.ndarray | None, fixtures: np.ndarray, rng: np.random.Generator,
+    def touching_angles(self, x: np.ndarray | None, fixtures: np.ndarray, rng: np.random.Generator,
                       noise_m: float = DEFAULT_NOISE_MM * 1e-3, tries: int = 40) -> np.ndarray:
         """Joint angles (n_rows, n_joints) [rad] at which the model at x puts the tool point
         on each row's fixture (index, as :func:`fixture_rows`'), missed by Gaussian noise of
@@ -698,7 +698,7 @@ def simulate_contacts(chain: Chain, params: ParameterModel, per_fixture: int, se
         x = np.asarray(true_x, dtype=float)
     full = np.concatenate([x, np.zeros(model.n_params - len(x))])
     rows = np.repeat(np.arange(len(labels) + len(plane_labels)), per_fixture)
-    q = model.simulate_rows(full, rows, rng, noise_mm * 1e-3)
+    q = model.touching_angles(full, rows, rng, noise_mm * 1e-3)
     names = labels + plane_labels
     contact = np.array([names[k] if k < len(labels) else "" for k in rows], dtype=str)
     plane = np.array([names[k] if k >= len(labels) else "" for k in rows], dtype=str)

@@ -439,7 +439,7 @@ class PoseModel(MeasurementModel):
 
     # --- simulation -----------------------------------------------------------------------
 
-    def simulate_rows(self, x: np.ndarray | None, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    def noisy_readings(self, x: np.ndarray | None, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Measured poses (n_rows, 7) at x: the true poses with Gaussian noise of
         :attr:`noise_m` per coordinate and :attr:`noise_rad` per axis of a right rotation
         vector (R_meas = R exp3(n)); position [m], quaternion (w >= 0)."""
@@ -541,7 +541,7 @@ def simulate_poses(chain: Chain, params: ParameterModel, n_poses: int, seed: int
         x = x * (nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap**2))) if nominal_rmse_mm > 0 else np.zeros_like(x)
     else:
         x = np.asarray(true_x, dtype=float)
-    values = model.simulate_rows(np.concatenate([x, np.zeros(12)]), q, rng)
+    values = model.noisy_readings(np.concatenate([x, np.zeros(12)]), q, rng)
     data = MeasurementSet(q=q, values=values, kind=PoseModel.kind, robot=chain.name, end_frame=chain.end_frame,
                           noise=noise_mm * 1e-3,
                           notes={"noise_deg": f"{noise_deg:g}",

@@ -45,6 +45,18 @@ _WHOLE = re.compile(r"^[-+]?\d{1,15}$")
 #: What a position model can estimate with the robot's deviations.
 POSITION_EXTRAS = ("device", "markers")
 
+#: Default marker points of simulated position sets, end frame, [mm].
+DEFAULT_MARKERS_MM = ((60.0, 0.0, 40.0), (-30.0, 52.0, 40.0), (-30.0, -52.0, 40.0))
+#: Spread of the device placements drawn for simulated sessions 2..: a turn about the
+#: vertical [deg] and a shift per axis [mm] (a tracker moved to another station).
+SESSION_DEVICE_TURN_DEG = 60.0
+SESSION_DEVICE_SHIFT_MM = (400.0, 400.0, 100.0)
+
+
+def default_device_frame() -> pin.SE3:
+    """The simulator's default device frame T_DB: 2 m in front of the robot, turned 150 deg about z."""
+    return pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4]))
+
 
 @dataclass(frozen=True)
 class PositionDevice:
@@ -168,6 +180,86 @@ class PositionModel(MeasurementModel):
         device = fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels)
         model = cls(chain, params, device, compliance=options.get("compliance"))
         return CalibrationProblem(model, data.q, data.values, points)
+
+    @classmethod
+    def simulate_rows(cls, draw: Any, geometry: PositionDevice | None) -> tuple[MeasurementSet, PositionDevice]:
+        """A position session (:meth:`MeasurementModel.simulate_rows`): every marker measured
+        at each pose (rows pose-major, markers labelled 1..k), each coordinate with Gaussian
+        noise ``draw.noise_mm``; ``geometry`` None: the default device frame and markers."""
+        from ..measurements import MeasurementSet
+
+        device = geometry if geometry is not None else PositionDevice(
+            default_device_frame(), np.asarray(DEFAULT_MARKERS_MM) * 1e-3, (1, 2, 3))
+        chain, params, n_markers = draw.chain, draw.params, len(device.markers)
+        model = cls(chain, params, device, estimate=())
+        poses = draw.poses()
+        q = np.repeat(poses, n_markers, axis=0)
+        index = np.tile(np.arange(n_markers), len(poses))
+        nominal = model.predict(None, q, index)
+        draw.deviations(lambda x: np.linalg.norm(model.predict(x, q, index) - nominal, axis=1))
+        true_model = cls(chain, params, device, estimate=(), compliance=draw.compliance)
+        positions = true_model.predict(draw.x_model, q, index) + draw.noise((len(q), 3))
+        data = MeasurementSet(
+            q=q, values=positions, kind=cls.kind, robot=chain.name, end_frame=chain.end_frame,
+            notes={"source": f"calib-pin position simulator, seed {draw.seed}, noise {draw.noise_mm:g} mm per axis"},
+            pose_ids=np.repeat(np.arange(1, len(poses) + 1), n_markers),
+            point_ids=np.array(device.labels)[index],
+            noise=draw.noise_mm * 1e-3 or None,  # noise-free: no sensor sigma to state
+        )
+        return data, device
+
+    @classmethod
+    def session_geometry(cls, first: PositionDevice, rng: np.random.Generator) -> PositionDevice:
+        """A later session's device: moved from session 1's, turned about the vertical
+        within :data:`SESSION_DEVICE_TURN_DEG` and shifted within
+        :data:`SESSION_DEVICE_SHIFT_MM`; the same markers (the one tool's)."""
+        move = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, np.deg2rad(rng.uniform(-1, 1) * SESSION_DEVICE_TURN_DEG)),
+                       rng.uniform(-1, 1, 3) * np.asarray(SESSION_DEVICE_SHIFT_MM) * 1e-3)
+        return PositionDevice(move * first.frame, first.markers, first.labels)
+
+    @classmethod
+    def planning_model(cls, chain: Chain, params: ParameterModel, setup: Any) -> PositionModel:
+        """A device with the simulator's markers (:data:`DEFAULT_MARKERS_MM`,
+        labelled 1..3) and frame, its frame and markers estimated (a rigid move of the device
+        changes no design: the information is the same in any frame)."""
+        if setup is not None and setup.given():
+            raise CalibPinError(f"a position device takes no set-up options to plan for (got {', '.join(setup.given())})")
+        device = PositionDevice(default_device_frame(), np.array(DEFAULT_MARKERS_MM) * 1e-3,
+                                tuple(range(1, len(DEFAULT_MARKERS_MM) + 1)))
+        return cls(chain, params, device)
+
+    @classmethod
+    def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
+                             calibrated: MeasurementModel, x: np.ndarray,
+                             options: Mapping[str, Any]) -> CalibrationProblem:
+        """A moved device: its frame estimated. The markers ride on the tool, not on the
+        device: when the calibration knows every marker of the session they are its own (as
+        calibrated) and stay fixed, and the frame starts from their rigid (Kabsch) fit on
+        ``rows``; else (new markers) frame and markers are estimated, as :meth:`problem_for` does.
+
+        Raises:
+            DataError: fewer values on ``rows`` than the unknowns to fit.
+        """
+        assert isinstance(calibrated, PositionModel) and session.point_ids is not None
+        source = session.source or "test_data"
+        known = calibrated.geometry_at(x)
+        labels, points = marker_labels(session.point_ids, source)
+        try:
+            index = known.index_of(list(labels))
+        except DataError:
+            index = None
+        n_unknowns = 6 if index is not None else 6 + 3 * len(labels)
+        if 3 * len(rows) < n_unknowns:
+            raise DataError(source, f"{len(rows)} registration rows give {3 * len(rows)} values, fewer than the "
+                            f"{n_unknowns} set-up unknowns (the device frame{'' if index is not None else ' and markers'})"
+                            ": register on more poses", None, "register")
+        if index is None:
+            return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance")})
+        markers = known.markers[index]
+        base = calibrated.points_at(x, session.q[rows], markers[points[rows]])
+        device = PositionDevice(_kabsch(base, session.values[rows]), markers, labels)
+        model = cls(chain, params, device, ("device",), options.get("compliance"))
+        return CalibrationProblem(model, session.q, session.values, points)
 
     def point_index(self, labels: Any, n_rows: int, source: str = "") -> np.ndarray:
         """Marker indices of ``n_rows`` rows labelled ``labels`` (the file's ``point_id``

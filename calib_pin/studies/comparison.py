@@ -379,6 +379,8 @@ def compare(
     payload_kg: float | None = None,
     payload_com_mm: Any = None,
     cable_tension_n: float | None = None,
+    parameters: str | None = None,
+    estimate: tuple[str, ...] | str = (),
     jobs: int = 1,
     scheduler: str | None = None,
     checkpoint: str | Path | None = None,
@@ -404,6 +406,10 @@ def compare(
             :class:`~calib_pin.robot.deflection.Compliance` or joint names (as
             :func:`calib_pin.calibrate`); payload_kg, payload_com_mm, cable_tension_n: its
             deprecated loose aliases.
+        parameters: Parameter model (``dh``, ``hayati``, ``placement``; default as
+            :func:`calib_pin.calibrate`).
+        estimate: Sensor geometry to estimate (``anchor``, ``offset``; as
+            :func:`calib_pin.calibrate`).
         jobs, scheduler: Run the trials in ``jobs`` local processes, or on the Dask
             cluster at ``scheduler`` (see :func:`calib_pin.studies.parallel.parallel_map`); the
             results do not depend on it (each trial is seeded), only the time does.
@@ -427,7 +433,11 @@ def compare(
         raise CalibPinError(f"trials must be at least 1, got {trials}")
     record = as_compliance(compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm,
                            cable_tension_n=cable_tension_n)
-    soft = {"compliance": record}
+    soft: dict[str, Any] = {"compliance": record}
+    if parameters is not None:  # only when given: the checkpoints of earlier runs stay valid
+        soft["parameters"] = parameters
+    if estimate:
+        soft["estimate"] = estimate
     with progress_bar(trials * len(methods), "trials x methods") as bar:
         local = jobs == 1 and scheduler is None  # a bar follows only the trials run here
         tick = bar.update if bar is not None and local else None
@@ -455,14 +465,17 @@ def _trials(robot: str, data: Any, methods: list[str], trials: int, seed: int, t
             get_method(m).check(kind=setup.data.kind)
         truth_file = Path(setup.data.source).with_name(
             Path(setup.data.source).name.removesuffix(".csv") + ".truth.json")
-        truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() else None
+        # a shipped truth is in the robot's default parameter model: another one has no fresh-pose score
+        default = setup.params.name == parameter_model(setup.chain).name
+        truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() and default \
+            else None
         one = partial(_trial, setup, truth, methods, test_fraction=test_fraction, tick=tick)
         what = f"{setup.data.describe_rows()} from {Path(setup.data.source).name}"
         what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
         settings += ["data", setup.data.source, file_digest(setup.data.source), file_digest(truth_file)]
         return _run_trials(one, seeds, settings, where, keep), what
     chain = load_chain(robot)
-    params = parameter_model(chain)
+    params = parameter_model(chain, soft.get("parameters"))
     one = partial(_simulated_trial, robot, chain, params, methods, test_fraction, poses, noise_mm, simulate_noise,
                   soft, tick=tick)
     what = f"simulated sets of {poses} poses, {simulate_noise} noise {noise_mm:g} mm, seed(s) {seed}..{seed + trials - 1}"

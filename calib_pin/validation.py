@@ -1,0 +1,182 @@
+"""A separate validation session and its sensor set-up: the training set's, or a new one.
+
+A validation session is often measured with the sensor moved: the tracker relocated, the
+drawstring re-anchored. :class:`TestSet` says which, per session:
+
+- ``register=None`` (the default): the same set-up as the training set (``same``: its
+  label). The session's own set-up must agree with the calibration's, else it is refused
+  (a drawstring's ``# anchor_mm``; a device frame more than 5 mm from the calibration's);
+  nothing is fitted on it (:func:`calib_pin.pipeline.score_session`).
+- ``register=k`` (the session's first k poses) or ``register="role"`` (its rows whose
+  ``role`` column says ``register``): a new set-up, re-registered first. Only the session's
+  own sensor unknowns (a device frame and markers, a drawstring's anchor and offset) are
+  fitted on those rows with the calibrated robot fixed (:func:`register_session`); the
+  other rows are scored. A registration row is never scored.
+
+The "before" error of a re-registered session is the same protocol with the nominal robot:
+its sensor unknowns fitted on the same rows with the nominal robot, the rest scored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .analysis.metrics import Metrics
+from .exceptions import ArgumentError, DataError
+from .measurements import MeasurementSet
+
+if TYPE_CHECKING:
+    from .problem import CalibrationProblem
+    from .result import CalibrationResult
+
+#: The ``role`` column value of a validation session's registration rows.
+REGISTER_ROLE = "register"
+
+
+@dataclass(frozen=True)
+class TestSet:
+    """A separate validation session and how its sensor set-up relates to the calibration.
+
+    Attributes:
+        data: The session: a measurement CSV or a :class:`~calib_pin.measurements.MeasurementSet`.
+        register: None: the training set's set-up (checked, never fitted); an int k >= 1:
+            a new set-up, re-registered on the session's first k poses (in file order);
+            ``"role"``: re-registered on its rows whose ``role`` column is ``register``.
+        same: With ``register`` None, the label of the training set whose set-up the session
+            shares (its file's stem, or file name); "" the training set. Checked.
+    """
+
+    __test__ = False  # not a pytest class
+
+    data: str | Path | MeasurementSet
+    register: int | str | None = None
+    same: str = ""
+
+    def __post_init__(self) -> None:
+        """Raises: ArgumentError naming ``register`` or ``same``."""
+        r = self.register
+        if r is not None and not (r == "role" or (isinstance(r, int | np.integer) and not isinstance(r, bool) and r >= 1)):
+            raise ArgumentError("register", f"expected a number of poses >= 1 or 'role' (rows with role={REGISTER_ROLE}), "
+                                f"got {r!r}")
+        if not isinstance(self.same, str):
+            raise ArgumentError("same", f"expected a training set's label (text), got {type(self.same).__name__}")
+        if r is not None and self.same:
+            raise ArgumentError("same", "a re-registered session has its own set-up: give register or same, not both")
+
+    def describe(self) -> str:
+        """How its rows are used, for people."""
+        if self.register is None:
+            return "the training set's set-up"
+        if self.register == "role":
+            return f"a new set-up, re-registered on its rows with role={REGISTER_ROLE}"
+        return f"a new set-up, re-registered on its first {self.register} poses"
+
+
+def as_test_set(test_data: Any) -> TestSet | None:
+    """``test_data`` (None, a path, a set, or a TestSet) as a TestSet."""
+    if test_data is None or isinstance(test_data, TestSet):
+        return test_data
+    return TestSet(test_data)
+
+
+def registration_rows(session: MeasurementSet, register: int | str) -> tuple[np.ndarray, np.ndarray]:
+    """The session's registration rows and scored rows (0-based, disjoint, every row in one).
+
+    Raises:
+        DataError: no ``role`` column or no row marked ``register``; k poses that leave
+            nothing to score.
+    """
+    source = session.source or "test_data"
+    if register == "role":
+        column = session.extra.get("role")
+        if column is None:
+            raise DataError(source, f"register=role needs a 'role' column marking the registration rows "
+                            f"'{REGISTER_ROLE}'", None, "role")
+        marked = np.array([str(v).strip().lower() == REGISTER_ROLE for v in np.asarray(column, dtype=object)])
+        if not marked.any():
+            raise DataError(source, f"no row has role '{REGISTER_ROLE}': nothing to re-register the session on",
+                            None, "role")
+    else:
+        groups = np.asarray(session.groups)
+        _, first = np.unique(groups, return_index=True)
+        in_order = groups[np.sort(first)]
+        if int(register) >= len(in_order):
+            raise DataError(source, f"register={register} poses of its {len(in_order)}: nothing left to score "
+                            "(register on fewer poses)", None, "register")
+        marked = np.isin(groups, in_order[: int(register)])
+    if marked.all():
+        raise DataError(source, "every row registers the session: nothing left to score", None, "role")
+    return np.flatnonzero(marked), np.flatnonzero(~marked)
+
+
+def _fit_sensor(problem: CalibrationProblem, fixed: np.ndarray) -> np.ndarray:
+    """x with the problem's robot part (deviations, compliances) held at ``fixed`` and its
+    sensor unknowns fitted by scipy's least squares (Levenberg-Marquardt) from zero."""
+    from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
+
+    def full(e: np.ndarray) -> np.ndarray:
+        return np.concatenate([fixed, e])
+
+    start = len(fixed)
+    fit = least_squares(lambda e: problem.residual(full(e)), np.zeros(problem.model.n_params - start),
+                        jac=lambda e: problem.jacobian(full(e))[:, start:], method="lm")
+    return full(fit.x)
+
+
+def register_session(result: CalibrationResult, test: TestSet, session: MeasurementSet,
+                     options: dict[str, Any]) -> tuple[dict[str, Metrics], dict[str, Any]]:
+    """Re-register a validation session on a new set-up and score its other rows.
+
+    The session's problem (its sensor's :meth:`~calib_pin.sensors.base.MeasurementModel.registration_problem`)
+    starts from its set-up fitted on the registration rows with the nominal robot; its
+    sensor unknowns are then fitted on those rows with the calibrated robot fixed ("after"),
+    and with the nominal robot ("before").
+
+    Returns:
+        The ``test`` metrics (before, after) of the scored rows, and what report.json
+        shows (``test_registration``: rows, file lines, unknowns fitted, the session's geometry).
+
+    Raises:
+        DataError: too few registration values for the session's sensor unknowns, or a
+            sensor with none (nothing to re-register).
+    """
+    from .sensors import sensor_for
+
+    assert test.register is not None
+    source = session.source or "test_data"
+    register, scored = registration_rows(session, test.register)
+    calibrated: Any = result.problem.model
+    problem = sensor_for(session.kind).registration_problem(result.chain, result.params, session, register,
+                                                            calibrated, result.x, options)
+    model = problem.model
+    start = model.sensor_start
+    n_sensor = model.n_params - start
+    if n_sensor == 0:
+        raise DataError(source, f"{model.data_name} have no set-up unknowns to re-register: leave register out",
+                        None, "register")
+    fitted = problem.subset(register)
+    if fitted.n_values < n_sensor:
+        raise DataError(source, f"{len(register)} registration rows give {fitted.n_values} values, fewer than the "
+                        f"{n_sensor} set-up unknowns ({model.describe()}): register on more poses", None, "register")
+    assert start == calibrated.sensor_start, "the session's model has the calibration's robot unknowns"
+    before = _fit_sensor(fitted, np.zeros(start))
+    after = _fit_sensor(fitted, np.asarray(result.x, dtype=float)[:start])
+    part = problem.subset(scored)
+    metrics = {"before": Metrics.of(part.row_errors(part.residual(before))),
+               "after": Metrics.of(part.row_errors(part.residual(after)))}
+    lines = None if session.lines is None else np.asarray(session.lines)
+    how = f"rows with role={REGISTER_ROLE}" if test.register == "role" else f"first {test.register} poses"
+    info = {
+        "data": session.source, "setup": "new", "registered_on": how,
+        "registered_rows": register.tolist(), "scored_rows": scored.tolist(),
+        "registered_lines": None if lines is None else lines[register].tolist(),
+        "scored_lines": None if lines is None else lines[scored].tolist(),
+        "fitted": list(model.names[start:]), "robot": "calibrated, held fixed",
+        "registration_rmse_mm": float(np.sqrt(np.mean(fitted.row_errors(fitted.residual(after)) ** 2)) * 1e3),
+        "sensor": model.describe(), "geometry": model.geometry_report(after),
+    }
+    return metrics, info
