@@ -161,3 +161,18 @@ def test_a_cable_set_and_a_pose_set_together_beat_each_alone(robot):
                        fresh(p.model, p.x, fresh_poses) / fresh(alone_poses.problem.model, alone_poses.x, fresh_poses)))
     mean = np.mean(ratios, axis=0)
     assert mean[0] < 0.95 and mean[1] < 0.95, ratios
+
+
+def test_the_simulate_seam_draws_a_pose_set_its_truth_predicts(robot):
+    """simulate_set / simulate --kinds pose: PoseModel.simulate_rows on the shared draws."""
+    from calib_pin.simulation import simulate_set
+
+    chain, params = robot
+    data, truth = simulate_set(PoseModel, chain, params, 30, seed=8)
+    assert data.kind == "pose" and data.values.shape == (30, 7) and data.notes["noise_deg"] == "0.01"
+    model = truth.model(chain, params)
+    assert model.n_params == len(params.names)  # a truth's model estimates nothing of the sensor
+    mm, deg = model.part_errors(truth.x_model, data.q, data.values)
+    assert 0.02 < np.sqrt(np.mean(mm**2)) < 0.15 and 0.005 < np.sqrt(np.mean(deg**2)) < 0.03  # the noise, 3 axes
+    result = cp.calibrate("irb120", data, method="lm", test_fraction=0.25)
+    assert result.metrics["test"]["after"].rmse_mm < 0.05 * np.sqrt(6) * 1.5 < result.metrics["test"]["before"].rmse_mm

@@ -41,7 +41,7 @@ from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
-from .base import DEFAULT_NOISE_MM, MeasurementModel
+from .base import DEFAULT_NOISE_MM, MeasurementModel, chosen
 from .setup import SensorSetup, finite, option
 
 if TYPE_CHECKING:
@@ -50,6 +50,8 @@ if TYPE_CHECKING:
 
 #: Orientation noise (1 sigma per axis) assumed when neither ``# noise_deg`` nor the caller give it, [deg].
 DEFAULT_NOISE_DEG = 0.01
+#: What a pose model estimates with the robot's deviations (both, unless a truth's model).
+POSE_EXTRAS = ("device", "body")
 #: A quaternion whose norm is farther than this from 1 is refused (it is not a rotation as written).
 QUATERNION_TOLERANCE = 1e-3
 
@@ -242,14 +244,21 @@ class PoseModel(MeasurementModel):
 
     def __init__(self, chain: Chain, params: ParameterModel, rig: PoseRig, noise_m: float = DEFAULT_NOISE_MM * 1e-3,
                  noise_rad: float = float(np.deg2rad(DEFAULT_NOISE_DEG)),
-                 compliance: ComplianceSpec | None = None) -> None:
+                 compliance: ComplianceSpec | None = None, estimate: Any = POSE_EXTRAS) -> None:
         if not isinstance(rig, PoseRig):
             raise ArgumentError("rig", f"expected a PoseRig (device T_DB, body T_EK), got {type(rig).__name__}")
         if not (noise_m > 0 and noise_rad > 0):
             raise ArgumentError("noise", f"position and orientation noise must be positive, got {noise_m} m, "
                                 f"{noise_rad} rad")
-        extra = [(f"device_{a}", "m", 2e-3) for a in "xyz"] + [(f"device_r{a}", "rad", 2e-3) for a in "xyz"]
-        extra += [(f"body_{a}", "m", 1e-3) for a in "xyz"] + [(f"body_r{a}", "rad", 2e-3) for a in "xyz"]
+        self.estimate = chosen(estimate, POSE_EXTRAS, "a 6-D pose device")
+        extra = []
+        if "device" in self.estimate:
+            extra += [(f"device_{a}", "m", 2e-3) for a in "xyz"] + [(f"device_r{a}", "rad", 2e-3) for a in "xyz"]
+        if "body" in self.estimate:
+            extra += [(f"body_{a}", "m", 1e-3) for a in "xyz"] + [(f"body_r{a}", "rad", 2e-3) for a in "xyz"]
+        #: Which of the 12 corrections (device translation, rotation, body translation, rotation) x holds.
+        self._parts = np.array([6 * k + i for k, name in enumerate(POSE_EXTRAS) if name in self.estimate
+                                for i in range(6)], dtype=int)
         super().__init__(chain, params, extra, compliance)
         self.rig = rig
         self.noise_m, self.noise_rad = float(noise_m), float(noise_rad)
@@ -295,11 +304,15 @@ class PoseModel(MeasurementModel):
     # --- geometry -------------------------------------------------------------------------
 
     def _corrections(self, x: np.ndarray | None) -> np.ndarray:
-        return np.zeros(12) if x is None else self.sensor_part(x)
+        """All 12 corrections (zero for a part not estimated)."""
+        e = np.zeros(12)
+        if x is not None:
+            e[self._parts] = self.sensor_part(x)
+        return e
 
     def geometry_at(self, x: np.ndarray | None) -> PoseRig:
         """The device frame and body x implies."""
-        if x is None:
+        if x is None or not self.estimate:
             return self.rig
         e = self._corrections(x)
         device = pin.SE3(self.rig.device.rotation @ pin.exp3(e[3:6]), self.rig.device.translation + e[:3])
@@ -396,13 +409,14 @@ class PoseModel(MeasurementModel):
         jac[:, :3] = rot_db @ d_p  # the sensor's columns are still zero
         jac[:, 3:] = self.weight * (jlog @ (rot_ek.T @ omega_e))
         e = self._corrections(x)
-        s = self.sensor_start
         jr_device, jr_body = pin.Jexp3(e[3:6]), pin.Jexp3(e[9:12])
-        jac[:, :3, s : s + 3] = np.eye(3)
-        jac[:, :3, s + 3 : s + 6] = rot_db @ cross_matrices(p_bk) @ jr_device
-        jac[:, 3:, s + 3 : s + 6] = self.weight * (jlog @ np.transpose(rot_bk, (0, 2, 1)) @ jr_device)
-        jac[:, :3, s + 6 : s + 9] = rot_db @ rot_be
-        jac[:, 3:, s + 9 : s + 12] = self.weight * (jlog @ jr_body)
+        sensor = np.zeros((n, 6, 12))  # every correction's columns; x holds the estimated ones
+        sensor[:, :3, 0:3] = np.eye(3)
+        sensor[:, :3, 3:6] = rot_db @ cross_matrices(p_bk) @ jr_device
+        sensor[:, 3:, 3:6] = self.weight * (jlog @ np.transpose(rot_bk, (0, 2, 1)) @ jr_device)
+        sensor[:, :3, 6:9] = rot_db @ rot_be
+        sensor[:, 3:, 9:12] = self.weight * (jlog @ jr_body)
+        jac[:, :, self.sensor_start :] = sensor[:, :, self._parts]
         return r, jac
 
     def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
@@ -439,6 +453,34 @@ class PoseModel(MeasurementModel):
 
     # --- simulation -----------------------------------------------------------------------
 
+    @classmethod
+    def simulate_rows(cls, draw: Any, geometry: PoseRig | None) -> tuple[MeasurementSet, PoseRig]:
+        """A 6-D pose session (:meth:`MeasurementModel.simulate_rows`): one pose read at each
+        drawn configuration, the position with Gaussian noise ``draw.noise_mm`` per axis, the
+        orientation with :data:`DEFAULT_NOISE_DEG` per axis (stated as ``# noise_deg``);
+        ``geometry`` None: :func:`default_rig`."""
+        from ..measurements import MeasurementSet
+
+        rig = geometry if geometry is not None else default_rig()
+        chain, params = draw.chain, draw.params
+        model = cls(chain, params, rig, estimate=())
+        q = draw.poses()
+        nominal = model._poses(None, q)[0]
+        draw.deviations(lambda x: np.linalg.norm(model._poses(x, q)[0] - nominal, axis=1))
+        true_model = cls(chain, params, rig, estimate=(), compliance=draw.compliance)
+        position, rot, _ = true_model._poses(draw.x_model, q)
+        position = position + draw.noise((len(q), 3))
+        noise_rad = np.deg2rad(DEFAULT_NOISE_DEG) if draw.noise_mm > 0 else 0.0
+        rot = np.stack([r @ pin.exp3(t) for r, t in zip(rot, draw.rng.normal(size=(len(q), 3)) * noise_rad,
+                                                         strict=True)])
+        data = MeasurementSet(
+            q=q, values=np.column_stack([position, matrix_quaternions(rot)]), kind=cls.kind, robot=chain.name,
+            end_frame=chain.end_frame, noise=draw.noise_mm * 1e-3 or None,
+            notes={**({"noise_deg": f"{DEFAULT_NOISE_DEG:g}"} if draw.noise_mm > 0 else {}),
+                   "source": f"calib-pin 6-D pose simulator, seed {draw.seed}, noise {draw.noise_mm:g} mm per axis, "
+                             f"{DEFAULT_NOISE_DEG if draw.noise_mm > 0 else 0:g} deg per axis"})
+        return data, rig
+
     def noisy_readings(self, x: np.ndarray | None, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Measured poses (n_rows, 7) at x: the true poses with Gaussian noise of
         :attr:`noise_m` per coordinate and :attr:`noise_rad` per axis of a right rotation
@@ -448,6 +490,13 @@ class PoseModel(MeasurementModel):
         turns = rng.normal(size=(len(q), 3)) * self.noise_rad
         rot = np.stack([r @ pin.exp3(t) for r, t in zip(rot, turns, strict=True)])
         return np.column_stack([position, matrix_quaternions(rot)])
+
+
+def default_rig() -> PoseRig:
+    """The simulator's device frame (2 m in front of the robot, turned 150 deg about z) and
+    body (80 mm out of the flange, off axis, tilted)."""
+    return PoseRig(pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4])),
+                   pin.SE3(pin.rpy.rpyToMatrix(0.3, -0.2, 0.5), np.array([0.02, -0.01, 0.08])))
 
 
 def fit_rig(chain: Chain, params: ParameterModel, q: np.ndarray, poses: np.ndarray, weight: float) -> PoseRig:
@@ -529,8 +578,7 @@ def simulate_poses(chain: Chain, params: ParameterModel, n_poses: int, seed: int
                             f"{noise_deg} deg")
     rng = np.random.default_rng(seed)
     if rig is None:
-        rig = PoseRig(pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4])),
-                      pin.SE3(pin.rpy.rpyToMatrix(0.3, -0.2, 0.5), np.array([0.02, -0.01, 0.08])))
+        rig = default_rig()
     model = PoseModel(chain, params, rig, noise_mm * 1e-3, float(np.deg2rad(noise_deg)))
     q = random_poses(chain, n_poses, rng)
     if true_x is None:
