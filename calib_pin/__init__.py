@@ -32,6 +32,8 @@ _API = {
     "parameter_model": "parameters",
     "CableModel": "sensors", "Drawstring": "sensors", "PositionModel": "sensors", "PositionDevice": "sensors",
     "CableSetup": "sensors", "PositionSetup": "sensors",
+    "PoseModel": "sensors", "PoseRig": "sensors", "PoseSetup": "sensors",
+    "ContactModel": "sensors", "ContactSetup": "sensors", "Fixtures": "sensors",
     "MeasurementSet": "measurements", "read_measurements": "measurements", "write_measurements": "measurements",
     "check_measurements": "measurements.checks",
     "simulate": "simulation", "simulate_positions": "simulation", "simulate_sessions": "simulation",
@@ -53,6 +55,8 @@ __all__ = [
     "Chain",
     "Comparison",
     "Compliance",
+    "ContactModel",
+    "ContactSetup",
     "DHModel",
     "DataError",
     "Drawstring",
@@ -60,11 +64,15 @@ __all__ = [
     "EstimateResult",
     "EstimatorError",
     "FitSet",
+    "Fixtures",
     "HayatiModel",
     "Kinematics",
     "MeasurementSet",
     "OutputError",
     "PlacementModel",
+    "PoseModel",
+    "PoseRig",
+    "PoseSetup",
     "PositionDevice",
     "PositionModel",
     "PositionSetup",
@@ -122,6 +130,8 @@ if TYPE_CHECKING:
     from .robot import Chain, Kinematics, load_chain
     from .robot.deflection import Compliance
     from .sensors import CableModel, CableSetup, Drawstring, PositionDevice, PositionModel, PositionSetup
+    from .sensors.contact import ContactModel, ContactSetup, Fixtures
+    from .sensors.pose import PoseModel, PoseRig, PoseSetup
     from .simulation import Truth, simulate, simulate_positions, simulate_sessions
     from .stacked import StackedProblem
     from .studies.comparison import Comparison, compare

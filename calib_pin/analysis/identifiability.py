@@ -45,6 +45,9 @@ class Identifiability:
         unidentifiable: Parameters the readings do not depend on.
         combinations: Combinations identifiable only together, readable text.
         base: Base parameter set (r names, QR with column pivoting).
+        directions: Named directions the sensor states (a contact set's scale), each
+            (name, seen, what makes it seen): seen when the scaled Jacobian moves the
+            readings along it by more than the cut (``rcond`` times s_1) per unit.
     """
 
     names: tuple[str, ...]
@@ -60,6 +63,7 @@ class Identifiability:
     base: tuple[str, ...]
     #: Unknowns held at their start (``--fix``/``--free``), left out of the analysis.
     fixed: tuple[str, ...] = ()
+    directions: tuple[tuple[str, bool, str], ...] = ()
 
     def as_dict(self) -> dict:
         """JSON-ready summary (no singular values)."""
@@ -68,6 +72,8 @@ class Identifiability:
             "o1": self.o1, "o3": self.o3, "o4": self.o4,
             "unidentifiable": list(self.unidentifiable), "combinations": list(self.combinations),
             "base": list(self.base), **({"fixed": list(self.fixed)} if self.fixed else {}),
+            **({"directions": {name: "seen" if seen else "blind" for name, seen, _ in self.directions}}
+               if self.directions else {}),
             "note": "the estimators move only the identifiable directions; the blind ones stay at their start (zero)",
         }
 
@@ -88,6 +94,8 @@ class Identifiability:
         lines.append(f"base parameter set ({len(self.base)}, QR with column pivoting): " + ", ".join(self.base))
         if self.fixed:
             lines.append(f"held at their start (--fix/--free), left out: {', '.join(self.fixed)}")
+        for name, seen, hint in self.directions:
+            lines.append(f"{name}: seen" if seen else f"{name}: BLIND, no residual changes along it ({hint})")
         return "\n".join(lines)
 
 
@@ -158,6 +166,12 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
     live_rank = int(np.sum(s_live > rcond * s[0]))
     null = vt_live[live_rank:]
     _, _, pivots = qr(scaled, pivoting=True, mode="economic")
+    directions = []
+    named = getattr(problem, "named_directions", None)  # the sensor's own, if it names any
+    for name, (v, hint) in (named(x) if named is not None else {}).items():
+        u = np.asarray(v, dtype=float) / model.scale
+        seen = bool(np.linalg.norm(scaled @ u) > rcond * s[0] * np.linalg.norm(u))
+        directions.append((name, seen, hint))
     return Identifiability(
         names=tuple(names),
         n_poses=m,
@@ -173,6 +187,7 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
             [units[i] for i in live])) if len(null) else (),
         base=tuple(names[i] for i in sorted(pivots[:rank])),
         fixed=tuple(n for n in model.names if n in fixed),
+        directions=tuple(directions),
     )
 
 

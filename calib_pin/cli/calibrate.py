@@ -421,6 +421,8 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
                   f"fixed, RMS {registered['registration_rmse_mm']:.4f} mm); the other "
                   f"{len(registered['scored_rows'])} rows are the test rows (rows in report.json)")
         print(table(result.metrics))
+        if hasattr(result.problem, "part_summary") and result.estimate.correction is None:  # rows of mixed units
+            print(result.problem.part_summary(result.x, {"train": result.train, "test": result.test}))
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")

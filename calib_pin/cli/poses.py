@@ -134,7 +134,7 @@ def add_plan_poses_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPar
                    help="each sensor's noise (1 sigma), mm, comma-separated in --sensor's order: a mix weighs each "
                    "sensor's rows by it (default: equal)")
     add_sensor_arguments(p, {"anchor_mm": "default 600,200,-100", "tool_mm": "default 0,0,50",
-                             "estimate": "that will be estimated too"}, skip=("length_offset_mm",))
+                             "estimate": "that will be estimated too"}, skip=("length_offset_mm", "noise_deg"))
     add_end_frame_argument(p)
     add_model_argument(p)
     p.add_argument("--out", required=True, help="pose list CSV")

@@ -91,6 +91,13 @@ class Method:
         if kind is not None and self.kinds and kind not in self.kinds:
             raise EstimatorError(f"method '{self.name}' takes {' or '.join(self.kinds)} data, not {kind} data; "
                                  "use a parameter method")
+        from ..sensors import SENSORS
+
+        model = SENSORS.get(kind) if kind is not None else None
+        if model is not None and self.name in getattr(model, "unsupported_methods", ()):  # rows of several sizes
+            usable = [m for m in METHODS if m not in getattr(model, "unsupported_methods", ())]
+            raise EstimatorError(f"method '{self.name}' needs rows of one size, and {model.data_name} rows differ "
+                                 f"in size: use {', '.join(usable)}")
 
 
 #: The registry: the paper's M1..M9 in its order, then combinations of them.

@@ -74,7 +74,8 @@ def _check_shapes(chain: Chain, data: MeasurementSet) -> None:
     if not len(q):
         raise DataError(where, "has no rows", None, "q")
     values = np.asarray(data.values)
-    per_row = None if model is None else model.values_per_row
+    # numbers a data row holds: a sensor whose residual rows differ from them says so (a pose: 7 read, 6 fitted)
+    per_row = None if model is None else getattr(model, "data_values_per_row", model.values_per_row)
     expected = None if per_row is None else (len(q),) if per_row == 1 else (len(q), per_row)
     if model is not None and expected is not None and (values.dtype.kind not in "iuf" or values.shape != expected):
         one = "reading" if per_row == 1 else ", ".join(model.value_columns)

@@ -55,6 +55,16 @@ class Columns:
     sensor: dict[str, tuple[int, str]] = field(default_factory=dict)
     #: That sensor's kind ("" without such columns).
     sensor_kind: str = ""
+    #: A registered sensor's unit-free value columns (its ``plain_columns``, after its
+    #: ``value_columns``: a 6-D pose's quaternion): name -> column index.
+    plain: dict[str, int] = field(default_factory=dict)
+    #: That sensor's kind ("" without such columns).
+    plain_kind: str = ""
+    #: A registered sensor's text label columns (its ``label_columns``: a contact set's
+    #: ``contact_id``, ``plane_id``): name -> column index.
+    labels: dict[str, int] = field(default_factory=dict)
+    #: That sensor's kind ("" without such columns).
+    label_kind: str = ""
 
     @property
     def position(self) -> bool:
@@ -72,6 +82,24 @@ def plugin_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
 
     return {c: (kind, model.value_columns) for kind, model in SENSORS.items()
             if model.value_columns and tuple(model.value_columns) not in _BUILT_IN for c in model.value_columns}
+
+
+def plain_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
+    """Name -> (kind, all its unit-free columns) of every registered sensor with
+    ``plain_columns`` (read as they are, after its ``value_columns``)."""
+    from ..sensors import SENSORS
+
+    plain = {kind: tuple(getattr(model, "plain_columns", ())) for kind, model in SENSORS.items()}
+    return {c: (kind, names) for kind, names in plain.items() for c in names}
+
+
+def label_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
+    """Name -> (kind, all its label columns) of every registered sensor with
+    ``label_columns`` (text naming what a row touched; a row may leave some empty)."""
+    from ..sensors import SENSORS
+
+    labels = {kind: tuple(getattr(model, "label_columns", ())) for kind, model in SENSORS.items()}
+    return {c: (kind, names) for kind, names in labels.items() for c in names}
 
 
 def kind_of_columns(columns: tuple[str, ...]) -> str:
@@ -134,6 +162,16 @@ def classify(header: list[str], path: Path, line: int) -> Columns:
                 raise DataError(str(path), f"two {m.group(1)} columns, or columns of two sensors: keep one", line, name)
             cols.sensor[m.group(1)] = (col, m.group(2))
             cols.sensor_kind = kind
+        elif name in (plain := plain_columns()):
+            if cols.plain_kind and cols.plain_kind != plain[name][0]:
+                raise DataError(str(path), "columns of two sensors: one set holds one sensor's data", line, name)
+            cols.plain[name] = col
+            cols.plain_kind = plain[name][0]
+        elif name in (labelled := label_columns()):
+            if cols.label_kind and cols.label_kind != labelled[name][0]:
+                raise DataError(str(path), "columns of two sensors: one set holds one sensor's data", line, name)
+            cols.labels[name] = col
+            cols.label_kind = labelled[name][0]
         elif name in ANNOTATIONS:
             continue  # what calib-pin compensate adds to the joint targets; not data
         elif name == "pose":
@@ -198,6 +236,16 @@ def check_columns(cols: Columns, n_joints: int, robot: str | None, end_frame: st
     for i in sorted(expected):
         if i not in cols.joints:
             raise DataError(str(path), f"missing column q{i}_deg (or q{i}_rad; q{i}_mm for a prismatic joint)", line)
+    if cols.label_kind:
+        other = ("length" if cols.length is not None else "x/y/z" if cols.coords else "point_id" if cols.point is not None
+                 else cols.sensor_kind or cols.plain_kind)
+        if other:
+            raise DataError(str(path), f"has {cols.label_kind} columns ({', '.join(cols.labels)}) and {other}: one set "
+                            "holds one sensor's data", line)
+        return
+    if cols.plain_kind:
+        _check_plain(cols, path, line)
+        return
     if cols.sensor_kind:
         if cols.position or cols.length is not None:
             raise DataError(str(path), f"has {cols.sensor_kind} columns and others: one set holds one sensor's data",
@@ -216,3 +264,27 @@ def check_columns(cols: Columns, n_joints: int, robot: str | None, end_frame: st
                 raise DataError(str(path), f"missing column {axis}_mm (or {axis}_m) of a position set", line)
     if cols.length is None and readings and not cols.position:
         raise DataError(str(path), "missing column length_mm (or length_m)", line)
+
+
+def _check_plain(cols: Columns, path: Path, line: int) -> None:
+    """Refuse a header with a sensor's unit-free columns but not all of them and its
+    value columns (a 6-D pose set: x, y, z and qw, qx, qy, qz), or with another sensor's.
+
+    Raises:
+        DataError: naming the missing or foreign column.
+    """
+    from ..sensors import SENSORS
+
+    model = SENSORS[cols.plain_kind]
+    kind = cols.plain_kind
+    if cols.length is not None or cols.sensor_kind or cols.point is not None:
+        other = "length" if cols.length is not None else "point_id" if cols.point is not None else cols.sensor_kind
+        raise DataError(str(path), f"has {kind} columns and {other}: one set holds one sensor's data", line)
+    coords = tuple(model.value_columns) == ("x", "y", "z")
+    for quantity in model.value_columns:
+        if quantity not in (cols.coords if coords else cols.sensor):
+            raise DataError(str(path), f"missing column {quantity}_mm (or {quantity}_m) of a {kind} set", line)
+    plain = tuple(getattr(model, "plain_columns", ()))
+    for name in plain:
+        if name not in cols.plain:
+            raise DataError(str(path), f"missing column {name} of a {kind} set ({', '.join(plain)})", line)

@@ -39,7 +39,7 @@ from __future__ import annotations
 import csv
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -50,7 +50,16 @@ from ..exceptions import DataError
 from ..input_files import check_regular
 from ..robot.chain import Chain
 from . import dialect
-from .columns import ANNOTATIONS, Columns, check_columns, check_near_misses, classify, kind_of_columns, plugin_columns
+from .columns import (
+    ANNOTATIONS,
+    Columns,
+    check_columns,
+    check_near_misses,
+    classify,
+    kind_of_columns,
+    plain_columns,
+    plugin_columns,
+)
 from .dataset import MeasurementSet, point_label
 from .dialect import Dialect, Override, number, quote, shown_separator
 
@@ -140,9 +149,38 @@ def _metadata_line(parsed: _Parsed, stripped: str, path: Path, number_: int) -> 
             raise DataError(str(path), "metadata given twice", number_, key)
         parsed.override = dialect.parse_override(value, path, number_)
         return
-    if _meta_name(key) in {_meta_name(seen) for _, seen, _ in parsed.raw_meta}:  # anchor_mm and anchor_m too
+    if _pair_key(key) is None and _meta_name(key) in {_meta_name(seen) for _, seen, _ in parsed.raw_meta}:
+        # anchor_mm and anchor_m too; a pair key (# distance_mm: A, B, 300) may be given once a pair
         raise DataError(str(path), "metadata given twice", number_, key)
     parsed.raw_meta.append((number_, key, value))
+
+
+def _pair_key(key: str) -> tuple[str, float] | None:
+    """(name, scale to m) of a registered sensor's pair metadata key (``distance_mm``:
+    ``label, label, length``, given once a pair), else None."""
+    from ..sensors import SENSORS
+
+    base, _, unit = key.rpartition("_")
+    pairs = {k for m in SENSORS.values() for k in getattr(m, "pair_metadata", ())}
+    scale = {"mm": 1e-3, "m": 1.0}.get(unit)
+    return (base, scale) if base in pairs and scale else None
+
+
+def _pair_value(key: str, text: str, path: Path, line: int, decimal: str) -> tuple[str, str, float, int]:
+    """``A, B, 300.000`` of a pair key: (label A, label B, length [m], the file line).
+
+    Raises:
+        DataError: not two labels and a positive length.
+    """
+    pair = _pair_key(key)
+    assert pair is not None
+    parts = [p.strip() for p in re.split(r"[;\s]+" if decimal == "," else r"[,;\s]+", text.strip()) if p.strip()]
+    if len(parts) != 3:
+        raise DataError(str(path), f"needs two labels and a length ('A, B, 300.0'), got '{quote(text)}'", line, key)
+    length = number(parts[2], path, line, key, decimal) * pair[1]
+    if length <= 0:
+        raise DataError(str(path), f"{parts[2]} must be positive", line, key)
+    return parts[0], parts[1], length, line
 
 
 def _meta_name(key: str) -> str:
@@ -219,13 +257,23 @@ def _numeric_fields(parsed: _Parsed, cols: Columns):
     numeric = [c for c, _ in cols.joints.values()] + [c for c, _ in cols.coords.values()]
     numeric += [cols.length[0]] if cols.length is not None else []
     numeric += [c for c, _ in cols.sensor.values()]
+    numeric += list(cols.plain.values())
     for number_, fields in parsed.rows:
         for col in numeric:
             yield fields[col], number_, parsed.header[col]
 
 
 def _metadata(parsed: _Parsed, path: Path) -> None:
+    units: dict[str, tuple[str, int]] = {}
     for number_, key, value in parsed.raw_meta:
+        pair = _pair_key(key)
+        if pair is not None:  # one line a pair, all in one unit
+            seen = units.setdefault(pair[0], (key, number_))
+            if seen[0] != key:
+                raise DataError(str(path), f"{seen[0]} on line {seen[1]} and {key} here mix units: give every "
+                                f"{pair[0]} in one unit", number_, key)
+            parsed.meta.setdefault(pair[0], []).append(_pair_value(key, value, path, number_, parsed.dialect.decimal))
+            continue
         converted = _metadata_value(key, value, path, number_, parsed.dialect.decimal)
         if converted is None:
             parsed.notes[key] = value.strip()
@@ -257,6 +305,12 @@ def _angles(fields: list[str], header: list[str], cols: Columns, chain: Chain | 
 
 
 def _values(fields: list[str], header: list[str], cols: Columns, path: Path, line: int, decimal: str) -> np.ndarray:
+    if cols.label_kind:  # a row that names what it touched holds no value
+        return np.zeros(0)
+    if cols.plain_kind:  # a sensor's unit-free columns after its value columns (a pose: x, y, z, then qw .. qz)
+        plain = np.array([number(fields[col], path, line, header[col], decimal) for col in cols.plain.values()])
+        return np.concatenate([_values(fields, header, replace(cols, plain={}, plain_kind=""), path, line, decimal),
+                               plain])
     if cols.sensor_kind:  # a registered sensor's columns, in its order
         return np.array([number(fields[col], path, line, header[col], decimal) * (1e-3 if unit == "mm" else 1.0)
                          for col, unit in cols.sensor.values()])
@@ -297,6 +351,23 @@ def _point_ids(parsed: _Parsed, col: int, path: Path) -> np.ndarray:
                         f"({quote(label[1])} on line {label[0]}): use one kind (1, 2, ... or P1, P2, ...)",
                         whole[0][0] if whole[0][0] > label[0] else label[0], "point_id")
     return np.array([t for _, t in texts], dtype=str)
+
+
+def _labels(parsed: _Parsed, cols: Columns, path: Path) -> dict[str, np.ndarray]:
+    """A sensor's label columns as text ('' where empty).
+
+    Raises:
+        DataError: an over-long label or one with control characters.
+    """
+    out = {}
+    for name, col in cols.labels.items():
+        texts = [(number_, fields[col].strip()) for number_, fields in parsed.rows]
+        for number_, text in texts:
+            if len(text) > _LABEL_LIMIT or any(ord(c) < 32 or ord(c) == 127 for c in text):
+                raise DataError(str(path), f"'{quote(text)}' is not a label (text of up to {_LABEL_LIMIT} printable "
+                                "characters)", number_, name)
+        out[name] = np.array([t for _, t in texts], dtype=str)
+    return out
 
 
 def _extra(parsed: _Parsed, cols: Columns) -> dict[str, np.ndarray]:
@@ -368,7 +439,12 @@ def read_measurements(
     if cols.sensor_kind:  # its columns in the sensor's order
         order = {q: k for k, q in enumerate(plugin_columns()[next(iter(cols.sensor))][1])}
         cols.sensor = dict(sorted(cols.sensor.items(), key=lambda item: order[item[0]]))
-    values = np.empty((n, len(cols.sensor) if cols.sensor_kind else 3 if cols.position else 1))
+    labels = _labels(parsed, cols, path)
+    if cols.plain_kind:  # in the sensor's order
+        order = {name: k for k, name in enumerate(plain_columns()[next(iter(cols.plain))][1])}
+        cols.plain = dict(sorted(cols.plain.items(), key=lambda item: order[item[0]]))
+    width = 0 if cols.label_kind else len(cols.sensor) if cols.sensor_kind else 3 if cols.position else 1
+    values = np.empty((n, width + len(cols.plain)))
     pose_ids = np.empty(n, dtype=int)
     for r, (number_, fields) in enumerate(parsed.rows):
         q[r] = _angles(fields, header, cols, chain, n_joints, path, number_, decimal)
@@ -378,21 +454,23 @@ def read_measurements(
     point_ids = _point_ids(parsed, cols.point, path) if cols.point is not None else np.ones(n, dtype=int)
     lines = [number_ for number_, _ in parsed.rows]
     if cols.pose is not None:
-        _check_unique(pose_ids, point_ids if cols.position else None, lines, path)
+        _check_unique(pose_ids, point_ids if cols.position and not cols.plain_kind else None, lines, path)
     meta = parsed.meta
     if chain is not None and meta.get("robot") not in (None, chain.name, robot_label):
         raise DataError(str(path), f"is for robot '{meta['robot']}', not '{chain.name}'", None, "robot")
-    kind = cols.sensor_kind or (kind_of_columns(("x", "y", "z")) if cols.position else (
+    kind = cols.label_kind or cols.plain_kind or cols.sensor_kind or (kind_of_columns(("x", "y", "z")) if cols.position else (
         kind_of_columns(("length",)) if cols.length is not None else "poses"))
     from ..sensors import SENSORS
 
-    own = SENSORS[kind].metadata_keys if kind in SENSORS else {}
+    own = dict(SENSORS[kind].metadata_keys) if kind in SENSORS else {}
+    own.update({k: 0 for k in getattr(SENSORS.get(kind), "pair_metadata", ())})
     return MeasurementSet(
-        q=q, values=values if values.shape[1] > 1 else values[:, 0], kind=kind,
+        q=q, values=values if values.shape[1] != 1 else values[:, 0], kind=kind,
         anchor=meta.get("anchor"), tool=meta.get("tool"), length_offset=meta.get("length_offset", 0.0),
         noise=meta.get("noise"), robot=meta.get("robot"), end_frame=meta.get("end_frame"),
         lines=np.array(lines, dtype=int), source=str(path), notes=parsed.notes,
         pose_ids=pose_ids if cols.pose is not None else None,
-        point_ids=point_ids if cols.position else None, extra=_extra(parsed, cols),
-        sensor_meta={k: meta[k] for k in own if k in meta},
+        point_ids=point_ids if cols.position and not cols.plain_kind else None, extra=_extra(parsed, cols),
+        sensor_meta={k: tuple(meta[k]) if isinstance(meta[k], list) else meta[k] for k in own if k in meta},
+        labels=labels,
     )

@@ -56,6 +56,8 @@ def metadata_lines(data: MeasurementSet) -> list[str]:
             continue
         text = _mm(np.asarray(value, dtype=float).reshape(-1)) if size > 1 else f"{float(value) * 1e3:.6f}"
         lines.append(f"# {key}_mm: {text}")
+    for key in getattr(SENSORS.get(data.kind), "pair_metadata", ()):  # one line a pair: label, label, length
+        lines += [f"# {key}_mm: {a}, {b}, {length * 1e3:.6f}" for a, b, length, *_ in data.sensor_meta.get(key, ())]
     if data.noise is not None:
         lines.append(f"# noise_mm: {data.noise * 1e3:.6f}")
     return lines + [f"# {k}: {v}" for k, v in data.notes.items()]
@@ -70,16 +72,20 @@ def header(n_joints: int, kind: str, with_pose: bool = False) -> str:
     model = SENSORS.get(kind)
     joints = [f"q{i}_deg" for i in range(1, n_joints + 1)]
     values = [f"{c}_mm" for c in model.value_columns] if model is not None else []
+    values += list(getattr(model, "plain_columns", ()))  # unit-free, after the others (a pose's quaternion)
+    values += list(getattr(model, "label_columns", ()))  # text naming what a row touched (a contact's fixture)
     if model is not None and model.point_labels:
         return ",".join(["pose", "point_id", *joints, *values])
     return ",".join((["pose"] if with_pose else []) + joints + values)
 
 
-def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[PointLabel] = ()) -> str:
+def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[PointLabel] = (),
+        plain: Iterable[float] = ()) -> str:
     """One data row: labels (whole numbers, or text), angles [rad] written in degrees (9
-    decimals), values [m] written in mm (6 decimals: 1 nm, far below any sensor's resolution)."""
+    decimals), values [m] written in mm (6 decimals: 1 nm, far below any sensor's resolution),
+    then unit-free values (``plain``: a quaternion, 12 decimals)."""
     return ",".join([_label(v) for v in labels] + [f"{v:.9f}" for v in np.rad2deg(q)]
-                    + [f"{v * 1e3:.6f}" for v in values])
+                    + [f"{v * 1e3:.6f}" for v in values] + [f"{v:.12f}" for v in plain])
 
 
 def write_measurements(path: str | Path, data: MeasurementSet) -> None:
@@ -99,13 +105,19 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
     lines.append(",".join([header(data.q.shape[1], data.kind), *map(text_field, data.extra)]))
     values = np.asarray(data.values, dtype=float).reshape(len(data), -1)
     labelled = _point_labels(data.kind)
+    from ..sensors import SENSORS
+
+    n_plain = len(getattr(SENSORS.get(data.kind), "plain_columns", ()))
+    label_names = tuple(getattr(SENSORS.get(data.kind), "label_columns", ()))
+    plain, values = values[:, values.shape[1] - n_plain :], values[:, : values.shape[1] - n_plain]
     for k in range(len(data)):
         labels: tuple[PointLabel, ...] = ()
         if labelled:
             pose = data.pose_ids[k] if data.pose_ids is not None else k + 1
             point = data.point_ids[k] if data.point_ids is not None else 1
             labels = (int(pose), point_label(point))
-        lines.append(",".join([row(data.q[k], values[k], labels), *_extra_fields(data, k)]))
+        texts = [text_field(str(data.labels[name][k])) if name in data.labels else "" for name in label_names]
+        lines.append(",".join([row(data.q[k], values[k], labels, plain[k]), *texts, *_extra_fields(data, k)]))
     write_text(path, "\n".join(lines) + "\n")
 
 

@@ -72,6 +72,9 @@ class MeasurementSet:
         sensor_meta: The file's set-up metadata of the set's sensor (its
             ``metadata_keys``), key to value in SI ([m]); the drawstring's is also in
             ``anchor``, ``tool``, ``length_offset``.
+        labels: The sensor's text label columns (its ``label_columns``: a contact set's
+            ``contact_id``, ``plane_id``), name to shape (n_rows,) text, '' where a row
+            leaves one empty.
 
     :attr:`setup` is the sensor's set-up record the set carries (``CableSetup``, ...).
     """
@@ -92,6 +95,7 @@ class MeasurementSet:
     point_ids: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     sensor_meta: dict[str, Any] = field(default_factory=dict)
+    labels: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         """A list or tuple given for an array field (a set made by hand) becomes an array;
@@ -170,4 +174,5 @@ class MeasurementSet:
             return (None if a is None else a[rows])
         return replace(self, q=self.q[rows], values=self.values[rows], lines=pick(self.lines),
                        pose_ids=pick(self.pose_ids), point_ids=pick(self.point_ids),
-                       extra={name: column[rows] for name, column in self.extra.items()})
+                       extra={name: column[rows] for name, column in self.extra.items()},
+                       labels={name: column[rows] for name, column in self.labels.items()})

@@ -3,7 +3,11 @@
 - :class:`.cable.CableModel`: drawstring readings (the paper's sensor), set up by a
   :class:`.cable.CableSetup`;
 - :class:`.position.PositionModel`: marker positions from a laser tracker or CMM, set up
-  by a :class:`.position.PositionSetup`.
+  by a :class:`.position.PositionSetup`.;
+- :class:`.pose.PoseModel`: 6-D poses (position and quaternion) from a tracker's 6-DoF
+  probe or motion capture, set up by a :class:`.pose.PoseSetup`;
+- :class:`.contact.ContactModel`: touches of fixed points and planes (no instrument), set
+  up by a :class:`.contact.ContactSetup`.
 
 The registry :data:`SENSORS` is the only place the kinds are listed: it maps a
 measurement set's ``kind`` to its model. Everything else asks it: the CSV reader and
@@ -22,11 +26,15 @@ from typing import Any
 from ..exceptions import ArgumentError
 from .base import DEFAULT_NOISE_MM, MeasurementModel
 from .cable import CABLE_EXTRAS, CableModel, CableSetup, Drawstring
+from .contact import ContactModel, ContactSetup, Fixtures
+from .pose import PoseModel, PoseRig, PoseSetup
 from .position import PositionDevice, PositionModel, PositionSetup, fit_device
 from .setup import SensorSetup, add_setup_arguments, given
 
 #: Measurement-set kind -> the measurement model that predicts it.
 SENSORS: dict[str, type[MeasurementModel]] = {CableModel.kind: CableModel, PositionModel.kind: PositionModel}
+SENSORS[PoseModel.kind] = PoseModel
+SENSORS[ContactModel.kind] = ContactModel
 
 
 def sensor_for(kind: str) -> type[MeasurementModel]:
@@ -117,7 +125,8 @@ def setup_from_args(args: argparse.Namespace) -> dict[str, Any]:
     return {name: getattr(args, name) for name in setup_fields() if hasattr(args, name)}
 
 
-__all__ = ["CABLE_EXTRAS", "DEFAULT_NOISE_MM", "SENSORS", "CableModel", "CableSetup", "Drawstring", "MeasurementModel",
-           "PositionDevice",
+__all__ = ["CABLE_EXTRAS", "DEFAULT_NOISE_MM", "SENSORS", "CableModel", "CableSetup", "ContactModel", "ContactSetup",
+           "Fixtures", "Drawstring", "MeasurementModel",
+           "PoseModel", "PoseRig", "PoseSetup", "PositionDevice",
            "PositionModel", "PositionSetup", "SensorSetup", "add_sensor_arguments", "check_estimate", "default_kind",
            "fit_device", "register", "sensor_for", "setup_fields", "setup_from_args", "setup_record", "setup_types"]

@@ -1,0 +1,714 @@
+"""Contact fixtures, no instrument at all: the cheapest calibration there is.
+
+Each row says that, at its joint angles q, the tool point t (fixed in the end frame)
+touches a fixture:
+
+- a fixed point (``contact_id``: a socket, a sphere's centre, a cone), whose position P
+  in the base frame is unknown and estimated: the row's residual is p(q, x, t) - P
+  (3 entries, [m]);
+- a plane (``plane_id``: a face of a datum cube, a table), unknown and estimated as a
+  unit normal n and an offset d (n . p = d): the row's residual is the signed distance
+  n . p(q, x, t) - d (1 entry, [m]).
+
+Known distances between points (``# distance_mm: A, B, 300.000`` lines, several allowed:
+a calibrated bar, two sockets of a fixture plate) are residual rows of the set too:
+|P_A - P_B| - L (1 entry each, [m]); they belong to every part of the set (a split
+scores them with the training rows and with the test rows alike).
+
+Unknowns after the robot's: the tool point (``tool_x/y/z`` [m], end frame; unless given
+by ``# tool_mm`` or ``--tool-mm``), each point (``contact<id>_x/y/z`` [m], base frame), each
+plane (``plane<id>_a``, ``plane<id>_b`` [rad]: a right rotation of the starting normal
+about two axes perpendicular to it, n = R0 exp3((a, b, 0)) e_z with R0 e_z = n0; and
+``plane<id>_d`` [m], the offset's correction), all around a nominal fit on the training
+rows (:func:`fit_fixtures`).
+
+What fixtures cannot see: the robot's base placement (the fixtures are located in the
+base frame, so moving the base and every fixture together changes no residual), and,
+without a known distance, the scale: every length of the robot, the tool point, the
+points and the planes' offsets grown together by one factor change no residual.
+:meth:`ContactProblem.named_directions` gives these directions (the scale; the base's
+translations and turns the parameter model can make), and ``--analyze`` says whether the
+set sees each.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+import pinocchio as pin
+
+from ..arguments import as_optional, as_xyz_mm
+from ..exceptions import ArgumentError, CalibPinError, DataError
+from ..problem import CalibrationProblem
+from ..robot.chain import Chain
+from ..robot.deflection import ComplianceSpec
+from .base import DEFAULT_NOISE_MM, MeasurementModel
+from .setup import SensorSetup, option, xyz_mm
+
+if TYPE_CHECKING:
+    from ..measurements import MeasurementSet
+    from ..parameters import ParameterModel
+
+#: Label columns of a contact set: a row names one of them.
+LABEL_COLUMNS = ("contact_id", "plane_id")
+#: A plane needs at least this many rows at distinct configurations to be located.
+MIN_PLANE_POINTS = 3
+_EZ = np.array([0.0, 0.0, 1.0])
+#: Why a contact set cannot see its base placement.
+_LOCATED = "the fixtures are located in the base frame and move with it: no contact row sees it"
+
+
+def _frame_of(normal: np.ndarray) -> np.ndarray:
+    """A rotation R0 with R0 e_z = normal (unit)."""
+    n = normal / np.linalg.norm(normal)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(helper, n)
+    u /= np.linalg.norm(u)
+    return np.column_stack([u, np.cross(n, u), n])
+
+
+@dataclass(frozen=True)
+class Fixtures:
+    """Geometry of a contact set-up.
+
+    Attributes:
+        tool: The tool point in the end frame, shape (3,), [m].
+        tool_known: The tool point was given (not estimated).
+        point_labels: The ``contact_id`` of each point, shape (n_points,).
+        points: The points in the base frame, shape (n_points, 3), [m].
+        plane_labels: The ``plane_id`` of each plane, shape (n_planes,).
+        normals: Unit normals, shape (n_planes, 3), base frame.
+        offsets: Offsets d of n . p = d, shape (n_planes,), [m].
+        distances: Known distances: (index of point A, index of point B, length [m]).
+    """
+
+    tool: np.ndarray
+    tool_known: bool
+    point_labels: tuple[str, ...]
+    points: np.ndarray
+    plane_labels: tuple[str, ...]
+    normals: np.ndarray
+    offsets: np.ndarray
+    distances: tuple[tuple[int, int, float], ...] = ()
+
+    def to_dict(self) -> dict:
+        """In mm (normals unit-free)."""
+        return {
+            "tool_mm": (self.tool * 1e3).tolist(), "tool": "given" if self.tool_known else "estimated",
+            "points_mm": {label: (p * 1e3).tolist() for label, p in zip(self.point_labels, self.points, strict=True)},
+            "planes": {label: {"normal": n.tolist(), "offset_mm": float(d) * 1e3, "meaning": "normal . p_base = offset"}
+                       for label, n, d in zip(self.plane_labels, self.normals, self.offsets, strict=True)},
+            "distances_mm": [[self.point_labels[a], self.point_labels[b], length * 1e3]
+                             for a, b, length in self.distances],
+        }
+
+    @classmethod
+    def from_dict(cls, doc: Mapping[str, Any]) -> Fixtures:
+        """Inverse of :meth:`to_dict`."""
+        points = doc["points_mm"]
+        planes = doc["planes"]
+        labels = tuple(points)
+        index = {label: k for k, label in enumerate(labels)}
+        return cls(np.asarray(doc["tool_mm"], dtype=float) * 1e-3, doc["tool"] == "given", labels,
+                   np.array([points[k] for k in labels], dtype=float).reshape(-1, 3) * 1e-3, tuple(planes),
+                   np.array([planes[k]["normal"] for k in planes], dtype=float).reshape(-1, 3),
+                   np.array([planes[k]["offset_mm"] for k in planes], dtype=float) * 1e-3,
+                   tuple((index[a], index[b], float(v) * 1e-3) for a, b, v in doc["distances_mm"]))
+
+
+@dataclass(frozen=True, eq=False)
+class ContactSetup(SensorSetup):
+    """A contact set-up's options: the tool point, when known (else estimated).
+
+    Attributes:
+        tool_mm: The tool point in the end frame, shape (3,), [mm] (None: the file's
+            ``# tool_mm``, else estimated). Shared with the drawstring's ``--tool-mm``.
+    """
+
+    title: ClassVar[str] = "contact fixtures"
+
+    tool_mm: Any = option(help="tool point in the end frame, 'x,y,z'", unit="mm", parser=xyz_mm)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "tool_mm", as_optional(as_xyz_mm, self.tool_mm, "tool_mm"))
+
+
+def _label_rows(data: MeasurementSet) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's ``contact_id`` and ``plane_id`` text ('' where not given)."""
+    n = len(data)
+    columns = [np.asarray(data.labels.get(name, np.full(n, "")), dtype=str) for name in LABEL_COLUMNS]
+    return columns[0], columns[1]
+
+
+def _line(data: MeasurementSet, row: int) -> int | None:
+    return None if data.lines is None else int(data.lines[row])
+
+
+def fixture_rows(data: MeasurementSet) -> tuple[tuple[str, ...], tuple[str, ...], np.ndarray]:
+    """The set's point labels and plane labels (each sorted) and each row's fixture:
+    index into the points, or n_points + index into the planes, shape (n_rows,).
+
+    Raises:
+        DataError: a row with both ids or neither, naming the file and line.
+    """
+    contact, plane = _label_rows(data)
+    for r in range(len(data)):
+        if bool(contact[r]) == bool(plane[r]):
+            what = "both contact_id and plane_id" if contact[r] else "neither contact_id nor plane_id"
+            raise DataError(data.source, f"has {what}: a row touches one fixture (a point or a plane)",
+                            _line(data, r), "contact_id")
+    points = tuple(sorted(set(contact[contact != ""].tolist())))
+    planes = tuple(sorted(set(plane[plane != ""].tolist())))
+    index: dict[Any, int] = {label: k for k, label in enumerate(points)}
+    index.update({("plane", label): len(points) + k for k, label in enumerate(planes)})
+    rows = np.array([index[c] if c else index[("plane", p)] for c, p in zip(contact, plane, strict=True)], dtype=int)
+    return points, planes, rows
+
+
+def known_distances(data: MeasurementSet, points: tuple[str, ...]) -> tuple[tuple[int, int, float], ...]:
+    """The file's ``# distance_mm`` lines as (point index, point index, length [m]).
+
+    Raises:
+        DataError: a distance naming an id that is no ``contact_id`` of the set, or a
+            point to itself, naming the file and the metadata line.
+    """
+    index = {label: k for k, label in enumerate(points)}
+    out = []
+    for a, b, length, line in data.sensor_meta.get("distance", ()):
+        for label in (a, b):
+            if label not in index:
+                known = ", ".join(points) or "none"
+                raise DataError(data.source, f"{a}, {b}: {label} is no contact_id of this set (contact_ids: {known}); "
+                                "a known distance joins two points the rows touch", line, "distance_mm")
+        if a == b:
+            raise DataError(data.source, f"{a}, {b}: a distance joins two different points", line, "distance_mm")
+        if not length > 0:
+            raise DataError(data.source, f"{length * 1e3:g} mm: a distance is positive", line, "distance_mm")
+        out.append((index[a], index[b], float(length)))
+    return tuple(out)
+
+
+@dataclass
+class ContactProblem(CalibrationProblem):
+    """A calibration problem of contact rows (``points``: each row's fixture index, see
+    :func:`fixture_rows`) and the set's known distances, which every subset keeps.
+
+    Rows differ in size: a point row holds 3 residual entries, a plane row 1, a distance
+    row 1 (after the data rows); use :attr:`row_offsets`.
+    """
+
+    @property
+    def n_data(self) -> int:
+        """Data rows (touches), without the distance rows."""
+        return len(self.q)
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.q) + len(self.model.fixtures.distances)
+
+    n_poses = n_rows
+
+    @property
+    def row_sizes(self) -> np.ndarray:
+        """Residual entries of each row, shape (n_rows,)."""
+        assert self.points is not None
+        data = np.where(self.points < len(self.model.fixtures.points), 3, 1)
+        return np.concatenate([data, np.ones(len(self.model.fixtures.distances), dtype=int)]).astype(int)
+
+    @property
+    def row_offsets(self) -> np.ndarray:
+        return np.concatenate([[0], np.cumsum(self.row_sizes)]).astype(int)
+
+    @property
+    def n_values(self) -> int:
+        return int(np.sum(self.row_sizes))
+
+    def subset(self, rows: np.ndarray | slice) -> ContactProblem:
+        """The same problem restricted to some rows: data rows (indices past them, the
+        distance rows', are dropped: the distance rows always stay)."""
+        assert self.points is not None
+        if not isinstance(rows, slice):
+            rows = np.asarray(rows, dtype=int)
+            rows = rows[rows < self.n_data]
+        return replace(self, q=self.q[rows], readings=self.readings[rows], points=self.points[rows])
+
+    def residual(self, x: np.ndarray | None) -> np.ndarray:
+        """Every row's residual, flattened, shape (n_values,), [m]."""
+        return self.model.residual(x, self.q, self.points)[0]
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        return self.model.residual(x, self.q, self.points, jacobian=True)[1]
+
+    def predict_with_jacobian(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The residual (this sensor reads nothing: a touch's value is zero) and its Jacobian."""
+        return self.model.residual(x, self.q, self.points, jacobian=True)
+
+    def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:
+        """Row ``row``'s residual and Jacobian (a data row, or a distance row after them)."""
+        assert self.points is not None
+        if row < self.n_data:
+            rows = slice(row, row + 1)
+            r, jac = self.model.residual(x, self.q[rows], self.points[rows], jacobian=True, distances=False)
+            return r, jac
+        r, jac = self.model.distance_residual(x, jacobian=True)
+        k = row - self.n_data
+        return r[k : k + 1], jac[k : k + 1]
+
+    def row_errors(self, residual: np.ndarray) -> np.ndarray:
+        """Size of each row's error, shape (n_rows,), [m]: the tool point's distance from
+        its point, |signed distance| from its plane, |length error| of a distance."""
+        offsets = self.row_offsets
+        r = np.asarray(residual)
+        return np.array([np.linalg.norm(r[offsets[k] : offsets[k + 1]]) for k in range(self.n_rows)])
+
+    def named_directions(self, x: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, str]]:
+        """Directions of x with a name, for ``--analyze``: name -> (direction, what would
+        make it seen).
+
+        - ``scale``: every length grown by one factor: the robot's deviations (and the tool
+          point, when estimated) fitted to grow each tool point p by p, each point P by P,
+          each plane's offset by itself;
+        - ``base ...``: the robot's base moved rigidly (a translation along, or a turn about,
+          a base axis) with every fixture: the robot's deviations fitted to move each tool
+          point so; present only where the parameter model can move its base that way
+          (the fit leaves < 1e-6 of the motion).
+        """
+        model = self.model
+        x = np.zeros(self.n_params) if x is None else np.asarray(x, dtype=float)
+        fx = model.geometry_at(x)
+        tips, d_tips = model.predict_with_jacobian(x, self.q)
+        col = model.sensor_start + (0 if fx.tool_known else 3)
+        first_plane = col + 3 * len(fx.points)
+        _, _, planes = model._split(x)
+        d_normals = [-model._frames[m] @ pin.exp3(np.array([planes[m, 0], planes[m, 1], 0.0])) @ pin.skew(_EZ)
+                     @ pin.Jexp3(np.array([planes[m, 0], planes[m, 1], 0.0]))[:, :2] for m in range(len(fx.normals))]
+
+        def direction(tip_motion: np.ndarray, point_motion: np.ndarray, normal_motion: np.ndarray,
+                      offset_motion: np.ndarray, with_tool: bool) -> np.ndarray | None:
+            moving = np.r_[np.arange(model.n_robot), np.arange(model.sensor_start, col) if with_tool else []]
+            moving = moving.astype(int)
+            scaled = d_tips[:, :, moving].reshape(-1, len(moving)) * model.scale[moving]
+            fit = np.linalg.lstsq(scaled, tip_motion.reshape(-1), rcond=1e-10)[0]
+            if np.linalg.norm(scaled @ fit - tip_motion.reshape(-1)) > 1e-6 * np.linalg.norm(tip_motion):
+                return None  # the parameter model cannot move the robot so
+            v = np.zeros(self.n_params)
+            v[moving] = model.scale[moving] * fit
+            v[col:first_plane] = point_motion.reshape(-1)
+            for m, d_normal in enumerate(d_normals):
+                v[first_plane + 3 * m : first_plane + 3 * m + 2] = np.linalg.lstsq(d_normal, normal_motion[m],
+                                                                                   rcond=None)[0]
+                v[first_plane + 3 * m + 2] = offset_motion[m]
+            return v
+
+        out: dict[str, tuple[np.ndarray, str]] = {}
+        zeros = np.zeros_like(fx.normals)
+        scale = direction(tips, fx.points, zeros, fx.offsets, not fx.tool_known)
+        if scale is not None:
+            out["scale (every length together: robot, tool point, points, plane offsets)"] = (
+                scale, "a known distance between two points, '# distance_mm: A, B, length', makes it seen")
+        for k, axis in enumerate("xyz"):
+            e = np.eye(3)[k]
+            moved = direction(np.tile(e, (len(tips), 1)), np.tile(e, (len(fx.points), 1)), zeros, fx.normals @ e, False)
+            if moved is not None:
+                out[f"base translation along {axis} (the robot with every fixture)"] = (
+                    moved, _LOCATED)
+            turned = direction(np.cross(e, tips), np.cross(e, fx.points).reshape(-1, 3),
+                               np.cross(e, fx.normals).reshape(-1, 3), np.zeros(len(fx.normals)), False)
+            if turned is not None:
+                out[f"base turn about {axis} (the robot with every fixture)"] = (
+                    turned, _LOCATED)
+        return out
+
+
+class ContactModel(MeasurementModel):
+    """Touches of fixed points and planes by a tool point on a chain whose deviations follow a parameter model."""
+
+    kind = "contact"
+    #: Residual entries differ by row (3 a point, 1 a plane or a distance: see
+    #: ``ContactProblem.row_offsets``); 1, the fewest, for a count of values.
+    values_per_row = 1
+    #: A contact row holds no measured value: it says which fixture the tool point touches.
+    data_values_per_row = 0
+    #: Rows differ in size within a set (a set of several is not stacked yet: it is fitted alone).
+    rows_differ = True
+    #: Methods that need rows of one size (a sigma-point batch, a correction per row's values).
+    unsupported_methods = ("ukf", "rbf", "lm+rbf")
+    geometry_type = Fixtures
+    error_name = "contact error (distance of the tool point from its point or plane)"
+    setup_type = ContactSetup
+    data_name = "contact fixtures"
+    value_columns = ()
+    #: Text columns naming each row's fixture (read and written as they are).
+    label_columns = LABEL_COLUMNS
+    #: Metadata keys holding ``label, label, length`` (``_mm`` or ``_m``), each line once a pair.
+    pair_metadata = ("distance",)
+    metadata_keys: ClassVar[dict[str, int]] = {"tool": 3}
+    fits_setup = True
+    fitted_setup = "fixture points and planes"
+
+    def __init__(self, chain: Chain, params: ParameterModel, fixtures: Fixtures,
+                 compliance: ComplianceSpec | None = None) -> None:
+        if not isinstance(fixtures, Fixtures):
+            raise ArgumentError("fixtures", f"expected Fixtures, got {type(fixtures).__name__}")
+        extra = [] if fixtures.tool_known else [(f"tool_{a}", "m", 1e-3) for a in "xyz"]
+        extra += [(f"contact{label}_{a}", "m", 1e-3) for label in fixtures.point_labels for a in "xyz"]
+        extra += [(f"plane{label}_{c}", u, s) for label in fixtures.plane_labels
+                  for c, u, s in (("a", "rad", 2e-3), ("b", "rad", 2e-3), ("d", "m", 1e-3))]
+        super().__init__(chain, params, extra, compliance)
+        self.fixtures = fixtures
+        self._frames = np.array([_frame_of(n) for n in fixtures.normals]).reshape(-1, 3, 3)
+
+    # --- set-up -------------------------------------------------------------------------
+
+    @classmethod
+    def setup_of(cls, data: MeasurementSet) -> ContactSetup | None:
+        tool = data.sensor_meta.get("tool", data.tool)
+        return None if tool is None else ContactSetup(tool_mm=np.asarray(tool, dtype=float) * 1e3)
+
+    @classmethod
+    def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
+                    fit_rows: np.ndarray, options: Mapping[str, Any]) -> ContactProblem:
+        """Points and planes start from their fit with the nominal robot on ``fit_rows``
+        (:func:`fit_fixtures`); every fixture must be touched there, a plane at 3 or more
+        distinct configurations."""
+        cls.refuse_foreign(options, data)
+        if options.get("estimate"):
+            raise CalibPinError(f"--estimate {','.join(options['estimate'])} is for drawstring data; with contact "
+                                f"fixtures ({data.source}) the points and planes are always estimated, and the tool "
+                                "point unless given (--tool-mm)")
+        points, planes, rows = fixture_rows(data)
+        distances = known_distances(data, points)
+        given = options.get("tool_mm")
+        tool = np.asarray(given, dtype=float) * 1e-3 if given is not None else data.sensor_meta.get("tool", data.tool)
+        fit_rows = np.asarray(fit_rows, dtype=int)
+        labels = points + planes
+        for k, label in enumerate(labels):
+            where = fit_rows[rows[fit_rows] == k]
+            distinct = len(np.unique(np.round(data.q[where], 9), axis=0)) if len(where) else 0
+            need = 1 if k < len(points) else MIN_PLANE_POINTS
+            if distinct < need:
+                what = f"contact_id {label}" if k < len(points) else f"plane_id {label}"
+                raise DataError(data.source, f"{what} is touched at {distinct} distinct configuration(s) of the "
+                                f"training rows: {'a plane needs 3 or more' if need > 1 else 'nothing locates it'}",
+                                None, "plane_id" if k >= len(points) else "contact_id")
+        fixtures = fit_fixtures(chain, params, data.q[fit_rows], rows[fit_rows], points, planes, tool, distances)
+        model = cls(chain, params, fixtures, options.get("compliance"))
+        return ContactProblem(model, data.q, np.zeros((len(data), 0)), rows)
+
+    # --- geometry -------------------------------------------------------------------------
+
+    def _split(self, x: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """x's tool correction (3,), point corrections (n_points, 3), plane parts (n_planes, 3)."""
+        e = np.zeros(self.n_params - self.sensor_start) if x is None else self.sensor_part(x)
+        fx = self.fixtures
+        tool, e = (np.zeros(3), e) if fx.tool_known else (e[:3], e[3:])
+        n_points = len(fx.points)
+        return tool, e[: 3 * n_points].reshape(-1, 3), e[3 * n_points :].reshape(-1, 3)
+
+    def geometry_at(self, x: np.ndarray | None) -> Fixtures:
+        """The tool point, points and planes x implies."""
+        if x is None:
+            return self.fixtures
+        tool, points, planes = self._split(x)
+        fx = self.fixtures
+        normals = np.array([frame @ pin.exp3(np.array([a, b, 0.0])) @ _EZ
+                            for frame, (a, b, _) in zip(self._frames, planes, strict=True)]).reshape(-1, 3)
+        return replace(fx, tool=fx.tool + tool, points=fx.points + points, normals=normals,
+                       offsets=fx.offsets + planes[:, 2])
+
+    def geometry_report(self, x: np.ndarray | None) -> dict:
+        return self.geometry_at(x).to_dict()
+
+    def describe(self) -> str:
+        fx = self.fixtures
+        parts = [f"{len(fx.points)} point(s)", f"{len(fx.normals)} plane(s)", f"{len(fx.distances)} known distance(s)"]
+        return f"contact fixtures ({', '.join(parts)}), tool point {'given' if fx.tool_known else 'estimated'}"
+
+    @property
+    def reference_point(self) -> np.ndarray:
+        return np.asarray(self.fixtures.tool, dtype=float)
+
+    # --- residuals ------------------------------------------------------------------------
+
+    def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """The tool point in the base frame at q, shape (n_rows, 3), [m] (what touches the fixtures)."""
+        return self.points_at(x, q, self.geometry_at(x).tool)
+
+    def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
+                              points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The tool point (n_rows, 3) [m] and its derivative (n_rows, 3, n_params)."""
+        fx = self.geometry_at(x)
+        tips, end_rot, jac = self.points_with_jacobians(x, q, fx.tool)
+        if not fx.tool_known:
+            jac[:, :, self.sensor_start : self.sensor_start + 3] = end_rot
+        return tips, jac
+
+    def distance_residual(self, x: np.ndarray | None, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Each known distance's |P_A - P_B| - L [m], shape (n_distances,), and its
+        Jacobian (n_distances, n_params) (zeros without ``jacobian``)."""
+        fx = self.geometry_at(x)
+        r = np.empty(len(fx.distances))
+        jac = np.zeros((len(fx.distances), self.n_params))
+        first = self.sensor_start + (0 if fx.tool_known else 3)
+        for k, (a, b, length) in enumerate(fx.distances):
+            gap = fx.points[a] - fx.points[b]
+            size = float(np.linalg.norm(gap))
+            r[k] = size - length
+            if jacobian:
+                jac[k, first + 3 * a : first + 3 * a + 3] = gap / size
+                jac[k, first + 3 * b : first + 3 * b + 3] = -gap / size
+        return r, jac
+
+    def residual(self, x: np.ndarray | None, q: np.ndarray, rows: np.ndarray, jacobian: bool = False,
+                 distances: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """The residual of data rows touching fixtures ``rows`` (then, with ``distances``,
+        the known distances' rows), flattened, [m], and its Jacobian (n_values, n_params)
+        (an empty one without ``jacobian``)."""
+        fx = self.geometry_at(x)
+        n_points = len(fx.points)
+        rows = np.asarray(rows, dtype=int)
+        xx = np.zeros(self.n_params) if x is None else np.asarray(x, dtype=float)
+        if jacobian:
+            tips, d_tips = self.predict_with_jacobian(xx, q)
+        else:
+            tips, d_tips = self.predict(x, q), None
+        tool_cols = 0 if fx.tool_known else 3
+        first_point = self.sensor_start + tool_cols
+        first_plane = first_point + 3 * n_points
+        tool, points, planes = self._split(x)
+        parts, jacs = [], []
+        for r, k in enumerate(rows):
+            if k < n_points:
+                parts.append(tips[r] - fx.points[k])
+                if d_tips is not None:
+                    j = d_tips[r].copy()
+                    j[:, first_point + 3 * k : first_point + 3 * k + 3] = -np.eye(3)
+                    jacs.append(j)
+            else:
+                m = k - n_points
+                normal = fx.normals[m]
+                parts.append(np.array([normal @ tips[r] - fx.offsets[m]]))
+                if d_tips is not None:
+                    j = (normal @ d_tips[r])[None, :]
+                    w = np.array([planes[m, 0], planes[m, 1], 0.0])
+                    # n = R0 exp3(w) e_z: d n = -R0 exp3(w) [e_z]x Jexp3(w) d w
+                    d_normal = -self._frames[m] @ pin.exp3(w) @ pin.skew(_EZ) @ pin.Jexp3(w)
+                    j[0, first_plane + 3 * m : first_plane + 3 * m + 2] = tips[r] @ d_normal[:, :2]
+                    j[0, first_plane + 3 * m + 2] = -1.0
+                    jacs.append(j)
+        if distances and fx.distances:
+            r_d, j_d = self.distance_residual(x, jacobian)
+            parts.append(r_d)
+            jacs.append(j_d)
+        residual = np.concatenate(parts) if parts else np.zeros(0)
+        jac = np.concatenate(jacs) if jacs else np.zeros((0, self.n_params))
+        return residual, jac
+
+    def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
+                       correction: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
+                       ) -> np.ndarray:
+        """Each data row's error [m] of a separate session touching this calibration's
+        fixtures (by label): its distance from its point, or from its plane.
+
+        Raises:
+            CalibPinError: a learnt correction, or a fixture this calibration does not know.
+        """
+        if correction is not None:
+            raise CalibPinError("a learnt correction (rbf, lm-rbf) cannot be scored on a separate contact session")
+        fx = self.fixtures
+        points, planes, rows = fixture_rows(data)
+        ours: dict[Any, int] = {label: k for k, label in enumerate(fx.point_labels)}
+        ours.update({("plane", label): len(fx.points) + k for k, label in enumerate(fx.plane_labels)})
+        index = []
+        for label in points + tuple(("plane", p) for p in planes):
+            if label not in ours:
+                shown = label[1] if isinstance(label, tuple) else label
+                raise CalibPinError(f"{data.source}: fixture {shown} is not one of this calibration's")
+            index.append(ours[label])
+        mapped = np.asarray(index, dtype=int)[rows]
+        residual = self.residual(x, data.q, mapped, distances=False)[0]
+        sizes = np.where(mapped < len(fx.points), 3, 1)
+        offsets = np.concatenate([[0], np.cumsum(sizes)])
+        return np.array([np.linalg.norm(residual[offsets[k] : offsets[k + 1]]) for k in range(len(mapped))])
+
+    # --- simulation -----------------------------------------------------------------------
+
+    def touching_angles(self, x: np.ndarray | None, fixtures: np.ndarray, rng: np.random.Generator,
+                      noise_m: float = DEFAULT_NOISE_MM * 1e-3, tries: int = 40) -> np.ndarray:
+        """Joint angles (n_rows, n_joints) [rad] at which the model at x puts the tool point
+        on each row's fixture (index, as :func:`fixture_rows`'), missed by Gaussian noise of
+        ``noise_m`` per axis (a socket's play): inverse kinematics by Newton steps of
+        least norm from random starts, clipped to the joint limits (a plane's row: a random point of it
+        within 0.1 m of the plane's point nearest the base origin).
+
+        Raises:
+            CalibPinError: a fixture the arm cannot reach from ``tries`` starts.
+        """
+        from ..robot.poses import random_poses
+
+        fx = self.geometry_at(x)
+        xx = np.zeros(self.n_params) if x is None else np.asarray(x, dtype=float)
+        fixtures = np.asarray(fixtures, dtype=int)
+        targets = np.empty((len(fixtures), 3))
+        for r, k in enumerate(fixtures):
+            if k < len(fx.points):
+                targets[r] = fx.points[k] + rng.normal(size=3) * noise_m
+            else:
+                m = k - len(fx.points)
+                frame = _frame_of(fx.normals[m])
+                targets[r] = fx.normals[m] * fx.offsets[m] + frame[:, :2] @ rng.uniform(-0.1, 0.1, 2) \
+                    + fx.normals[m] * rng.normal() * noise_m
+        out = np.empty((len(fixtures), self.chain.n_joints))
+        lo, hi = self.chain.lower, self.chain.upper
+        todo = np.arange(len(fixtures))
+        self.set_robot(xx)
+        for _ in range(tries):  # every row still without a solution from a new random start, together
+            q = random_poses(self.chain, len(todo), rng)
+            for _ in range(40):  # Newton steps of least norm (6 joints, 3 equations): quadratic near the touch
+                tips, d_points = self._kin.points(q, fx.tool, jacobian=True, joints=True)
+                assert d_points is not None
+                miss = tips - targets[todo]
+                d_q = d_points[:, :, -q.shape[1] :]
+                q = np.clip(q - np.einsum("nij,nj->ni", np.linalg.pinv(d_q), miss), lo, hi)
+            tips = self._kin.points(q, fx.tool)[0]
+            done = np.linalg.norm(tips - targets[todo], axis=1) < 1e-10
+            out[todo[done]] = q[done]
+            todo = todo[~done]
+            if not len(todo):
+                return out
+        target = targets[todo[0]]
+        raise CalibPinError(f"fixture {fixtures[todo[0]]} at {np.round(target * 1e3, 1).tolist()} mm: the arm does not "
+                            f"reach it from {tries} starts")
+
+
+def fit_fixtures(chain: Chain, params: ParameterModel, q: np.ndarray, rows: np.ndarray, points: tuple[str, ...],
+                 planes: tuple[str, ...], tool: np.ndarray | None,
+                 distances: tuple[tuple[int, int, float], ...] = ()) -> Fixtures:
+    """Best-fit fixtures (and tool point, unless given) for the nominal robot.
+
+    With the tool point unknown and point rows: one linear least squares for the tool
+    point and every point (p_E + R_E t = P on each point row); else the tool point starts
+    at the end frame's origin. With planes, the tool point and the planes are then fitted
+    in turn (each plane by SVD of its rows' tool points, the tool point and offsets by
+    linear least squares) until the tool point stops moving.
+
+    Args:
+        q: The training rows' joint angles (n_rows, n_joints) [rad]; rows: each one's
+            fixture index (as :func:`fixture_rows`'); tool: given tool point [m] or None.
+    """
+    n_points, n_planes = len(points), len(planes)
+    model = ContactModel(chain, params, Fixtures(np.zeros(3), True, points, np.zeros((n_points, 3)), planes,
+                                                  np.tile(_EZ, (n_planes, 1)), np.zeros(n_planes), distances))
+    end_rot, origin = model.end_frames(None, q)
+    known = tool is not None
+    t = np.zeros(3) if tool is None else np.asarray(tool, dtype=float)
+    on_point = rows < n_points
+    if not known and on_point.any():
+        n = int(on_point.sum())
+        a = np.zeros((n, 3, 3 + 3 * n_points))
+        a[:, :, :3] = end_rot[on_point]
+        for r, k in enumerate(rows[on_point]):
+            a[r, :, 3 + 3 * k : 6 + 3 * k] = -np.eye(3)
+        sol = np.linalg.lstsq(a.reshape(3 * n, -1), -origin[on_point].reshape(-1), rcond=None)[0]
+        t = sol[:3]
+    normals, offsets = np.tile(_EZ, (n_planes, 1)), np.zeros(n_planes)
+    for _ in range(1 if known or not n_planes or on_point.any() else 50):
+        tips = origin + end_rot @ t
+        for m in range(n_planes):
+            these = tips[rows == n_points + m]
+            centre = these.mean(axis=0)
+            normal = np.linalg.svd(these - centre)[2][-1]
+            normal = normal if normal @ centre >= 0 else -normal  # the offset >= 0
+            normals[m], offsets[m] = normal, normal @ centre
+        if known or on_point.any():
+            break
+        # the tool point and the offsets, planes' normals fixed: n . (p_E + R_E t) - d = 0
+        a = np.zeros((len(q), 3 + n_planes))
+        for r, k in enumerate(rows):
+            a[r, :3] = normals[k - n_points] @ end_rot[r]
+            a[r, 3 + k - n_points] = -1.0
+        moved, t = t, np.linalg.lstsq(a, -np.einsum("ni,ni->n", normals[rows - n_points], origin), rcond=None)[0][:3]
+        if np.max(np.abs(t - moved)) < 1e-12:
+            break
+    tips = origin + end_rot @ t
+    located = np.array([tips[rows == k].mean(axis=0) for k in range(n_points)]).reshape(-1, 3)
+    return Fixtures(t, known, points, located, planes, normals, offsets, distances)
+
+
+@dataclass
+class _Layout:
+    """Where a simulated contact set's fixtures are (base frame, [m])."""
+
+    points: dict[str, np.ndarray] = field(default_factory=dict)
+    planes: dict[str, tuple[np.ndarray, float]] = field(default_factory=dict)
+
+
+#: Default sockets of simulated contact sets, base frame, [mm].
+DEFAULT_SOCKETS_MM = {"A": (380.0, 120.0, 250.0), "B": (300.0, -250.0, 150.0), "C": (420.0, -40.0, 480.0)}
+#: Default tool point of simulated contact sets (a probe tip 60 mm out of the flange, off axis), end frame, [mm].
+DEFAULT_CONTACT_TOOL_MM = (10.0, -5.0, 60.0)
+
+
+def simulate_contacts(chain: Chain, params: ParameterModel, per_fixture: int, seed: int, noise_mm: float = 0.05,
+                      nominal_rmse_mm: float = 2.0, sockets_mm: Mapping[str, Any] | None = None,
+                      planes: Mapping[str, tuple[Any, float]] | None = None,
+                      distances: tuple[tuple[str, str], ...] = (("A", "B"),),
+                      tool_mm: Any = DEFAULT_CONTACT_TOOL_MM, tool_known: bool = False,
+                      true_x: np.ndarray | None = None) -> tuple[MeasurementSet, Any]:
+    """Simulate a contact session of one true robot: ``per_fixture`` configurations
+    touching each socket (``sockets_mm``: label -> (x, y, z) [mm], base frame) and each
+    plane (``planes``: label -> (normal, offset [mm])), the true tool point missing each by
+    Gaussian noise ``noise_mm`` per axis; the file states the true distance of each pair in
+    ``distances`` (``# distance_mm``) and, with ``tool_known``, the tool point.
+
+    True deviations (unless ``true_x``) are drawn normal with the parameter model's typical
+    sizes, scaled so the nominal tool point's error has RMSE ``nominal_rmse_mm``.
+
+    Returns:
+        The set and its :class:`~calib_pin.simulation.Truth` (``sensor``: the true Fixtures).
+    """
+    from ..measurements import MeasurementSet
+    from ..robot.poses import random_poses
+    from ..simulation import Truth
+
+    rng = np.random.default_rng(seed)
+    sockets = {str(k): np.asarray(v, dtype=float) * 1e-3 for k, v in (sockets_mm or DEFAULT_SOCKETS_MM).items()}
+    plane_map = {str(k): (np.asarray(n, dtype=float) / np.linalg.norm(n), float(d) * 1e-3)
+                 for k, (n, d) in (planes or {}).items()}
+    labels = tuple(sorted(sockets))
+    plane_labels = tuple(sorted(plane_map))
+    index = {label: k for k, label in enumerate(labels)}
+    known = tuple((index[a], index[b], float(np.linalg.norm(sockets[a] - sockets[b]))) for a, b in distances)
+    tool = np.asarray(tool_mm, dtype=float) * 1e-3
+    truth_fixtures = Fixtures(tool, True, labels, np.array([sockets[k] for k in labels]).reshape(-1, 3), plane_labels,
+                              np.array([plane_map[k][0] for k in plane_labels]).reshape(-1, 3),
+                              np.array([plane_map[k][1] for k in plane_labels]), known)
+    model = ContactModel(chain, params, truth_fixtures)
+    if true_x is None:
+        x = rng.normal(size=len(params.names)) * params.scale
+        probe = random_poses(chain, 200, rng)
+        nominal = model.points_at(None, probe, tool)
+        gap = np.linalg.norm(model.points_at(np.concatenate([x, np.zeros(model.n_params - len(x))]), probe, tool)
+                             - nominal, axis=1)
+        x = x * (nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap**2))) if nominal_rmse_mm > 0 else np.zeros_like(x)
+    else:
+        x = np.asarray(true_x, dtype=float)
+    full = np.concatenate([x, np.zeros(model.n_params - len(x))])
+    rows = np.repeat(np.arange(len(labels) + len(plane_labels)), per_fixture)
+    q = model.touching_angles(full, rows, rng, noise_mm * 1e-3)
+    names = labels + plane_labels
+    contact = np.array([names[k] if k < len(labels) else "" for k in rows], dtype=str)
+    plane = np.array([names[k] if k >= len(labels) else "" for k in rows], dtype=str)
+    data = MeasurementSet(
+        q=q, values=np.zeros((len(q), 0)), kind=ContactModel.kind, robot=chain.name, end_frame=chain.end_frame,
+        tool=tool if tool_known else None, noise=noise_mm * 1e-3 or None,
+        notes={"source": f"calib-pin contact simulator, seed {seed}, {per_fixture} configurations a fixture, "
+                         f"noise {noise_mm:g} mm per axis"},
+        labels={"contact_id": contact, "plane_id": plane},
+        sensor_meta={"distance": tuple((labels[a], labels[b], length, None) for a, b, length in known),
+                     **({"tool": tool} if tool_known else {})})
+    truth = Truth(x, tuple(params.names), tuple(params.units), truth_fixtures, ContactModel.kind, noise_mm * 1e-3, seed)
+    return data, truth
