@@ -5,11 +5,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter  # imported with this module: only when the method is asked for
 
 from ..analysis.subspace import Subspace
 from ..problem import LeastSquares, row_offsets
 from .base import Callback, EstimateResult, Tracker
+from .filterpy_import import kalman
+
+# Imported with this module (only when the method is asked for), without scipy.stats.
+ExtendedKalmanFilter = kalman().ExtendedKalmanFilter
 
 
 def filter_moments(

@@ -5,14 +5,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.kalman import (  # imported with this module: only when the method is asked for
-    MerweScaledSigmaPoints,
-    UnscentedKalmanFilter,
-)
 
 from ..problem import LeastSquares, row_offsets
 from .base import Callback, EstimateResult, Tracker
 from .ekf import filter_moments
+from .filterpy_import import kalman
+
+# Imported with this module (only when the method is asked for), without scipy.stats.
+MerweScaledSigmaPoints = kalman().MerweScaledSigmaPoints
+UnscentedKalmanFilter = kalman().UnscentedKalmanFilter
 
 
 def _symmetric_sqrt(p: np.ndarray) -> np.ndarray:
