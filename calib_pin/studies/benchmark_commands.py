@@ -77,10 +77,9 @@ def timed_process(argv: list[str], cwd: Path) -> tuple[float, float, int]:
 def _make_sets(folder: Path, rows: int, seed: int) -> None:
     """The size's sets: ``set.csv`` (rows poses), ``b_1.csv`` .. ``b_8.csv`` (rows / 8 each)
     and ``targets.csv`` (TARGETS poses away from the wrist and elbow singularities),
-    simulated in this process (untimed)."""
+    simulated beforehand (untimed)."""
     import numpy as np
 
-    from ..cli import command
     from ..measurements.csv_writer import write_poses
 
     # Within 20 deg of a pose reaching forward and down, the wrist bent 50 deg: away from the
@@ -93,14 +92,9 @@ def _make_sets(folder: Path, rows: int, seed: int) -> None:
     for argv in (["irb120", "--poses", str(rows), "--seed", str(seed), "--out", str(folder / "set.csv"), *quiet],
                  ["irb120", "--poses", str(max(rows // BATCH_SETS, 20)), "--sessions", str(BATCH_SETS),
                   "--seed", str(seed), "--out", str(folder / "b.csv"), *quiet]):
-        with open(os.devnull, "w") as sink:
-            stdout, sys.stdout = sys.stdout, sink
-            try:
-                code = command("simulate")(argv)
-            finally:
-                sys.stdout = stdout
-        if code:
-            raise RuntimeError(f"simulate {' '.join(argv)} failed with exit {code}")
+        made = subprocess.run([*_script("simulate"), *argv], cwd=folder, capture_output=True, text=True)
+        if made.returncode:
+            raise RuntimeError(f"simulate {' '.join(argv)} failed: {made.stderr.strip()[-300:]}")
 
 
 def command_argv(name: str, folder: Path, method: str) -> list[str]:
