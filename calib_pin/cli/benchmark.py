@@ -13,7 +13,8 @@ from .common import OneLineParser, count, methods, non_negative, run
 
 def benchmark_parser() -> argparse.ArgumentParser:
     p = OneLineParser(prog="calib-pin benchmark", description="Time calib-pin's estimators on a seeded simulated IRB120 session.")
-    p.add_argument("--repeats", type=count(1000), default=5, help="timed runs per method (5)")
+    p.add_argument("--repeats", type=count(1000), default=5,
+                   help="timed runs per method, and per command of --commands (5)")
     p.add_argument("--methods", type=methods,
                    help=f"comma-separated methods (the paper's nine; against FIGAROH: {DEFAULT_METHOD},lm)")
     p.add_argument("--seed", type=non_negative(int), default=0, help="seed (0)")
@@ -74,7 +75,7 @@ def _benchmark(args: argparse.Namespace) -> int:
     if args.scaling:
         print(format_scaling(scaling(seed=args.seed)))
     if args.quick_start:
-        _quick_start()
+        _quick_start(args)
     if args.commands:
         _commands(args)
     if args.against == "figaroh":
@@ -82,11 +83,12 @@ def _benchmark(args: argparse.Namespace) -> int:
     return 0
 
 
-def _quick_start() -> None:
+def _quick_start(args: argparse.Namespace) -> None:
     from ..studies.benchmark_commands import quick_start_phases
 
-    phases, wall = quick_start_phases()
-    print(f"quick start (calibrate.py irb120, whole process, median of 3): {wall:.2f} s; its phases in a "
+    phases, wall = quick_start_phases(max(args.repeats, 3))
+    print(f"quick start (calibrate.py irb120, whole process, median of {max(args.repeats, 3)}): {wall:.2f} s; "
+          "its phases in a "
           "fresh process [s]: " + ", ".join(f"{k} {v:.3f}" for k, v in phases.items()))
     print("goal: the quick start under 3 s warm")
 
@@ -96,11 +98,12 @@ def _commands(args: argparse.Namespace) -> None:
 
     sizes = tuple(n for n in COMMAND_SIZES if n <= args.max_rows) or (args.max_rows,)
     method = args.command_method[0]
-    runs = time_commands(args.commands, sizes, method, seed=args.seed, compare_max_rows=args.compare_max_rows)
+    runs = time_commands(args.commands, sizes, method, repeats=args.repeats, seed=args.seed,
+                         compare_max_rows=args.compare_max_rows)
     print(f"the user's commands as whole processes (python scripts/COMMAND.py, simulated IRB120 drawstring sets, "
           f"seed {args.seed}; calibrate, --no-html and batch with --method {method}; batch: 8 sets of rows/8 "
-          "poses; compare --trials 10, every method; compensate: 1000 targets), wall s, ratio to the size "
-          "before, peak resident MiB:")
+          "poses; compare --trials 10, every method; compensate: 1000 targets), median wall s of "
+          f"{args.repeats} run(s), ratio to the size before, peak resident MiB:")
     print(format_commands(runs))
     print("goals: calibrate at 10 000 rows <= 12x its time at 1 000; peak memory at 100 000 rows <= 1 GB")
 
