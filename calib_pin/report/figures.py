@@ -39,7 +39,7 @@ def drawn_rows(n_rows: int, keep: np.ndarray | None = None) -> np.ndarray:
 def decimation_note(n_rows: int) -> str:
     """How a per-row figure of ``n_rows`` rows is thinned (empty when it draws them all)."""
     step = -(-n_rows // MAX_DRAWN_ROWS)
-    return "" if step <= 1 else f"every {step}th of {n_rows} rows drawn (outliers always)"
+    return "" if step <= 1 else f"1 in {step} of {n_rows} rows drawn, outliers always"
 
 
 def png(fig: Figure) -> bytes:

@@ -194,7 +194,7 @@ def _verdict(r: dict) -> str:
 
 
 def _decimated(n_rows: int) -> str:
-    """``; every 34th of 100000 rows drawn ...`` when the per-row figure is thinned, else ''."""
+    """``; 1 in 34 of 100000 rows drawn, ...`` when the per-row figure is thinned, else ''."""
     from .figures import decimation_note
 
     note = decimation_note(n_rows)
