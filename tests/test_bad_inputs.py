@@ -275,6 +275,9 @@ CASES: list[Case] = [
     (BENCH, ["--methods", "fast"], {}, 2, "fast"),
     (BENCH, ["--poses", "-1"], {}, 2, "--poses"),
     (BENCH, ["--seed", "x"], {}, 2, "--seed"),
+    (BENCH, ["--commands", "nonsense"], {}, 2, "nonsense"),
+    (BENCH, ["--max-rows", "0"], {}, 2, "--max-rows"),
+    (BENCH, ["--command-method", "fast"], {}, 2, "fast"),
     # --- the entry point
     (ENTRY, [], {}, 2, "give a command"),
     (ENTRY, ["frobnicate"], {}, 2, "frobnicate"),

@@ -193,18 +193,31 @@ def _verdict(r: dict) -> str:
             f"({r['data_kind']} data).</p>")
 
 
+def _decimated(n_rows: int) -> str:
+    """``; 1 in 34 of 100000 rows drawn, ...`` when the per-row figure is thinned, else ''."""
+    from .figures import decimation_note
+
+    note = decimation_note(n_rows)
+    return f"; {note}, the distribution of all" if note else ""
+
+
 def render_html(r: dict) -> str:
     """The report page of a report dict (:func:`calib_pin.report.build.build_report`).
 
     Raises:
         CalibPinError: matplotlib is not installed.
     """
+    from ..progress import status
+
+    status(f"drawing report.html ({len(r['residuals']['rows'])} rows; the first run in a new environment "
+           "also builds matplotlib's font cache)")
     dev_rows = deviation_rows(r) if r.get("uncertainty") else []
     sections = [
         ("summary", "Summary", _verdict(r) + _summary(r)),
         ("residuals", "Error per data row", _img(_fig().residuals(r), "error per data row")
          + "<p>Blue: training rows, orange: held-out test rows; red rings: outliers of the robust loss "
-         f"(data rows {html.escape(', '.join(str(v) for v in r['outlier_rows']) or 'none')}).</p>"),
+         f"(data rows {html.escape(', '.join(str(v) for v in r['outlier_rows']) or 'none')})"
+         f"{_decimated(len(r['residuals']['rows']))}.</p>"),
         ("deviations", "Deviations and identifiability", _deviation_section(r, dev_rows)),
     ]
     spectrum = (_img(_fig().spectrum(r), "singular values")
