@@ -83,6 +83,36 @@ def as_test_set(test_data: Any) -> TestSet | None:
     return TestSet(test_data)
 
 
+def choose_training_set(test: TestSet, session: MeasurementSet, labels: tuple[str, ...] | list[str],
+                        kinds: list[str]) -> int:
+    """The training set (index into ``labels``) a validation session of several sets relates
+    to: with ``register`` the first set of its kind (whose sensor model re-registers it);
+    else the set ``same`` names (its label, or its file's name), or the only set of its kind.
+
+    Raises:
+        DataError: a session of a kind no training set has, or of another kind than the named set.
+        ArgumentError: ``same`` naming no set, or left out with several sets of its kind.
+    """
+    source = session.source or "test_data"
+    of_kind = [k for k, kind in enumerate(kinds) if kind == session.kind]
+    if not of_kind:
+        raise DataError(source, f"holds {session.kind} data, no training set does ({', '.join(sorted(set(kinds)))})")
+    if test.register is not None:
+        return of_kind[0]
+    if test.same:
+        k = next((k for k, label in enumerate(labels) if test.same == label), None)
+        if k is None:
+            raise ArgumentError("same", f"'{test.same}' is not a training set's label (labels: {', '.join(labels)})")
+        if kinds[k] != session.kind:
+            raise DataError(source, f"holds {session.kind} data, set {labels[k]} {kinds[k]} data")
+        return k
+    if len(of_kind) > 1:
+        raise ArgumentError("same", f"{len(of_kind)} training sets of {session.kind} data "
+                            f"({', '.join(labels[k] for k in of_kind)}): name the one whose set-up the session shares "
+                            "(FILE:same=LABEL), or re-register it (FILE:register=K)")
+    return of_kind[0]
+
+
 def registration_rows(session: MeasurementSet, register: int | str) -> tuple[np.ndarray, np.ndarray]:
     """The session's registration rows and scored rows (0-based, disjoint, every row in one).
 

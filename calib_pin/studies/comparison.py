@@ -321,15 +321,79 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
     )
 
 
+def session_truths(setup: StackedSetup) -> list[Truth] | None:
+    """Each set's truth, when every set has one and they are of one true robot: a set's own
+    ``FILE.truth.json``, or session k of ``BASE.truth.json`` for ``BASE_k.csv`` (the files
+    ``simulate --sessions K`` writes); None otherwise, or for another parameter model than
+    the robot's default (the truth's)."""
+    if setup.params.name != parameter_model(setup.chain).name:
+        return None
+    out: list[Truth] = []
+    for data in setup.sets:
+        if not data.source:
+            return None
+        path = Path(data.source)
+        stem = path.name.removesuffix(".csv")
+        base, _, k = stem.rpartition("_")
+        own, shared = path.with_name(stem + ".truth.json"), path.with_name(base + ".truth.json")
+        if own.is_file():
+            truth = Truth.from_json(own, setup.params)
+            if truth.sessions:
+                return None
+        elif base and k.isdigit() and shared.is_file():
+            truth = Truth.from_json(shared, setup.params)
+            if not 1 <= int(k) <= max(1, len(truth.sessions)):
+                return None
+            truth = truth.session(int(k) - 1)
+        else:
+            return None
+        out.append(truth)
+    first = out[0]
+    for truth in out[1:]:  # one true robot, or no score
+        if not np.array_equal(truth.x, first.x) or not np.array_equal(truth.x_model, first.x_model):
+            return None
+    return out
+
+
+def stacked_fresh_scorer(setup: StackedSetup, truths: list[Truth] | None, seed: int) -> Callable:
+    """score(model, x) -> RMSE [mm] over every set's sensor at the same fresh poses (each at
+    its own points) of ``model`` (a :class:`~calib_pin.stacked.StackedModel`) at the stacked
+    ``x`` against each set's noise-free truth, the sets' values pooled as one set's are;
+    None without every set's truth, or when the sets' errors are in different units."""
+    from ..multiset import value_unit
+
+    if truths is None:
+        return lambda model, x: None
+    poses = random_poses(setup.chain, FRESH_POSES, np.random.default_rng(seed + 10_000))
+    cases = []
+    for truth in truths:
+        model = truth.model(setup.chain, setup.params)
+        rows, points = model.grid_points(len(poses))
+        q = poses[rows]
+        cases.append((q, points, model.predict(truth.x_model, q, points)))
+
+    def score(model: Any, x: np.ndarray) -> float | None:
+        if len({value_unit(part) for part in model.parts}) > 1:
+            return None
+        error = np.concatenate([(model.parts[k].predict(model.part_x(x, k), q, points) - true).ravel()
+                                for k, (q, points, true) in enumerate(cases)])
+        return float(np.sqrt(np.mean(error**2)) * 1e3)
+
+    return score
+
+
 def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_fraction: float,
-                   tick: Callable[[], Any] | None = None) -> Trial:
+                   tick: Callable[[], Any] | None = None, truths: list[Truth] | None = None) -> Trial:
     """One trial on several measurement sets fitted together: every set split by pose with
     the trial's seed (:meth:`~calib_pin.multiset.StackedSetup.split`), each method fitted as
     :func:`calib_pin.calibrate` of the sets fits it (each set weighted by its noise), and
-    scored on the held-out rows of every set, each row's error in its own set's unit [mm].
-    The sets' truths are not known here: no fresh-pose score."""
+    scored on the held-out rows of every set, each row's error in its own set's unit [mm],
+    and with ``truths`` (:func:`session_truths`) on fresh poses against them
+    (:func:`stacked_fresh_scorer`)."""
     runs = {}
     before: np.ndarray | None = None
+    fresh = stacked_fresh_scorer(setup, truths, seed)
+    before_fresh = None
     for m in methods:
         result = setup.run(m, seed=seed, test_fraction=test_fraction)
         if not len(result.test):
@@ -342,18 +406,19 @@ def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_frac
         runs[m] = MethodRun(
             method=m, label=PAPER_LABELS[m],
             train=Metrics.of(train_problem.row_errors(est.residual(train_problem))), test=Metrics.of(residual),
-            fresh_rmse_mm=None, iterations=est.iterations, evaluations=est.nfev,
+            fresh_rmse_mm=fresh(problem.model, est.x), iterations=est.iterations, evaluations=est.nfev,
             converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
             history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
             test_residual_mm=residual * 1e3,
         )
         if before is None:  # every method starts from the same sensor geometry, fitted on the same rows
             before = test_problem.row_errors(test_problem.residual(np.zeros(problem.n_params)))
+            before_fresh = fresh(problem.model, np.zeros(problem.n_params))
         if tick is not None:
             tick()
     assert before is not None  # methods is not empty
     return Trial(seed=seed, source=setup.data.source or "stacked", before=Metrics.of(before),
-                 before_fresh_rmse_mm=None, before_residual_mm=before * 1e3, runs=runs)
+                 before_fresh_rmse_mm=before_fresh, before_residual_mm=before * 1e3, runs=runs)
 
 
 def _simulated_trial(robot: str, chain: Chain, params: ParameterModel, methods: list[str], test_fraction: float,
@@ -498,11 +563,12 @@ def _stacked_trials(robot: str, data: list[Any], methods: list[str], trials: int
         if not spec.kinematic:
             raise CalibPinError(f"method '{m}' learns a correction of one sensor's values: with several sets "
                                 "compare parameter methods (lm, ekf-qibas, ...)")
-    one = partial(_stacked_trial, setup, methods, test_fraction=test_fraction, tick=tick)
+    truths = session_truths(setup)
+    one = partial(_stacked_trial, setup, methods, test_fraction=test_fraction, tick=tick, truths=truths)
     names = [Path(s.source).name if s.source else label for s, label in zip(setup.sets, setup.labels, strict=True)]
     what = f"{len(setup.data)} rows of {len(setup.sets)} sets stacked ({', '.join(names)})"
     what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
-    settings += ["sets", [[s.source, file_digest(s.source)] for s in setup.sets]]
+    settings += ["sets", [[s.source, file_digest(s.source)] for s in setup.sets], "truths", truths is not None]
     return _run_trials(one, range(seed, seed + trials), settings, where, keep), what
 
 
