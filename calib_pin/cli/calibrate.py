@@ -383,10 +383,10 @@ def basis_cells(soft: dict[str, Any]) -> str:
 
 def _sets_summary(result: Any) -> None:
     """The header and a table per set, then the all-sets table (several sets)."""
-    rows = (f"{len(result.train)} train rows (every row of every set), test rows from {result.test_source}"
-            if result.test_source else f"{len(result.train)} train and {len(result.test)} test rows "
-            f"(split per set by pose, seed {result.seed})")
-    print(f"{result.chain.name}: {len(result.sets)} sets, {rows}, {result.model_name} model, method {result.method}")
+    split = (f"{len(result.train)} train rows (every row of every set), test rows from {result.test_source}"
+             if result.test_source else f"{len(result.train)} train and {len(result.test)} test rows "
+             f"(split per set by pose, seed {result.seed})")
+    print(f"{result.chain.name}: {len(result.sets)} sets, {split}, {result.model_name} model, method {result.method}")
     print(f"error per row: {result.problem.model.error_name}")
     for s in result.sets:
         rows = len(s.train) + len(s.test)
