@@ -140,3 +140,25 @@ def test_compare_on_several_simulated_sessions_gives_a_fresh_pose_score(chain, p
     assert trial.runs["lm"].fresh_rmse_mm < 3 * NOISE_MM
     (tmp_path / "sim.truth.json").unlink()  # no truth: no score, as for one set
     assert cp.compare("irb120", [str(f) for f in files], methods=["lm"]).trials[0].runs["lm"].fresh_rmse_mm is None
+
+
+def test_compare_nominal_starts_every_method_at_the_robots_own_calibration(chain, params, three, tmp_path):
+    sets, truth = three
+    files = []
+    for k, data in enumerate(sets[:2], 1):
+        files.append(str(tmp_path / f"sim_{k}.csv"))
+        write_measurements(files[-1], data)
+    truth.to_json(tmp_path / "sim.truth.json")
+    path = write_calibration(cp.calibrate("irb120", files, method="lm"), calibration_path(tmp_path, "irb120"))
+    for data in (files, files[0]):  # several sets, and one
+        catalogue = cp.compare("irb120", data, methods=["lm"])
+        started = cp.compare("irb120", data, methods=["lm"], nominal=path)
+        assert "started from irb120_calibration.json" in started.data
+        before = started.trials[0].before.rmse_mm
+        assert before < 3 * NOISE_MM < catalogue.trials[0].before.rmse_mm  # "before" is the start's
+        assert started.trials[0].runs["lm"].test.rmse_mm == pytest.approx(
+            catalogue.trials[0].runs["lm"].test.rmse_mm, abs=0.1 * NOISE_MM)
+    fresh = cp.compare("irb120", files, methods=["lm"], nominal=path).trials[0]
+    assert fresh.before_fresh_rmse_mm < 3 * NOISE_MM and fresh.runs["lm"].fresh_rmse_mm < 3 * NOISE_MM
+    with pytest.raises(cp.ArgumentError, match="not simulated sets"):
+        cp.compare("irb120", simulate_noise="gauss", poses=10, methods=["lm"], nominal=path)

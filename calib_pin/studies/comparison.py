@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..analysis.metrics import Metrics
+from ..arguments import as_path
 from ..estimators import PAPER_LABELS, PAPER_METHODS, get_method, run_estimator
 from ..exceptions import ArgumentError, CalibPinError
 from ..multiset import StackedSetup
@@ -286,6 +287,20 @@ def fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Cal
     return lambda predict: float(np.sqrt(np.mean((predict(q, points) - true_values) ** 2)) * 1e3)
 
 
+def start_x(start: Any, problem: Any, training: Any) -> np.ndarray:
+    """Where every method starts: zero deviations, or ``start``'s (``nominal``,
+    :class:`~calib_pin.parameters.start.Start`) with the sensor's geometry refitted on the
+    ``training`` rows to it, as :func:`calib_pin.calibrate` starts."""
+    x0 = np.zeros(problem.n_params)
+    if start is None:
+        return x0
+    model = problem.model
+    x0[:model.n_robot] = start.robot_x
+    if start.compliance is not None:
+        x0[model.n_robot:model.sensor_start] = start.compliance
+    return start.sensor_fit(training, x0)
+
+
 def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], seed: int,
            test_fraction: float, tick: Callable[[], Any] | None = None) -> Trial:
     train, test = setup.split(test_fraction, seed)
@@ -295,7 +310,7 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
     problem: CalibrationProblem = setup.problem_on(train)  # nothing fitted on test rows
     train_problem, test_problem = problem.subset(train), problem.subset(test)
     model = problem.model
-    x0 = np.zeros(problem.n_params)
+    x0 = start_x(setup.start, problem, train_problem)
     fresh = fresh_scorer(setup, truth, seed)
     runs = {}
     for m in methods:
@@ -412,8 +427,9 @@ def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_frac
             test_residual_mm=residual * 1e3,
         )
         if before is None:  # every method starts from the same sensor geometry, fitted on the same rows
-            before = test_problem.row_errors(test_problem.residual(np.zeros(problem.n_params)))
-            before_fresh = fresh(problem.model, np.zeros(problem.n_params))
+            x0 = start_x(setup.start, problem, train_problem)  # zero, or the start's (setup.run's)
+            before = test_problem.row_errors(test_problem.residual(x0))
+            before_fresh = fresh(problem.model, x0)
         if tick is not None:
             tick()
     assert before is not None  # methods is not empty
@@ -450,6 +466,7 @@ def compare(
     scheduler: str | None = None,
     checkpoint: str | Path | None = None,
     notify: Callable[[str], Any] | None = None,
+    nominal: str | Path | None = None,
 ) -> Comparison:
     """Run estimators side by side.
 
@@ -484,6 +501,8 @@ def compare(
             The caller removes it (:meth:`calib_pin.studies.checkpoint.Checkpoint.clear`) once
             the outputs are written.
         notify: Called with one line when kept trials are reused.
+        nominal: Start every method from a robot's own kinematics instead of the catalogue
+            URDF (as :func:`calib_pin.calibrate`'s ``nominal``); measured data only.
 
     Raises:
         CalibPinError: bad method, robot, data or settings.
@@ -503,12 +522,18 @@ def compare(
         soft["parameters"] = parameters
     if estimate:
         soft["estimate"] = estimate
+    if nominal is not None:  # only when given, as parameters
+        if simulate_noise is not None:
+            raise ArgumentError("nominal", "starts from a robot's own calibration: compare on its measured data "
+                                "(not simulated sets, whose true robot is drawn anew)")
+        soft["nominal"] = str(as_path(nominal, "nominal"))
     with progress_bar(trials * len(methods), "trials x methods") as bar:
         local = jobs == 1 and scheduler is None  # a bar follows only the trials run here
         tick = bar.update if bar is not None and local else None
         out, what = _trials(robot, data, methods, trials, seed, test_fraction, simulate_noise, noise_mm, poses,
                             soft, (jobs, scheduler), tick, (checkpoint, notify))
-    return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(record))
+    start = f", started from {Path(nominal).name}" if nominal is not None else ""
+    return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(record) + start)
 
 
 def _trials(robot: str, data: Any, methods: list[str], trials: int, seed: int, test_fraction: float,
@@ -519,6 +544,8 @@ def _trials(robot: str, data: Any, methods: list[str], trials: int, seed: int, t
     ``keep`` = (checkpoint folder, notify)) and what they ran on."""
     seeds = range(seed, seed + trials)
     settings = [robot, file_digest(robot), methods, test_fraction, soft]
+    if "nominal" in soft:  # the start's content, not only its name
+        settings += ["nominal", file_digest(soft["nominal"])]
     if simulate_noise is None and isinstance(data, list | tuple) and len(data) > 1:
         return _stacked_trials(robot, list(data), methods, trials, seed, test_fraction, soft, settings, where, tick,
                                keep)
