@@ -346,7 +346,7 @@ class StackedSetup:
             raise CalibPinError(f"test_data and set {label} with role 'test': give the validation session one way "
                                 "(--test-data, or a --data set with role=test)")
         _, session = load_data(self.chain, test.data, "", self.chain.end_frame)
-        k = choose_training_set(test, session, self.labels, [d.kind for d in self.sets])
+        k = choose_training_set(test, session, self.labels, [d.kind for d in self.sets], [d.source for d in self.sets])
         if test.register is None:
             check_same_setup(session, self.sets[k], {**self.options, **(self.setups[k] if self.setups else {})})
         for d in self.sets:

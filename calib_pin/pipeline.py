@@ -446,7 +446,8 @@ def calibrate(
         test_data: A separate validation session: train on all of ``data``, test on it. A
             :class:`~calib_pin.validation.TestSet` says its set-up: the training set's
             (checked), or a new one re-registered on its first k poses or its rows with
-            ``role`` ``register`` (``result.test_registration`` lists the rows).
+            ``role`` ``register`` (``result.test_registration`` lists the rows). With
+            several sets, ``same`` names the training set whose set-up it shares.
         end_frame: End frame; default the file's ``end_frame`` or the robot's.
         anchor_mm, tool_mm: Override the file's sensor point (base frame) and tool
             point (end frame), 3 numbers each, [mm].
