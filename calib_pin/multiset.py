@@ -243,9 +243,13 @@ class StackedSetup:
             test_data: Any = None) -> CalibrationResult:
         """Estimate with ``method`` on every set's training rows; score each set and all.
 
+        With ``test_data`` (a separate validation session, :meth:`validation`) every row of
+        every set trains and the ``test`` metrics are the session's: scored with the named
+        set's set-up, or re-registered (:class:`~calib_pin.validation.TestSet`).
+
         Raises:
-            CalibPinError: a method that learns no kinematics, a separate ``test_data``
-                (give it as a set with role ``test``), too few training rows.
+            CalibPinError: a method that learns no kinematics, a bad validation session,
+                too few training rows.
         """
         spec = get_method(as_instance(method, "method", str, "a method name (calib_pin.ESTIMATORS)"))
         if not spec.kinematic:
