@@ -121,7 +121,9 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         report["start"] = result.start.as_dict(result.params, result.problem.model.robot(result.x))
     if result.sets:  # several measurement sets: a table each; the metrics above pool them
         report["sets"] = [s.as_dict() for s in result.sets]
-        report["metrics_pooled"] = "every set's row errors together, each in its own set's units (mm)"
+        from ..multiset import units_words
+
+        report["metrics_pooled"] = units_words(result.sets)
     if result.cross_validation is not None:
         report["cross_validation"] = result.cross_validation
     spec = result.problem.model.compliance_spec

@@ -159,7 +159,7 @@ def _sets_section(r: dict) -> str:
                              fmt(s[split]["after"]["rmse_mm"])])
     return (_table(["set", "data", "noise mm", "split", "rows", "RMSE before", "RMSE after"], rows, "num")
             + "<p>One robot, each set with its own sensor set-up; rows weighted by their set's noise. The summary "
-            "pools every set's row errors, each in its own set's units.</p>")
+            f"pools {html.escape(r.get('metrics_pooled', 'every set'))}.</p>")
 
 
 def sensor_views(r: dict) -> list[tuple[str, dict]]:
@@ -187,6 +187,8 @@ document.body.setAttribute('data-images-ok',n+'/'+i.length);});</script>"""
 
 def _verdict(r: dict) -> str:
     split = "test" if "test" in r else "train"
+    if split not in r:  # several sets whose errors are in different units: no pooled score
+        return ""
     b, a = r[split]["before"]["rmse_mm"], r[split]["after"]["rmse_mm"]
     cls = "verdict worse" if a > b else "verdict"
     return (f'<p class="{cls}">{split} RMSE {fmt(b)} mm before, {fmt(a)} mm after calibration '
