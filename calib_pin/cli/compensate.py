@@ -170,12 +170,15 @@ def _summary(robot: CalibratedRobot, q_nominal: np.ndarray, result: Compensation
     real = robot.forward(q_nominal)
     nominal = robot.nominal(q_nominal)
     off = np.array([np.linalg.norm(r.translation - n.translation) for r, n in zip(real, nominal, strict=True)]) * 1e3
-    change = np.rad2deg(np.abs(result.q - q_nominal)).max(axis=1)
+    swing = np.rad2deg(np.abs(result.q - q_nominal))
+    change = swing.max(axis=1)
+    k, j = np.unravel_index(int(np.argmax(swing)), swing.shape)
     counts = {s: result.status.count(s) for s in (OK, POSITION_ONLY, REFUSED)}
     print(f"{robot.chain.name}: {len(q_nominal)} targets compensated in {result.iterations} iterations "
           f"({'geometry and deflection of ' + ', '.join(robot.deflection.spec.joints) if robot.deflection else 'geometry'})")
     print(f"uncompensated, the calibrated arm misses the nominal end frame by {off.mean():.3f} mm mean, {off.max():.3f} mm max")
-    print(f"largest joint correction per target: {change.mean():.4f} deg mean, {change.max():.4f} deg max")
+    print(f"largest joint correction per target: {change.mean():.4f} deg mean, {change.max():.4f} deg max "
+          f"({robot.chain.joint_names[j]} of target {k + 1})")
     met = np.array([s != REFUSED for s in result.status], dtype=bool)
     full = np.array([s == OK for s in result.status], dtype=bool)
     if met.any():
