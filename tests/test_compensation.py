@@ -323,7 +323,7 @@ def test_cli_status_per_target_and_exit_codes(calibrated, chain, tmp_path, capsy
     np.testing.assert_array_equal(corrected.pose_ids, [1, 2, 4])
     assert corrected.notes["refused_pose_3"].startswith("pose 3 (line 5): out of reach")
     rapid = (tmp_path / "c.mod").read_text()
-    assert "jt_3:=" not in rapid and "refused (left out): pose 3 (line 5): out of reach" in rapid
+    assert "jt_3:=" not in rapid and "! refused pose 3 (line 5): out of reach" in rapid
 
 
 def test_cli_keeps_the_programs_other_columns(calibrated, chain, tmp_path, capsys):

@@ -132,8 +132,8 @@ def _compensate(args: argparse.Namespace) -> int:
             result.orientation_error_rad[kept], notes, {**extra, **status}))
     else:
         header = [f"calib-pin compensate: robot {chain.name}, end frame {chain.end_frame}, calibration {compensated}",
-                  f"{int(kept.sum())} of {len(kept)} targets; refused (left out): "
-                  f"{'; '.join(refused.values()) or 'none'}"]
+                  f"{int(kept.sum())} of {len(kept)} targets; refused (left out): {'' if refused else 'none'}",
+                  *(f"refused {reason}" for reason in refused.values())]  # one comment per refused target
         options = {k: v for k, v in (("speed_rad_s", args.speed_rad_s), ("accel_rad_s2", args.accel_rad_s2))
                    if v is not None}
         notes_per_target = tuple(f"position-only: {r}" if s == POSITION_ONLY else ""
