@@ -68,12 +68,14 @@ OK, POSITION_ONLY, REFUSED = "ok", "position-only", "refused"
 #: within it.
 MAX_CORRECTION_RAD = float(np.deg2rad(10.0))
 #: Weight of the joint correction against the orientation error in the position-first
-#: solve, [rad of orientation per rad of joints]^2: a joint moves by a radian only where
-#: that buys about a radian of orientation. (It was 1e-4: near the shoulder singularity,
-#: wrist centre on axis 1, joint_1 then swung to the 10 deg bound, sweeping the upper arm
-#: and forearm through the cell, for tens of mrad of orientation; now such a target keeps
-#: joint_1 within about 2 deg and reports the larger orientation residual.)
-_REGULARISATION = 1.0
+#: solve, [rad of orientation per rad of joints]^2: a joint moves by 0.1 rad only where that
+#: buys about 0.01 rad of orientation. It was 1e-4: near the shoulder singularity (wrist
+#: centre on axis 1) joint_1 then swung to the 10 deg bound, sweeping the upper arm and
+#: forearm through the cell, for a few mrad of orientation. Measured on the Wu calibration
+#: (tests/test_compensation.py's targets): the largest joint change of a position-only row
+#: falls from 10 deg to 5 deg (2.5 deg at the shoulder), its orientation residual rises
+#: from 7.8 to 9.7 mrad mean (1 would give 2.4 deg, but 20 mrad: 3 mm at a 150 mm tool).
+_REGULARISATION = 1e-2
 #: Weight of the position error in the position-first solve, [1/m]: 1 um counts as 10 mrad.
 _POSITION_WEIGHT = 1e6
 
