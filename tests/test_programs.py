@@ -109,6 +109,7 @@ def test_every_format_of_the_example_program_reads_back(calibration, chain, tmp_
     assert read_urscript((tmp_path / "u.script").read_text())[2] == [(0.8, 0.5)] * 5
     for argv, message in ((["--out", str(tmp_path / "x.mod"), "--format", "krl"], "a krl program is .src"),
                           (["--out", str(tmp_path / "9x"), "--format", "krl"], "must be a KRL name"),
+                          (["--out", str(tmp_path / "loop.src"), "--format", "krl"], "not a keyword), e.g. p_loop"),
                           (["--out", str(tmp_path / "x.csv"), "--speed-rad-s", "1"], "are for --format urscript")):
         assert compensate([*base, *argv]) == 2
         err = capsys.readouterr().err

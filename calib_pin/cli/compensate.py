@@ -86,7 +86,7 @@ def _compensate(args: argparse.Namespace) -> int:
     name = identifier(paths[0].stem)
     if args.format == "krl" and name != paths[0].stem:
         raise CalibPinError(f"--out {args.out}: KRL names the program after its file: the stem must be a KRL name "
-                            f"(a letter, then letters, digits or _, at most 24), e.g. {name}")
+                            f"(a letter, then letters, digits or _, at most 24, not a keyword), e.g. {name}")
     out = Outputs(Path(args.out).parent, force=args.force,
                   inputs={**robot_inputs(args.robot), "--calibration": args.calibration, "--targets": args.targets,
                           "--nominal": args.nominal})
