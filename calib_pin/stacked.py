@@ -85,7 +85,8 @@ class StackedModel:
     @property
     def mixed(self) -> bool:
         """The sets' rows differ in size (sensors of different kinds, say a cable and a tracker)."""
-        return len({int(part.values_per_row) for part in self.parts}) > 1
+        return len({int(part.values_per_row) for part in self.parts}) > 1 or \
+            any(getattr(part, "rows_differ", False) for part in self.parts)
 
     @property
     def values_per_row(self) -> int:
