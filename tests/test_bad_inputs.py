@@ -782,6 +782,8 @@ R3_FILES: list[Case] = [
      {"g.json": '{"points_mm": {"A": [3000, 0, 300]}}'}, 2, "fixture A at [3000.0, 0.0, 300.0] mm: the arm does not reach"),
     (SIM, ["irb120", "--geometry", "g.json", "--out", "s.csv"], {"g.json": '{"data_kind": "contact", "points_mm": {}}'},
      2, "g.json: data_kind: a set-up for contact: give \"data_kind\" one of cable"),
+    (SIM, ["irb120", "--kinds", "contact", "--poses-file", "d.csv", "--out", "s.csv"], {"d.csv": data()}, 2,
+     "pose 1: the nominal tool point is on no fixture of the layout"),
     (SIM, ["irb120", "--kinds", "contact", "--poses", "3", "--out", "s.csv"], {}, 2,
      "3 touches for 3 point(s) and 1 plane(s): give --poses 6 or more"),
     (PLAN, ["irb120", "--sensor", "cable,contact", "--out", "p.csv"], {}, 2,

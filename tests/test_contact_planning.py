@@ -145,3 +145,27 @@ def test_a_cable_set_and_a_contact_set_of_one_robot_beat_the_contact_set_alone(r
     names = two.problem.model.names
     assert "d1:contactA_x" in names and "d2:contactA_x" in names
     assert two.problem.n_values == 2 * (3 * 34 + 11 + 1)  # 34 socket and 11 plane touches, the distance, each set
+
+
+def test_planned_touches_calibrate_better_than_random_ones_of_the_same_count(robot, tmp_path):
+    """plan-poses --sensor contact (24 of 500 candidates), then simulate --poses-file: the
+    true arm touches near each planned configuration. Against 24 random touches of the
+    same true robot (the same seed), the fresh error modulo the base placement is lower
+    (seeds 0, 1, 2: 0.073 against 0.20 mm, 0.089 against 0.35, 0.089 against 0.40)."""
+    chain, params = robot
+    plan = tmp_path / "plan.csv"
+    assert main(["plan-poses", "irb120", "--sensor", "contact", "--n", "24", "--candidates", "500",
+                 "--out", str(plan)]) == 0
+    fresh = random_poses(chain, 1000, np.random.default_rng(5))
+    for seed in (0, 1, 2):
+        errors = []
+        for name, how in (("planned", ["--poses-file", str(plan)]), ("random", ["--poses", "24"])):
+            out = tmp_path / f"{name}{seed}.csv"
+            assert main(["simulate", "irb120", "--kinds", "contact", *how, "--seed", str(seed), "--out", str(out)]) == 0
+            data = read_measurements(out, chain)
+            truth = Truth.from_json(out.with_name(f"{name}{seed}.truth.json"), params)
+            result = cp.calibrate("irb120", data, method="lm", test_fraction=0.0)
+            errors.append((_fresh(result.problem.model, result.x, truth, truth.sensor.tool, fresh), truth.x))
+        (planned, x_planned), (random, x_random) = errors
+        assert np.array_equal(x_planned, x_random)  # one true robot
+        assert planned < 0.8 * random, (seed, planned, random)

@@ -556,7 +556,7 @@ class ContactModel(MeasurementModel):
 
     def touching_angles(self, x: np.ndarray | None, fixtures: np.ndarray, rng: np.random.Generator,
                         noise_m: float = DEFAULT_NOISE_MM * 1e-3, tries: int = 40,
-                        margin: float = 0.0) -> np.ndarray:
+                        margin: float = 0.0, starts: np.ndarray | None = None) -> np.ndarray:
         """Joint angles (n_rows, n_joints) [rad] at which the model at x puts the tool point
         on each row's fixture (index, as :func:`fixture_rows`'), missed by Gaussian noise of
         ``noise_m`` per axis (a socket's play): inverse kinematics by Newton steps of
@@ -564,7 +564,9 @@ class ContactModel(MeasurementModel):
         row: a random point of it within 0.1 m of the plane's point nearest the base origin).
         Each row's start is its own, so rows of one fixture touch it in distinct
         configurations (the tool's orientation about the point, elbow and wrist variants:
-        a touch fixes 3 of the 6 joints' freedoms, a plane's 1).
+        a touch fixes 3 of the 6 joints' freedoms, a plane's 1). ``starts`` (n_rows,
+        n_joints) [rad]: the first start of each row instead of a random one (planned
+        configurations of the nominal robot, touched by the true arm near them).
 
         Raises:
             CalibPinError: a fixture the arm cannot reach from ``tries`` starts.
@@ -575,20 +577,23 @@ class ContactModel(MeasurementModel):
         xx = np.zeros(self.n_params) if x is None else np.asarray(x, dtype=float)
         fixtures = np.asarray(fixtures, dtype=int)
         targets = np.empty((len(fixtures), 3))
+        near = None if starts is None else self.points_at(xx, np.asarray(starts, dtype=float), fx.tool)
         for r, k in enumerate(fixtures):
             if k < len(fx.points):
                 targets[r] = fx.points[k] + rng.normal(size=3) * noise_m
             else:
                 m = k - len(fx.points)
                 frame = _frame_of(fx.normals[m])
-                targets[r] = fx.normals[m] * fx.offsets[m] + frame[:, :2] @ rng.uniform(-0.1, 0.1, 2) \
-                    + fx.normals[m] * rng.normal() * noise_m
+                on = fx.normals[m] * fx.offsets[m] + frame[:, :2] @ rng.uniform(-0.1, 0.1, 2) if near is None else \
+                    near[r] - fx.normals[m] * (fx.normals[m] @ near[r] - fx.offsets[m])  # the start's point, on the plane
+                targets[r] = on + fx.normals[m] * rng.normal() * noise_m
         out = np.empty((len(fixtures), self.chain.n_joints))
         lo, hi = self.chain.lower + margin, self.chain.upper - margin
         todo = np.arange(len(fixtures))
         self.set_robot(xx)
-        for _ in range(tries):  # every row still without a solution from a new random start, together
-            q = random_poses(self.chain, len(todo), rng, margin=max(margin, np.deg2rad(5.0)))
+        for attempt in range(tries):  # every row still without a solution from a new random start, together
+            q = random_poses(self.chain, len(todo), rng, margin=max(margin, np.deg2rad(5.0))) \
+                if starts is None or attempt else np.clip(np.asarray(starts, dtype=float), lo, hi)
             for _ in range(40):  # Newton steps of least norm (6 joints, 3 equations): quadratic near the touch
                 tips, d_points = self._kin.points(q, fx.tool, jacobian=True, joints=True)
                 assert d_points is not None
@@ -616,22 +621,27 @@ class ContactModel(MeasurementModel):
         made by the TRUE arm: inverse kinematics of the true robot (deviations and
         compliances) from its own random start, so the true tool point touches, missed by
         the socket's play (``draw.noise_mm`` per axis); the joint angles are recorded.
+        Given poses (planned touches of the nominal arm, ``plan-poses --sensor contact``):
+        each touches the fixture the nominal tool point is on there (within
+        :data:`TOUCH_TOLERANCE_M`), the true arm's configuration found from it.
         ``geometry``: the fixture layout (:func:`default_fixtures` when None); the file
         states its known distances, and its tool point when ``tool_known``.
 
         Raises:
-            CalibPinError: given poses (a touch's configuration is found, not given), a
-                gross-error noise kind, too few touches for the fixtures, or a fixture out of reach.
+            CalibPinError: a given pose touching no fixture, a gross-error noise kind, too
+                few touches for the fixtures, or a fixture out of reach.
         """
         fx = default_fixtures() if geometry is None else geometry
-        if draw.given_poses is not None:
-            raise CalibPinError("contact fixtures are simulated at configurations found by inverse kinematics: "
-                                "leave out --poses-file (plan-poses --sensor contact plans them)")
         if draw.noise_kind != "gauss":
             raise CalibPinError(f"contact fixtures are simulated with a socket's play, gauss: not '{draw.noise_kind}'")
         n_fixtures = len(fx.points) + len(fx.normals)
         need = len(fx.points) + MIN_PLANE_POINTS * len(fx.normals)
-        if draw.n_poses < need:
+        starts = rows = None
+        if draw.given_poses is not None:  # planned touches: each the fixture the nominal arm touches there
+            starts = draw.given_poses
+            rows = _touched(cls(draw.chain, draw.params, replace(fx, tool_known=True)), starts)
+            draw.n_poses = len(starts)
+        elif draw.n_poses < need:
             raise CalibPinError(f"{draw.n_poses} touches for {len(fx.points)} point(s) and {len(fx.normals)} "
                                 f"plane(s): give --poses {need} or more (a plane is located by 3 touches)")
         model = cls(draw.chain, draw.params, replace(fx, tool_known=True), draw.compliance)
@@ -647,8 +657,8 @@ class ContactModel(MeasurementModel):
 
         draw.deviations(gap)
         full = np.concatenate([draw.x_model, np.zeros(extra)])
-        rows = np.arange(draw.n_poses) % n_fixtures
-        q = model.touching_angles(full, rows, draw.rng, draw.noise_mm * 1e-3)
+        rows = np.arange(draw.n_poses) % n_fixtures if rows is None else rows
+        q = model.touching_angles(full, rows, draw.rng, draw.noise_mm * 1e-3, starts=starts)
         data = contact_set(draw.chain, fx, q, rows, noise_m=draw.noise_mm * 1e-3 or None)
         data.notes["source"] = (f"calib-pin contact simulator, seed {draw.seed}, {draw.n_poses} touches of "
                                 f"{n_fixtures} fixtures by the true arm, play {draw.noise_mm:g} mm per axis")
@@ -699,6 +709,29 @@ class ContactModel(MeasurementModel):
         """The touches to make, as a contact set (:func:`contact_set`): what ``plan-poses
         --sensor contact`` writes."""
         return contact_set(self.chain, self.fixtures, q, fixtures)
+
+
+#: A given configuration touches the fixture its nominal tool point is within this of, [m].
+TOUCH_TOLERANCE_M = 5e-3
+
+
+def _touched(model: ContactModel, q: np.ndarray) -> np.ndarray:
+    """The fixture (index) the nominal tool point of ``model`` touches at each of q.
+
+    Raises:
+        CalibPinError: a configuration whose tool point is on no fixture (1-based row).
+    """
+    fx = model.fixtures
+    tips = model.points_at(None, q, fx.tool)
+    gaps = np.concatenate([np.linalg.norm(tips[:, None] - fx.points[None], axis=2).reshape(len(q), -1),
+                           np.abs(tips @ fx.normals.T - fx.offsets).reshape(len(q), -1)], axis=1)
+    rows = np.argmin(gaps, axis=1)
+    far = np.flatnonzero(gaps[np.arange(len(q)), rows] > TOUCH_TOLERANCE_M)
+    if len(far):
+        raise CalibPinError(f"pose {far[0] + 1}: the nominal tool point is on no fixture of the layout (nearest "
+                            f"{gaps[far[0], rows[far[0]]] * 1e3:.1f} mm off): give touches planned for it "
+                            "(plan-poses --sensor contact)")
+    return rows
 
 
 def fit_fixtures(chain: Chain, params: ParameterModel, q: np.ndarray, rows: np.ndarray, points: tuple[str, ...],
