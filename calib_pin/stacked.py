@@ -341,6 +341,13 @@ class StackedProblem(RowProblem):
         return np.concatenate([p.row_errors(residual[lo:hi]) / w for p, w, lo, hi
                                in zip(self.parts, self.weights, starts[:-1], starts[1:], strict=True)])
 
+    @property
+    def data_rows(self) -> np.ndarray:
+        """The stacked rows that are data rows: every part's (a contact set's known
+        distances are rows of its own, no data row), shape (n_data,)."""
+        return np.concatenate([getattr(p, "data_rows", np.arange(p.n_rows)) + int(self._offsets[k])
+                               for k, p in enumerate(self.parts)] or [np.zeros(0)]).astype(int)
+
     def part_rows(self, part: int) -> np.ndarray:
         """The stacked rows of part ``part``."""
         return np.arange(self._offsets[part], self._offsets[part + 1])

@@ -230,6 +230,11 @@ class ContactProblem(CalibrationProblem):
     n_poses = n_rows
 
     @property
+    def data_rows(self) -> np.ndarray:
+        """The rows that are touches (the known distances' rows follow them), shape (n_data,)."""
+        return np.arange(self.n_data)
+
+    @property
     def row_sizes(self) -> np.ndarray:
         """Residual entries of each row, shape (n_rows,)."""
         assert self.points is not None
