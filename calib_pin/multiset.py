@@ -529,10 +529,6 @@ def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...
         if label in labels:
             raise CalibPinError(f"two sets are labelled '{label}': give each set its own label (or file name)")
         labels.append(label)
-    for data in loaded:  # a sensor whose rows differ in size within a set (contact fixtures) is fitted alone for now
-        if getattr(sensor_for(data.kind), "rows_differ", False):
-            raise CalibPinError(f"{data.source or data.kind}: a set of {sensor_for(data.kind).data_name} is fitted "
-                                "alone for now (its rows differ in size): give one --data")
     for s, data, label in zip(sets, loaded, labels, strict=True):
         if s.role == "test" and sensor_for(data.kind).fits_setup:
             raise DataError(data.source or label, f"a {data.kind} set with role 'test' has no training rows to fit "

@@ -85,7 +85,8 @@ class StackedModel:
     @property
     def mixed(self) -> bool:
         """The sets' rows differ in size (sensors of different kinds, say a cable and a tracker)."""
-        return len({int(part.values_per_row) for part in self.parts}) > 1
+        return len({int(part.values_per_row) for part in self.parts}) > 1 or \
+            any(getattr(part, "rows_differ", False) for part in self.parts)
 
     @property
     def values_per_row(self) -> int:
@@ -339,6 +340,13 @@ class StackedProblem(RowProblem):
         starts = np.cumsum([0] + [p.n_values for p in self.parts])
         return np.concatenate([p.row_errors(residual[lo:hi]) / w for p, w, lo, hi
                                in zip(self.parts, self.weights, starts[:-1], starts[1:], strict=True)])
+
+    @property
+    def data_rows(self) -> np.ndarray:
+        """The stacked rows that are data rows: every part's (a contact set's known
+        distances are rows of its own, no data row), shape (n_data,)."""
+        return np.concatenate([getattr(p, "data_rows", np.arange(p.n_rows)) + int(self._offsets[k])
+                               for k, p in enumerate(self.parts)] or [np.zeros(0)]).astype(int)
 
     def part_rows(self, part: int) -> np.ndarray:
         """The stacked rows of part ``part``."""

@@ -56,6 +56,9 @@ class Plan:
     reach: int | None
     target: float
     identifiability: Identifiability | None = None
+    #: Each chosen pose's fixture (a sensor whose candidates are touches found by inverse
+    #: kinematics, its ``plan_candidates``: contact fixtures), or None.
+    points: np.ndarray | None = None
 
 
 class SensorMix(MeasurementModel):
@@ -212,25 +215,37 @@ def plan_poses(
             mean of the singular values; default: that of n random poses).
     """
     rng = np.random.default_rng(seed)
-    pool = _above_base(model, random_poses(model.chain, candidates, rng, margin=margin))
-    if len(pool) < n:
-        raise ValueError(f"only {len(pool)} of {candidates} candidates put the tool point above the base; ask for more")
-    blocks = _rows(model, pool)
+    touches = getattr(model, "plan_candidates", None)
+    fixtures: np.ndarray | None = None
+    if touches is not None:  # candidates that touch a fixture, by inverse kinematics (in random order)
+        pool, fixtures = touches(candidates, rng, margin)
+        blocks = model.planning_rows(pool, fixtures)  # type: ignore[attr-defined]
+    else:
+        pool = _above_base(model, random_poses(model.chain, candidates, rng, margin=margin))
+        if len(pool) < n:
+            raise ValueError(f"only {len(pool)} of {candidates} candidates put the tool point above the base; "
+                             "ask for more")
+        blocks = _rows(model, pool)
     basis = Subspace.of(blocks.reshape(-1, model.n_params), np.ones(model.n_params)).vt.T
-    q = pool[_greedy(blocks @ basis, n)]  # candidates in the identifiable directions
+    picked = np.asarray(_greedy(blocks @ basis, n), dtype=int)  # candidates in the identifiable directions
+    q = pool[picked]
+    picked_fixtures = None if fixtures is None else fixtures[picked]
 
-    def analysis(qs: np.ndarray) -> Identifiability:
+    def analysis(qs: np.ndarray, at: np.ndarray | None = None) -> Identifiability:
+        if at is not None:
+            return analyze(model.planning_problem(qs, at))  # type: ignore[attr-defined]
         rows, points = model.grid_points(len(qs))
         predicted = model.predict(None, qs[rows], points)  # the readings do not matter here, only the Jacobian
         return analyze(CalibrationProblem(model, qs[rows], predicted, points))
 
-    def indices(qs: np.ndarray) -> tuple[float, float, float]:
-        result = analysis(qs)
+    def indices(qs: np.ndarray, at: np.ndarray | None = None) -> tuple[float, float, float]:
+        result = analysis(qs, at)
         return result.o1, result.o3, result.o1 * np.sqrt(len(qs))
 
-    chosen = analysis(q)
+    chosen = analysis(q, picked_fixtures)
     o1, o3 = chosen.o1, chosen.o3
-    random_o1, random_o3, random_total = indices(pool[:n])
+    random_o1, random_o3, random_total = indices(pool[:n], None if fixtures is None else fixtures[:n])
     target = random_total if target is None else target
-    reach = next((k for k in range(basis.shape[1], n + 1) if indices(q[:k])[2] >= target), None)
-    return Plan(q, o1, o3, random_o1, random_o3, reach, target, chosen)
+    reach = next((k for k in range(basis.shape[1], n + 1)
+                  if indices(q[:k], None if picked_fixtures is None else picked_fixtures[:k])[2] >= target), None)
+    return Plan(q, o1, o3, random_o1, random_o3, reach, target, chosen, picked_fixtures)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import inspect
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -133,6 +134,9 @@ def add_plan_poses_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPar
     p.add_argument("--noise-mm", type=noise_list, default=None,
                    help="each sensor's noise (1 sigma), mm, comma-separated in --sensor's order: a mix weighs each "
                    "sensor's rows by it (default: equal)")
+    p.add_argument("--geometry", metavar="FILE",
+                   help="the sensor's set-up to plan for, a JSON file (as simulate --geometry; e.g. a contact "
+                   "fixture layout); default: the sensor's own")
     add_sensor_arguments(p, {"anchor_mm": "default 600,200,-100", "tool_mm": "default 0,0,50",
                              "estimate": "that will be estimated too"}, skip=("length_offset_mm", "noise_deg"))
     add_end_frame_argument(p)
@@ -174,7 +178,21 @@ def _plan_poses(args: argparse.Namespace) -> int:
         raise CalibPinError(f"{', '.join('--' + k.replace('_', '-') for k in setup.given())}: not an option of "
                             f"{', '.join(s.data_name for s in sensors)}")
     # the set-up options go to the sensor that takes them
-    parts = [s.planning_model(chain, params, setup if type(setup) is s.setup_type else None) for s in sensors]
+    geometry: dict[str, Any] = {}
+    if args.geometry:  # the set-up of one of the sensors, for a planner that takes one
+        from ..sensors.geometry_file import read_geometry
+
+        which, layout = read_geometry(args.geometry, kinds)
+        if "geometry" not in inspect.signature(sensor_for(which).planning_model).parameters:
+            raise CalibPinError(f"--geometry: {sensor_for(which).data_name} are planned for their own set-up "
+                                "(give its options instead)")
+        geometry = {which: layout}
+    parts = [s.planning_model(chain, params, setup if type(setup) is s.setup_type else None,
+                              **({"geometry": geometry[k]} if k in geometry else {}))
+             for s, k in zip(sensors, kinds, strict=True)]
+    if len(parts) > 1 and any(hasattr(part, "plan_candidates") for part in parts):
+        raise CalibPinError(f"--sensor {','.join(kinds)}: a sensor whose poses are touches found by inverse "
+                            "kinematics (contact fixtures) is planned alone: no other sensor reads at its poses")
     noise = None if args.noise_mm is None else [v * 1e-3 for v in args.noise_mm]
     model: Any = parts[0] if len(parts) == 1 else SensorMix(parts, noise, kinds)
     try:
@@ -185,7 +203,15 @@ def _plan_poses(args: argparse.Namespace) -> int:
     notes = {"source": f"plan_poses.py: {args.n} of {args.candidates} candidates (seed {args.seed}), "
                        f"D-optimal for the {name} model and {what}"
                        + (f" with {' and '.join(args.estimate)} estimated" if args.estimate else "")}
-    out.add(args.out, lambda tmp: write_poses(tmp, plan.q, robot=chain.name, end_frame=chain.end_frame, notes=notes))
+    if plan.points is not None:  # touches of fixtures: the configurations with what each touches, as a set
+        from ..measurements import write_measurements
+
+        touches = model.planned_set(plan.q, plan.points)
+        touches.notes.update(notes)
+        out.add(args.out, lambda tmp: write_measurements(tmp, touches))
+    else:
+        out.add(args.out, lambda tmp: write_poses(tmp, plan.q, robot=chain.name, end_frame=chain.end_frame,
+                                                  notes=notes))
     out.commit()
     print(f"{chain.name}: {args.n} poses chosen from {args.candidates} candidates (seed {args.seed}), "
           f"{name} model" + (f", {' and '.join(args.estimate)} estimated" if args.estimate else ""))
@@ -201,6 +227,12 @@ def _plan_poses(args: argparse.Namespace) -> int:
     print(f"the planned poses identify {ident.rank} of {len(ident.names)} directions; not identifiable: "
           f"{', '.join(ident.unidentifiable) or 'none'}; {len(ident.combinations)} combination(s) only together"
           + (f" ({shown})" if shown else ""))
+    for name, seen, why in ident.directions:  # the directions the sensor names (a contact set's scale)
+        print(f"{name}: {'seen' if seen else 'BLIND'}" + ("" if seen else f" ({why})"))
+    if plan.points is not None:
+        touched = model.planned_set(plan.q, plan.points)
+        labels = [a or b for a, b in zip(touched.labels["contact_id"], touched.labels["plane_id"], strict=True)]
+        print("configurations per fixture: " + ", ".join(f"{k} {labels.count(k)}" for k in sorted(set(labels))))
     print(f"wrote {args.out}")
     return 0
 

@@ -66,6 +66,10 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParse
     p.add_argument("--nominal-rmse-mm", type=non_negative(float, 1000.0), default=2.0,
                    help="reading error of the nominal model the true deviations cause, mm (default 2)")
     p.add_argument("--poses-file", help="simulate at the poses of this pose list (make_poses.py) instead of random ones")
+    p.add_argument("--geometry", metavar="FILE",
+                   help="the true set-up of the sessions of one sensor, a JSON file (\"data_kind\" names the sensor; "
+                   "e.g. a contact fixture layout: points_mm, planes, distances_mm, tool_mm; see the README's "
+                   "'Measurement sets'; a FILE.truth.json of one session is one); default: the sensor's own")
     add_model_argument(p)
     add_compliance_arguments(p, "simulate")
     p.add_argument("--true-compliance-urad-per-nm", type=_values,
@@ -155,13 +159,19 @@ def _simulate(args: argparse.Namespace) -> int:
     common = {"noise_mm": args.noise_mm, "nominal_rmse_mm": args.nominal_rmse_mm,
               "tool_mm": args.tool_mm or DEFAULT_TOOL_MM, "length_offset_mm": args.length_offset_mm,
               "noise_kind": args.noise_kind, "true_compliance": true_c, **compliance_options(args)}
-    if args.sessions == 1 and kinds in (None, [default_kind()]):
+    geometries = None
+    if args.geometry:  # one sensor's true set-up, for each session of that sensor
+        from ..sensors.geometry_file import read_geometry
+
+        which, geometry = read_geometry(args.geometry, kinds or [default_kind()])
+        geometries = [geometry if k == which else None for k in (kinds or [default_kind()] * args.sessions)]
+    if args.sessions == 1 and kinds in (None, [default_kind()]) and geometries is None:
         data, truth = simulate(chain, params, args.poses, args.seed, anchor_mm=anchors[0] if anchors else DEFAULT_ANCHOR_MM,
                                poses=poses, **common)
         sets = [data]
     else:
         sets, truth = simulate_sessions(chain, params, args.poses, args.seed, args.sessions, kinds=kinds,
-                                        anchors_mm=anchors or None, poses=poses, **common)
+                                        anchors_mm=anchors or None, poses=poses, geometries=geometries, **common)
     for data in sets:
         refused = sensor_for(data.kind).refuse_values(data.values)
         if refused is not None:

@@ -52,8 +52,9 @@ def _residuals(result: CalibrationResult) -> dict[str, Any]:
             part = problem.subset(part_rows)
             rows += [int(r) for r in part_rows]
             split += [name] * len(part_rows)
-            before += (part.row_errors(part.residual(x0)) * 1e3).tolist()
-            after += (part.row_errors(result.estimate.residual(part)) * 1e3).tolist()
+            data = getattr(part, "data_rows", slice(None))  # a contact set's distance rows are no data row
+            before += (part.row_errors(part.residual(x0))[data] * 1e3).tolist()
+            after += (part.row_errors(result.estimate.residual(part))[data] * 1e3).tolist()
     outliers = set(result.outlier_rows)
     return {"rows": rows, "split": split, "outlier": [r in outliers for r in rows],
             "before_mm": before, "after_mm": after, "meaning": problem.model.error_name}

@@ -107,16 +107,34 @@ class Fixtures:
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any]) -> Fixtures:
-        """Inverse of :meth:`to_dict`."""
-        points = doc["points_mm"]
-        planes = doc["planes"]
-        labels = tuple(points)
-        index = {label: k for k, label in enumerate(labels)}
-        return cls(np.asarray(doc["tool_mm"], dtype=float) * 1e-3, doc["tool"] == "given", labels,
-                   np.array([points[k] for k in labels], dtype=float).reshape(-1, 3) * 1e-3, tuple(planes),
-                   np.array([planes[k]["normal"] for k in planes], dtype=float).reshape(-1, 3),
-                   np.array([planes[k]["offset_mm"] for k in planes], dtype=float) * 1e-3,
-                   tuple((index[a], index[b], float(v) * 1e-3) for a, b, v in doc["distances_mm"]))
+        """Inverse of :meth:`to_dict`; also a layout written by hand (``--geometry FILE``):
+        ``planes``, ``distances_mm`` and ``tool_mm`` optional (no planes, no distances,
+        :data:`DEFAULT_CONTACT_TOOL_MM` estimated), a distance ``[A, B]`` the points' own,
+        a plane's normal normalised here, labels sorted.
+
+        Raises:
+            ValueError: no points or planes, a point or normal not 3 numbers, a distance
+                naming an unknown point or a point to itself.
+        """
+        points = {str(k): np.asarray(v, dtype=float) for k, v in doc["points_mm"].items()}
+        planes = {str(k): (np.asarray(v["normal"], dtype=float), float(v["offset_mm"]))
+                  for k, v in doc.get("planes", {}).items()}
+        if not points and not planes:
+            raise ValueError("no points_mm and no planes: nothing to touch")
+        for label, p in [*points.items(), *((k, n) for k, (n, _) in planes.items())]:
+            if p.shape != (3,) or not np.all(np.isfinite(p)) or not np.any(p):
+                raise ValueError(f"{label}: expected 3 finite numbers (a point [mm], or a plane's non-zero normal)")
+        fx = layout(points, planes, (), doc.get("tool_mm", DEFAULT_CONTACT_TOOL_MM), doc.get("tool") == "given")
+        index = {label: k for k, label in enumerate(fx.point_labels)}
+        distances = []
+        for pair in doc.get("distances_mm", ()):
+            a, b = str(pair[0]), str(pair[1])
+            if a not in index or b not in index or a == b:
+                raise ValueError(f"distance {a}, {b}: it joins two different points of points_mm")
+            length = float(pair[2]) * 1e-3 if len(pair) > 2 else float(np.linalg.norm(fx.points[index[a]]
+                                                                                      - fx.points[index[b]]))
+            distances.append((index[a], index[b], length))
+        return replace(fx, distances=tuple(distances))
 
 
 @dataclass(frozen=True, eq=False)
@@ -210,6 +228,11 @@ class ContactProblem(CalibrationProblem):
         return len(self.q) + len(self.model.fixtures.distances)
 
     n_poses = n_rows
+
+    @property
+    def data_rows(self) -> np.ndarray:
+        """The rows that are touches (the known distances' rows follow them), shape (n_data,)."""
+        return np.arange(self.n_data)
 
     @property
     def row_sizes(self) -> np.ndarray:
@@ -537,12 +560,18 @@ class ContactModel(MeasurementModel):
     # --- simulation -----------------------------------------------------------------------
 
     def touching_angles(self, x: np.ndarray | None, fixtures: np.ndarray, rng: np.random.Generator,
-                      noise_m: float = DEFAULT_NOISE_MM * 1e-3, tries: int = 40) -> np.ndarray:
+                        noise_m: float = DEFAULT_NOISE_MM * 1e-3, tries: int = 40,
+                        margin: float = 0.0, starts: np.ndarray | None = None) -> np.ndarray:
         """Joint angles (n_rows, n_joints) [rad] at which the model at x puts the tool point
         on each row's fixture (index, as :func:`fixture_rows`'), missed by Gaussian noise of
         ``noise_m`` per axis (a socket's play): inverse kinematics by Newton steps of
-        least norm from random starts, clipped to the joint limits (a plane's row: a random point of it
-        within 0.1 m of the plane's point nearest the base origin).
+        least norm from random starts, clipped to the joint limits less ``margin`` [rad] (a plane's
+        row: a random point of it within 0.1 m of the plane's point nearest the base origin).
+        Each row's start is its own, so rows of one fixture touch it in distinct
+        configurations (the tool's orientation about the point, elbow and wrist variants:
+        a touch fixes 3 of the 6 joints' freedoms, a plane's 1). ``starts`` (n_rows,
+        n_joints) [rad]: the first start of each row instead of a random one (planned
+        configurations of the nominal robot, touched by the true arm near them).
 
         Raises:
             CalibPinError: a fixture the arm cannot reach from ``tries`` starts.
@@ -553,20 +582,23 @@ class ContactModel(MeasurementModel):
         xx = np.zeros(self.n_params) if x is None else np.asarray(x, dtype=float)
         fixtures = np.asarray(fixtures, dtype=int)
         targets = np.empty((len(fixtures), 3))
+        near = None if starts is None else self.points_at(xx, np.asarray(starts, dtype=float), fx.tool)
         for r, k in enumerate(fixtures):
             if k < len(fx.points):
                 targets[r] = fx.points[k] + rng.normal(size=3) * noise_m
             else:
                 m = k - len(fx.points)
                 frame = _frame_of(fx.normals[m])
-                targets[r] = fx.normals[m] * fx.offsets[m] + frame[:, :2] @ rng.uniform(-0.1, 0.1, 2) \
-                    + fx.normals[m] * rng.normal() * noise_m
+                on = fx.normals[m] * fx.offsets[m] + frame[:, :2] @ rng.uniform(-0.1, 0.1, 2) if near is None else \
+                    near[r] - fx.normals[m] * (fx.normals[m] @ near[r] - fx.offsets[m])  # the start's point, on the plane
+                targets[r] = on + fx.normals[m] * rng.normal() * noise_m
         out = np.empty((len(fixtures), self.chain.n_joints))
-        lo, hi = self.chain.lower, self.chain.upper
+        lo, hi = self.chain.lower + margin, self.chain.upper - margin
         todo = np.arange(len(fixtures))
         self.set_robot(xx)
-        for _ in range(tries):  # every row still without a solution from a new random start, together
-            q = random_poses(self.chain, len(todo), rng)
+        for attempt in range(tries):  # every row still without a solution from a new random start, together
+            q = random_poses(self.chain, len(todo), rng, margin=max(margin, np.deg2rad(5.0))) \
+                if starts is None or attempt else np.clip(np.asarray(starts, dtype=float), lo, hi)
             for _ in range(40):  # Newton steps of least norm (6 joints, 3 equations): quadratic near the touch
                 tips, d_points = self._kin.points(q, fx.tool, jacobian=True, joints=True)
                 assert d_points is not None
@@ -579,9 +611,132 @@ class ContactModel(MeasurementModel):
             todo = todo[~done]
             if not len(todo):
                 return out
-        target = targets[todo[0]]
-        raise CalibPinError(f"fixture {fixtures[todo[0]]} at {np.round(target * 1e3, 1).tolist()} mm: the arm does not "
+        k = int(fixtures[todo[0]])  # where the fixture is (a plane: its point nearest the base origin)
+        target = fx.points[k] if k < len(fx.points) else fx.normals[k - len(fx.points)] * fx.offsets[k - len(fx.points)]
+        label = (fx.point_labels + fx.plane_labels)[k]
+        raise CalibPinError(f"fixture {label} at {np.round(target * 1e3, 1).tolist()} mm: the arm does not "
                             f"reach it from {tries} starts")
+
+    # --- simulation and planning on the sensor seam -----------------------------------------
+
+    @classmethod
+    def simulate_rows(cls, draw: Any, geometry: Fixtures | None) -> tuple[MeasurementSet, Fixtures]:
+        """A contact session (:meth:`MeasurementModel.simulate_rows`): ``draw.n_poses``
+        touches spread over the fixtures in turn (point A, B, ..., then the planes), each
+        made by the TRUE arm: inverse kinematics of the true robot (deviations and
+        compliances) from its own random start, so the true tool point touches, missed by
+        the socket's play (``draw.noise_mm`` per axis); the joint angles are recorded.
+        Given poses (planned touches of the nominal arm, ``plan-poses --sensor contact``):
+        each touches the fixture the nominal tool point is on there (within
+        :data:`TOUCH_TOLERANCE_M`), the true arm's configuration found from it.
+        ``geometry``: the fixture layout (:func:`default_fixtures` when None); the file
+        states its known distances, and its tool point when ``tool_known``.
+
+        Raises:
+            CalibPinError: a given pose touching no fixture, a gross-error noise kind, too
+                few touches for the fixtures, or a fixture out of reach.
+        """
+        fx = default_fixtures() if geometry is None else geometry
+        if draw.noise_kind != "gauss":
+            raise CalibPinError(f"contact fixtures are simulated with a socket's play, gauss: not '{draw.noise_kind}'")
+        n_fixtures = len(fx.points) + len(fx.normals)
+        need = len(fx.points) + MIN_PLANE_POINTS * len(fx.normals)
+        starts = rows = None
+        if draw.given_poses is not None:  # planned touches: each the fixture the nominal arm touches there
+            starts = draw.given_poses
+            rows = _touched(cls(draw.chain, draw.params, replace(fx, tool_known=True)), starts)
+            draw.n_poses = len(starts)
+        elif draw.n_poses < need:
+            raise CalibPinError(f"{draw.n_poses} touches for {len(fx.points)} point(s) and {len(fx.normals)} "
+                                f"plane(s): give --poses {need} or more (a plane is located by 3 touches)")
+        model = cls(draw.chain, draw.params, replace(fx, tool_known=True), draw.compliance)
+        from ..robot.poses import random_poses
+
+        probe = random_poses(draw.chain, 200, draw.rng)
+        nominal = model.points_at(None, probe, fx.tool)
+        extra = model.n_params - len(draw.params.names) - len(draw.true_compliance)
+
+        def gap(x: np.ndarray) -> np.ndarray:
+            full = np.concatenate([x, draw.true_compliance, np.zeros(extra)])
+            return np.linalg.norm(model.points_at(full, probe, fx.tool) - nominal, axis=1)
+
+        draw.deviations(gap)
+        full = np.concatenate([draw.x_model, np.zeros(extra)])
+        rows = np.arange(draw.n_poses) % n_fixtures if rows is None else rows
+        q = model.touching_angles(full, rows, draw.rng, draw.noise_mm * 1e-3, starts=starts)
+        data = contact_set(draw.chain, fx, q, rows, noise_m=draw.noise_mm * 1e-3 or None)
+        data.notes["source"] = (f"calib-pin contact simulator, seed {draw.seed}, {draw.n_poses} touches of "
+                                f"{n_fixtures} fixtures by the true arm, play {draw.noise_mm:g} mm per axis")
+        return data, fx
+
+    @classmethod
+    def planning_model(cls, chain: Chain, params: ParameterModel, setup: SensorSetup | None,
+                       geometry: Fixtures | None = None) -> ContactModel:
+        """The model configurations are planned for: the fixture layout ``geometry``
+        (:func:`default_fixtures` when None), its tool point estimated unless the set-up
+        gives it (``--tool-mm``)."""
+        fx = default_fixtures() if geometry is None else geometry
+        tool_mm = getattr(setup, "tool_mm", None)
+        if tool_mm is not None:
+            fx = replace(fx, tool=np.asarray(tool_mm, dtype=float) * 1e-3, tool_known=True)
+        return cls(chain, params, fx)
+
+    def plan_candidates(self, n: int, rng: np.random.Generator, margin: float) -> tuple[np.ndarray, np.ndarray]:
+        """Candidate touches to plan from: about ``n`` configurations of the nominal robot
+        at which the tool point touches a fixture, each fixture in turn and each from its
+        own random start (several distinct configurations per fixture), within the joint
+        limits less ``margin`` [rad], in random order. Returns the joint angles (n, n_joints)
+        [rad] and each one's fixture (index, as :func:`fixture_rows`')."""
+        n_fixtures = len(self.fixtures.points) + len(self.fixtures.normals)
+        rows = rng.permutation(np.arange(max(n, n_fixtures)) % n_fixtures)
+        return self.touching_angles(None, rows, rng, 0.0, margin=margin), rows
+
+    def planning_rows(self, q: np.ndarray, fixtures: np.ndarray) -> np.ndarray:
+        """Scaled identification rows of each candidate touch at the nominal robot, shape
+        (n, 3, n_params): a point's 3 entries, a plane's 1 and two rows of zeros (no
+        information), so that touches of both kinds are chosen among together."""
+        fixtures = np.asarray(fixtures, dtype=int)
+        jac = self.residual(np.zeros(self.n_params), q, fixtures, jacobian=True, distances=False)[1] * self.scale
+        sizes = np.where(fixtures < len(self.fixtures.points), 3, 1)
+        out = np.zeros((len(q), 3, self.n_params))
+        starts = np.concatenate([[0], np.cumsum(sizes)])
+        for r in range(len(q)):
+            out[r, : sizes[r]] = jac[starts[r] : starts[r + 1]]
+        return out
+
+    def planning_problem(self, q: np.ndarray, fixtures: np.ndarray) -> ContactProblem:
+        """The problem of touches at q of ``fixtures`` with the layout's known distances
+        (for what a plan identifies: the scale is seen only with a known distance)."""
+        return ContactProblem(self, np.asarray(q, dtype=float), np.zeros((len(q), 0)),
+                              np.asarray(fixtures, dtype=int))
+
+    def planned_set(self, q: np.ndarray, fixtures: np.ndarray) -> MeasurementSet:
+        """The touches to make, as a contact set (:func:`contact_set`): what ``plan-poses
+        --sensor contact`` writes."""
+        return contact_set(self.chain, self.fixtures, q, fixtures)
+
+
+#: A given configuration touches the fixture its nominal tool point is within this of, [m].
+TOUCH_TOLERANCE_M = 5e-3
+
+
+def _touched(model: ContactModel, q: np.ndarray) -> np.ndarray:
+    """The fixture (index) the nominal tool point of ``model`` touches at each of q.
+
+    Raises:
+        CalibPinError: a configuration whose tool point is on no fixture (1-based row).
+    """
+    fx = model.fixtures
+    tips = model.points_at(None, q, fx.tool)
+    gaps = np.concatenate([np.linalg.norm(tips[:, None] - fx.points[None], axis=2).reshape(len(q), -1),
+                           np.abs(tips @ fx.normals.T - fx.offsets).reshape(len(q), -1)], axis=1)
+    rows = np.argmin(gaps, axis=1)
+    far = np.flatnonzero(gaps[np.arange(len(q)), rows] > TOUCH_TOLERANCE_M)
+    if len(far):
+        raise CalibPinError(f"pose {far[0] + 1}: the nominal tool point is on no fixture of the layout (nearest "
+                            f"{gaps[far[0], rows[far[0]]] * 1e3:.1f} mm off): give touches planned for it "
+                            "(plan-poses --sensor contact)")
+    return rows
 
 
 def fit_fixtures(chain: Chain, params: ParameterModel, q: np.ndarray, rows: np.ndarray, points: tuple[str, ...],
@@ -650,6 +805,54 @@ class _Layout:
 DEFAULT_SOCKETS_MM = {"A": (380.0, 120.0, 250.0), "B": (300.0, -250.0, 150.0), "C": (420.0, -40.0, 480.0)}
 #: Default tool point of simulated contact sets (a probe tip 60 mm out of the flange, off axis), end frame, [mm].
 DEFAULT_CONTACT_TOOL_MM = (10.0, -5.0, 60.0)
+#: Default plane of the simulator and planner: a datum cube's face, label -> (normal, offset [mm]), base frame.
+DEFAULT_PLANES_MM = {"F": ((1.0, 0.2, 1.0), 500.0)}
+
+
+def default_fixtures() -> Fixtures:
+    """The layout ``simulate --kinds contact`` and ``plan-poses --sensor contact`` use
+    unless given one (``--geometry FILE``): the sockets :data:`DEFAULT_SOCKETS_MM`, the
+    datum-cube face :data:`DEFAULT_PLANES_MM`, the distance A-B known, the tool point
+    :data:`DEFAULT_CONTACT_TOOL_MM` (to be estimated)."""
+    return layout(DEFAULT_SOCKETS_MM, DEFAULT_PLANES_MM, (("A", "B"),), DEFAULT_CONTACT_TOOL_MM, False)
+
+
+def layout(sockets_mm: Mapping[str, Any], planes_mm: Mapping[str, tuple[Any, float]],
+           distances: tuple[tuple[str, str], ...], tool_mm: Any, tool_known: bool) -> Fixtures:
+    """A fixture layout: points (label -> (x, y, z) [mm], base frame), planes (label ->
+    (normal, offset [mm]): n . p = offset, n normalised here), the pairs of points whose
+    distance is known (it is their true distance), the tool point [mm] (end frame)."""
+    points = {str(k): np.asarray(v, dtype=float) * 1e-3 for k, v in sockets_mm.items()}
+    planes = {str(k): (np.asarray(n, dtype=float) / np.linalg.norm(n), float(d) * 1e-3)
+              for k, (n, d) in planes_mm.items()}
+    labels, plane_labels = tuple(sorted(points)), tuple(sorted(planes))
+    index = {label: k for k, label in enumerate(labels)}
+    known = tuple((index[a], index[b], float(np.linalg.norm(points[a] - points[b]))) for a, b in distances)
+    return Fixtures(np.asarray(tool_mm, dtype=float) * 1e-3, tool_known, labels,
+                    np.array([points[k] for k in labels]).reshape(-1, 3), plane_labels,
+                    np.array([planes[k][0] for k in plane_labels]).reshape(-1, 3),
+                    np.array([planes[k][1] for k in plane_labels]), known)
+
+
+def contact_set(chain: Chain, fixtures: Fixtures, q: np.ndarray, rows: np.ndarray,
+                noise_m: float | None = None) -> MeasurementSet:
+    """A contact set of touches at q (n, n_joints) [rad] of fixtures ``rows`` (indices, as
+    :func:`fixture_rows`'): its ``contact_id`` / ``plane_id`` labels, the layout's known
+    distances (``# distance_mm``) and its tool point when known (``# tool_mm``)."""
+    from ..measurements import MeasurementSet
+
+    fx = fixtures
+    names = fx.point_labels + fx.plane_labels
+    n_points = len(fx.points)
+    contact = np.array([names[k] if k < n_points else "" for k in rows], dtype=str)
+    plane = np.array([names[k] if k >= n_points else "" for k in rows], dtype=str)
+    return MeasurementSet(
+        q=np.asarray(q, dtype=float), values=np.zeros((len(q), 0)), kind=ContactModel.kind, robot=chain.name,
+        end_frame=chain.end_frame, tool=fx.tool if fx.tool_known else None, noise=noise_m, notes={},
+        labels={"contact_id": contact, "plane_id": plane},
+        sensor_meta={"distance": tuple((fx.point_labels[a], fx.point_labels[b], length, None)
+                                       for a, b, length in fx.distances),
+                     **({"tool": fx.tool} if fx.tool_known else {})})
 
 
 def simulate_contacts(chain: Chain, params: ParameterModel, per_fixture: int, seed: int, noise_mm: float = 0.05,
