@@ -28,6 +28,7 @@ columns. The analytic Jacobian is checked against finite differences in the test
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -41,7 +42,7 @@ from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
-from .base import DEFAULT_NOISE_MM, MeasurementModel, chosen
+from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart, chosen
 from .setup import SensorSetup, finite, option
 
 if TYPE_CHECKING:
@@ -172,6 +173,16 @@ def noise_of(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[float, f
     return noise_m, float(np.deg2rad(deg))
 
 
+def noise_origins(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[str, str]:
+    """Where :func:`noise_of`'s two noises come from: ``caller``, ``file`` or ``default``
+    (not stated: each such part's sigma is estimated from the residual when the set is
+    calibrated, :func:`calib_pin.multiset.fit_noise_parts`)."""
+    position = "caller" if options.get("noise_mm") is not None else "file" if data.noise else "default"
+    orientation = "caller" if options.get("noise_deg") is not None else "file" if "noise_deg" in data.notes \
+        else "default"
+    return position, orientation
+
+
 @dataclass
 class PoseProblem(CalibrationProblem):
     """A calibration problem of 6-D pose rows: 6 residual entries a row (the position
@@ -264,6 +275,8 @@ class PoseModel(MeasurementModel):
         self.noise_m, self.noise_rad = float(noise_m), float(noise_rad)
         #: Metres of residual per radian of orientation error.
         self.weight = self.noise_m / self.noise_rad
+        #: Where the position and the orientation noise came from (:func:`noise_origins`).
+        self.noise_from: tuple[str, str] = ("caller", "caller")
 
     # --- set-up -------------------------------------------------------------------------
 
@@ -299,6 +312,7 @@ class PoseModel(MeasurementModel):
         fit_rows = np.asarray(fit_rows, dtype=int)
         rig = fit_rig(chain, params, data.q[fit_rows], data.values[fit_rows], noise_m / noise_rad)
         model = cls(chain, params, rig, noise_m, noise_rad, options.get("compliance"))
+        model.noise_from = noise_origins(data, options)
         return PoseProblem(model, data.q, np.asarray(data.values, dtype=float))
 
     # --- geometry -------------------------------------------------------------------------
@@ -323,8 +337,37 @@ class PoseModel(MeasurementModel):
         return self.geometry_at(x).to_dict()
 
     def describe(self) -> str:
-        return (f"6-D poses of a body, device frame and body estimated (noise {self.noise_m * 1e3:g} mm, "
-                f"{np.rad2deg(self.noise_rad):g} deg)")
+        return (f"6-D poses of a body, device frame and body estimated (noise {self.noise_m * 1e3:.4g} mm, "
+                f"{np.rad2deg(self.noise_rad):.4g} deg)")
+
+    # --- noise and errors by part ---------------------------------------------------------
+
+    def noise_parts(self) -> tuple[NoisePart, ...]:
+        """The position (mm) and the orientation (deg), each with its own noise."""
+        return (NoisePart("position", "mm", 1e3, self.noise_m, self.noise_from[0]),
+                NoisePart("orientation", "deg", float(np.rad2deg(1.0)), self.noise_rad, self.noise_from[1]))
+
+    def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The position errors [m] and the orientation errors' rotation vectors [rad], each flattened (3 n_rows,)."""
+        e = self.errors(x, q, readings)
+        return e[:, :3].reshape(-1), e[:, 3:].reshape(-1)
+
+    def with_part_noise(self, sigmas: tuple[float, ...], origin: str) -> PoseModel:
+        """A copy weighted by position noise ``sigmas[0]`` [m] and orientation noise
+        ``sigmas[1]`` [rad]; the parts whose noise was stated keep their origin."""
+        noise_m, noise_rad = (float(s) for s in sigmas)
+        if not (noise_m > 0 and noise_rad > 0):
+            raise ArgumentError("noise", f"position and orientation noise must be positive, got {noise_m} m, "
+                                f"{noise_rad} rad")
+        out = copy.copy(self)
+        out.noise_m, out.noise_rad, out.weight = noise_m, noise_rad, noise_m / noise_rad
+        out.noise_from = tuple(o if o != "default" else origin for o in self.noise_from)  # type: ignore[assignment]
+        return out
+
+    def errors_by_part(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> dict[str, np.ndarray]:
+        """Each row's position error [mm] and orientation error angle [deg] (:meth:`part_errors`)."""
+        mm, deg = self.part_errors(x, q, readings)
+        return {"position_mm": mm, "orientation_deg": deg}
 
     @property
     def reference_point(self) -> np.ndarray:
