@@ -84,7 +84,7 @@ def _in_unit(values: np.ndarray, unit: str) -> dict[str, float]:
             f"max_{unit}": float(np.max(v))}
 
 
-def part_report(problem: Any, x: np.ndarray, splits: dict[str, np.ndarray], noise: bool = True) -> dict[str, Any]:
+def part_report(problem: Any, x: np.ndarray | None, splits: dict[str, np.ndarray], noise: bool = True) -> dict[str, Any]:
     """A set whose rows have parts in units of their own (a 6-D pose's position and
     orientation; :meth:`~calib_pin.sensors.base.MeasurementModel.errors_by_part`):
     ``errors_by_part`` (split -> stage -> part -> RMS/mean/max in the part's unit, nominal

@@ -202,7 +202,8 @@ class MeasurementModel(ABC):
         for other in SENSORS.values():
             for name in other.setup_type.field_names():
                 if name not in own and given(options.get(name)):
-                    raise CalibPinError(f"{flag_of(name)} is for {other.data_name.split()[0]} data; "
+                    takers = [s.data_name.split()[0] for s in SENSORS.values() if name in s.setup_type.field_names()]
+                    raise CalibPinError(f"{flag_of(name)} is for {' and '.join(takers)} data; "
                                         f"{data.source} holds {cls.data_name}")
 
     @classmethod

@@ -500,7 +500,8 @@ class PoseModel(MeasurementModel):
     def simulate_rows(cls, draw: Any, geometry: PoseRig | None) -> tuple[MeasurementSet, PoseRig]:
         """A 6-D pose session (:meth:`MeasurementModel.simulate_rows`): one pose read at each
         drawn configuration, the position with Gaussian noise ``draw.noise_mm`` per axis, the
-        orientation with :data:`DEFAULT_NOISE_DEG` per axis (stated as ``# noise_deg``);
+        orientation with ``draw.setup["noise_deg"]`` (else :data:`DEFAULT_NOISE_DEG`) per axis
+        (stated as ``# noise_deg``);
         ``geometry`` None: :func:`default_rig`."""
         from ..measurements import MeasurementSet
 
@@ -513,15 +514,17 @@ class PoseModel(MeasurementModel):
         true_model = cls(chain, params, rig, estimate=(), compliance=draw.compliance)
         position, rot, _ = true_model._poses(draw.x_model, q)
         position = position + draw.noise((len(q), 3))
-        noise_rad = np.deg2rad(DEFAULT_NOISE_DEG) if draw.noise_mm > 0 else 0.0
+        given = draw.setup.get("noise_deg")
+        deg = (float(given) if given is not None else DEFAULT_NOISE_DEG) if draw.noise_mm > 0 else 0.0
+        noise_rad = np.deg2rad(deg)
         rot = np.stack([r @ pin.exp3(t) for r, t in zip(rot, draw.rng.normal(size=(len(q), 3)) * noise_rad,
                                                          strict=True)])
         data = MeasurementSet(
             q=q, values=np.column_stack([position, matrix_quaternions(rot)]), kind=cls.kind, robot=chain.name,
             end_frame=chain.end_frame, noise=draw.noise_mm * 1e-3 or None,
-            notes={**({"noise_deg": f"{DEFAULT_NOISE_DEG:g}"} if draw.noise_mm > 0 else {}),
+            notes={**({"noise_deg": f"{deg:g}"} if draw.noise_mm > 0 else {}),
                    "source": f"calib-pin 6-D pose simulator, seed {draw.seed}, noise {draw.noise_mm:g} mm per axis, "
-                             f"{DEFAULT_NOISE_DEG if draw.noise_mm > 0 else 0:g} deg per axis"})
+                             f"{deg:g} deg per axis"})
         return data, rig
 
     def noisy_readings(self, x: np.ndarray | None, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
