@@ -203,6 +203,13 @@ def _geometry_section(title: str, view: dict, describe: str) -> str:
             + _errors_by_part(view))
 
 
+def sensor_html(r: dict, figures: bool = True) -> str:
+    """report.html's Sensor section: each sensor's description, its geometry table and its
+    errors per part (one set, or each set in turn), with its figure where one is drawn."""
+    return "".join(_geometry_section(title, v, str(v.get("sensor", ""))) + (_sensor_figure(v) if figures else "")
+                   for title, v in sensor_views(r))
+
+
 def _drawable(r: dict) -> bool:
     """Whether the sensor figure draws this geometry (a device frame with markers, a cable
     anchor); the others (a 6-D body, contact fixtures) have their table only."""
@@ -309,8 +316,7 @@ def render_html(r: dict) -> str:
                          f"poses: RMS {fmt(f['rms'])} mm, max {fmt(f['max'])} mm.</p>"))
     if r.get("sets"):
         sections.insert(1, ("sets", "Measurement sets", _sets_section(r)))
-    sections.append(("sensor", "Sensor", "".join(_geometry_section(title, v, str(v.get("sensor", "")))
-                                                 + _sensor_figure(v) for title, v in sensor_views(r))))
+    sections.append(("sensor", "Sensor", sensor_html(r)))
     nav = "".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
     body = "".join(f'<section id="{key}"><h2>{html.escape(title)}</h2>{content}</section>'
                    for key, title, content in sections)
