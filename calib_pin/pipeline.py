@@ -168,7 +168,9 @@ class CalibrationSetup:
             problem, estimate, fits = fit_noise_parts(problem, train, lambda t: run_estimator(
                 method, t, x0, seed=seed, noise=t.model.noise_parts()[0].sigma, loss=loss, fixed=held))
             parts = problem.model.noise_parts()
-            noise, noise_from = parts[0].sigma, f"estimated per part from the residual ({fits} fits; noise_by_part)"
+            noise, noise_from = parts[0].sigma, ("stated" if parts[0].origin in ("caller", "file") else
+                                                 f"estimated per part from the residual ({fits} fit"
+                                                 f"{'s' if fits > 1 else ''}; noise_by_part)")
         else:
             estimate = run_estimator(method, training, x0, seed=seed, noise=noise, loss=loss, fixed=held)
         metrics = {}

@@ -127,3 +127,12 @@ def test_the_printout_gives_the_noise_per_part(tmp_path, monkeypatch, capsys):
     assert "position 0.0" in line and " mm (estimate), orientation 0.0" in line and line.endswith("deg (estimate)")
     report = json.loads((tmp_path / "o" / "report.json").read_text())
     assert report["noise_by_part"]["orientation"]["noise_deg"] == pytest.approx(0.01, rel=0.3)
+
+
+def test_the_callers_position_noise_is_kept_and_only_the_orientation_estimated(robot):
+    chain, params = robot
+    data, _ = simulate_poses(chain, params, 40, seed=4, noise_mm=0.05, noise_deg=0.01)
+    result = cp.calibrate("irb120", _unstated(data), method="lm", noise_mm=0.08)
+    position, orientation = result.problem.model.noise_parts()
+    assert (position.origin, position.sigma) == ("caller", pytest.approx(0.08e-3))
+    assert orientation.origin == "estimate" and result.noise_from == "stated"
