@@ -23,6 +23,7 @@ scored, never fitted; a drawstring set only, its anchor as its file or its FitSe
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -112,6 +113,8 @@ class SetResult:
     x: np.ndarray = field(repr=False)
     overrides: tuple[str, ...] = ()
     overridden: tuple[str, ...] = ()
+    #: The unit of its row errors and metrics (its sensor's ``value_unit``).
+    unit: str = "mm"
 
     def predict(self, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
         """The values this set's sensor would read at joint angles q (n, n_joints) [rad], [m]."""
@@ -124,7 +127,7 @@ class SetResult:
             "noise_mm": self.sigma * 1e3, "noise_from": self.sigma_origin,
             "train_rows": len(self.train), "test_rows": len(self.test),
             **{split: {stage: m.as_dict() for stage, m in stages.items()} for split, stages in self.metrics.items()},
-            "error": self.model.error_name, "sensor": self.model.describe(), **self.geometry,
+            "error": self.model.error_name, "error_unit": self.unit, "sensor": self.model.describe(), **self.geometry,
             "setup_from_caller": list(self.overrides), "setup_over_file": list(self.overridden),
         }
 
@@ -161,6 +164,11 @@ class StackedSetup:
     origins: tuple[str, ...]
     options: dict[str, Any] = field(default_factory=dict)
     setups: tuple[dict[str, Any], ...] = ()
+    #: Unknowns held at their start (``fix``/``free`` of :func:`~calib_pin.pipeline.prepare`),
+    #: by stacked name: the robot's shared ones, a set's sensor ones prefixed ``<label>:``.
+    fixed: tuple[str, ...] = ()
+    #: Where the estimate starts (``nominal``, :mod:`calib_pin.parameters.start`); None: zero deviations.
+    start: Any = None
 
     @property
     def noise(self) -> float:
@@ -237,22 +245,29 @@ class StackedSetup:
             test_data: Any = None) -> CalibrationResult:
         """Estimate with ``method`` on every set's training rows; score each set and all.
 
+        With ``test_data`` (a separate validation session, :meth:`validation`) every row of
+        every set trains and the ``test`` metrics are the session's: scored with the named
+        set's set-up, or re-registered (:class:`~calib_pin.validation.TestSet`).
+
         Raises:
-            CalibPinError: a method that learns no kinematics, a separate ``test_data``
-                (give it as a set with role ``test``), too few training rows.
+            CalibPinError: a method that learns no kinematics, a bad validation session,
+                too few training rows.
         """
         spec = get_method(as_instance(method, "method", str, "a method name (calib_pin.ESTIMATORS)"))
         if not spec.kinematic:
-            raise CalibPinError(f"method '{method}' learns a correction of one sensor's values: with several sets "
-                                "use a parameter method (lm, ekf-qibas, ...)")
-        if test_data is not None:
-            raise CalibPinError("test_data with several sets: give the validation set as one of the sets, "
-                                "with role 'test'")
+            raise CalibPinError(f"method '{method}' learns a correction of one sensor set-up's readings, not the "
+                                "robot: with several sets (each its own set-up) it would be one correction per set, "
+                                "valid for none of the others nor for a new one; use a parameter method (lm, "
+                                "ekf-qibas, ...), or give it one --data")
         for kind in self.kinds:
             spec.check(loss, kind)
         for d in self.sets:
             check_measurements(self.chain, d)
-        splits = self.split(test_fraction, seed)
+        session = None if test_data is None else self.validation(test_data)
+        if session is None:
+            splits = self.split(test_fraction, seed)
+        else:  # every row of every set trains; the validation session is the test
+            splits = [(np.arange(len(d)), np.zeros(0, dtype=int)) for d in self.sets]
         warnings = [note for note in (d.ignored_note() for d in self.sets) if note]
         problems = self.problems_on([train for train, _ in splits])
         offsets = np.cumsum([0] + [len(d) for d in self.sets])
@@ -270,7 +285,13 @@ class StackedSetup:
         if unsupported:
             raise DataError(self.data.source, unsupported)
         x0 = np.zeros(full.n_params)
-        estimate, sigmas, fits = self._fit(method, full, train, sigmas, x0, seed, loss)
+        if self.start is not None:  # the robot's own kinematics (--nominal), shared by every set
+            x0[:full.model.n_robot] = self.start.robot_x
+            if self.start.compliance is not None:
+                x0[full.model.n_robot:full.model.sensor_start] = self.start.compliance
+            x0 = self.start.sensor_fit(full.subset(train), x0)  # each set's geometry as seen by the start
+        held = tuple(full.model.names.index(n) for n in self.fixed)
+        estimate, sigmas, fits = self._fit(method, full, train, sigmas, x0, seed, loss, held)
         full = full.with_weights(sigmas)
         if fits > 1:
             guessed = [label for label, o in zip(self.labels, self.origins, strict=True) if o == "estimate"]
@@ -279,7 +300,7 @@ class StackedSetup:
         pooled: dict[str, dict[str, list[np.ndarray]]] = {}
         for k, ((tr, te), problem) in enumerate(zip(splits, problems, strict=True)):
             xk = full.model.part_x(estimate.x, k)
-            zero = np.zeros(problem.n_params)
+            zero = full.model.part_x(x0, k)  # the start: zero deviations, or --nominal's
             metrics: dict[str, dict[str, Metrics]] = {}
             for split, rows in (("train", tr), ("test", te)):
                 if len(rows):
@@ -299,23 +320,78 @@ class StackedSetup:
                 train=tr, test=te, metrics=metrics, geometry={**problem.model.geometry_report(xk), **part_report(
                     problem, xk, {"train": tr, "test": te}, noise=False)},
                 model=problem.model, x=np.asarray(xk), overrides=tuple(self.setups[k]) if self.setups else (),
-                overridden=self.overridden(k)))
+                overridden=self.overridden(k), unit=value_unit(problem.model)))
         metrics = {split: {stage: Metrics.of(np.concatenate(v)) for stage, v in stages.items()}
                    for split, stages in pooled.items()}
-        return CalibrationResult(
+        if pooled_unit(results) is None:  # errors in mm and in degrees are no one RMSE
+            metrics = {}
+            warnings.append(f"no all-sets table: {units_words(results)}; each set's table is in its own units")
+        result = CalibrationResult(
             chain=self.chain, params=self.params, method=method, x=estimate.x, estimate=estimate,
             problem=full, data=self.data, train=train, test=test, metrics=metrics, seed=seed,
-            noise=float(sigmas[0]), loss=loss, warnings=tuple(warnings), sets=tuple(results))
+            noise=float(sigmas[0]), loss=loss, warnings=tuple(warnings), sets=tuple(results), start=self.start)
+        return result if session is None else self._validated(result, session, problems)
+
+    def validation(self, test_data: Any) -> Any:
+        """The validation session of ``test_data`` (a path, a set or a
+        :class:`~calib_pin.validation.TestSet`) with its data loaded and the training set
+        whose set-up it shares chosen (:func:`~calib_pin.validation.choose_training_set`).
+
+        Raises:
+            CalibPinError: a set with role ``test`` beside it, a session of a kind no set
+                has, no or a wrong ``same``, a set-up that disagrees with the named set's.
+        """
+        from .measurements.checks import check_same_setup
+        from .pipeline import _same_rows as same_rows
+        from .pipeline import load_data
+        from .validation import as_test_set, choose_training_set
+
+        test = as_test_set(test_data)
+        assert test is not None
+        if "test" in self.roles:
+            label = self.labels[self.roles.index("test")]
+            raise CalibPinError(f"test_data and set {label} with role 'test': give the validation session one way "
+                                "(--test-data, or a --data set with role=test)")
+        _, session = load_data(self.chain, test.data, "", self.chain.end_frame)
+        k = choose_training_set(test, session, self.labels, [d.kind for d in self.sets], [d.source for d in self.sets])
+        if test.register is None:
+            check_same_setup(session, self.sets[k], {**self.options, **(self.setups[k] if self.setups else {})})
+        for d in self.sets:
+            if same_rows(session, d):
+                raise DataError(session.source or "test_data", "holds a training set's own rows: a validation "
+                                "session must be another one")
+        return dataclasses.replace(test, data=session, same=self.labels[k] if test.register is None else "")
+
+    def _validated(self, result: CalibrationResult, test: Any, problems: list[CalibrationProblem]) -> CalibrationResult:
+        """``result`` with its ``test`` metrics from the validation session ``test``: scored
+        with the named set's set-up (its sensor geometry as calibrated), or re-registered on
+        its stated rows with the calibrated robot fixed (the first set of its kind lends the
+        sensor's model, :func:`~calib_pin.validation.register_session`)."""
+        from .pipeline import _score_registered, score_session
+
+        kinds = [d.kind for d in self.sets]
+        k = self.labels.index(test.same) if test.register is None else kinds.index(test.data.kind)
+        model: Any = result.problem.model
+        view = dataclasses.replace(result, problem=problems[k], x=np.asarray(model.part_x(result.x, k)), sets=())
+        if test.register is None:
+            scored = score_session(view, test.data)
+            info: dict[str, Any] = {"data": test.data.source, "setup": "same", "same_as": test.same}
+        else:
+            scored = _score_registered(view, test, self.options)
+            info = {**(scored.test_registration or {}), "sensor_model_of": self.labels[k]}
+        return dataclasses.replace(result, metrics={**result.metrics, "test": scored.metrics["test"]},
+                                   test_source=scored.test_source, test_registration=info,
+                                   warnings=scored.warnings)
 
     def _fit(self, method: str, full: StackedProblem, train: np.ndarray, sigmas: list[float], x0: np.ndarray,
-             seed: int, loss: str) -> tuple[Any, list[float], int]:
+             seed: int, loss: str, held: tuple[int, ...] = ()) -> tuple[Any, list[float], int]:
         """The estimate, each set's sigma [m] and the fits it took (variance components,
         module docstring, for the sets whose sigma is not known)."""
         unknown = [k for k, s in enumerate(self.sigmas) if s is None] if len(self.sets) > 1 else []
 
         def fit(now: list[float]) -> tuple[Any, Any]:
             training = full.with_weights(now).subset(train)
-            return run_estimator(method, training, x0, seed=seed, noise=now[0], loss=loss), training
+            return run_estimator(method, training, x0, seed=seed, noise=now[0], loss=loss, fixed=held), training
 
         def residuals(estimate: Any, training: Any) -> dict[int, np.ndarray]:
             return {k: part.residual(full.model.part_x(estimate.x, k))
@@ -382,6 +458,31 @@ def fit_noise_parts(problem: CalibrationProblem, train: np.ndarray,
 
     estimate, sigmas, fits = variance_components(fit, residuals, [part.sigma for part in parts], unknown)
     return weighted(sigmas), estimate, fits
+
+
+def value_unit(model: Any) -> str:
+    """The unit of a measurement model's row errors (its sensor's ``value_unit``, default mm)."""
+    return str(getattr(model, "value_unit", "mm"))
+
+
+def pooled_unit(sets: tuple[SetResult, ...] | list[SetResult]) -> str | None:
+    """The one unit of every set's row errors, or None when they differ (no pool)."""
+    units = {s.unit for s in sets}
+    return units.pop() if len(units) == 1 else None
+
+
+def units_words(sets: tuple[SetResult, ...] | list[SetResult]) -> str:
+    """What the all-sets metrics pool, for people and report.json: ``every set's row errors
+    together, in mm``, or why there are none (``the sets' row errors are in different units
+    (a, b: mm; c: deg)``)."""
+    unit = pooled_unit(sets)
+    if unit is not None:
+        return f"every set's row errors together, in {unit}"
+    by: dict[str, list[str]] = {}
+    for s in sets:
+        by.setdefault(s.unit, []).append(s.label)
+    return "the sets' row errors are in different units (" + "; ".join(
+        f"{', '.join(labels)}: {unit}" for unit, labels in by.items()) + ")"
 
 
 #: A set whose training RMSE after the fit exceeds this many noise sigmas, and whose rows a

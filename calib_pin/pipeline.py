@@ -329,11 +329,10 @@ def prepare(
         if sets[0].setup is not None:  # the set's own set-up wins over the shared one
             sensor_options = {**sensor_options, **setup_record(sets[0].setup).given()}  # type: ignore[union-attr]
     elif sets is not None:  # several sets
-        if fix is not None or free is not None or nominal is not None:
-            raise ArgumentError("fix" if nominal is None else "nominal",
-                                "works with one measurement set (not yet with several)")
-        return _prepare_sets(robot, sets, end_frame=end_frame, sensor_options=sensor_options, noise_mm=noise_mm,
-                             parameters=parameters, compliance=record)
+        stacked = _prepare_sets(robot, sets, end_frame=end_frame, sensor_options=sensor_options, noise_mm=noise_mm,
+                                parameters=parameters, compliance=record)
+        _hold(stacked, fix, free, nominal, record)
+        return stacked
     _check_data(data, "data")
     end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
     noise_mm = as_optional(as_float, noise_mm, "noise_mm", 0.0, MAX_MM, low_open=True, unit="mm")
@@ -358,6 +357,23 @@ def prepare(
 
         prepared.start = load_start(as_path(nominal, "nominal"), chain, prepared.params, soft.joints if soft else ())
     return prepared
+
+
+def _hold(stacked: StackedSetup, fix: Any, free: Any, nominal: Any, record: Compliance | None) -> None:
+    """``fix``/``free``/``nominal`` of several sets: the robot's unknowns are shared, so a
+    robot name holds it for every set; a set's sensor unknown is named as the stacked
+    problem names it (``s2:anchor_x``)."""
+    model = stacked.problem.model
+    if fix is not None or free is not None:
+        from .parameters.held import held_names
+
+        stacked.fixed = held_names(model.names, model.sensor_start, fix, free)
+    if nominal is not None:
+        from .parameters.start import load_start
+
+        soft = record.spec(stacked.chain) if record is not None else None
+        stacked.start = load_start(as_path(nominal, "nominal"), stacked.chain, stacked.params,
+                                   soft.joints if soft else ())
 
 
 def _single(given: FitSet, noise_mm: Any) -> tuple[Any, Any]:
@@ -440,7 +456,8 @@ def calibrate(
         test_data: A separate validation session: train on all of ``data``, test on it. A
             :class:`~calib_pin.validation.TestSet` says its set-up: the training set's
             (checked), or a new one re-registered on its first k poses or its rows with
-            ``role`` ``register`` (``result.test_registration`` lists the rows).
+            ``role`` ``register`` (``result.test_registration`` lists the rows). With
+            several sets, ``same`` names the training set whose set-up it shares.
         end_frame: End frame; default the file's ``end_frame`` or the robot's.
         anchor_mm, tool_mm: Override the file's sensor point (base frame) and tool
             point (end frame), 3 numbers each, [mm].
@@ -491,12 +508,10 @@ def calibrate(
         length_offset_mm=length_offset_mm, noise_mm=noise_mm, parameters=parameters, estimate=estimate,
         compliance=record, setup=setup, fix=fix, free=free, nominal=nominal)
     if isinstance(prepared, StackedSetup):
-        if test_data is not None:
-            raise CalibPinError("test_data with several sets: give the validation set as one of the sets, "
-                                "with role 'test' (calib_pin.multiset.FitSet)")
+        validation = None if test is None else prepared.validation(test)
         if progress is not None:
             progress(prepared)
-        return prepared.run(method, seed=seed, test_fraction=test_fraction, loss=loss)
+        return prepared.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)
     validation = None if test is None else _validation(prepared, test, str(robot))
     if progress is not None:
         progress(prepared)

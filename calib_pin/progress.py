@@ -15,7 +15,12 @@ from collections.abc import Iterable, Iterator
 from contextvars import ContextVar
 from typing import Any, TextIO, TypeVar
 
-from tqdm import tqdm  # type: ignore[import-untyped]
+
+def _tqdm() -> Any:
+    """tqdm's bar class, imported when a bar is drawn (not at every command's start)."""
+    from tqdm import tqdm  # type: ignore[import-untyped]
+
+    return tqdm
 
 T = TypeVar("T")
 
@@ -65,8 +70,16 @@ def progress(
     out = _terminal(quiet, stream)
     if out is None:
         return iter(iterable)
-    return iter(tqdm(iterable, total=total, desc=desc or None, file=out, leave=False,
+    return iter(_tqdm()(iterable, total=total, desc=desc or None, file=out, leave=False,
                      dynamic_ncols=True, unit="it"))
+
+
+def status(line: str, quiet: bool = False, stream: TextIO | None = None) -> None:
+    """One line on stderr (or ``stream``) saying what long work starts now (e.g. drawing
+    the report's figures), under the bars' rule: only on a terminal, never when quiet."""
+    out = _terminal(quiet, stream)
+    if out is not None:
+        print(line, file=out, flush=True)
 
 
 @contextlib.contextmanager
@@ -84,7 +97,7 @@ def progress_bar(total: int, desc: str = "", quiet: bool = False, stream: TextIO
     if out is None:
         yield None
         return
-    bar = tqdm(total=total, desc=desc or None, file=out, leave=False, dynamic_ncols=True, unit="it")
+    bar = _tqdm()(total=total, desc=desc or None, file=out, leave=False, dynamic_ncols=True, unit="it")
     try:
         yield bar
     finally:

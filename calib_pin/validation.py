@@ -13,6 +13,10 @@ drawstring re-anchored. :class:`TestSet` says which, per session:
   fitted on those rows with the calibrated robot fixed (:func:`register_session`); the
   other rows are scored. A registration row is never scored.
 
+With several training sets (:mod:`calib_pin.multiset`) every row of every set trains;
+``same`` names the set whose set-up the session shares (:func:`choose_training_set`), and
+a re-registered session takes its sensor's model from the first set of its kind.
+
 The "before" error of a re-registered session is the same protocol with the nominal robot:
 its sensor unknowns fitted on the same rows with the nominal robot, the rest scored.
 """
@@ -47,7 +51,8 @@ class TestSet:
             a new set-up, re-registered on the session's first k poses (in file order);
             ``"role"``: re-registered on its rows whose ``role`` column is ``register``.
         same: With ``register`` None, the label of the training set whose set-up the session
-            shares (its file's stem, or file name); "" the training set. Checked.
+            shares (its file's stem, or file name); "" the training set (with several
+            sets: the only one of the session's kind). Checked.
     """
 
     __test__ = False  # not a pytest class
@@ -81,6 +86,37 @@ def as_test_set(test_data: Any) -> TestSet | None:
     if test_data is None or isinstance(test_data, TestSet):
         return test_data
     return TestSet(test_data)
+
+
+def choose_training_set(test: TestSet, session: MeasurementSet, labels: tuple[str, ...] | list[str],
+                        kinds: list[str], sources: list[str] | None = None) -> int:
+    """The training set (index into ``labels``) a validation session of several sets relates
+    to: with ``register`` the first set of its kind (whose sensor model re-registers it);
+    else the set ``same`` names (its label, or its file's name), or the only set of its kind.
+
+    Raises:
+        DataError: a session of a kind no training set has, or of another kind than the named set.
+        ArgumentError: ``same`` naming no set, or left out with several sets of its kind.
+    """
+    source = session.source or "test_data"
+    of_kind = [k for k, kind in enumerate(kinds) if kind == session.kind]
+    if not of_kind:
+        raise DataError(source, f"holds {session.kind} data, no training set does ({', '.join(sorted(set(kinds)))})")
+    if test.register is not None:
+        return of_kind[0]
+    if test.same:
+        files = [Path(source).name if source else "" for source in (sources or [""] * len(labels))]
+        k = next((k for k, label in enumerate(labels) if test.same in (label, files[k])), None)
+        if k is None:
+            raise ArgumentError("same", f"'{test.same}' is not a training set's label (labels: {', '.join(labels)})")
+        if kinds[k] != session.kind:
+            raise DataError(source, f"holds {session.kind} data, set {labels[k]} {kinds[k]} data")
+        return k
+    if len(of_kind) > 1:
+        raise ArgumentError("same", f"{len(of_kind)} training sets of {session.kind} data "
+                            f"({', '.join(labels[k] for k in of_kind)}): name the one whose set-up the session shares "
+                            "(FILE:same=LABEL), or re-register it (FILE:register=K)")
+    return of_kind[0]
 
 
 def registration_rows(session: MeasurementSet, register: int | str) -> tuple[np.ndarray, np.ndarray]:

@@ -275,6 +275,9 @@ CASES: list[Case] = [
     (BENCH, ["--methods", "fast"], {}, 2, "fast"),
     (BENCH, ["--poses", "-1"], {}, 2, "--poses"),
     (BENCH, ["--seed", "x"], {}, 2, "--seed"),
+    (BENCH, ["--commands", "nonsense"], {}, 2, "nonsense"),
+    (BENCH, ["--max-rows", "0"], {}, 2, "--max-rows"),
+    (BENCH, ["--command-method", "fast"], {}, 2, "fast"),
     # --- the entry point
     (ENTRY, [], {}, 2, "give a command"),
     (ENTRY, ["frobnicate"], {}, 2, "frobnicate"),
@@ -421,6 +424,11 @@ def _test_csv(*meta: str) -> str:
     return csv(*ROWS[40:60], meta=meta)
 
 
+#: Two training sets of the same anchor (poses 1-40 and 61-100) and a validation session (poses 41-60).
+TWO_SETS = ["irb120", "--data", "a.csv", "--data", "b.csv", "--method", "lm", "--no-html", "--out", "out"]
+TWO_FILES = {"a.csv": data(), "b.csv": csv(*ROWS[60:100]), "t.csv": _test_csv(*META)}
+
+
 R3_WRONG: list[Case] = [
     # -0 is 0 ("test fraction -0" was printed)
     (CMP, ["irb120", "--simulate", "gauss", "--poses", "4", "--methods", "lm", "--test-fraction", "-0"], {}, 2,
@@ -546,8 +554,36 @@ R3_WRONG: list[Case] = [
      2, "--anchor-mm with several --data files: put each set's in its file"),
     (CAL, ["irb120", "--data", "a.csv", "--data", "a.csv", "--analyze"], {"a.csv": data()}, 2,
      "a.csv: given twice (sets a and 2): a row is fitted once"),
+    # ... a validation session of several training sets: same=LABEL or register=K (issue 22)
     (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--test-data", "a.csv"], {"a.csv": data(), "b.csv": data()},
-     2, "test_data with several sets"),
+     2, "argument same: 2 training sets of cable data (a, b): name the one whose set-up the session shares"),
+    (CAL, [*TWO_SETS, "--test-data", "t.csv:same=c"], TWO_FILES, 2,
+     "argument same: 'c' is not a training set's label (labels: a, b)"),
+    (CAL, [*TWO_SETS, "--test-data", "a.csv:same=a"], TWO_FILES, 2, "a.csv: holds a training set's own rows"),
+    (CAL, [*TWO_SETS[:4], "b.csv:role=test", *TWO_SETS[5:], "--test-data", "t.csv:same=a"], TWO_FILES, 2,
+     "test_data and set b with role 'test': give the validation session one way"),
+    (CAL, [*TWO_SETS, "--test-data", "t.csv:same=a"], {**TWO_FILES, "t.csv": _test_csv(*META[:2], SHIFTED, *META[3:])},
+     2, "t.csv: anchor_mm: the validation session has 650, 200, -100 mm, the calibration 600, 200, -100 mm"),
+    (CAL, [*TWO_SETS, "--test-data", "t.csv:same=a"], TWO_FILES, 0, "validation session t.csv: the set-up of set a"),
+    (CAL, [*TWO_SETS, "--test-data", "t.csv:register=5"], {**TWO_FILES, "t.csv": _test_csv(*META[:2], SHIFTED,
+                                                                                            *META[3:])},
+     0, "validation session t.csv: a new set-up, 5 rows re-registered it"),
+    # ... --fix/--free with several sets: the robot's unknowns are shared, a sensor's carries its set's label
+    (CAL, [*TWO_SETS, "--estimate", "anchor", "--fix", "anchor_x", "--analyze"], TWO_FILES, 2,
+     "argument fix: 'anchor_x' is a sensor unknown of several sets: name the set's, a:anchor_x or b:anchor_x"),
+    (CAL, [*TWO_SETS, "--fix", "theta_7", "--analyze"], TWO_FILES, 2, "argument fix: no unknown 'theta_7'"),
+    (CAL, [*TWO_SETS, "--estimate", "anchor", "--fix", "theta_1,b:anchor_x", "--analyze"], TWO_FILES, 0, "rank"),
+    (CAL, [*TWO_SETS, "--nominal", "none.json"], TWO_FILES, 2, "none.json: no such start file"),
+    # ... compare --nominal: measured data only, not --models
+    (CMP, ["irb120", "--simulate", "gauss", "--nominal", "c.json", "--methods", "lm"], {}, 2,
+     "--nominal starts from one robot's own calibration: give --data, without --simulate"),
+    (CMP, ["irb120", "--data", "a.csv", "--models", "dh,hayati", "--nominal", "c.json"], {"a.csv": data()}, 2,
+     "without --models (each model starts from the catalogue URDF)"),
+    (CMP, ["irb120", "--data", "a.csv", "--data", "b.csv", "--nominal", "none.json", "--methods", "lm", "--out", "o"],
+     TWO_FILES, 2, "none.json: no such start file"),
+    # ... rbf and lm+rbf learn one set-up's readings: refused with several sets
+    (CAL, [*TWO_SETS[:6], "rbf", *TWO_SETS[7:]], TWO_FILES, 2,
+     "method 'rbf' learns a correction of one sensor set-up's readings, not the robot"),
     # ... per-set options after the file: FILE:key=value:key=value (a key wins over the file's)
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=600,200,-100:noise_mm=0.05", "--data", "b.csv", "--analyze"],
      {"a.csv": data(), "b.csv": data()}, 0, "rank"),

@@ -245,3 +245,29 @@ def test_ekf_leaves_out_only_an_identity_prediction(session):
     drifting = EKF(process=0.1)(problem, x0)
     assert not np.array_equal(drifting.x, skipped.x)
     assert np.trace(drifting.covariance) > np.trace(skipped.covariance)
+
+
+@pytest.mark.parametrize("method", ["ekf", "ukf", "ekf-qibas"])
+def test_kalman_history_is_thinned_to_evenly_spread_updates(session, monkeypatch, method):
+    """Over more row updates than HISTORY_POINTS the Kalman filters record that many entries,
+    every stride-th update and the last (the same RMSE as a full record at those updates),
+    the estimate is the same to the bit, and converged() names the update each entry follows."""
+    from calib_pin.estimators import base, run_estimator
+
+    data, _ = session
+    problem = prepare("irb120", data).problem_on(np.arange(96)).subset(np.arange(96))
+    x0 = np.zeros(problem.n_params)
+    full = run_estimator(method, problem, x0)
+    monkeypatch.setattr(base, "HISTORY_POINTS", 10)
+    thin = run_estimator(method, problem, x0)
+    assert np.array_equal(full.x, thin.x) and full.iterations == thin.iterations
+    updates = [0, *range(10, 96, 10), 96]  # stride ceil(96 / 10) = 10, and the last update
+    assert list(thin.extras["history_iterations"]) == updates
+    n_filter = len(updates)
+    np.testing.assert_array_equal(thin.history[:n_filter], np.asarray(full.history)[updates])
+    np.testing.assert_array_equal(thin.evaluations[:n_filter], np.asarray(full.evaluations)[updates])
+    assert thin.history[n_filter:] == full.history[97:]  # the QIBAS stage: one entry per iteration
+    assert [thin.iteration_of(k) for k in range(len(thin.history))] == [*updates, *range(97, thin.iterations + 1)]
+    k_full, _ = full.converged()
+    k_thin, _ = thin.converged()
+    assert k_thin >= k_full and (k_thin - k_full < 10 or k_full > 96)

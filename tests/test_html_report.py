@@ -133,3 +133,17 @@ def test_write_figures_for_the_readme(rendered, tmp_path):
         ["residuals.png", "spectrum.png", "convergence.png", "deviations.png", "workspace.png", "sensor.png"])
     for p in paths:
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_per_row_figure_thins_large_sets_and_says_so():
+    """Above MAX_DRAWN_ROWS the per-row figure draws 1 row in k evenly (and every outlier),
+    and the note says how many; at or below it every row is drawn and nothing is said."""
+    pytest.importorskip("matplotlib")
+    from calib_pin.report import figures
+
+    outliers = np.zeros(10_000, dtype=bool)
+    outliers[[1, 4_999]] = True
+    rows = figures.drawn_rows(10_000, outliers)
+    assert np.array_equal(rows, np.union1d(np.arange(0, 10_000, 4), [1, 4_999]))
+    assert figures.decimation_note(10_000) == "1 in 4 of 10000 rows drawn, outliers always"
+    assert np.array_equal(figures.drawn_rows(3_000), np.arange(3_000)) and figures.decimation_note(3_000) == ""

@@ -108,3 +108,28 @@ def test_positions_of_several_markers(chain, params):
     session.point_ids[:] = 7
     with pytest.raises(CalibPinError, match="point_id 7 is not a marker of this calibration"):
         problem.model.session_errors(rbf.x, session, rbf.estimate.correction)
+
+
+def test_centres_bounded_to_whole_poses(session, monkeypatch):
+    """Above MAX_CENTRES rows the network's centres are a seeded subset of whole poses of at
+    most that many rows (the message says so); the correction still removes at least 30 %
+    of the nominal fresh-pose error, and at or below the bound every row is a centre."""
+    from calib_pin.estimators import rbf
+
+    pose = np.repeat(np.arange(50), 3)  # 50 poses of 3 rows (three markers)
+    monkeypatch.setattr(rbf, "MAX_CENTRES", 40)
+    rows = rbf.centre_rows(pose, 0)
+    assert 37 <= len(rows) <= 40 and np.all(np.bincount(pose[rows], minlength=50) % 3 == 0)
+    assert np.array_equal(rows, rbf.centre_rows(pose, 0)) and not np.array_equal(rows, rbf.centre_rows(pose, 1))
+    monkeypatch.setattr(rbf, "MAX_CENTRES", 150)
+    assert np.array_equal(rbf.centre_rows(pose, 0), np.arange(150))
+    monkeypatch.setattr(rbf, "MAX_CENTRES", 60)
+    data, truth = session
+    setup = cp.prepare("irb120", data)
+    train, _ = setup.split(0.2, 0)
+    problem = setup.problem_on(train)
+    x0 = np.zeros(problem.n_params)
+    nominal = fresh_scorer(setup, truth, 0)(lambda q, points: problem.model.predict(x0, q, points))
+    estimate = RBF()(problem.subset(train), x0, seed=0)
+    assert "(60 of 96 rows as centres)" in estimate.message
+    assert _fresh_mm(setup, truth, estimate, problem) < 0.7 * nominal

@@ -174,8 +174,8 @@ def test_roles_train_and_test(chain, params, three):
     ({"data": "same label"}, "two sets are labelled 'x'"),
     ({"data": "same file"}, "given twice"),
     ({"anchor_mm": (0, 0, 0)}, "anchor_mm: one value for several sets"),
-    ({"test_data": "robots/irb120_default.csv"}, "role 'test'"),
-    ({"method": "rbf"}, "with several sets use a parameter method"),
+    ({"test_data": "robots/irb120_default.csv"}, "name the one whose set-up the session shares"),
+    ({"method": "rbf"}, "one correction per set, valid for none of the others"),
 ])
 def test_several_sets_refusals(three, kwargs, message):
     _, sets = three

@@ -22,16 +22,40 @@ def benchmark_parser() -> argparse.ArgumentParser:
 def add_benchmark_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     """benchmark's arguments, added to its subparser ``p``; the shared groups from :mod:`.common`."""
     p.description = "Time calib-pin's estimators on a seeded simulated IRB120 session."
-    p.add_argument("--repeats", type=count(1000), default=5, help="timed runs per method (5)")
+    p.add_argument("--repeats", type=count(1000), default=5,
+                   help="timed runs per method, and per command of --commands (5)")
     p.add_argument("--methods", type=methods,
                    help=f"comma-separated methods (the paper's nine; against FIGAROH: {DEFAULT_METHOD},lm)")
     add_seed_argument(p)
     p.add_argument("--poses", type=count(100_000), default=120, help="poses of the simulated set, 80 %% train (120)")
     p.add_argument("--scaling", action="store_true",
                    help="also print the scaling table: lm, ekf, ekf-qibas, qibas at 100, 1 000, 10 000 poses (minutes)")
+    p.add_argument("--commands", type=_command_list, nargs="?", const="all",
+                   help="also time the user's commands as whole processes at 1 000, 10 000, 100 000 rows "
+                   "(comma-separated of calibrate,no-html,compare,batch,compensate; default all; long)")
+    p.add_argument("--max-rows", type=count(100_000), default=100_000,
+                   help="largest size of --commands (100000; e.g. 10000 to finish sooner)")
+    p.add_argument("--compare-max-rows", type=count(100_000),
+                   help="time compare only up to this size (default: --max-rows)")
+    p.add_argument("--command-method", type=methods, default=[DEFAULT_METHOD],
+                   help=f"method of --commands' calibrate and batch ({DEFAULT_METHOD})")
+    p.add_argument("--quick-start", action="store_true",
+                   help="also time the quick start (calib-pin calibrate irb120) and its phases, fresh processes")
     p.add_argument("--against", choices=["figaroh"],
                    help="also race FIGAROH (when installed) on simulated UR5 positions, 100 and 1 000 samples")
     return p
+
+
+def _command_list(text: str) -> tuple[str, ...]:
+    """``calibrate,no-html,...`` or ``all``: the commands of ``--commands``."""
+    from ..studies.benchmark_commands import COMMANDS
+
+    names = COMMANDS if text == "all" else tuple(n.strip() for n in text.split(",") if n.strip())
+    unknown = [n for n in names if n not in COMMANDS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(f"unknown command '{unknown[0] if unknown else text}' "
+                                         f"(valid: {', '.join(COMMANDS)}, or all)")
+    return names
 
 
 def benchmark_main(argv: Sequence[str] | None = None) -> int:
@@ -59,9 +83,38 @@ def _benchmark(args: argparse.Namespace) -> int:
     print("goals: EKF-QIBAS at 96 poses < 30 ms; 10 000 poses < 5 s; cost and memory linear in the poses")
     if args.scaling:
         print(format_scaling(scaling(seed=args.seed)))
+    if args.quick_start:
+        _quick_start(args)
+    if args.commands:
+        _commands(args)
     if args.against == "figaroh":
         _against_figaroh(args)
     return 0
+
+
+def _quick_start(args: argparse.Namespace) -> None:
+    from ..studies.benchmark_commands import quick_start_phases
+
+    phases, wall = quick_start_phases(max(args.repeats, 3))
+    print(f"quick start (calibrate.py irb120, whole process, median of {max(args.repeats, 3)}): {wall:.2f} s; "
+          "its phases in a "
+          "fresh process [s]: " + ", ".join(f"{k} {v:.3f}" for k, v in phases.items()))
+    print("goal: the quick start under 3 s warm")
+
+
+def _commands(args: argparse.Namespace) -> None:
+    from ..studies.benchmark_commands import COMMAND_SIZES, format_commands, time_commands
+
+    sizes = tuple(n for n in COMMAND_SIZES if n <= args.max_rows) or (args.max_rows,)
+    method = args.command_method[0]
+    runs = time_commands(args.commands, sizes, method, repeats=args.repeats, seed=args.seed,
+                         compare_max_rows=args.compare_max_rows)
+    print(f"the user's commands as whole processes (python scripts/COMMAND.py, simulated IRB120 drawstring sets, "
+          f"seed {args.seed}; calibrate, --no-html and batch with --method {method}; batch: 8 sets of rows/8 "
+          "poses; compare --trials 10, every method; compensate: 1000 targets), median wall s of "
+          f"{args.repeats} run(s), ratio to the size before, peak resident MiB:")
+    print(format_commands(runs))
+    print("goals: calibrate at 10 000 rows <= 12x its time at 1 000; peak memory at 100 000 rows <= 1 GB")
 
 
 def _against_figaroh(args: argparse.Namespace) -> None:

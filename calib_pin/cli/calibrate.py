@@ -271,9 +271,9 @@ def _analyze(args: argparse.Namespace) -> int:
     return 0
 
 
-def table(metrics: dict[str, dict[str, Metrics]]) -> str:
-    """The before/after metrics as a fixed-width table, [mm]."""
-    lines = [f"{'':14s}{'RMSE mm':>10s}{'mean mm':>10s}{'max mm':>10s}"]
+def table(metrics: dict[str, dict[str, Metrics]], unit: str = "mm") -> str:
+    """The before/after metrics as a fixed-width table, in ``unit`` (the row errors', mm)."""
+    lines = [f"{'':14s}{'RMSE ' + unit:>10s}{'mean ' + unit:>10s}{'max ' + unit:>10s}"]
     for split, stages in metrics.items():
         for stage, m in stages.items():
             lines.append(f"{split + ' ' + stage:14s}{m.rmse_mm:10.4f}{m.mean_mm:10.4f}{m.max_mm:10.4f}")
@@ -384,16 +384,42 @@ def basis_cells(soft: dict[str, Any]) -> str:
 
 def _sets_summary(result: Any) -> None:
     """The header and a table per set, then the all-sets table (several sets)."""
-    print(f"{result.chain.name}: {len(result.sets)} sets, {len(result.train)} train and {len(result.test)} test rows "
-          f"(split per set by pose, seed {result.seed}), {result.model_name} model, method {result.method}")
+    split = (f"{len(result.train)} train rows (every row of every set), test rows from {result.test_source}"
+             if result.test_source else f"{len(result.train)} train and {len(result.test)} test rows "
+             f"(split per set by pose, seed {result.seed})")
+    print(f"{result.chain.name}: {len(result.sets)} sets, {split}, {result.model_name} model, method {result.method}")
     print(f"error per row: {result.problem.model.error_name}")
     for s in result.sets:
         rows = len(s.train) + len(s.test)
         print(f"set {s.label}: {rows} rows from {s.source or 'memory'} ({len(s.train)} train, {len(s.test)} test, "
               f"role {s.role}), noise {s.sigma * 1e3:.4f} mm ({s.sigma_origin}){_override_note(s)}")
-        print(table(s.metrics))
-    print("all sets (each row's error in its own set's units):")
-    print(table(result.metrics))
+        print(table(s.metrics, s.unit))
+    from ..multiset import pooled_unit, units_words
+
+    unit = pooled_unit(result.sets)
+    pooled = {split: stages for split, stages in result.metrics.items()
+              if split != "test" or not result.test_source}
+    if unit is None:
+        print(f"all sets: no table, {units_words(result.sets)}")
+    elif pooled:
+        print(f"all sets ({units_words(result.sets)}):")
+        print(table(pooled, unit))
+    info = result.test_registration or {}
+    if result.test_source:  # a separate validation session, scored apart from the sets
+        if info.get("setup") == "same":
+            how = f"the set-up of set {info['same_as']} (as calibrated; nothing fitted on it)"
+        else:
+            how = (f"a new set-up, {len(info['registered_rows'])} rows re-registered it ({info['registered_on']}; "
+                   f"fitted {', '.join(info['fitted'])} with the calibrated robot fixed, RMS "
+                   f"{info['registration_rmse_mm']:.4f} mm); the other {len(info['scored_rows'])} rows scored")
+        print(f"validation session {result.test_source}: {how}")
+        print(table({"test": result.metrics["test"]}, value_unit_of(result, info)))
+
+
+def value_unit_of(result: Any, info: dict[str, Any]) -> str:
+    """The unit of a validation session's errors: the set's whose sensor scored it."""
+    label = info.get("same_as") or info.get("sensor_model_of")
+    return next((s.unit for s in result.sets if s.label == label), "mm")
 
 
 def _override_note(s: Any) -> str:
@@ -464,8 +490,9 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     if result.loss != "linear":
         lines = ", ".join(str(line) for line in report["outlier_lines"]) or "none"
         print(f"outliers ({result.loss} loss): {len(result.outlier_rows)} training rows, file lines {lines}")
-    after, before = result.metrics["train"]["after"], result.metrics["train"]["before"]
-    if after.rmse_mm > before.rmse_mm:
+    after, before = (result.metrics["train"][stage] if "train" in result.metrics else None
+                     for stage in ("after", "before"))
+    if after is not None and before is not None and after.rmse_mm > before.rmse_mm:
         print("warning: the calibrated model fits the training poses worse than the nominal one")
     for warning in report["warnings"]:  # the result's own, and the report's (rank, bounded compliances)
         print(f"warning: {warning}")

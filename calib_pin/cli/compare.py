@@ -81,6 +81,9 @@ def add_compare_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser
                    "comma-separated geometric, dh, hayati, placement, compliance:JOINT+JOINT[:cad|basis], "
                    "compliance:all; the first is the reference of the paired differences; writes models.md, models.csv")
     p.add_argument("--method-of-models", default="lm", help="the estimator of --models (default lm)")
+    p.add_argument("--nominal", help="start every method from the robot's own calibrated kinematics instead of the "
+                   "catalogue URDF (as calibrate --nominal): a calib-pin <robot>_calibration.json or a UR "
+                   "default_kinematics.yaml; measured data only")
     add_parallel_arguments(p)
     add_quiet_argument(p)
     return p
@@ -96,6 +99,9 @@ def compare_main(argv: Sequence[str] | None = None) -> int:
         return fail("--models compares on measured data: give --data, not --simulate")
     if args.models and any(a == "--methods" or a.startswith("--methods=") for a in argv):
         return fail("--models fits every model with one method, --method-of-models (default lm): leave --methods out")
+    if args.nominal and (args.models or args.simulate):
+        return fail(f"--nominal starts from one robot's own calibration: give --data, without "
+                    f"{'--models (each model starts from the catalogue URDF)' if args.models else '--simulate'}")
     with quiet_progress(args.quiet):
         return run(lambda: _compare_models(args, argv) if args.models else _compare(args, argv))
 
@@ -142,7 +148,8 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
         raise CalibPinError(f"{out}: the output folder is a file")
     data = args.data if args.data is None or len(args.data) > 1 else args.data[0]  # several: the sets stacked
     inputs = {**robot_inputs(args.robot),
-              **({f"--data {d}": d for d in data} if isinstance(data, list) else {"--data": data})}
+              **({f"--data {d}": d for d in data} if isinstance(data, list) else {"--data": data}),
+              "--nominal": args.nominal}
     refusal = Outputs(out, inputs=inputs)
     for name in OUTPUT_NAMES:  # an input is never an output: refused before the trials
         refusal.check(out / name)
@@ -156,6 +163,7 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
             noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
             checkpoint=out, notify=lambda line: print(line, flush=True), **compliance_options(args),
             parameters=args.model, estimate=args.estimate,
+            **({"nominal": args.nominal} if args.nominal else {}),
         )
     except Interrupted as e:
         print(f"\n{one_line(str(e))}", file=sys.stderr)

@@ -11,7 +11,11 @@ randomness, ``noise`` is the measurement noise (1 sigma, [m]) for methods that w
 values by it. ``callback(rmse, evaluations)``, when given, is called with the training
 RMSE [m] at the start and after every iteration and the evaluations used so far: the
 convergence history. Without it nothing is recorded, so a benchmark times the method
-and not its bookkeeping.
+and not its bookkeeping. A method whose iteration is one row's update (the Kalman
+filters) computes the training RMSE over every row for each entry: it records at most
+:data:`HISTORY_POINTS` entries, spread evenly over its updates (every update when it
+has no more), so the record costs O(rows), not O(rows^2); the result's
+``history_iterations`` then says which update each entry follows.
 
 Work is counted in *evaluations*: one evaluation is the residual (or the Jacobian) of
 the whole training set; a Kalman update that predicts one row counts 1/n_rows of an
@@ -31,6 +35,10 @@ from ..problem import LeastSquares
 
 #: ``callback(rmse, evaluations)``: training RMSE [m] reached with that many evaluations.
 Callback = Callable[[float, float], None]
+
+#: Most history entries a method records over its row updates (see the module docstring):
+#: a convergence figure is drawn from a few hundred points as well as from every one.
+HISTORY_POINTS = 300
 
 #: ``correction(q, points)``: what to add to the values a model predicts at joint angles
 #: q (n_rows, n_joints) [rad] for rows measuring points ``points`` (each row's point
@@ -58,7 +66,9 @@ class EstimateResult:
             x), ``stages`` (a pipeline's iterations per stage), ``correction`` (RBF: a
             :data:`Correction`, what to add to the predicted values [m]),
             ``outliers`` (rows a robust method judged outliers), ``bounded`` (unknowns
-            fixed at zero because they fitted negative, see :attr:`bounded`).
+            fixed at zero because they fitted negative, see :attr:`bounded`),
+            ``history_iterations`` (when the history was thinned: the iteration each of
+            its first entries follows; later entries follow one iteration each).
     """
 
     x: np.ndarray
@@ -121,7 +131,14 @@ class EstimateResult:
             return self.iterations, float(self.nfev)
         h = np.asarray(self.history)
         k = int(np.argmax(h <= h[-1] * (1.0 + tolerance)))
-        return k, float(self.evaluations[k])
+        return self.iteration_of(k), float(self.evaluations[k])
+
+    def iteration_of(self, entry: int) -> int:
+        """The iteration after which ``history[entry]`` was recorded (0: the start)."""
+        known = tuple(self.extras.get("history_iterations", ()))
+        if entry < len(known):
+            return int(known[entry])
+        return int(known[-1]) + entry - len(known) + 1 if known else entry
 
 
 class History:
@@ -164,6 +181,9 @@ class Tracker:
         self.problem = problem
         self.callback = callback
         self.nfev = 0.0
+        self.stride = 1
+        self.updates = 0
+        self.recorded: list[int] = []  # the update each entry follows, when thinned
 
     @property
     def recording(self) -> bool:
@@ -202,8 +222,26 @@ class Tracker:
         if self.callback is not None:
             self.callback(rmse(self.problem.residual(x)), self.nfev)
 
+    def thin(self, updates: int) -> None:
+        """Record at most :data:`HISTORY_POINTS` of ``updates`` row updates after the start
+        (every ``stride``-th and the last); call before the start is recorded."""
+        self.stride = max(1, -(-updates // HISTORY_POINTS))
+        self.updates = updates
+        self.recorded = [0] if self.stride > 1 else []
+
+    def record_update(self, x: np.ndarray, update: int) -> None:
+        """After row update ``update`` (1-based) at estimate x: :meth:`record_at` when it is
+        one of the thinned points (see :meth:`thin`)."""
+        if self.callback is None or (update % self.stride and update != self.updates):
+            return
+        if self.stride > 1:
+            self.recorded.append(update)
+        self.record_at(x)
+
     def result(self, x: np.ndarray, iterations: int, message: str, *, status: int = 0,
                **extras: Any) -> EstimateResult:
+        if self.recorded and self.callback is not None:
+            extras.setdefault("history_iterations", tuple(self.recorded))
         return EstimateResult(
             x=np.asarray(x, dtype=float).copy(), success=status == 0, status=status, message=message,
             iterations=iterations, nfev=self.nfev, extras={k: v for k, v in extras.items() if v is not None},

@@ -5,11 +5,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter  # imported with this module: only when the method is asked for
 
 from ..analysis.subspace import Subspace
 from ..problem import LeastSquares, row_offsets
 from .base import Callback, EstimateResult, Tracker
+from .filterpy_import import kalman
+
+# Imported with this module (only when the method is asked for), without scipy.stats.
+ExtendedKalmanFilter = kalman().ExtendedKalmanFilter
 
 
 def filter_moments(
@@ -44,7 +47,8 @@ class EKF:
 
     One iteration is one measurement update (``passes`` x poses in all); each costs
     1/n_poses of an evaluation. ``history`` holds the training RMSE before the first
-    and after every update (computed for the record, not counted as work);
+    and after every update, or after at most :data:`.base.HISTORY_POINTS` of them spread
+    evenly (computed for the record, not counted as work);
     ``covariance`` is the final P carried back to x.
     """
 
@@ -65,8 +69,10 @@ class EKF:
         kf.P, kf.Q, r2 = filter_moments(problem, space, self.prior, self.process, noise)
         noise_of = {int(m): r2 * np.eye(int(m)) for m in np.unique(sizes)}  # R of a row of m values
         kf.R = noise_of[int(sizes[0])]
+        track.thin(self.passes * problem.n_rows)
         track.record_at(x0)
         zero_of = {m: np.zeros((m, 1)) for m in noise_of}
+        update = 0
         for _ in range(self.passes):
             for k in range(problem.n_rows):
                 # The residual (predicted - measured) is the prediction of a zero measurement.
@@ -77,8 +83,9 @@ class EKF:
                 m = int(sizes[k])
                 kf.update(zero_of[m], HJacobian=lambda z, h=jac @ space.basis: h,
                           Hx=lambda z, r=residual: r.reshape(-1, 1), R=noise_of[m])
+                update += 1
                 if track.recording:
-                    track.record_at(space.to_x(kf.x[:, 0]))
+                    track.record_update(space.to_x(kf.x[:, 0]), update)
         return track.result(
             space.to_x(kf.x[:, 0]), self.passes * problem.n_rows,
             f"{self.passes} pass(es) over {problem.n_rows} rows",

@@ -42,5 +42,6 @@ class EKFQIBAS:
             x=second.x, success=second.success, status=second.status,
             message=f"EKF: {first.message}; QIBAS: {second.message}",
             iterations=first.iterations + second.iterations, nfev=first.nfev + second.nfev,
-            extras={"covariance": first.covariance, "stages": stages, "outliers": second.outliers},
+            extras={"covariance": first.covariance, "stages": stages, "outliers": second.outliers,
+                    **{k: first.extras[k] for k in ("history_iterations",) if k in first.extras}},
         )

@@ -16,6 +16,13 @@ smoothing (the regularisation added to the kernel matrix) are chosen together by
 in the same fold): the grid point with the least held-out squared error wins, unless
 no grid point beats a zero correction (then the correction is zero: nothing learnable).
 
+Above :data:`MAX_CENTRES` training rows the network is fitted, and its settings
+cross-validated, on a seeded subset of whole poses holding at most that many rows (every
+row still counts in the result's residual): a dense network costs the cube of its
+centres, so without the bound 2000 positions took minutes; with it the cost is bounded
+by a constant plus one prediction per row (linear in the rows). At or below it every
+row is a centre, as before.
+
 It yields **no kinematic parameters**: ``x`` stays at x0 and the result carries a
 ``correction(q, points)`` instead, so calib-pin exports no URDF for it. It corrects only
 this sensor's values (at the points it was trained on), and only near the training
@@ -33,6 +40,9 @@ from scipy.interpolate import RBFInterpolator
 from ..exceptions import EstimatorError
 from ..problem import LeastSquares
 from .base import Callback, EstimateResult, Tracker, rmse
+
+#: Most training rows that become the network's centres (see the module docstring).
+MAX_CENTRES = 800
 
 #: scipy kernels that need a shape parameter epsilon.
 EPSILON_KERNELS = ("gaussian", "multiquadric", "inverse_multiquadric", "inverse_quadratic")
@@ -94,11 +104,17 @@ class RBF:
         inputs = self.inputs(q, points)
         features = inputs(q, points)
         _, pose = np.unique(q, axis=0, return_inverse=True)  # rows of one configuration share a fold
+        pose = pose.ravel()
+        centres = centre_rows(pose, seed)
+        subset = len(centres) < len(pose)
+        if subset:
+            features, error, pose = features[centres], error[centres], np.unique(pose[centres], return_inverse=True)[1]
         n_poses = int(pose.max()) + 1
-        fold = np.random.default_rng(seed).permutation(n_poses)[pose.ravel()] % min(self.folds, n_poses)
+        fold = np.random.default_rng(seed).permutation(n_poses)[pose] % min(self.folds, n_poses)
         scores = {g: _cv_error(features, error, fold, g, self.degree) for g in self.grid()}
         kernel, epsilon, smoothing = min(scores, key=scores.__getitem__)
-        cv = f"by {fold.max() + 1}-fold cross-validation"
+        cv = f"by {fold.max() + 1}-fold cross-validation" + (
+            f" ({len(centres)} of {problem.n_rows} rows as centres)" if subset else "")
         if scores[kernel, epsilon, smoothing] >= float(np.sum(error**2)):  # no network beats adding nothing
             width = error.shape[1]
             result = track.result(x0, 1, f"no network: none beat a zero correction {cv}",
@@ -132,6 +148,23 @@ class RBF:
         """Every (kernel, epsilon, smoothing) tried; epsilon 1 for kernels without one."""
         return [(k, e, s) for k in self.kernels
                 for e, s in itertools.product(self.epsilons if k in EPSILON_KERNELS else (1.0,), self.smoothing)]
+
+
+def centre_rows(pose: np.ndarray, seed: int) -> np.ndarray:
+    """The rows that become centres: all when there are at most :data:`MAX_CENTRES`, else
+    the rows of whole poses, taken in a seeded random order while they fit in that many.
+
+    Args:
+        pose: Each row's pose index, shape (n_rows,).
+    """
+    if len(pose) <= MAX_CENTRES:
+        return np.arange(len(pose))
+    n_poses = int(pose.max()) + 1
+    order = np.random.default_rng(seed).permutation(n_poses)
+    counts = np.bincount(pose, minlength=n_poses)[order]
+    chosen = np.zeros(n_poses, dtype=bool)
+    chosen[order[np.cumsum(counts) <= MAX_CENTRES]] = True
+    return np.flatnonzero(chosen[pose])
 
 
 def _cv_error(features: np.ndarray, error: np.ndarray, fold: np.ndarray, setting: tuple[str, float, float],

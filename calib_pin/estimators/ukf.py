@@ -5,14 +5,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.kalman import (  # imported with this module: only when the method is asked for
-    MerweScaledSigmaPoints,
-    UnscentedKalmanFilter,
-)
 
 from ..problem import LeastSquares, row_offsets
 from .base import Callback, EstimateResult, Tracker
 from .ekf import filter_moments
+from .filterpy_import import kalman
+
+# Imported with this module (only when the method is asked for), without scipy.stats.
+MerweScaledSigmaPoints = kalman().MerweScaledSigmaPoints
+UnscentedKalmanFilter = kalman().UnscentedKalmanFilter
 
 
 def _symmetric_sqrt(p: np.ndarray) -> np.ndarray:
@@ -38,7 +39,8 @@ class UKF:
 
     One iteration is one measurement update (``passes`` x poses in all); each costs
     (2 n + 1) / n_poses evaluations. ``history`` holds the training RMSE before the
-    first and after every update; ``covariance`` is the final P.
+    first and after every update (at most :data:`.base.HISTORY_POINTS` of them, spread
+    evenly); ``covariance`` is the final P.
     """
 
     passes: int = 1
@@ -67,8 +69,10 @@ class UKF:
         kf.P, kf.Q, r2 = filter_moments(problem, space, self.prior, self.process, noise)
         noise_of = {int(m): r2 * np.eye(int(m)) for m in np.unique(sizes)}  # R of a row of m values
         kf.R = noise_of[int(sizes[0])]
+        track.thin(self.passes * problem.n_rows)
         track.record_at(x0)
         zero_of = {m: np.zeros(m) for m in noise_of}  # the residual is the prediction of a zero measurement
+        update = 0
         for _ in range(self.passes):
             for k in range(problem.n_rows):
                 kf.predict()
@@ -76,8 +80,9 @@ class UKF:
                 kf.update(zero_of[m], R=noise_of[m], row=problem.subset(slice(k, k + 1)))
                 kf.P = 0.5 * (kf.P + kf.P.T)
                 track.nfev += (2 * n + 1) / problem.n_rows
+                update += 1
                 if track.recording:
-                    track.record_at(space.to_x(kf.x))
+                    track.record_update(space.to_x(kf.x), update)
         return track.result(
             space.to_x(kf.x), self.passes * problem.n_rows,
             f"{self.passes} pass(es) over {problem.n_rows} rows",

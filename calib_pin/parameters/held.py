@@ -7,7 +7,8 @@ the compliance bound uses (:class:`calib_pin.estimators.active_set.Fixed`, via
 
 - ``fix``: the names to hold, any unknown of the problem: a robot deviation
   (``theta_1``, ``d_1``), a compliance (``compliance_joint_2``) or a sensor unknown
-  (``device_rz``, ``anchor_x``).
+  (``device_rz``, ``anchor_x``). With several sets the robot's unknowns are shared (a
+  name holds it for every set) and a set's sensor unknown carries its label (``s2:anchor_x``).
 - ``free``: the robot's deviations and compliances to estimate; every other one is
   held. The sensor's own unknowns (device frame, markers, anchor) stay free: they are
   the set-up, not the robot.
@@ -40,6 +41,10 @@ def held_names(names: Sequence[str], n_robot_side: int, fix: Any = None, free: A
     for arg, given, valid in (("fix", fix, tuple(names)), ("free", free, robot)):
         unknown = [n for n in given if n not in valid]
         if unknown:
+            per_set = [n for n in valid if n.partition(":")[2] == unknown[0]]  # several sets: ``<label>:<name>``
+            if per_set:
+                raise ArgumentError(arg, f"'{unknown[0]}' is a sensor unknown of several sets: name the set's, "
+                                    f"{' or '.join(per_set)}")
             raise ArgumentError(arg, f"no unknown '{unknown[0]}' in this calibration (valid: {', '.join(valid)})")
     both = set(fix) & set(free)
     if both:

@@ -28,6 +28,8 @@ def _estimate(result: CalibrationResult) -> dict[str, Any]:
         "stop_reason": est.message,
         "train_rmse_history_mm": [h * 1e3 for h in est.history],
         "history_evaluations": list(est.evaluations),
+        # the iteration each history entry follows (a Kalman filter records a few hundred updates)
+        "history_iterations": [est.iteration_of(k) for k in range(len(est.history))],
     }
 
 
@@ -170,7 +172,9 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         report["start"] = result.start.as_dict(result.params, result.problem.model.robot(result.x))
     if result.sets:  # several measurement sets: a table each; the metrics above pool them
         report["sets"] = [s.as_dict() for s in result.sets]
-        report["metrics_pooled"] = "every set's row errors together, each in its own set's units (mm)"
+        from ..multiset import units_words
+
+        report["metrics_pooled"] = units_words(result.sets)
     if result.cross_validation is not None:
         report["cross_validation"] = result.cross_validation
     spec = result.problem.model.compliance_spec

@@ -16,6 +16,31 @@ from matplotlib.figure import Figure
 
 TRAIN, TEST, BAD = "tab:blue", "tab:orange", "tab:red"
 
+#: Most data rows a per-row figure draws: above it every k-th row is drawn (outliers always),
+#: and the figure and its caption say so. A figure of 3000 points reads like one of 100 000
+#: and draws in a fraction of the time.
+MAX_DRAWN_ROWS = 3000
+
+
+def drawn_rows(n_rows: int, keep: np.ndarray | None = None) -> np.ndarray:
+    """Indices of the rows a per-row figure draws: all up to :data:`MAX_DRAWN_ROWS`, else
+    every k-th (evenly spread, k = ceil(n_rows / MAX_DRAWN_ROWS)) and the rows in ``keep``
+    (a boolean mask, e.g. the outliers)."""
+    step = -(-n_rows // MAX_DRAWN_ROWS)
+    if step <= 1:
+        return np.arange(n_rows)
+    chosen = np.zeros(n_rows, dtype=bool)
+    chosen[::step] = True
+    if keep is not None:
+        chosen |= keep
+    return np.flatnonzero(chosen)
+
+
+def decimation_note(n_rows: int) -> str:
+    """How a per-row figure of ``n_rows`` rows is thinned (empty when it draws them all)."""
+    step = -(-n_rows // MAX_DRAWN_ROWS)
+    return "" if step <= 1 else f"1 in {step} of {n_rows} rows drawn, outliers always"
+
 
 def png(fig: Figure) -> bytes:
     """The figure as PNG bytes (no metadata, so no URLs inside)."""
@@ -34,7 +59,9 @@ def residuals(r: dict) -> bytes:
     outlier = np.asarray(res["outlier"], dtype=bool)
     fig = Figure(figsize=(12, 4.2), layout="constrained")
     per_row, spread = fig.subplots(1, 2, width_ratios=[3, 1])
-    for mask, colour, label in ((~test, TRAIN, "train"), (test, TEST, "test")):
+    shown = np.zeros(len(rows), dtype=bool)
+    shown[drawn_rows(len(rows), outlier)] = True  # the box plot keeps every row
+    for mask, colour, label in ((~test & shown, TRAIN, "train"), (test & shown, TEST, "test")):
         per_row.scatter(rows[mask], before[mask], s=14, marker="^", facecolors="none",
                         edgecolors=colour, alpha=0.6, label=f"{label}, before")
         per_row.scatter(rows[mask], after[mask], s=16, color=colour, label=f"{label}, after")
@@ -46,7 +73,9 @@ def residuals(r: dict) -> bytes:
     per_row.set_ylabel(f"{res['meaning']} [mm] (log)")
     per_row.grid(True, which="both", alpha=0.3)
     per_row.legend(fontsize=8, ncol=3, loc="lower left")
-    per_row.set_title("error per data row: triangles before, dots after calibration", fontsize=10)
+    note = decimation_note(len(rows))
+    per_row.set_title("error per data row: triangles before, dots after calibration"
+                      + (f" ({note})" if note else ""), fontsize=10)
     groups = [("train\nbefore", before[~test]), ("train\nafter", after[~test]),
               ("test\nbefore", before[test]), ("test\nafter", after[test])]
     groups = [(name, values) for name, values in groups if len(values)]
@@ -74,13 +103,16 @@ def deviations(r: dict, rows: list[dict]) -> bytes:
     axes = np.atleast_1d(fig.subplots(1, len(groups)))
     for ax, group in zip(axes, groups, strict=True):
         y = np.arange(len(group))[::-1]
-        for yi, row in zip(y, group, strict=True):
-            if row["status"] == "blind":
-                ax.plot([row["value"]], [yi], "s", mfc="white", mec="grey", ms=7)
-                continue
-            colour = "tab:purple" if row["status"] == "combination" else "tab:blue"
-            ax.errorbar([row["value"]], [yi], xerr=[[row["value"] - row["low"]], [row["high"] - row["value"]]],
-                        fmt="o", color=colour, ms=4, capsize=3)
+        status = np.array([row["status"] for row in group])
+        value, low, high = (np.array([row[k] for row in group], dtype=float) for k in ("value", "low", "high"))
+        blind = status == "blind"
+        if blind.any():  # one artist per kind of row, not one per row
+            ax.plot(value[blind], y[blind], "s", mfc="white", mec="grey", ms=7, linestyle="none")
+        for kind, colour in (("identifiable", "tab:blue"), ("combination", "tab:purple")):
+            mask = status == kind
+            if mask.any():
+                ax.errorbar(value[mask], y[mask], xerr=[value[mask] - low[mask], high[mask] - value[mask]],
+                            fmt="o", color=colour, ms=4, capsize=3)
         ax.axvline(0.0, color="black", linewidth=0.8)
         ax.set_yticks(y, [row["name"] for row in group], fontsize=8)
         ax.set_xlabel(f"deviation [{group[0]['unit']}], bar = 95 % interval")
@@ -139,11 +171,14 @@ def workspace(r: dict) -> bytes:
 
 
 def convergence(r: dict) -> bytes:
-    """Training RMSE per iteration of the estimator."""
+    """Training RMSE per iteration of the estimator (at the iterations the history holds:
+    at most a few hundred of a Kalman filter's row updates, see
+    :data:`calib_pin.estimators.base.HISTORY_POINTS`)."""
     h = np.asarray(r["train_rmse_history_mm"])
+    iterations = np.asarray(r.get("history_iterations") or np.arange(len(h)))
     fig = Figure(figsize=(6, 3.6), layout="constrained")
     ax = fig.add_subplot()
-    ax.semilogy(np.arange(len(h)), h, "o-", color="tab:blue", ms=4)
+    ax.semilogy(iterations, h, "o-", color="tab:blue", ms=4)
     ax.set_xlabel("iteration")
     ax.set_ylabel("training RMSE per residual value [mm]")
     ax.grid(True, which="both", alpha=0.3)

@@ -249,7 +249,7 @@ def _sets_section(r: dict) -> str:
                              fmt(s[split]["after"]["rmse_mm"])])
     return (_table(["set", "data", "noise mm", "split", "rows", "RMSE before", "RMSE after"], rows, "num")
             + "<p>One robot, each set with its own sensor set-up; rows weighted by their set's noise. The summary "
-            "pools every set's row errors, each in its own set's units.</p>")
+            f"pools {html.escape(r.get('metrics_pooled', 'every set'))}.</p>")
 
 
 def sensor_views(r: dict) -> list[tuple[str, dict]]:
@@ -282,10 +282,20 @@ document.body.setAttribute('data-images-ok',n+'/'+i.length);});</script>"""
 
 def _verdict(r: dict) -> str:
     split = "test" if "test" in r else "train"
+    if split not in r:  # several sets whose errors are in different units: no pooled score
+        return ""
     b, a = r[split]["before"]["rmse_mm"], r[split]["after"]["rmse_mm"]
     cls = "verdict worse" if a > b else "verdict"
     return (f'<p class="{cls}">{split} RMSE {fmt(b)} mm before, {fmt(a)} mm after calibration '
             f"({r['data_kind']} data).</p>")
+
+
+def _decimated(n_rows: int) -> str:
+    """``; 1 in 34 of 100000 rows drawn, ...`` when the per-row figure is thinned, else ''."""
+    from .figures import decimation_note
+
+    note = decimation_note(n_rows)
+    return f"; {note}, the distribution of all" if note else ""
 
 
 def render_html(r: dict) -> str:
@@ -294,12 +304,17 @@ def render_html(r: dict) -> str:
     Raises:
         CalibPinError: matplotlib is not installed.
     """
+    from ..progress import status
+
+    status(f"drawing report.html ({len(r['residuals']['rows'])} rows; the first run in a new environment "
+           "also builds matplotlib's font cache)")
     dev_rows = deviation_rows(r) if r.get("uncertainty") else []
     sections = [
         ("summary", "Summary", _verdict(r) + _summary(r)),
         ("residuals", "Error per data row", _img(_fig().residuals(r), "error per data row")
          + "<p>Blue: training rows, orange: held-out test rows; red rings: outliers of the robust loss "
-         f"(data rows {html.escape(', '.join(str(v) for v in r['outlier_rows']) or 'none')}).</p>"),
+         f"(data rows {html.escape(', '.join(str(v) for v in r['outlier_rows']) or 'none')})"
+         f"{_decimated(len(r['residuals']['rows']))}.</p>"),
         ("deviations", "Deviations and identifiability", _deviation_section(r, dev_rows)),
     ]
     spectrum = (_img(_fig().spectrum(r), "singular values")

@@ -93,12 +93,17 @@ class MeasurementModel(ABC):
         deflection: The compliance model, or None.
         kind: The measurement-set kind this sensor reads (``MeasurementSet.kind``).
         values_per_row: Numbers one data row holds (1 reading, 3 coordinates).
-        error_name: What a row's error is, for people ("reading error").
+        error_name: What a row's error is, for people ("reading error"); ``value_unit``: its unit.
     """
 
     kind: ClassVar[str]
     values_per_row: ClassVar[int] = 1
     error_name: ClassVar[str] = "error"
+    #: The unit of a row's error (:meth:`row_errors`, and the ``*_mm`` fields of its
+    #: :class:`~calib_pin.analysis.metrics.Metrics`): ``mm`` unless the sensor says
+    #: otherwise (``deg`` for a sensor of angles). Several sets' row errors are pooled
+    #: only when every set's unit is the same.
+    value_unit: ClassVar[str] = "mm"
     #: The sensor's geometry type (with ``to_dict``/``from_dict``).
     geometry_type: ClassVar[Any]
     #: Names ``--estimate`` accepts for this sensor (empty: fixed by the sensor).

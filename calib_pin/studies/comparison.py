@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..analysis.metrics import Metrics
+from ..arguments import as_path
 from ..estimators import PAPER_LABELS, PAPER_METHODS, get_method, run_estimator
 from ..exceptions import ArgumentError, CalibPinError
 from ..multiset import StackedSetup
@@ -286,6 +287,20 @@ def fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Cal
     return lambda predict: float(np.sqrt(np.mean((predict(q, points) - true_values) ** 2)) * 1e3)
 
 
+def start_x(start: Any, problem: Any, training: Any) -> np.ndarray:
+    """Where every method starts: zero deviations, or ``start``'s (``nominal``,
+    :class:`~calib_pin.parameters.start.Start`) with the sensor's geometry refitted on the
+    ``training`` rows to it, as :func:`calib_pin.calibrate` starts."""
+    x0 = np.zeros(problem.n_params)
+    if start is None:
+        return x0
+    model = problem.model
+    x0[:model.n_robot] = start.robot_x
+    if start.compliance is not None:
+        x0[model.n_robot:model.sensor_start] = start.compliance
+    return start.sensor_fit(training, x0)
+
+
 def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], seed: int,
            test_fraction: float, tick: Callable[[], Any] | None = None) -> Trial:
     train, test = setup.split(test_fraction, seed)
@@ -295,7 +310,7 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
     problem: CalibrationProblem = setup.problem_on(train)  # nothing fitted on test rows
     train_problem, test_problem = problem.subset(train), problem.subset(test)
     model = problem.model
-    x0 = np.zeros(problem.n_params)
+    x0 = start_x(setup.start, problem, train_problem)
     fresh = fresh_scorer(setup, truth, seed)
     runs = {}
     for m in methods:
@@ -321,15 +336,79 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
     )
 
 
+def session_truths(setup: StackedSetup) -> list[Truth] | None:
+    """Each set's truth, when every set has one and they are of one true robot: a set's own
+    ``FILE.truth.json``, or session k of ``BASE.truth.json`` for ``BASE_k.csv`` (the files
+    ``simulate --sessions K`` writes); None otherwise, or for another parameter model than
+    the robot's default (the truth's)."""
+    if setup.params.name != parameter_model(setup.chain).name:
+        return None
+    out: list[Truth] = []
+    for data in setup.sets:
+        if not data.source:
+            return None
+        path = Path(data.source)
+        stem = path.name.removesuffix(".csv")
+        base, _, k = stem.rpartition("_")
+        own, shared = path.with_name(stem + ".truth.json"), path.with_name(base + ".truth.json")
+        if own.is_file():
+            truth = Truth.from_json(own, setup.params)
+            if truth.sessions:
+                return None
+        elif base and k.isdigit() and shared.is_file():
+            truth = Truth.from_json(shared, setup.params)
+            if not 1 <= int(k) <= max(1, len(truth.sessions)):
+                return None
+            truth = truth.session(int(k) - 1)
+        else:
+            return None
+        out.append(truth)
+    first = out[0]
+    for truth in out[1:]:  # one true robot, or no score
+        if not np.array_equal(truth.x, first.x) or not np.array_equal(truth.x_model, first.x_model):
+            return None
+    return out
+
+
+def stacked_fresh_scorer(setup: StackedSetup, truths: list[Truth] | None, seed: int) -> Callable:
+    """score(model, x) -> RMSE [mm] over every set's sensor at the same fresh poses (each at
+    its own points) of ``model`` (a :class:`~calib_pin.stacked.StackedModel`) at the stacked
+    ``x`` against each set's noise-free truth, the sets' values pooled as one set's are;
+    None without every set's truth, or when the sets' errors are in different units."""
+    from ..multiset import value_unit
+
+    if truths is None:
+        return lambda model, x: None
+    poses = random_poses(setup.chain, FRESH_POSES, np.random.default_rng(seed + 10_000))
+    cases = []
+    for truth in truths:
+        model = truth.model(setup.chain, setup.params)
+        rows, points = model.grid_points(len(poses))
+        q = poses[rows]
+        cases.append((q, points, model.predict(truth.x_model, q, points)))
+
+    def score(model: Any, x: np.ndarray) -> float | None:
+        if len({value_unit(part) for part in model.parts}) > 1:
+            return None
+        error = np.concatenate([(model.parts[k].predict(model.part_x(x, k), q, points) - true).ravel()
+                                for k, (q, points, true) in enumerate(cases)])
+        return float(np.sqrt(np.mean(error**2)) * 1e3)
+
+    return score
+
+
 def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_fraction: float,
-                   tick: Callable[[], Any] | None = None) -> Trial:
+                   tick: Callable[[], Any] | None = None, truths: list[Truth] | None = None) -> Trial:
     """One trial on several measurement sets fitted together: every set split by pose with
     the trial's seed (:meth:`~calib_pin.multiset.StackedSetup.split`), each method fitted as
     :func:`calib_pin.calibrate` of the sets fits it (each set weighted by its noise), and
-    scored on the held-out rows of every set, each row's error in its own set's unit [mm].
-    The sets' truths are not known here: no fresh-pose score."""
+    scored on the held-out rows of every set, each row's error in its own set's unit [mm],
+    and with ``truths`` (:func:`session_truths`) on fresh poses against them
+    (:func:`stacked_fresh_scorer`)."""
     runs = {}
     before: np.ndarray | None = None
+    fresh = stacked_fresh_scorer(setup, truths, seed)
+    before_fresh = None
     for m in methods:
         result = setup.run(m, seed=seed, test_fraction=test_fraction)
         if not len(result.test):
@@ -342,18 +421,20 @@ def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_frac
         runs[m] = MethodRun(
             method=m, label=PAPER_LABELS[m],
             train=Metrics.of(train_problem.row_errors(est.residual(train_problem))), test=Metrics.of(residual),
-            fresh_rmse_mm=None, iterations=est.iterations, evaluations=est.nfev,
+            fresh_rmse_mm=fresh(problem.model, est.x), iterations=est.iterations, evaluations=est.nfev,
             converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
             history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
             test_residual_mm=residual * 1e3,
         )
         if before is None:  # every method starts from the same sensor geometry, fitted on the same rows
-            before = test_problem.row_errors(test_problem.residual(np.zeros(problem.n_params)))
+            x0 = start_x(setup.start, problem, train_problem)  # zero, or the start's (setup.run's)
+            before = test_problem.row_errors(test_problem.residual(x0))
+            before_fresh = fresh(problem.model, x0)
         if tick is not None:
             tick()
     assert before is not None  # methods is not empty
     return Trial(seed=seed, source=setup.data.source or "stacked", before=Metrics.of(before),
-                 before_fresh_rmse_mm=None, before_residual_mm=before * 1e3, runs=runs)
+                 before_fresh_rmse_mm=before_fresh, before_residual_mm=before * 1e3, runs=runs)
 
 
 def _simulated_trial(robot: str, chain: Chain, params: ParameterModel, methods: list[str], test_fraction: float,
@@ -385,6 +466,7 @@ def compare(
     scheduler: str | None = None,
     checkpoint: str | Path | None = None,
     notify: Callable[[str], Any] | None = None,
+    nominal: str | Path | None = None,
 ) -> Comparison:
     """Run estimators side by side.
 
@@ -419,6 +501,8 @@ def compare(
             The caller removes it (:meth:`calib_pin.studies.checkpoint.Checkpoint.clear`) once
             the outputs are written.
         notify: Called with one line when kept trials are reused.
+        nominal: Start every method from a robot's own kinematics instead of the catalogue
+            URDF (as :func:`calib_pin.calibrate`'s ``nominal``); measured data only.
 
     Raises:
         CalibPinError: bad method, robot, data or settings.
@@ -438,12 +522,18 @@ def compare(
         soft["parameters"] = parameters
     if estimate:
         soft["estimate"] = estimate
+    if nominal is not None:  # only when given, as parameters
+        if simulate_noise is not None:
+            raise ArgumentError("nominal", "starts from a robot's own calibration: compare on its measured data "
+                                "(not simulated sets, whose true robot is drawn anew)")
+        soft["nominal"] = str(as_path(nominal, "nominal"))
     with progress_bar(trials * len(methods), "trials x methods") as bar:
         local = jobs == 1 and scheduler is None  # a bar follows only the trials run here
         tick = bar.update if bar is not None and local else None
         out, what = _trials(robot, data, methods, trials, seed, test_fraction, simulate_noise, noise_mm, poses,
                             soft, (jobs, scheduler), tick, (checkpoint, notify))
-    return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(record))
+    start = f", started from {Path(nominal).name}" if nominal is not None else ""
+    return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(record) + start)
 
 
 def _trials(robot: str, data: Any, methods: list[str], trials: int, seed: int, test_fraction: float,
@@ -454,6 +544,8 @@ def _trials(robot: str, data: Any, methods: list[str], trials: int, seed: int, t
     ``keep`` = (checkpoint folder, notify)) and what they ran on."""
     seeds = range(seed, seed + trials)
     settings = [robot, file_digest(robot), methods, test_fraction, soft]
+    if "nominal" in soft:  # the start's content, not only its name
+        settings += ["nominal", file_digest(soft["nominal"])]
     if simulate_noise is None and isinstance(data, list | tuple) and len(data) > 1:
         return _stacked_trials(robot, list(data), methods, trials, seed, test_fraction, soft, settings, where, tick,
                                keep)
@@ -498,11 +590,12 @@ def _stacked_trials(robot: str, data: list[Any], methods: list[str], trials: int
         if not spec.kinematic:
             raise CalibPinError(f"method '{m}' learns a correction of one sensor's values: with several sets "
                                 "compare parameter methods (lm, ekf-qibas, ...)")
-    one = partial(_stacked_trial, setup, methods, test_fraction=test_fraction, tick=tick)
+    truths = session_truths(setup)
+    one = partial(_stacked_trial, setup, methods, test_fraction=test_fraction, tick=tick, truths=truths)
     names = [Path(s.source).name if s.source else label for s, label in zip(setup.sets, setup.labels, strict=True)]
     what = f"{len(setup.data)} rows of {len(setup.sets)} sets stacked ({', '.join(names)})"
     what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
-    settings += ["sets", [[s.source, file_digest(s.source)] for s in setup.sets]]
+    settings += ["sets", [[s.source, file_digest(s.source)] for s in setup.sets], "truths", truths is not None]
     return _run_trials(one, range(seed, seed + trials), settings, where, keep), what
 
 
