@@ -14,7 +14,9 @@ data by variance-component estimation: fit, then
 (r_k: set k's training residual, n_k its values, N every set's, rank: the identifiable
 directions of the stacked training Jacobian, shared out by each set's share of the
 values), refit with the new weights, until no sigma moves by more than 1 % (at most
-:data:`MAX_VCE_FITS` fits). The report gives each set's sigma and where it came from.
+:data:`MAX_VCE_FITS` fits; :func:`variance_components`, which also estimates the parts of
+one set's rows that have noises of their own, :func:`fit_noise_parts`). The report gives
+each set's sigma and where it came from.
 
 The split is made per set, by pose, with the same seed and fraction for every set
 (``role="split"``); a set may instead be all training (``train``) or all test (``test``:

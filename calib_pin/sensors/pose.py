@@ -17,8 +17,11 @@ orientation error's rotation vector log3(R_meas^T R_pred) [rad] times
 ``noise_m / noise_rad`` (the position noise over the orientation noise, both 1 sigma
 per axis), so that every entry of a row has the position noise and the rows are
 whitened consistently. The two noises come from ``# noise_mm`` and ``# noise_deg`` (or
-the caller's ``noise_mm`` / ``--noise-deg``). :meth:`PoseModel.part_errors` gives each
-part in its own unit (mm, deg).
+the caller's ``noise_mm`` / ``--noise-deg``); a part stated nowhere has its sigma
+estimated from its own residual when the set is calibrated alone
+(:meth:`PoseModel.noise_parts`, :func:`calib_pin.multiset.fit_noise_parts`, the
+variance-component loop of several sets). :meth:`PoseModel.part_errors` gives each part
+in its own unit (mm, deg).
 
 The maths is Pinocchio's: ``pin.log3`` / ``pin.Jlog3`` for the error, ``pin.exp3`` /
 ``pin.Jexp3`` for the parametrisation, the frame kinematic regressor (through
