@@ -20,6 +20,7 @@ import pinocchio as pin
 
 from ..atomic import write_text
 from ..optional import require
+from .build import noise_parts_line
 
 
 def _fig() -> ModuleType:
@@ -182,13 +183,7 @@ def _errors_by_part(doc: dict) -> str:
                 rows.append([split, stage, html.escape(name), unit, fmt(m[f"rmse_{unit}"]), fmt(m[f"mean_{unit}"]),
                              fmt(m[f"max_{unit}"])])
     noise = doc.get("noise_by_part")
-    text = ""
-    if noise:
-        cells = []
-        for name, d in noise.items():
-            key = next(k for k in d if k != "noise_from")
-            cells.append(f"{name} {fmt(d[key])} {key.removeprefix('noise_')} ({d['noise_from']})")
-        text = f"<p>Noise per part (1 sigma): {html.escape(', '.join(cells))}.</p>"
+    text = f"<p>{html.escape(noise_parts_line(noise).capitalize())}.</p>" if noise else ""
     return ("<h3>Errors per part, each in its own unit</h3>"
             + _table(["split", "stage", "part", "unit", "RMS", "mean", "max"], rows, "num") + text)
 
