@@ -27,11 +27,12 @@ reported ``position-only`` with its orientation residual. Each target gets a sta
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import lsq_linear
+from scipy.optimize import least_squares, lsq_linear
 
 from .arguments import (
     as_angles_rad,
@@ -67,9 +68,14 @@ OK, POSITION_ONLY, REFUSED = "ok", "position-only", "refused"
 #: within it.
 MAX_CORRECTION_RAD = float(np.deg2rad(10.0))
 #: Weight of the joint correction against the orientation error in the position-first
-#: solve, [rad of orientation per rad of joints]^2: keeps an ill-conditioned orientation
-#: direction from swinging the wrist.
-_REGULARISATION = 1e-4
+#: solve, [rad of orientation per rad of joints]^2: a joint moves by 0.1 rad only where that
+#: buys about 0.01 rad of orientation. It was 1e-4: near the shoulder singularity (wrist
+#: centre on axis 1) joint_1 then swung to the 10 deg bound, sweeping the upper arm and
+#: forearm through the cell, for a few mrad of orientation. Measured on the Wu calibration
+#: (tests/test_compensation.py's targets): the largest joint change of a position-only row
+#: falls from 10 deg to 5 deg (2.5 deg at the shoulder), its orientation residual rises
+#: from 7.8 to 9.7 mrad mean (1 would give 2.4 deg, but 20 mrad: 3 mm at a 150 mm tool).
+_REGULARISATION = 1e-2
 #: Weight of the position error in the position-first solve, [1/m]: 1 um counts as 10 mrad.
 _POSITION_WEIGHT = 1e6
 
@@ -258,11 +264,22 @@ class CalibratedRobot:
         return self._result(q, q_nom, targets, iterations, full)
 
     def _solve_full(self, q_nom: np.ndarray, targets: list[pin.SE3], max_iterations: int) -> tuple[np.ndarray, int]:
-        """Stage 1 of :meth:`solve`: the 6-D goal by Levenberg-Marquardt; (commands, iterations)."""
+        """Stage 1 of :meth:`solve`: the 6-D goal by Levenberg-Marquardt; (commands, iterations).
+
+        Each target keeps its best command with its error and Jacobian; every iteration
+        tries a step from there (damped by that target's damping), keeps it when the error
+        falls (damping / 10) and else raises the damping tenfold and tries again from the
+        best command. (A rejected step used to go back to the best command without a new
+        step: the next iteration found the same error there, rejected it as "not better",
+        and the target stalled at its start, leaving a reachable target to stage 2.)
+        """
+        n = len(q_nom)
         q, best_q = q_nom.copy(), q_nom.copy()
-        best = np.full(len(q), np.inf)
-        damping = np.full(len(q), _DAMPING)
-        active = np.arange(len(q))
+        best = np.full(n, np.inf)
+        best_error = np.zeros((n, 6))
+        best_jac = np.zeros((n, 6, q_nom.shape[1]))
+        damping = np.full(n, _DAMPING)
+        active = np.arange(n)
         iterations = 0
         while len(active) and iterations < max_iterations:
             rot, trans, jac = self._frames(q[active], jacobian=True)
@@ -270,19 +287,22 @@ class CalibratedRobot:
             done = np.zeros(len(active), dtype=bool)
             for i, k in enumerate(active):
                 error = pin.log6(pin.SE3(rot[i], trans[i]).actInv(targets[k])).vector
-                if np.abs(error[:3]).max() < _STOP_M and np.abs(error[3:]).max() < _STOP_RAD:
-                    done[i] = True
-                    continue
                 size = float(np.linalg.norm(error))
-                if size >= best[k]:  # worse: back to the best command, damp harder
-                    q[k], damping[k] = best_q[k], damping[k] * 10.0
+                if size < best[k]:  # better (or the start): the new best, damp less
+                    best[k], best_q[k], best_error[k], best_jac[k] = size, q[k], error, jac[i]
+                    damping[k] = max(damping[k] / 10.0, _DAMPING)
+                else:  # worse: back to the best command, damp harder
+                    damping[k] *= 10.0
+                e = best_error[k]
+                if (np.abs(e[:3]).max() < _STOP_M and np.abs(e[3:]).max() < _STOP_RAD) or damping[k] > 1e6:
+                    q[k], done[i] = best_q[k], True
                     continue
-                best[k], best_q[k], damping[k] = size, q[k], max(damping[k] / 10.0, _DAMPING)
-                j = jac[i]
-                step = j.T @ np.linalg.solve(j @ j.T + damping[k] ** 2 * np.eye(6), error)
-                q[k] = q[k] + step * min(1.0, _MAX_STEP_RAD / max(np.abs(step).max(), 1e-300))
+                j = best_jac[k]
+                step = j.T @ np.linalg.solve(j @ j.T + damping[k] ** 2 * np.eye(6), e)
+                q[k] = best_q[k] + step * min(1.0, _MAX_STEP_RAD / max(np.abs(step).max(), 1e-300))
             active = active[~done]
             iterations += 1
+        q[active] = best_q[active]
         return q, iterations
 
     def _solve_position_first(self, q_nom: np.ndarray, targets: list[pin.SE3],
@@ -333,7 +353,22 @@ class CalibratedRobot:
                 q[k], r, j, merit = trial, r_t, j_t, float(r_t @ r_t)
                 if moved < 1e-13:
                     break
+            if np.linalg.norm(r[:3]) > TOLERANCE_M * _POSITION_WEIGHT:  # stalled (near the elbow singularity)
+                q[k] = self._trust_region(q[k], k, residual, lo[k], hi[k], merit)
         return q, iterations
+
+    @staticmethod
+    def _trust_region(x: np.ndarray, k: int, residual: Callable[[np.ndarray, int], tuple[np.ndarray, np.ndarray]],
+                      lo: np.ndarray, hi: np.ndarray, merit: float) -> np.ndarray:
+        """The position-first merit minimised again from ``x`` by scipy's bounded trust-region
+        least squares (``trf``), for a target the Gauss-Newton steps left short of its position
+        (near the stretched-elbow singularity they crawl); the better of the two commands.
+        Found on the Wu calibration with the basis model: 4 of the 120 shipped poses were
+        refused as "out of reach" 30-160 um off, while a command within 2 deg meets them."""
+        fit = least_squares(lambda z: residual(z, k)[0], x, jac=lambda z: residual(z, k)[1],
+                            bounds=(lo, hi + 1e-300), method="trf", x_scale=1.0, xtol=1e-15, ftol=1e-15,
+                            gtol=1e-15, max_nfev=300)
+        return fit.x if 2.0 * fit.cost < merit else x
 
     def _errors(self, q: np.ndarray, targets: list[pin.SE3]) -> tuple[np.ndarray, np.ndarray]:
         """Position [m] and orientation [rad] error of the real arm at q against the targets."""
@@ -355,8 +390,10 @@ class CalibratedRobot:
             elif position[k] <= TOLERANCE_M:
                 status.append(POSITION_ONLY)
                 held = _held(q[k], q_nom[k], lower, upper, names)
+                swing = int(np.argmax(np.abs(q[k] - q_nom[k])))
                 reasons.append(f"{held + '; ' if held else 'near a singularity: '}position met, orientation off by "
-                               f"{orientation[k] * 1e6:.4g} urad (the least the joints allow)")
+                               f"{orientation[k] * 1e6:.4g} urad (the least the joints allow for their change), "
+                               f"largest joint change {names[swing]} {np.rad2deg(q[k, swing] - q_nom[k, swing]):+.3g} deg")
             else:
                 status.append(REFUSED)
                 held = _held(q[k], q_nom[k], lower, upper, names)

@@ -32,7 +32,14 @@ def read_rapid(text: str) -> tuple[list[int], np.ndarray]:
     body = text[text.index("PROC "):text.index("ENDPROC")]
     order = re.findall(r"MoveAbsJ (\w+)\\NoEOffs, v\d+, fine, tool0;", body)
     assert sorted(order) == sorted(targets)
-    return [int(name.split("_")[1]) for name in order], np.array([targets[name] for name in order])
+    return [_pose_of(name, "jt_") for name in order], np.array([targets[name] for name in order])
+
+
+def _pose_of(name: str, prefix: str) -> int:
+    """The pose number of a target's name (``jt_3``, ``XPm3`` for pose -3)."""
+    assert name.startswith(prefix)
+    number = name[len(prefix):]
+    return -int(number[1:]) if number.startswith("m") else int(number)
 
 
 def read_krl(src: str, dat: str) -> tuple[list[int], np.ndarray]:
@@ -46,13 +53,13 @@ def read_krl(src: str, dat: str) -> tuple[list[int], np.ndarray]:
         points[point] = [float(fields[f"A{i}"]) for i in range(1, 7)]
     order = re.findall(r"^  PTP (\w+)$", src, re.M)
     assert sorted(order) == sorted(points)
-    return [int(p[2:]) for p in order], np.array([points[p] for p in order])
+    return [_pose_of(p, "XP") for p in order], np.array([points[p] for p in order])
 
 
 def read_urscript(text: str) -> tuple[list[int], np.ndarray, list[tuple[float, float]]]:
     """Pose numbers, joint positions [rad] and (a, v) of each movej of a URScript function."""
     assert re.search(r"^def \w+\(\):$", text, re.M) and text.rstrip().endswith("end")
-    poses = [int(p) for p in re.findall(r"^  # pose (\d+)", text, re.M)]
+    poses = [int(p) for p in re.findall(r"^  # pose (-?\d+)", text, re.M)]
     moves = re.findall(rf"^  movej\(\[([^\]]*)\], a=({NUMBER}), v=({NUMBER})\)$", text, re.M)
     assert len(moves) == len(poses)
     return poses, np.array([[float(v) for v in q.split(",")] for q, _, _ in moves]), \
@@ -87,6 +94,8 @@ def test_every_format_of_the_example_program_reads_back(calibration, chain, tmp_
     poses, q, speeds = read_urscript((tmp_path / "prog.script").read_text())
     assert poses == [1, 2, 3, 4, 5] and np.abs(np.rad2deg(q) - expected).max() < 1e-6
     assert speeds == [(1.4, 1.05)] * 5
+    for name in ("prog.mod", "prog.src", "prog.dat", "prog.script"):  # what the controllers require
+        _vendor_rules({Path(name).suffix: (tmp_path / name).read_text()})
     assert "ABB axis values = URDF joint angles" in (tmp_path / "prog.mod").read_text()
     # existing outputs are refused without --force (both KRL files checked), replaced with it
     assert compensate([*base, "--out", str(tmp_path / "prog.src"), "--format", "krl"]) == 2
@@ -100,6 +109,7 @@ def test_every_format_of_the_example_program_reads_back(calibration, chain, tmp_
     assert read_urscript((tmp_path / "u.script").read_text())[2] == [(0.8, 0.5)] * 5
     for argv, message in ((["--out", str(tmp_path / "x.mod"), "--format", "krl"], "a krl program is .src"),
                           (["--out", str(tmp_path / "9x"), "--format", "krl"], "must be a KRL name"),
+                          (["--out", str(tmp_path / "loop.src"), "--format", "krl"], "not a keyword), e.g. p_loop"),
                           (["--out", str(tmp_path / "x.csv"), "--speed-rad-s", "1"], "are for --format urscript")):
         assert compensate([*base, *argv]) == 2
         err = capsys.readouterr().err
@@ -128,3 +138,59 @@ def test_conventions_and_a_ur5_urscript(tmp_path):
     assert np.abs(conv.to_urdf_rad(values) - q).max() < 1e-9
     with pytest.raises(cp.CalibPinError, match="holds 6 robot axes; robot 'arm7' has 7 joints"):
         urscript.write(Program("p", np.zeros((1, 7)), np.ones(1), "arm7", ()))
+
+
+def _vendor_rules(files: dict[str, str]) -> None:
+    """What the controllers require of the files, beyond the reader's parse: URScript starts
+    with ``def`` in the first column, every other line indented, ``end`` last in the first
+    column (script manual, "Connecting to URControl"); RAPID and KRL names are identifiers of
+    at most 32 / 24 characters that are no reserved word; every file is ASCII; no comment
+    line is longer than 78 characters."""
+    from calib_pin.export.programs import COMMENT_WIDTH, RESERVED
+
+    for suffix, text in files.items():
+        assert text.isascii(), suffix
+        lines = text.splitlines()
+        comments = [line for line in lines if line.lstrip().startswith(("!", ";", "#")) and
+                    not line.lstrip().startswith((";FOLD", ";ENDFOLD"))]
+        assert comments and max(len(line) for line in comments) <= COMMENT_WIDTH, suffix
+        if suffix == ".script":
+            assert lines[0].startswith("def ") and lines[-1] == "end"
+            assert all(line.startswith(" ") for line in lines[1:-1])
+        names = re.findall(r"(?:MODULE|PROC|DEF|DEFDAT|jointtarget|E6AXIS|def) (\w+)", text)
+        assert names
+        limit = 24 if suffix in (".src", ".dat") else 32
+        for name in names:
+            assert re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name) and len(name) <= limit, name
+            assert name.lower() not in RESERVED, name
+
+
+def test_controller_syntax_negative_poses_long_notes_and_reserved_names(tmp_path):
+    """A pose numbered -3 gets a valid name (jt_m3, XPm3) and reads back as -3; a long or
+    non-ASCII note is wrapped and made ASCII; a reserved word as the name is prefixed; a
+    URScript file follows the controller's def/indent/end rule."""
+    from calib_pin.export.programs import identifier
+
+    q = np.random.default_rng(5).uniform(-1.0, 1.0, (3, 6))
+    poses = np.array([-3, 0, 12])
+    header = ("calib-pin compensate: a header naming a calibration file \u00e9t\u00e9 with a very long path "
+              + "/x" * 60, "refused pose 7 (line 9): out of reach: the position is 3432 um off")
+    notes = ("", "position-only: near a singularity: position met, orientation off by 4.202e+04 urad (the least "
+             "the joints allow for their change), largest joint change joint_1 +2.26 deg", "")
+    assert identifier("module") == "p_module" and identifier("END") == "p_END" and identifier("9x") == "p9x"
+    assert identifier("a" * 40) == "a" * 24
+    for fmt in PROGRAMS:
+        program = Program(identifier("module" if fmt == "rapid" else "prog"), q, poses, "irb120",
+                          tuple(f"joint_{i}" for i in range(1, 7)), header, notes)
+        files = PROGRAMS[fmt].write(program)
+        _vendor_rules(files)
+        if fmt == "rapid":
+            read, values = read_rapid(files[".mod"])
+            assert "MODULE p_module" in files[".mod"] and "PROC p_module_run()" in files[".mod"]
+        elif fmt == "krl":
+            read, values = read_krl(files[".src"], files[".dat"])
+        else:
+            read, radians, _ = read_urscript(files[".script"])
+            values = np.rad2deg(radians)
+        assert read == [-3, 0, 12] and np.abs(values - np.rad2deg(q)).max() < 1e-6
+        assert "?t?" in next(iter(files.values()))  # the accented letters, as ASCII

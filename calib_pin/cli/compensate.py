@@ -86,7 +86,7 @@ def _compensate(args: argparse.Namespace) -> int:
     name = identifier(paths[0].stem)
     if args.format == "krl" and name != paths[0].stem:
         raise CalibPinError(f"--out {args.out}: KRL names the program after its file: the stem must be a KRL name "
-                            f"(a letter, then letters, digits or _, at most 24), e.g. {name}")
+                            f"(a letter, then letters, digits or _, at most 24, not a keyword), e.g. {name}")
     out = Outputs(Path(args.out).parent, force=args.force,
                   inputs={**robot_inputs(args.robot), "--calibration": args.calibration, "--targets": args.targets,
                           "--nominal": args.nominal})
@@ -132,8 +132,8 @@ def _compensate(args: argparse.Namespace) -> int:
             result.orientation_error_rad[kept], notes, {**extra, **status}))
     else:
         header = [f"calib-pin compensate: robot {chain.name}, end frame {chain.end_frame}, calibration {compensated}",
-                  f"{int(kept.sum())} of {len(kept)} targets; refused (left out): "
-                  f"{'; '.join(refused.values()) or 'none'}"]
+                  f"{int(kept.sum())} of {len(kept)} targets; refused (left out): {'' if refused else 'none'}",
+                  *(f"refused {reason}" for reason in refused.values())]  # one comment per refused target
         options = {k: v for k, v in (("speed_rad_s", args.speed_rad_s), ("accel_rad_s2", args.accel_rad_s2))
                    if v is not None}
         notes_per_target = tuple(f"position-only: {r}" if s == POSITION_ONLY else ""
@@ -170,12 +170,15 @@ def _summary(robot: CalibratedRobot, q_nominal: np.ndarray, result: Compensation
     real = robot.forward(q_nominal)
     nominal = robot.nominal(q_nominal)
     off = np.array([np.linalg.norm(r.translation - n.translation) for r, n in zip(real, nominal, strict=True)]) * 1e3
-    change = np.rad2deg(np.abs(result.q - q_nominal)).max(axis=1)
+    swing = np.rad2deg(np.abs(result.q - q_nominal))
+    change = swing.max(axis=1)
+    k, j = np.unravel_index(int(np.argmax(swing)), swing.shape)
     counts = {s: result.status.count(s) for s in (OK, POSITION_ONLY, REFUSED)}
     print(f"{robot.chain.name}: {len(q_nominal)} targets compensated in {result.iterations} iterations "
           f"({'geometry and deflection of ' + ', '.join(robot.deflection.spec.joints) if robot.deflection else 'geometry'})")
     print(f"uncompensated, the calibrated arm misses the nominal end frame by {off.mean():.3f} mm mean, {off.max():.3f} mm max")
-    print(f"largest joint correction per target: {change.mean():.4f} deg mean, {change.max():.4f} deg max")
+    print(f"largest joint correction per target: {change.mean():.4f} deg mean, {change.max():.4f} deg max "
+          f"({robot.chain.joint_names[j]} of target {k + 1})")
     met = np.array([s != REFUSED for s in result.status], dtype=bool)
     full = np.array([s == OK for s in result.status], dtype=bool)
     if met.any():

@@ -93,13 +93,61 @@ class ProgramFormat:
     description: str
 
 
+#: Words the three languages reserve (compared without case; RAPID and KRL ignore case), that
+#: a program or routine name must not be: RAPID's (Technical reference manual - RAPID kernel,
+#: "Reserved words"), KRL's (KUKA System Software 8, "Keywords") and URScript's (script
+#: manual, "Flow of control", "Function"), the ones a file stem could plausibly be.
+RESERVED = frozenset((
+    "alias", "and", "backward", "case", "connect", "const", "default", "div", "do", "else", "elseif",
+    "endfor", "endfunc", "endif", "endmodule", "endproc", "endrecord", "endtest", "endtrap", "endwhile",
+    "error", "exit", "false", "for", "from", "func", "goto", "if", "inout", "local", "mod", "module",
+    "noview", "not", "or", "pers", "proc", "raise", "readonly", "record", "retry", "return", "step",
+    "sysmodule", "test", "then", "to", "trap", "true", "trynext", "undo", "var", "viewonly", "while", "with",
+    "xor", "def", "deffct", "defdat", "end", "enddat", "endfct", "endloop", "endswitch", "loop", "ptp",
+    "lin", "circ", "switch", "repeat", "until", "wait", "halt", "decl", "global", "public", "int", "real",
+    "bool", "char", "frame", "pos", "axis", "e6pos", "e6axis", "signal", "struc", "enum", "sec", "thread",
+    "run", "kill", "elif", "pass", "break", "continue",
+))
+
+
 def identifier(text: str, first: str = "p") -> str:
-    """``text`` as a controller identifier: letters, digits, ``_``; starts with a letter;
-    at most 24 characters (KRL's limit; RAPID allows 32)."""
+    """``text`` as a controller identifier: ASCII letters, digits, ``_``; starts with a letter;
+    at most 24 characters (KRL's limit for names, KUKA System Software 8 "Names"; RAPID
+    allows 32, Technical reference manual - RAPID kernel "Identifiers"); never a reserved
+    word of RAPID, KRL or URScript (:data:`RESERVED`: ``module`` becomes ``p_module``)."""
     name = re.sub(r"[^A-Za-z0-9_]", "_", text)
-    if not name or not name[0].isalpha():
+    if not name or not name[0].isascii() or not name[0].isalpha():
         name = first + name
+    if name.lower() in RESERVED:
+        name = f"{first}_{name}"
     return name[:24]
+
+
+def point_name(prefix: str, pose: int) -> str:
+    """The name of pose ``pose``'s joint target: ``prefix`` and the pose number, a minus
+    sign written ``m`` (``jt_3``, ``XPm3``): ``jt_-3`` is no identifier in any language."""
+    pose = int(pose)
+    return f"{prefix}{'m' if pose < 0 else ''}{abs(pose)}"
+
+
+#: Longest comment line written, [characters]: the pendants' editors show about 80 (and
+#: a refused target's reason, or a long file name, must not make a line of hundreds).
+COMMENT_WIDTH = 78
+
+
+def comment_lines(lines: tuple[str, ...] | list[str], mark: str, indent: str = "") -> list[str]:
+    """``lines`` as comments: ``indent + mark + " "`` before each, wrapped to
+    :data:`COMMENT_WIDTH`, in ASCII (another character becomes ``?``: RAPID files are
+    ISO 8859-1, URScript "extended ASCII", KRL's editor ANSI)."""
+    import textwrap
+
+    out = []
+    lead = f"{indent}{mark} "
+    for line in lines:
+        text = line.encode("ascii", "replace").decode("ascii")
+        out += [lead + part for part in textwrap.wrap(text, COMMENT_WIDTH - len(lead), break_on_hyphens=False,
+                                                      break_long_words=True) or [""]]
+    return out
 
 
 def six_axes(program: Program, language: str) -> None:
@@ -150,5 +198,5 @@ def program_files(fmt: str, program: Program, out: Path) -> dict[Path, str]:
     return dict(zip(program_paths(fmt, out), (texts[s] for s in PROGRAMS[fmt].suffixes), strict=True))
 
 
-__all__ = ["FORMATS", "PROGRAMS", "Convention", "Program", "ProgramFormat", "identifier", "note", "program_files",
-           "program_paths", "same_convention", "six_axes"]
+__all__ = ["COMMENT_WIDTH", "FORMATS", "PROGRAMS", "RESERVED", "Convention", "Program", "ProgramFormat", "comment_lines",
+           "identifier", "note", "point_name", "program_files", "program_paths", "same_convention", "six_axes"]

@@ -1,10 +1,20 @@
 """ABB RAPID: a module of ``CONST jointtarget`` declarations and a ``MoveAbsJ`` routine.
 
 Each target is ``CONST jointtarget jt_<pose>:=[[rax_1,...,rax_6],[9E9,...]];`` in degrees
-(the six external axes unused: 9E9), and the routine ``PROC <name>()`` visits them in
+(the six external axes unused: 9E9), and the routine ``PROC <name>_run()`` visits them in
 order with ``MoveAbsJ jt_<pose>\\NoEOffs, v100, fine, tool0;``. Comments start with ``!``.
 Values are written with 9 decimals; the controller stores a ``num`` in single precision
 (about 7 significant digits, 1e-5 deg at 100 deg).
+
+Syntax relied on (ABB, Technical reference manual - RAPID Instructions, Functions and Data
+types, ``jointtarget`` and ``MoveAbsJ``; Technical reference manual - RAPID kernel): a
+jointtarget's ``robax`` holds the six axes in degrees from the calibration position and its
+``extax`` 9E9 for an axis that is not connected (e.g. ``CONST jointtarget jpos40 := [[0, 0,
+0, 0, 0, 0], [0, 9E9, 9E9, 9E9, 9E9, 9E9]];``); ``MoveAbsJ ToJointPos [\\NoEOffs], Speed,
+Zone, Tool``; identifiers are letters, digits and ``_`` starting with a letter, at most 32
+characters, no reserved word (names here: at most 24 + ``_run``; a pose ``-3`` is
+``jt_m3``); the character set is ISO 8859-1 (comments here are ASCII, wrapped to 78
+characters).
 
 Joint convention (:data:`CONVENTIONS`): for the IRB120 of calib-pin (robots/irb120.urdf,
 ROS-Industrial abb_irb120_support's frames) the controller's axis values are the URDF
@@ -16,7 +26,7 @@ file says so.
 
 from __future__ import annotations
 
-from . import Convention, Program, note, same_convention, six_axes
+from . import Convention, Program, comment_lines, note, point_name, same_convention, six_axes
 
 #: Robot name -> the controller's joint convention against the URDF's.
 CONVENTIONS: dict[str, Convention] = {
@@ -40,14 +50,14 @@ def write(program: Program) -> dict[str, str]:
     conv = convention(program.robot)
     values = conv.to_controller_deg(program.q)
     lines = [f"MODULE {program.name}"]
-    lines += [f"    ! {line}" for line in (*program.header, f"joint convention: {conv.note}",
-                                           "axis values in degrees; external axes unused (9E9)")]
+    lines += comment_lines((*program.header, f"joint convention: {conv.note}",
+                            "axis values in degrees; external axes unused (9E9)"), "!", "    ")
     for k, (pose, row) in enumerate(zip(program.pose_ids, values, strict=True)):
         if note(program, k):
-            lines.append(f"    ! pose {int(pose)}: {note(program, k)}")
+            lines += comment_lines((f"pose {int(pose)}: {note(program, k)}",), "!", "    ")
         axes = ",".join(f"{v:.9f}" for v in row)
-        lines.append(f"    CONST jointtarget jt_{int(pose)}:=[[{axes}],[{','.join([UNUSED] * 6)}]];")
+        lines.append(f"    CONST jointtarget {point_name('jt_', pose)}:=[[{axes}],[{','.join([UNUSED] * 6)}]];")
     lines.append(f"    PROC {program.name}_run()")
-    lines += [f"        MoveAbsJ jt_{int(pose)}\\NoEOffs, {SPEED}, {ZONE}, {TOOL};" for pose in program.pose_ids]
+    lines += [f"        MoveAbsJ {point_name('jt_', pose)}\\NoEOffs, {SPEED}, {ZONE}, {TOOL};" for pose in program.pose_ids]
     lines += ["    ENDPROC", "ENDMODULE"]
     return {".mod": "\n".join(lines) + "\n"}

@@ -4,6 +4,14 @@
 positions [rad], a [rad/s^2], v [rad/s]; UR's own defaults 1.4 and 1.05 unless given),
 ``end``. Comments start with ``#``.
 
+Syntax relied on (Universal Robots, The URScript Programming Language, "Connecting to
+URControl" and module motion ``movej(q, a=1.4, v=1.05, t=0, r=0)``): a script sent to the
+controller must start with a function definition (``def``) in the first column, every other
+line indented by at least one space, the last line ``end`` in the first column, in
+(extended) ASCII; so the file's comments are inside the function, indented. Run it by
+sending the file to the controller's script port, or load it in a PolyScope Script node
+and call ``<name>()``.
+
 Joint convention (:data:`CONVENTIONS`): the UR arms of example-robot-data
 (ur_description's ``ur5_robot.urdf`` ...) use the controller's joint values: zero with the
 arm stretched horizontally, the same signs; the ur_description kinematics files
@@ -15,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import Convention, Program, note, same_convention, six_axes
+from . import Convention, Program, comment_lines, note, same_convention, six_axes
 
 #: UR's default joint acceleration [rad/s^2] and speed [rad/s] of movej.
 DEFAULT_ACCEL_RAD_S2, DEFAULT_SPEED_RAD_S = 1.4, 1.05
@@ -37,11 +45,11 @@ def write(program: Program) -> dict[str, str]:
     q = np.deg2rad(conv.to_controller_deg(program.q))  # the controller's joint values [rad]
     accel = float(program.options.get("accel_rad_s2", DEFAULT_ACCEL_RAD_S2))
     speed = float(program.options.get("speed_rad_s", DEFAULT_SPEED_RAD_S))
-    lines = [f"# {line}" for line in (*program.header, f"joint convention: {conv.note}",
-                                      "joint positions [rad], a [rad/s^2], v [rad/s]")]
-    lines.append(f"def {program.name}():")
+    lines = [f"def {program.name}():"]  # the first line, in the first column (see the module's docstring)
+    lines += comment_lines((*program.header, f"joint convention: {conv.note}",
+                            "joint positions [rad], a [rad/s^2], v [rad/s]"), "#", "  ")
     for k, (pose, row) in enumerate(zip(program.pose_ids, q, strict=True)):
-        comment = f"  # pose {int(pose)}" + (f": {note(program, k)}" if note(program, k) else "")
-        lines += [comment, f"  movej([{', '.join(f'{v:.12f}' for v in row)}], a={accel:g}, v={speed:g})"]
+        lines += comment_lines((f"pose {int(pose)}" + (f": {note(program, k)}" if note(program, k) else ""),), "#", "  ")
+        lines.append(f"  movej([{', '.join(f'{v:.12f}' for v in row)}], a={accel:g}, v={speed:g})")
     lines.append("end")
     return {".script": "\n".join(lines) + "\n"}
