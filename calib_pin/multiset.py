@@ -14,7 +14,9 @@ data by variance-component estimation: fit, then
 (r_k: set k's training residual, n_k its values, N every set's, rank: the identifiable
 directions of the stacked training Jacobian, shared out by each set's share of the
 values), refit with the new weights, until no sigma moves by more than 1 % (at most
-:data:`MAX_VCE_FITS` fits). The report gives each set's sigma and where it came from.
+:data:`MAX_VCE_FITS` fits; :func:`variance_components`, which also estimates the parts of
+one set's rows that have noises of their own, :func:`fit_noise_parts`). The report gives
+each set's sigma and where it came from.
 
 The split is made per set, by pose, with the same seed and fraction for every set
 (``role="split"``); a set may instead be all training (``train``) or all test (``test``:
@@ -24,7 +26,8 @@ scored, never fitted; a drawstring set only, its anchor as its file or its FitSe
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -41,6 +44,7 @@ from .measurements import MeasurementSet
 from .measurements.checks import check_measurements
 from .parameters import ParameterModel
 from .problem import CalibrationProblem
+from .report.build import part_report
 from .result import CalibrationResult
 from .robot import Chain
 from .sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for
@@ -315,7 +319,8 @@ class StackedSetup:
             results.append(SetResult(
                 label=self.labels[k], source=self.sets[k].source, kind=self.sets[k].kind, role=self.roles[k],
                 sigma=float(sigmas[k]), sigma_origin=origin, rows=np.arange(offsets[k], offsets[k + 1]),
-                train=tr, test=te, metrics=metrics, geometry=problem.model.geometry_report(xk),
+                train=tr, test=te, metrics=metrics, geometry={**problem.model.geometry_report(xk), **part_report(
+                    problem, xk, {"train": tr, "test": te}, noise=False)},
                 model=problem.model, x=np.asarray(xk), overrides=tuple(self.setups[k]) if self.setups else (),
                 overridden=self.overridden(k), unit=value_unit(problem.model)))
         metrics = {split: {stage: Metrics.of(np.concatenate(v)) for stage, v in stages.items()}
@@ -384,27 +389,77 @@ class StackedSetup:
              seed: int, loss: str, held: tuple[int, ...] = ()) -> tuple[Any, list[float], int]:
         """The estimate, each set's sigma [m] and the fits it took (variance components,
         module docstring, for the sets whose sigma is not known)."""
-        unknown = [k for k, s in enumerate(self.sigmas) if s is None]
-        fits = 0
-        while True:
-            training = full.with_weights(sigmas).subset(train)
-            estimate = run_estimator(method, training, x0, seed=seed, noise=sigmas[0], loss=loss, fixed=held)
-            fits += 1
-            if not unknown or len(self.sets) < 2 or fits >= MAX_VCE_FITS:
-                return estimate, sigmas, fits
-            rank = Subspace.of_problem(training, estimate.x).rank
-            n_total = training.n_values
-            new = list(sigmas)
-            for part, k in zip(training.parts, training.sets, strict=True):
-                if k in unknown:
-                    r = part.residual(full.model.part_x(estimate.x, k))
-                    dof = part.n_values - rank * part.n_values / n_total
-                    if dof > 0 and r @ r > 0:
-                        new[k] = float(np.sqrt(r @ r / dof))
-            moved = max(abs(new[k] / sigmas[k] - 1.0) for k in unknown)
-            sigmas = new
-            if moved < VCE_TOLERANCE:
-                return estimate, sigmas, fits
+        unknown = [k for k, s in enumerate(self.sigmas) if s is None] if len(self.sets) > 1 else []
+
+        def fit(now: list[float]) -> tuple[Any, Any]:
+            training = full.with_weights(now).subset(train)
+            return run_estimator(method, training, x0, seed=seed, noise=now[0], loss=loss, fixed=held), training
+
+        def residuals(estimate: Any, training: Any) -> dict[int, np.ndarray]:
+            return {k: part.residual(full.model.part_x(estimate.x, k))
+                    for part, k in zip(training.parts, training.sets, strict=True)}
+
+        return variance_components(fit, residuals, sigmas, unknown)
+
+
+def variance_components(fit: Callable[[list[float]], tuple[Any, Any]],
+                        residuals: Callable[[Any, Any], Mapping[int, np.ndarray]], sigmas: list[float],
+                        unknown: Sequence[int]) -> tuple[Any, list[float], int]:
+    """Variance-component estimation (module docstring): ``fit(sigmas)`` -> (estimate, its
+    training problem), then each ``unknown`` component's sigma_k^2 = r_k . r_k / (n_k - p_k)
+    from ``residuals(estimate, training)`` (component -> its unweighted entries r_k, in its
+    own unit), refit, until no sigma moves by more than :data:`VCE_TOLERANCE` (at most
+    :data:`MAX_VCE_FITS` fits). The components are a multi-set fit's sets, or one set's
+    parts with a noise of their own (:func:`fit_noise_parts`).
+
+    Returns:
+        The last estimate, every component's sigma and the fits it took.
+    """
+    fits = 0
+    while True:
+        estimate, training = fit(sigmas)
+        fits += 1
+        if not unknown or fits >= MAX_VCE_FITS:
+            return estimate, sigmas, fits
+        rank = Subspace.of_problem(training, estimate.x).rank
+        n_total = training.n_values
+        new = list(sigmas)
+        for k, r in residuals(estimate, training).items():
+            if k in unknown:
+                dof = r.size - rank * r.size / n_total
+                if dof > 0 and r @ r > 0:
+                    new[k] = float(np.sqrt(r @ r / dof))
+        moved = max(abs(new[k] / sigmas[k] - 1.0) for k in unknown)
+        sigmas = new
+        if moved < VCE_TOLERANCE:
+            return estimate, sigmas, fits
+
+
+def fit_noise_parts(problem: CalibrationProblem, train: np.ndarray,
+                    run: Callable[[CalibrationProblem], Any]) -> tuple[CalibrationProblem, Any, int]:
+    """Fit one set whose rows have parts with noises of their own (a 6-D pose's position
+    and orientation, :meth:`~calib_pin.sensors.base.MeasurementModel.noise_parts`), each
+    part's unstated sigma estimated from its residual by :func:`variance_components`
+    (``run(training)``: the estimate on a training problem).
+
+    Returns:
+        The problem of every row weighted by the sigmas found, the estimate and the fits it took.
+    """
+    parts = problem.model.noise_parts()
+    unknown = [k for k, part in enumerate(parts) if part.origin == "default"]
+
+    def weighted(now: list[float]) -> CalibrationProblem:
+        return problem if not unknown else replace(problem, model=problem.model.with_part_noise(tuple(now), "estimate"))
+
+    def fit(now: list[float]) -> tuple[Any, Any]:
+        training = weighted(now).subset(train)
+        return run(training), training
+
+    def residuals(estimate: Any, training: Any) -> dict[int, np.ndarray]:
+        return dict(enumerate(training.model.part_residuals(estimate.x, training.q, training.readings)))
+
+    estimate, sigmas, fits = variance_components(fit, residuals, [part.sigma for part in parts], unknown)
+    return weighted(sigmas), estimate, fits
 
 
 def value_unit(model: Any) -> str:

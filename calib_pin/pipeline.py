@@ -37,6 +37,7 @@ from .multiset import (
     FitSet,
     StackedSetup,
     check_sets,
+    fit_noise_parts,
     fit_sets,
     labelled,
     mixed_setups_warning,
@@ -163,7 +164,15 @@ class CalibrationSetup:
             x0 = self.start.sensor_fit(training, x0)  # the sensor's geometry as seen by the start
         held = tuple(problem.model.names.index(n) for n in self.fixed)
         noise, noise_from = self.noise_for(method, training)
-        estimate = run_estimator(method, training, x0, seed=seed, noise=noise, loss=loss, fixed=held)
+        if any(part.origin == "default" for part in problem.model.noise_parts()):  # a part's noise from the data
+            problem, estimate, fits = fit_noise_parts(problem, train, lambda t: run_estimator(
+                method, t, x0, seed=seed, noise=t.model.noise_parts()[0].sigma, loss=loss, fixed=held))
+            parts = problem.model.noise_parts()
+            noise, noise_from = parts[0].sigma, ("stated" if parts[0].origin in ("caller", "file") else
+                                                 f"estimated per part from the residual ({fits} fit"
+                                                 f"{'s' if fits > 1 else ''}; noise_by_part)")
+        else:
+            estimate = run_estimator(method, training, x0, seed=seed, noise=noise, loss=loss, fixed=held)
         metrics = {}
         for split, rows in (("train", train), ("test", test)):
             if len(rows):
@@ -334,7 +343,8 @@ def prepare(
     noise = noise_mm * 1e-3 if noise_mm is not None else (data.noise or DEFAULT_NOISE_MM * 1e-3)
     soft = record.spec(chain) if record is not None else None
     prepared = CalibrationSetup(chain, parameter_model(chain, parameters), data, noise,
-                                {**sensor_options, "compliance": soft},
+                                {**sensor_options, "compliance": soft,
+                                 **({"noise_mm": noise_mm} if noise_mm is not None else {})},
                                 noise_stated=noise_mm is not None or data.noise is not None)
     prepared.problem  # noqa: B018 (refuse options the sensor does not take now; the problem is kept for --analyze)
     if fix is not None or free is not None:

@@ -245,6 +245,8 @@ class SimulationDraw:
     given_x: np.ndarray | None = None
     x: np.ndarray | None = None
     outliers: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=bool))
+    #: The caller's sensor set-up options for the simulation (field -> value; a sensor reads its own).
+    setup: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.rng = np.random.default_rng(self.seed)
@@ -329,6 +331,7 @@ def simulate_set(
     compliance: Compliance | ComplianceSpec | str | None = None,
     true_compliance: Any = None,
     true_x: np.ndarray | None = None,
+    setup: dict[str, Any] | None = None,
 ) -> tuple[MeasurementSet, Truth]:
     """Simulate a session of any registered sensor: the common draws (:class:`SimulationDraw`)
     and the sensor's own rows (its ``simulate_rows``).
@@ -339,6 +342,7 @@ def simulate_set(
             compliance, true_compliance: As :func:`simulate`.
         geometry: The sensor's true set-up (its ``geometry_type``); None: its default.
         true_x: The true deviations of a robot already drawn, used instead of drawing them.
+        setup: Sensor set-up options of the simulation (``noise_deg``; a sensor reads its own).
 
     Raises:
         ArgumentError: a bad argument, named.
@@ -349,7 +353,8 @@ def simulate_set(
     if poses is not None:
         poses = np.atleast_2d(as_angles_rad(poses, "poses", chain))
     spec, soft = _true_compliance(chain, compliance, true_compliance)
-    draw = SimulationDraw(chain, params, seed, n_poses, noise_mm, noise_kind, nominal_rmse_mm, spec, soft, poses, true_x)
+    draw = SimulationDraw(chain, params, seed, n_poses, noise_mm, noise_kind, nominal_rmse_mm, spec, soft, poses, true_x,
+                          setup=dict(setup or {}))
     data, true_geometry = sensor.simulate_rows(draw, geometry)
     assert draw.x is not None, f"{sensor.__name__}.simulate_rows must draw the deviations"
     data.notes.setdefault("source", f"calib-pin simulator ({sensor.data_name}), seed {seed}, noise {noise_mm:g} mm")
@@ -538,6 +543,7 @@ def simulate_sessions(
     poses: np.ndarray | None = None,
     compliance: Compliance | ComplianceSpec | str | None = None,
     true_compliance: Any = None,
+    setup: dict[str, Any] | None = None,
 ) -> tuple[list[MeasurementSet], Truth]:
     """Simulate several sessions of one true robot, each with its own sensor and set-up.
 
@@ -572,6 +578,7 @@ def simulate_sessions(
             ``SESSION_DEVICE_SHIFT_MM`` of it.
         poses: Joint angles [rad], shape (n_poses, n_joints), used in every session
             instead of random ones.
+        setup: Sensor set-up options of every session (``noise_deg``; a sensor reads its own).
 
     Returns:
         The sets, one per session (each carrying its own true set-up), and one truth:
@@ -609,7 +616,7 @@ def simulate_sessions(
         data, truth = simulate_set(sensor, chain, params, counts[k], seed + k, geometry, noise_mm=noises[k],
                                    nominal_rmse_mm=nominal_rmse_mm, noise_kind=noise_kind, poses=poses,
                                    compliance=compliance, true_compliance=true_compliance,
-                                   true_x=truths[0].x if truths else None)
+                                   true_x=truths[0].x if truths else None, setup=setup)
         first.setdefault(this, truth.sensor)
         sets.append(data)
         truths.append(truth)

@@ -787,6 +787,12 @@ R3_FILES: list[Case] = [
      "has pose columns and length"),
     (CAL, ["irb120", "--data", "p.csv"], {"p.csv": pose_set().replace("# noise_deg: 0.01", "# noise_deg: -1")}, 2,
      "p.csv: noise_deg: '-1' is not a positive angle in degrees"),
+    # a set-up flag the set's sensor does not take names the sensors that do; simulate refuses what it would ignore
+    (CAL, ["irb120", "--data", "p.csv", "--tool-mm", "0,0,50"], {"p.csv": pose_set()}, 2,
+     "--tool-mm is for drawstring and contact data; p.csv holds 6-D poses"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--noise-deg", "0.02"], {}, 2,
+     "--noise-deg is for --kinds pose; this simulates cable"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--kinds", "pose", "--noise-deg", "0.02"], {}, 0, "wrote"),
     # contact fixtures (calib_pin/sensors/contact.py): a plane of 2 points, a distance to an unknown id, a row with
     # both ids or neither, distances in mixed units
     (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set(planes=2)}, 2,

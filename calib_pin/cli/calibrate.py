@@ -22,6 +22,7 @@ from ..analysis.metrics import Metrics
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..export.bundle import EXPORTS, write_outputs
 from ..export.outputs import robot_inputs
+from ..report.build import noise_parts_line
 from . import parse_args
 from .common import (
     add_compliance_arguments,
@@ -449,6 +450,8 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
         print(table(result.metrics))
         if hasattr(result.problem, "part_summary") and result.estimate.correction is None:  # rows of mixed units
             print(result.problem.part_summary(result.x, {"train": result.train, "test": result.test}))
+        if "noise_by_part" in report:  # each part's own sigma (stated, or estimated from the residual)
+            print(noise_parts_line(report["noise_by_part"]))
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")

@@ -146,6 +146,16 @@ def _simulate(args: argparse.Namespace) -> int:
     if kinds is None and len(anchors) not in ((0, 1) if args.sessions == 1 else (0, args.sessions)):
         raise CalibPinError(f"--anchor-mm is given {len(anchors)} times for {args.sessions} session(s): "
                             "give it once per session, or leave it out")
+    from ..sensors import SENSORS
+    from ..sensors.setup import flag_of
+
+    simulated = kinds or [default_kind()]
+    for name in ("noise_deg",):  # a set-up flag no simulated sensor takes is refused, not ignored
+        if getattr(args, name, None) is not None and not any(
+                name in sensor_for(k).setup_type.field_names() for k in simulated if k in SENSORS):
+            takers = [s.kind for s in SENSORS.values() if name in s.setup_type.field_names()]
+            raise CalibPinError(f"{flag_of(name)} is for --kinds {', '.join(takers)}; this simulates "
+                                f"{', '.join(dict.fromkeys(simulated))}")
     csvs = [out] if args.sessions == 1 else [out.with_name(f"{stem}_{k}.csv") for k in range(1, args.sessions + 1)]
     outputs = Outputs(out.parent, force=args.force, inputs={**robot_inputs(args.robot),
                                                             "--poses-file": args.poses_file})
@@ -171,7 +181,8 @@ def _simulate(args: argparse.Namespace) -> int:
         sets = [data]
     else:
         sets, truth = simulate_sessions(chain, params, args.poses, args.seed, args.sessions, kinds=kinds,
-                                        anchors_mm=anchors or None, poses=poses, geometries=geometries, **common)
+                                        anchors_mm=anchors or None, poses=poses, geometries=geometries, **common,
+                                        setup={"noise_deg": args.noise_deg} if args.noise_deg is not None else None)
     for data in sets:
         refused = sensor_for(data.kind).refuse_values(data.values)
         if refused is not None:

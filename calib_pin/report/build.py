@@ -77,6 +77,51 @@ def _workspace(result: CalibrationResult) -> dict[str, Any] | None:
     return {"points_mm": (unc.workspace_points * 1e3).tolist(), "sigma_mm": (unc.flange_sigma * 1e3).tolist()}
 
 
+def _in_unit(values: np.ndarray, unit: str) -> dict[str, float]:
+    """RMS, mean and max of row errors already in ``unit``, the unit in the keys."""
+    v = np.asarray(values, dtype=float)
+    if not len(v):
+        return {f"rmse_{unit}": float("nan"), f"mean_{unit}": float("nan"), f"max_{unit}": float("nan")}
+    return {f"rmse_{unit}": float(np.sqrt(np.mean(v**2))), f"mean_{unit}": float(np.mean(v)),
+            f"max_{unit}": float(np.max(v))}
+
+
+def part_report(problem: Any, x: np.ndarray | None, splits: dict[str, np.ndarray], noise: bool = True) -> dict[str, Any]:
+    """A set whose rows have parts in units of their own (a 6-D pose's position and
+    orientation; :meth:`~calib_pin.sensors.base.MeasurementModel.errors_by_part`):
+    ``errors_by_part`` (split -> stage -> part -> RMS/mean/max in the part's unit, nominal
+    before, ``x`` after) and, with ``noise``, ``noise_by_part`` (part -> the sigma its
+    entries were weighted by, in its unit, and where it came from); {} for any other set."""
+    model = problem.model
+    if not hasattr(model, "errors_by_part"):  # several sets: each set's own report has it
+        return {}
+    out: dict[str, Any] = {}
+    errors: dict[str, Any] = {}
+    for split, rows in splits.items():
+        if len(rows):
+            part = problem.subset(np.asarray(rows, dtype=int))
+            stages = {stage: model.errors_by_part(at, part.q, part.readings) for stage, at in (("before", None),
+                                                                                                ("after", x))}
+            if stages["after"]:
+                errors[split] = {stage: {key: _in_unit(v, key.rsplit("_", 1)[1]) for key, v in by.items()}
+                                 for stage, by in stages.items()}
+    if errors:
+        out["errors_by_part"] = errors
+    if noise and model.noise_parts():
+        out["noise_by_part"] = {p.name: p.as_dict() for p in model.noise_parts()}
+    return out
+
+
+def noise_parts_line(noise_by_part: dict[str, dict[str, Any]]) -> str:
+    """``noise per part (1 sigma): position 0.05 mm (file), orientation 0.01 deg (estimate)``
+    of a report's ``noise_by_part``."""
+    cells = []
+    for name, doc in noise_by_part.items():
+        key = next(k for k in doc if k != "noise_from")
+        cells.append(f"{name} {doc[key]:.4g} {key.removeprefix('noise_')} ({doc['noise_from']})")
+    return "noise per part (1 sigma): " + ", ".join(cells)
+
+
 def build_report(result: CalibrationResult) -> dict[str, Any]:
     """JSON-ready summary of a calibration: what was calibrated with what, the metrics
     before and after [mm], the estimate's run, the deviations with their uncertainty, the
@@ -92,6 +137,7 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "test_data": result.test_source or None,
         "data_kind": result.data.kind,
         "error": result.problem.model.error_name,
+        "sensor": result.problem.model.describe(),
         "model": result.model_name,
         "method": result.method,
         "seed": result.seed,
@@ -103,8 +149,12 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "uncertainty": uncertainty.as_dict() if uncertainty is not None else None,
         "identifiability": result.identifiability.as_dict(),
         **result.problem.model.geometry_report(result.x),
+        **({} if result.sets else {"sensor_geometry": result.problem.model.geometry_report(result.x)}),
         "noise_mm": result.noise * 1e3,
         "noise_from": result.noise_from,
+        **(part_report(result.problem, result.x, {"train": result.train, "test": result.test})
+           if result.estimate.correction is None and result.test_registration is None and not result.test_source
+           else {}),
         "loss": result.loss,
         **_outliers(result),
         "split": {"train": result.train.tolist(), "test": result.test.tolist()},

@@ -20,6 +20,7 @@ import pinocchio as pin
 
 from ..atomic import write_text
 from ..optional import require
+from .build import noise_parts_line
 
 
 def _fig() -> ModuleType:
@@ -132,6 +133,90 @@ def _deviation_section(r: dict, rows: list[dict]) -> str:
     return out + side + "</div></div>"
 
 
+#: Key endings that name a unit (``anchor_mm``, ``rpy_deg``), shown in the geometry table's unit column.
+UNITS = ("mm", "deg", "m", "rad")
+
+
+def _cell(value: Any) -> str:
+    """A geometry value for people: a number, a vector [a, b, c], a list of them, or text."""
+    if isinstance(value, bool) or value is None:
+        return html.escape(str(value))
+    if isinstance(value, int | float):
+        return fmt(value)
+    if isinstance(value, list | tuple):
+        if all(isinstance(v, int | float) and not isinstance(v, bool) for v in value):
+            return "[" + ", ".join(fmt(v) for v in value) + "]"
+        return "; ".join(_cell(v) for v in value)
+    return html.escape(str(value))
+
+
+def geometry_rows(geometry: dict, prefix: str = "") -> list[list[str]]:
+    """A sensor's geometry (its model's ``geometry_report``, the unit in each key's ending)
+    as table rows (quantity, value, unit): nested records flattened, their names joined by
+    " / " (``device_frame / translation``). Names no sensor: any record a sensor reports is shown."""
+    rows: list[list[str]] = []
+    for key, value in geometry.items():
+        name, _, unit = str(key).rpartition("_")
+        if unit not in UNITS or not name:
+            name, unit = str(key), ""
+        label = f"{prefix}{name.replace('_', ' ')}"
+        if isinstance(value, dict):
+            if value and all(not isinstance(v, dict) for v in value.values()) and unit:  # labelled points in one unit
+                rows += [[html.escape(f"{label} / {k}"), _cell(v), unit] for k, v in value.items()]
+            else:
+                rows += geometry_rows(value, f"{label} / ")
+        else:
+            rows.append([html.escape(label), _cell(value), unit])
+    return rows
+
+
+def _errors_by_part(doc: dict) -> str:
+    """The table of a set's errors per part, each in its own unit (``errors_by_part``), or ""."""
+    parts = doc.get("errors_by_part")
+    if not parts:
+        return ""
+    rows = []
+    for split, stages in parts.items():
+        for stage, by in stages.items():
+            for key, m in by.items():
+                name, _, unit = key.rpartition("_")
+                rows.append([split, stage, html.escape(name), unit, fmt(m[f"rmse_{unit}"]), fmt(m[f"mean_{unit}"]),
+                             fmt(m[f"max_{unit}"])])
+    noise = doc.get("noise_by_part")
+    text = f"<p>{html.escape(noise_parts_line(noise).capitalize())}.</p>" if noise else ""
+    return ("<h3>Errors per part, each in its own unit</h3>"
+            + _table(["split", "stage", "part", "unit", "RMS", "mean", "max"], rows, "num") + text)
+
+
+def _geometry_section(title: str, view: dict, describe: str) -> str:
+    """One sensor's geometry as a table (every key its ``geometry_report`` gives), with its
+    description, and its errors per part when its rows have parts."""
+    keys = view.get("_geometry", {})
+    head = f"<h3>{html.escape(title)}</h3>" if title else ""
+    words = f"<p>{html.escape(describe)}</p>" if describe else ""
+    return (head + words + _table(["quantity", "value", "unit"], geometry_rows(keys), "num geometry")
+            + _errors_by_part(view))
+
+
+def sensor_html(r: dict, figures: bool = True) -> str:
+    """report.html's Sensor section: each sensor's description, its geometry table and its
+    errors per part (one set, or each set in turn), with its figure where one is drawn."""
+    return "".join(_geometry_section(title, v, str(v.get("sensor", ""))) + (_sensor_figure(v) if figures else "")
+                   for title, v in sensor_views(r))
+
+
+def _drawable(r: dict) -> bool:
+    """Whether the sensor figure draws this geometry (a device frame with markers, a cable
+    anchor); the others (a 6-D body, contact fixtures) have their table only."""
+    return ("device_frame" in r and "markers_mm" in r) or all(k in r for k in ("anchor_mm", "tool_mm",
+                                                                                 "length_offset_mm"))
+
+
+def _sensor_figure(r: dict) -> str:
+    """The sensor figure and its caption, or "" for a geometry it does not draw."""
+    return _sensor_section(r) if _drawable(r) else ""
+
+
 def _sensor_section(r: dict) -> str:
     if "device_frame" in r:
         frame = r["device_frame"]
@@ -163,10 +248,15 @@ def _sets_section(r: dict) -> str:
 
 
 def sensor_views(r: dict) -> list[tuple[str, dict]]:
-    """The report's sensor geometry as (title, report-like dict) pairs: one, or one per measurement set."""
+    """The report's sensor geometry as (title, report-like dict) pairs: one, or one per
+    measurement set (``_geometry``: what the sensor's ``geometry_report`` gave, report.json's
+    ``sensor_geometry`` or the set's ``set_geometry``; a set's table, ``errors_by_part``
+    among them, laid over the report's)."""
     if "set_geometry" not in r:
-        return [("", r)]
-    return [(f"Set {label}", {**r, **geometry}) for label, geometry in r["set_geometry"].items()]
+        return [("", {**r, "_geometry": r.get("sensor_geometry", {})})]
+    tables = {s["label"]: s for s in r.get("sets", ())}
+    return [(f"Set {label}", {**r, **tables.get(label, {}), **geometry, "_geometry": geometry})
+            for label, geometry in r["set_geometry"].items()]
 
 
 CSS = """body{font-family:system-ui,sans-serif;max-width:1240px;margin:1.5em auto;padding:0 1em;color:#222}
@@ -236,8 +326,7 @@ def render_html(r: dict) -> str:
                          f"poses: RMS {fmt(f['rms'])} mm, max {fmt(f['max'])} mm.</p>"))
     if r.get("sets"):
         sections.insert(1, ("sets", "Measurement sets", _sets_section(r)))
-    sections.append(("sensor", "Sensor", "".join((f"<h3>{html.escape(title)}</h3>" if title else "") + _sensor_section(v)
-                                                 for title, v in sensor_views(r))))
+    sections.append(("sensor", "Sensor", sensor_html(r)))
     nav = "".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
     body = "".join(f'<section id="{key}"><h2>{html.escape(title)}</h2>{content}</section>'
                    for key, title, content in sections)
@@ -283,7 +372,9 @@ def write_figures(report: dict[str, Any], folder: str | Path) -> list[Path]:
     if report.get("workspace_uncertainty"):
         drawn["workspace"] = fig.workspace(report)
     first = sensor_views(report)[0][1]  # several sets: the first set's sensor
-    if "device_frame" in first:
+    if not _drawable(first):
+        pass  # a geometry the figure does not draw (a 6-D body, contact fixtures): its table is in the report
+    elif "device_frame" in first:
         drawn["sensor"] = fig.sensor(first, pin.rpy.rpyToMatrix(*np.deg2rad(first["device_frame"]["rpy_deg"])))
     else:
         drawn["sensor"] = fig.sensor(first)

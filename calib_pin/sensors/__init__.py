@@ -24,7 +24,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from ..exceptions import ArgumentError
-from .base import DEFAULT_NOISE_MM, MeasurementModel
+from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart
 from .cable import CABLE_EXTRAS, CableModel, CableSetup, Drawstring
 from .contact import ContactModel, ContactSetup, Fixtures
 from .pose import PoseModel, PoseRig, PoseSetup
@@ -125,7 +125,7 @@ def setup_from_args(args: argparse.Namespace) -> dict[str, Any]:
     return {name: getattr(args, name) for name in setup_fields() if hasattr(args, name)}
 
 
-__all__ = ["CABLE_EXTRAS", "DEFAULT_NOISE_MM", "SENSORS", "CableModel", "CableSetup", "ContactModel", "ContactSetup",
+__all__ = ["CABLE_EXTRAS", "DEFAULT_NOISE_MM", "NoisePart", "SENSORS", "CableModel", "CableSetup", "ContactModel", "ContactSetup",
            "Fixtures", "Drawstring", "MeasurementModel",
            "PoseModel", "PoseRig", "PoseSetup", "PositionDevice",
            "PositionModel", "PositionSetup", "SensorSetup", "add_sensor_arguments", "check_estimate", "default_kind",

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -32,6 +33,30 @@ if TYPE_CHECKING:
     from ..problem import CalibrationProblem
     from ..simulation import SimulationDraw
     from .setup import SensorSetup
+
+
+@dataclass(frozen=True)
+class NoisePart:
+    """A part of a row with a noise of its own (:meth:`MeasurementModel.noise_parts`).
+
+    Attributes:
+        name: What the part is (``position``, ``orientation``).
+        unit: Its unit for people (``mm``, ``deg``); ``per_si``: that unit per SI unit
+            (1000 mm per m, 180/pi deg per rad).
+        sigma: Its noise, 1 sigma per entry, SI [m or rad].
+        origin: Where sigma came from: ``caller``, ``file``, ``default`` (not stated: it
+            is estimated from the residual when the set is calibrated) or ``estimate``.
+    """
+
+    name: str
+    unit: str
+    per_si: float
+    sigma: float
+    origin: str
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready, the unit in the key: ``{"noise_mm": 0.05, "noise_from": "file"}``."""
+        return {f"noise_{self.unit}": self.sigma * self.per_si, "noise_from": self.origin}
 
 
 def chosen(estimate: Any, valid: tuple[str, ...], sensor: str) -> tuple[str, ...]:
@@ -182,7 +207,8 @@ class MeasurementModel(ABC):
         for other in SENSORS.values():
             for name in other.setup_type.field_names():
                 if name not in own and given(options.get(name)):
-                    raise CalibPinError(f"{flag_of(name)} is for {other.data_name.split()[0]} data; "
+                    takers = [s.data_name.split()[0] for s in SENSORS.values() if name in s.setup_type.field_names()]
+                    raise CalibPinError(f"{flag_of(name)} is for {' and '.join(takers)} data; "
                                         f"{data.source} holds {cls.data_name}")
 
     @classmethod
@@ -225,6 +251,36 @@ class MeasurementModel(ABC):
     @abstractmethod
     def describe(self) -> str:
         """One phrase for people: the sensor and what of it is known or estimated."""
+
+    # --- noise and errors by part (a row whose parts have noises and units of their own) -
+
+    def noise_parts(self) -> tuple[NoisePart, ...]:
+        """The parts of a row that carry a noise of their own (a 6-D pose's position and
+        orientation), each with the sigma its entries are weighted by and where it came
+        from; () (the default): a row is one part, weighted by its set's noise."""
+        return ()
+
+    def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Each of :meth:`noise_parts`' unweighted entries over the rows, flattened, in SI
+        units (m, rad): what its sigma is estimated from (default: none)."""
+        return ()
+
+    def with_part_noise(self, sigmas: tuple[float, ...], origin: str) -> MeasurementModel:
+        """A copy of this model whose parts are weighted by ``sigmas`` (SI, in the order of
+        :meth:`noise_parts`; ``origin``: where they came from, e.g. ``estimate``).
+
+        Raises:
+            CalibPinError: a sensor whose row is one part (the default).
+        """
+        from ..exceptions import CalibPinError
+
+        raise CalibPinError(f"{self.data_name}: a row is one part, weighted by its set's noise")
+
+    def errors_by_part(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> dict[str, np.ndarray]:
+        """Each row's error per part in the part's own unit, the key ending with it
+        (``position_mm``, ``orientation_deg``), each shape (n_rows,); {} (the default): a
+        row is one part, its error the row error in mm."""
+        return {}
 
     # --- simulation (the one seam calib_pin.simulation asks a sensor for) ----------------
 

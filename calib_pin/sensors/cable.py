@@ -103,7 +103,7 @@ class CableSetup(SensorSetup):
     title: ClassVar[str] = "drawstring"
 
     anchor_mm: Any = option(help="sensor point P0 in the base frame, 'x,y,z'", unit="mm", parser=xyz_mm)
-    tool_mm: Any = option(help="cable tool point in the end frame, 'x,y,z'", unit="mm", parser=xyz_mm)
+    tool_mm: Any = option(help="tool point in the end frame (where a cable hooks on), 'x,y,z'", unit="mm", parser=xyz_mm)
     length_offset_mm: Any = option(help="sensor zero offset", unit="mm", parser=finite)
     estimate: Any = option((), help="drawstring geometry to estimate with the robot, comma-separated: anchor, "
                            "offset, tool (the tool point in the end frame); a set without '# anchor_mm' has its "

@@ -17,8 +17,11 @@ orientation error's rotation vector log3(R_meas^T R_pred) [rad] times
 ``noise_m / noise_rad`` (the position noise over the orientation noise, both 1 sigma
 per axis), so that every entry of a row has the position noise and the rows are
 whitened consistently. The two noises come from ``# noise_mm`` and ``# noise_deg`` (or
-the caller's ``noise_mm`` / ``--noise-deg``). :meth:`PoseModel.part_errors` gives each
-part in its own unit (mm, deg).
+the caller's ``noise_mm`` / ``--noise-deg``); a part stated nowhere has its sigma
+estimated from its own residual when the set is calibrated alone
+(:meth:`PoseModel.noise_parts`, :func:`calib_pin.multiset.fit_noise_parts`, the
+variance-component loop of several sets). :meth:`PoseModel.part_errors` gives each part
+in its own unit (mm, deg).
 
 The maths is Pinocchio's: ``pin.log3`` / ``pin.Jlog3`` for the error, ``pin.exp3`` /
 ``pin.Jexp3`` for the parametrisation, the frame kinematic regressor (through
@@ -28,6 +31,7 @@ columns. The analytic Jacobian is checked against finite differences in the test
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -41,7 +45,7 @@ from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
-from .base import DEFAULT_NOISE_MM, MeasurementModel, chosen
+from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart, chosen
 from .setup import SensorSetup, finite, option
 
 if TYPE_CHECKING:
@@ -172,6 +176,16 @@ def noise_of(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[float, f
     return noise_m, float(np.deg2rad(deg))
 
 
+def noise_origins(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[str, str]:
+    """Where :func:`noise_of`'s two noises come from: ``caller``, ``file`` or ``default``
+    (not stated: each such part's sigma is estimated from the residual when the set is
+    calibrated, :func:`calib_pin.multiset.fit_noise_parts`)."""
+    position = "caller" if options.get("noise_mm") is not None else "file" if data.noise else "default"
+    orientation = "caller" if options.get("noise_deg") is not None else "file" if "noise_deg" in data.notes \
+        else "default"
+    return position, orientation
+
+
 @dataclass
 class PoseProblem(CalibrationProblem):
     """A calibration problem of 6-D pose rows: 6 residual entries a row (the position
@@ -264,6 +278,8 @@ class PoseModel(MeasurementModel):
         self.noise_m, self.noise_rad = float(noise_m), float(noise_rad)
         #: Metres of residual per radian of orientation error.
         self.weight = self.noise_m / self.noise_rad
+        #: Where the position and the orientation noise came from (:func:`noise_origins`).
+        self.noise_from: tuple[str, str] = ("caller", "caller")
 
     # --- set-up -------------------------------------------------------------------------
 
@@ -299,6 +315,7 @@ class PoseModel(MeasurementModel):
         fit_rows = np.asarray(fit_rows, dtype=int)
         rig = fit_rig(chain, params, data.q[fit_rows], data.values[fit_rows], noise_m / noise_rad)
         model = cls(chain, params, rig, noise_m, noise_rad, options.get("compliance"))
+        model.noise_from = noise_origins(data, options)
         return PoseProblem(model, data.q, np.asarray(data.values, dtype=float))
 
     # --- geometry -------------------------------------------------------------------------
@@ -323,8 +340,37 @@ class PoseModel(MeasurementModel):
         return self.geometry_at(x).to_dict()
 
     def describe(self) -> str:
-        return (f"6-D poses of a body, device frame and body estimated (noise {self.noise_m * 1e3:g} mm, "
-                f"{np.rad2deg(self.noise_rad):g} deg)")
+        return (f"6-D poses of a body, device frame and body estimated (noise {self.noise_m * 1e3:.4g} mm, "
+                f"{np.rad2deg(self.noise_rad):.4g} deg)")
+
+    # --- noise and errors by part ---------------------------------------------------------
+
+    def noise_parts(self) -> tuple[NoisePart, ...]:
+        """The position (mm) and the orientation (deg), each with its own noise."""
+        return (NoisePart("position", "mm", 1e3, self.noise_m, self.noise_from[0]),
+                NoisePart("orientation", "deg", float(np.rad2deg(1.0)), self.noise_rad, self.noise_from[1]))
+
+    def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The position errors [m] and the orientation errors' rotation vectors [rad], each flattened (3 n_rows,)."""
+        e = self.errors(x, q, readings)
+        return e[:, :3].reshape(-1), e[:, 3:].reshape(-1)
+
+    def with_part_noise(self, sigmas: tuple[float, ...], origin: str) -> PoseModel:
+        """A copy weighted by position noise ``sigmas[0]`` [m] and orientation noise
+        ``sigmas[1]`` [rad]; the parts whose noise was stated keep their origin."""
+        noise_m, noise_rad = (float(s) for s in sigmas)
+        if not (noise_m > 0 and noise_rad > 0):
+            raise ArgumentError("noise", f"position and orientation noise must be positive, got {noise_m} m, "
+                                f"{noise_rad} rad")
+        out = copy.copy(self)
+        out.noise_m, out.noise_rad, out.weight = noise_m, noise_rad, noise_m / noise_rad
+        out.noise_from = tuple(o if o != "default" else origin for o in self.noise_from)  # type: ignore[assignment]
+        return out
+
+    def errors_by_part(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> dict[str, np.ndarray]:
+        """Each row's position error [mm] and orientation error angle [deg] (:meth:`part_errors`)."""
+        mm, deg = self.part_errors(x, q, readings)
+        return {"position_mm": mm, "orientation_deg": deg}
 
     @property
     def reference_point(self) -> np.ndarray:
@@ -457,7 +503,8 @@ class PoseModel(MeasurementModel):
     def simulate_rows(cls, draw: Any, geometry: PoseRig | None) -> tuple[MeasurementSet, PoseRig]:
         """A 6-D pose session (:meth:`MeasurementModel.simulate_rows`): one pose read at each
         drawn configuration, the position with Gaussian noise ``draw.noise_mm`` per axis, the
-        orientation with :data:`DEFAULT_NOISE_DEG` per axis (stated as ``# noise_deg``);
+        orientation with ``draw.setup["noise_deg"]`` (else :data:`DEFAULT_NOISE_DEG`) per axis
+        (stated as ``# noise_deg``);
         ``geometry`` None: :func:`default_rig`."""
         from ..measurements import MeasurementSet
 
@@ -470,15 +517,17 @@ class PoseModel(MeasurementModel):
         true_model = cls(chain, params, rig, estimate=(), compliance=draw.compliance)
         position, rot, _ = true_model._poses(draw.x_model, q)
         position = position + draw.noise((len(q), 3))
-        noise_rad = np.deg2rad(DEFAULT_NOISE_DEG) if draw.noise_mm > 0 else 0.0
+        given = draw.setup.get("noise_deg")
+        deg = (float(given) if given is not None else DEFAULT_NOISE_DEG) if draw.noise_mm > 0 else 0.0
+        noise_rad = np.deg2rad(deg)
         rot = np.stack([r @ pin.exp3(t) for r, t in zip(rot, draw.rng.normal(size=(len(q), 3)) * noise_rad,
                                                          strict=True)])
         data = MeasurementSet(
             q=q, values=np.column_stack([position, matrix_quaternions(rot)]), kind=cls.kind, robot=chain.name,
             end_frame=chain.end_frame, noise=draw.noise_mm * 1e-3 or None,
-            notes={**({"noise_deg": f"{DEFAULT_NOISE_DEG:g}"} if draw.noise_mm > 0 else {}),
+            notes={**({"noise_deg": f"{deg:g}"} if draw.noise_mm > 0 else {}),
                    "source": f"calib-pin 6-D pose simulator, seed {draw.seed}, noise {draw.noise_mm:g} mm per axis, "
-                             f"{DEFAULT_NOISE_DEG if draw.noise_mm > 0 else 0:g} deg per axis"})
+                             f"{deg:g} deg per axis"})
         return data, rig
 
     def noisy_readings(self, x: np.ndarray | None, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:

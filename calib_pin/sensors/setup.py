@@ -124,6 +124,7 @@ def add_setup_arguments(p: argparse.ArgumentParser, setups: Iterable[type[Sensor
         append: Field names whose flag may be given once per session (a list).
     """
     append = set(append)
+    setups = list(setups)
     notes, defaults, seen = notes or {}, defaults or {}, set(skip)
     for setup in setups:
         fields = [f for f in dataclasses.fields(setup) if f.name not in seen and "help" in f.metadata]
@@ -134,6 +135,9 @@ def add_setup_arguments(p: argparse.ArgumentParser, setups: Iterable[type[Sensor
             seen.add(f.name)
             meta = f.metadata
             text = meta["help"] + (f", {meta['unit']}" if meta["unit"] else "")
+            takers = [other.title for other in setups if f.name in other.field_names()]
+            if len(takers) > 1:  # one flag several sensors take: say which
+                text += f"; for {' and '.join(takers)} sets"
             if f.name in notes:
                 text += f" ({notes[f.name]})"
             elif f.name in defaults:
