@@ -58,6 +58,25 @@ def test_figures_are_png(tiny, tmp_path):
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
 
 
+def test_convergence_figure_of_a_method_at_the_optimum(tiny, tmp_path):
+    """A method that starts at the optimum (0 iterations) is drawn as its one point, in the
+    legend, without matplotlib's "no artists with labels" warning; with no iterative method
+    at all the panels say so."""
+    import dataclasses
+    import warnings
+
+    trial = tiny.trials[0]
+    start = trial.runs["lm"].history_mm[:1]
+    at_optimum = dataclasses.replace(trial.runs["lm"], iterations=0, history_mm=start, history_evaluations=[1.0])
+    for runs in ({"lm": at_optimum, "rbf": trial.runs["rbf"]}, {"rbf": trial.runs["rbf"]}):
+        trials = [dataclasses.replace(t, runs=runs) for t in tiny.trials]
+        comparison = dataclasses.replace(tiny, trials=trials, methods=list(runs))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            path = convergence_figure(comparison, tmp_path / f"fig3_{len(runs)}.png")
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_shipped_set_uses_its_truth_file():
     """On the shipped set, the truth file next to it gives the fresh-pose column."""
     result = cp.compare("irb120", methods=["lm"])

@@ -63,10 +63,12 @@ def convergence_figure(comparison: Comparison, path: str | Path) -> Path:
     styles = ["-", "--", "-.", ":", (0, (6, 2, 1, 2, 1, 2))]
     for i, m in enumerate(comparison.methods):
         run = trial.runs[m]
-        if run.iterations <= 1:  # not iterative (rbf)
+        if run.iterations == 1:  # not iterative (rbf)
             continue
         h = np.asarray(run.history_mm)
         style = {"label": f"{run.label} {m}", "linestyle": styles[i % len(styles)], "linewidth": 1.6}
+        if run.iterations == 0:  # started at the optimum: its one point, marked, so it is in the legend
+            style.update(label=f"{run.label} {m} (0 iterations)", marker="o")
         by_iter.plot(np.arange(len(h)), h, **style)
         by_eval.plot(run.history_evaluations, h, **style)
     for ax, xlabel, linear_below in (
@@ -78,7 +80,10 @@ def convergence_figure(comparison: Comparison, path: str | Path) -> Path:
         ax.set_xlabel(xlabel)
         ax.set_ylabel("training RMSE [mm] (log scale)")
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
+        else:  # no iterative method (only rbf): say so instead of an empty legend
+            ax.text(0.5, 0.5, "no iterative method", transform=ax.transAxes, ha="center", va="center")
     by_iter.set_title("(a) convergence per iteration", fontsize=10)
     by_eval.set_title("(b) convergence per evaluation", fontsize=10)
     names = comparison.methods
