@@ -102,6 +102,10 @@ class RowProblem:
         r = self.residual(x)
         return float(r @ r) / len(r)
 
+    def costs(self, xs: list[np.ndarray]) -> list[float]:
+        """:meth:`cost` at several points (a search's candidates), [m^2] each."""
+        return [self.cost(x) for x in xs]
+
     def rows_of(self, values: np.ndarray) -> np.ndarray:
         """Rows that hold the given residual entries (indices into the residual)."""
         return np.unique(np.searchsorted(self.row_offsets, np.asarray(values, dtype=int), side="right") - 1)
@@ -175,6 +179,18 @@ class CalibrationProblem(RowProblem):
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """Derivative of :meth:`residual`, shape (n_values, n_params)."""
         return self.predict_with_jacobian(x)[1]
+
+    def residuals(self, xs: np.ndarray | list[np.ndarray]) -> np.ndarray:
+        """:meth:`residual` at k points xs (k, n_params), shape (k, n_values), [m]: one
+        batched forward-kinematics pass over (points x rows), the same numbers to the bit."""
+        return np.array([(p - self.readings).reshape(-1) for p in self.model.predict_many(list(xs), self.q, self.points)])
+
+    def costs(self, xs: list[np.ndarray]) -> list[float]:
+        """:meth:`cost` at several points from one batched :meth:`residuals`, [m^2] each."""
+        out = []
+        for r in self.residuals(xs):
+            out.append(float(r @ r) / len(r))
+        return out
 
     def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:
         """Row ``row``'s residual (values_per_row,) [m] and Jacobian (values_per_row, n_params)."""
