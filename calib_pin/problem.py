@@ -111,6 +111,10 @@ class RowProblem:
         return np.unique(np.searchsorted(self.row_offsets, np.asarray(values, dtype=int), side="right") - 1)
 
 
+#: Points x rows of one batched pass of :meth:`CalibrationProblem.costs` (a few tens of MB).
+BATCH_ROWS = 200_000
+
+
 @dataclass
 class CalibrationProblem(RowProblem):
     """Measured data and the model that predicts it.
@@ -186,10 +190,13 @@ class CalibrationProblem(RowProblem):
         return np.array([(p - self.readings).reshape(-1) for p in self.model.predict_many(list(xs), self.q, self.points)])
 
     def costs(self, xs: list[np.ndarray]) -> list[float]:
-        """:meth:`cost` at several points from one batched :meth:`residuals`, [m^2] each."""
+        """:meth:`cost` at several points from batched :meth:`residuals` (at most
+        :data:`BATCH_ROWS` point-rows a pass, to bound the memory), [m^2] each."""
         out = []
-        for r in self.residuals(xs):
-            out.append(float(r @ r) / len(r))
+        step = max(1, BATCH_ROWS // max(1, self.n_rows))
+        for start in range(0, len(xs), step):
+            for r in self.residuals(xs[start : start + step]):
+                out.append(float(r @ r) / len(r))
         return out
 
     def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:

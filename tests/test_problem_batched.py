@@ -62,3 +62,14 @@ def test_qibas_reaches_the_truth_with_batched_antennae(session, fresh):
     result = run_estimator("qibas", problem, np.zeros(problem.n_params), seed=0)
     q, true_readings = fresh
     assert np.sqrt(np.mean((problem.model.predict(result.x, q) - true_readings) ** 2)) * 1e3 < 0.06
+
+
+def test_costs_in_bounded_passes_are_the_same(session, monkeypatch):
+    from calib_pin import problem as problem_module
+
+    data, _ = session
+    problem = prepare("irb120", data).problem_on(np.arange(96))
+    xs = _points(problem, k=5)
+    whole = problem.costs(xs)
+    monkeypatch.setattr(problem_module, "BATCH_ROWS", 2 * 96)  # two points a pass: 2 + 2 + 1
+    assert problem.costs(xs) == whole == [problem.cost(x) for x in xs]
