@@ -102,9 +102,17 @@ class RowProblem:
         r = self.residual(x)
         return float(r @ r) / len(r)
 
+    def costs(self, xs: list[np.ndarray]) -> list[float]:
+        """:meth:`cost` at several points (a search's candidates), [m^2] each."""
+        return [self.cost(x) for x in xs]
+
     def rows_of(self, values: np.ndarray) -> np.ndarray:
         """Rows that hold the given residual entries (indices into the residual)."""
         return np.unique(np.searchsorted(self.row_offsets, np.asarray(values, dtype=int), side="right") - 1)
+
+
+#: Points x rows of one batched pass of :meth:`CalibrationProblem.costs` (a few tens of MB).
+BATCH_ROWS = 200_000
 
 
 @dataclass
@@ -175,6 +183,21 @@ class CalibrationProblem(RowProblem):
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """Derivative of :meth:`residual`, shape (n_values, n_params)."""
         return self.predict_with_jacobian(x)[1]
+
+    def residuals(self, xs: np.ndarray | list[np.ndarray]) -> np.ndarray:
+        """:meth:`residual` at k points xs (k, n_params), shape (k, n_values), [m]: one
+        batched forward-kinematics pass over (points x rows), the same numbers to the bit."""
+        return np.array([(p - self.readings).reshape(-1) for p in self.model.predict_many(list(xs), self.q, self.points)])
+
+    def costs(self, xs: list[np.ndarray]) -> list[float]:
+        """:meth:`cost` at several points from batched :meth:`residuals` (at most
+        :data:`BATCH_ROWS` point-rows a pass, to bound the memory), [m^2] each."""
+        out = []
+        step = max(1, BATCH_ROWS // max(1, self.n_rows))
+        for start in range(0, len(xs), step):
+            for r in self.residuals(xs[start : start + step]):
+                out.append(float(r @ r) / len(r))
+        return out
 
     def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:
         """Row ``row``'s residual (values_per_row,) [m] and Jacobian (values_per_row, n_params)."""

@@ -63,3 +63,18 @@ def test_format_goal_judges_each_method_on_the_default_selection():
     line = benchmark_figaroh.format_goal(rows)
     assert "lm 50.0x at 100, 100.0x at 1000 (met)" in line
     assert "ekf-qibas 20.0x at 100, 50.0x at 1000 (not met)" in line
+
+
+def test_absent_figaroh_has_no_whole_process_race(no_figaroh):
+    assert benchmark_figaroh.whole_processes(["lm"], repeats=1) is None
+
+
+def test_format_processes_and_their_goals_at_the_largest_size():
+    rows = [benchmark_figaroh.ProcessRace(100, "lm", 1.0, 5.0), benchmark_figaroh.ProcessRace(1000, "lm", 1.0, 25.0),
+            benchmark_figaroh.ProcessRace(1000, "ekf-qibas", 2.0, 10.0)]
+    text = benchmark_figaroh.format_processes(rows)
+    assert len(text.splitlines()) == 4 and "25.0x" in text
+    line = benchmark_figaroh.format_process_goal(rows)
+    assert "lm 25.0x at 1000 (goal >= 20x, met)" in line
+    assert "ekf-qibas 5.0x at 1000 (goal >= 10x, not met)" in line
+    assert "at 100 " not in line

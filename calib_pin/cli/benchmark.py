@@ -126,7 +126,10 @@ def _against_figaroh(args: argparse.Namespace) -> None:
         against_figaroh,
         figaroh_version,
         format_goal,
+        format_process_goal,
+        format_processes,
         format_races,
+        whole_processes,
     )
     from . import BLAS_THREADS
 
@@ -143,3 +146,10 @@ def _against_figaroh(args: argparse.Namespace) -> None:
           f"truth at the training poses and at {FRESH_POSES} fresh poses [mm]; params: calib-pin/FIGAROH unknowns")
     print(f"timed: {TIMED}")
     print(format_goal(rows))
+    processes = whole_processes(chosen, args.repeats, args.seed)
+    if processes is not None:
+        print(f"as whole processes (what a user runs; calibrate.py ur5 --data FILE --method M --no-html "
+              f"--test-fraction 0, against FIGAROH's default in a fresh Python process from its URDF, YAML and "
+              f"CSV), interleaved, median wall s of {args.repeats} run(s):")
+        print(format_processes(processes))
+        print(format_process_goal(processes))

@@ -96,7 +96,7 @@ class BAS:
             b = rng.standard_normal(space.dim)
             b /= np.linalg.norm(b)
             z_r, z_l = z + m * b, z - m * b
-            f_r, f_l = cost(z_r), cost(z_l)
+            f_r, f_l = track.costs([space.to_x(z_r), space.to_x(z_l)])  # both antennae in one batched pass
             z_bas = z - delta * b * np.sign(f_r - f_l)
             candidates = [(f_r, z_r), (f_l, z_l)]
             if interpolate is not None:

@@ -201,6 +201,16 @@ class Tracker:
         self.nfev += 1
         return self.problem.cost(x)
 
+    def costs(self, xs: list[np.ndarray]) -> list[float]:
+        """:meth:`cost` at several points, counted as one evaluation each: batched where the
+        problem's own class evaluates several at once (``costs``), else one by one (a
+        problem with another cost, e.g. a robust one, never inherits the plain batch)."""
+        self.nfev += len(xs)
+        batched = getattr(type(self.problem), "costs", None)
+        if batched is None:
+            return [self.problem.cost(x) for x in xs]
+        return list(batched(self.problem, xs))
+
     def residual(self, x: np.ndarray) -> np.ndarray:
         """Residual [m], counted as one evaluation."""
         self.nfev += 1

@@ -32,6 +32,21 @@ def filter_moments(
     return p0, q, np.asarray(noise**2)
 
 
+#: The largest block of rows linearised together (:func:`row_blocks`).
+BLOCK_ROWS = 1024
+
+
+def row_blocks(n_rows: int) -> list[tuple[int, int]]:
+    """The EKF's blocks of rows linearised together, (first, end) each: sizes 1, 2, 4,
+    ... up to :data:`BLOCK_ROWS`, the last one cut at ``n_rows``."""
+    out, first, size = [], 0, 1
+    while first < n_rows:
+        out.append((first, min(first + size, n_rows)))
+        first += size
+        size = min(2 * size, BLOCK_ROWS)
+    return out
+
+
 @dataclass(frozen=True)
 class EKF:
     """Recursive estimate of the deviations, one measurement update per pose.
@@ -41,9 +56,16 @@ class EKF:
     cannot see are not estimated and stay at x0. P0 = (prior * scale)^2: the model's
     typical deviation sizes (1 mm, 2 mrad for DH) times ``prior``. Q = (process *
     scale)^2 per pose (eq. 18), zero by default since the robot's geometry does not
-    change during a session. R = noise^2, the sensor's stated noise. Each update
-    relinearises the pose's values at the current state (H_k: the pose's rows of the
-    identification Jacobian, eq. 19-21).
+    change during a session. R = noise^2, the sensor's stated noise. H_k (eq. 19-21)
+    is the pose's rows of the identification Jacobian, computed for blocks of rows in
+    one batched pass (:func:`row_blocks`: rows 0, 1-2, 3-6, 7-14, ..., the blocks
+    doubling up to :data:`BLOCK_ROWS` rows): every row of a block is linearised at the
+    estimate z_b left by the update before the block's first row, and its predicted
+    residual is carried to the current estimate to first order, h_k(z) = r_k(z_b) +
+    H_k(z_b) (z - z_b) (exact for a linear model). Row 0 is linearised at x0; the
+    estimate moves most in the first rows, where the blocks are smallest. One Python
+    call per block, not one per row (per row, the call overhead was most of the
+    Jacobian's cost).
 
     One iteration is one measurement update (``passes`` x poses in all); each costs
     1/n_poses of an evaluation. ``history`` holds the training RMSE before the first
@@ -72,20 +94,28 @@ class EKF:
         track.thin(self.passes * problem.n_rows)
         track.record_at(x0)
         zero_of = {m: np.zeros((m, 1)) for m in noise_of}
+        offsets = row_offsets(problem)
         update = 0
         for _ in range(self.passes):
-            for k in range(problem.n_rows):
-                # The residual (predicted - measured) is the prediction of a zero measurement.
-                residual, jac = problem.row_residual_with_jacobian(space.to_x(kf.x[:, 0]), k)
-                track.nfev += 1.0 / problem.n_rows
-                if self.process:  # F = I: with Q = 0 the prediction leaves x and P as they are
-                    kf.predict()
-                m = int(sizes[k])
-                kf.update(zero_of[m], HJacobian=lambda z, h=jac @ space.basis: h,
-                          Hx=lambda z, r=residual: r.reshape(-1, 1), R=noise_of[m])
-                update += 1
-                if track.recording:
-                    track.record_update(space.to_x(kf.x[:, 0]), update)
+            for first, end in row_blocks(problem.n_rows):
+                # One batched residual and Jacobian for the block, at the estimate now (z_b).
+                z_b = kf.x.copy()
+                block = problem.subset(np.arange(first, end))
+                x_b = space.to_x(z_b[:, 0])
+                residual, jac = block.residual(x_b), block.jacobian(x_b) @ space.basis
+                at = offsets[first : end + 1] - offsets[first]
+                for k in range(first, end):
+                    track.nfev += 1.0 / problem.n_rows
+                    if self.process:  # F = I: with Q = 0 the prediction leaves x and P as they are
+                        kf.predict()
+                    rows = slice(at[k - first], at[k - first + 1])
+                    h, r = jac[rows], residual[rows].reshape(-1, 1)
+                    # The residual (predicted - measured) is the prediction of a zero measurement.
+                    kf.update(zero_of[int(sizes[k])], HJacobian=lambda z, h=h: h,
+                              Hx=lambda z, h=h, r=r, z_b=z_b: r + h @ (z - z_b), R=noise_of[int(sizes[k])])
+                    update += 1
+                    if track.recording:
+                        track.record_update(space.to_x(kf.x[:, 0]), update)
         return track.result(
             space.to_x(kf.x[:, 0]), self.passes * problem.n_rows,
             f"{self.passes} pass(es) over {problem.n_rows} rows",

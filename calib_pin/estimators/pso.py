@@ -50,7 +50,7 @@ class PSO:
         space = track.whitened(x0)
 
         def costs(z: np.ndarray) -> np.ndarray:
-            return np.array([track.cost(space.to_x(p)) for p in z])
+            return np.array(track.costs([space.to_x(p) for p in z]))  # the swarm in batched passes
 
         start = track.cost(space.x0)
         h = [np.sqrt(start)]  # the swarm's best RMSE per iteration: the stopping rule's record

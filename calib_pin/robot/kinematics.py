@@ -156,6 +156,31 @@ class Kinematics:
             raise ArgumentError("point", "expected finite numbers (x, y, z in m, end frame)")
         return v[:, :3]
 
+    def points_many(self, deltas: list[np.ndarray | None], q: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
+        """:meth:`points` without derivatives for several perturbations at once: the
+        positions of ``points[j]`` (3,) or (n_poses, 3) under ``deltas[j]`` (as
+        :meth:`set_perturbation` takes, None: nominal) at the poses q, shape (k, n_poses, 3),
+        [m]. One batched pass for all k: the same numbers, to the bit, as k calls of
+        :meth:`points`; the held perturbation is left as it is."""
+        q = _joint_positions(q, len(self._basis[0]), finite=False)  # checked on the result below
+        coef = self._coefficients(q)
+        k, n = len(deltas), len(q)
+        backward = np.empty((len(coef), k, 4, 12))
+        v = np.empty((k, n, 4))
+        for j, (delta, point) in enumerate(zip(deltas, points, strict=True)):
+            placements = self._nominal if delta is None else self._nominal @ delta
+            factors = placements[:-1] @ self._basis
+            backward[:, j] = factors.transpose(1, 3, 0, 2).reshape(-1, 4, 12)
+            end = placements[-1]
+            v[j, :, :3] = np.asarray(point, dtype=float) @ end[:3, :3].T + end[:3, 3]
+        v[:, :, 3] = 1.0
+        for i in range(len(coef) - 1, -1, -1):
+            v = np.einsum("pk,apkj->apj", coef[i], (v @ backward[i]).reshape(k, -1, 3, 4))
+        if not math.isfinite(v.sum()):
+            _joint_positions(q, len(coef))
+            raise ArgumentError("point", "expected finite numbers (x, y, z in m, end frame)")
+        return v[:, :, :3]
+
     def frames(self, q: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The end frame's placement at many poses, and its frame Jacobian.
 

@@ -401,6 +401,19 @@ class MeasurementModel(ABC):
         self.set_robot(x)
         return self._kin.points(self.joint_angles(x, q), point)[0]
 
+    def predict_many(self, xs: list[np.ndarray], q: np.ndarray, points: np.ndarray | None = None) -> list[np.ndarray]:
+        """:meth:`predict` at several x (a search's candidate points), the same numbers
+        to the bit; a sensor may batch them (see :meth:`points_at_many`)."""
+        return [self.predict(x, q, points) for x in xs]
+
+    def points_at_many(self, xs: list[np.ndarray], q: np.ndarray, points: list[np.ndarray]) -> np.ndarray | None:
+        """:meth:`points_at` at several x in one batched pass, shape (k, n_rows, 3), [m];
+        None with joint compliances (the deflected angles differ per x: no shared pass)."""
+        if self.deflection is not None:
+            return None
+        deltas = [self.params.delta_matrices(self.robot(x)) for x in xs]
+        return self._kin.points_many(deltas, q, points)
+
     def end_frames(self, x: np.ndarray | None, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The end frame's rotations (n_rows, 3, 3) and origins (n_rows, 3) [m] in the
         base frame at q, for x (None: nominal); no derivatives."""

@@ -355,6 +355,14 @@ class CableModel(MeasurementModel):
         sensor = self.geometry_at(x)
         return np.linalg.norm(self.tool_positions(x, q) - sensor.anchor, axis=1) + sensor.length_offset
 
+    def predict_many(self, xs: list[np.ndarray], q: np.ndarray, points: np.ndarray | None = None) -> list[np.ndarray]:
+        """:meth:`predict` at several x, the tool positions in one batched pass."""
+        sensors = [self.geometry_at(x) for x in xs]
+        tips = self.points_at_many(xs, q, [s.tool for s in sensors])
+        if tips is None:
+            return super().predict_many(xs, q, points)
+        return [np.linalg.norm(t - s.anchor, axis=1) + s.length_offset for t, s in zip(tips, sensors, strict=True)]
+
     def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
                               points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Predicted readings (n_rows,) [m] and their derivative (n_rows, n_params)."""

@@ -379,6 +379,15 @@ class PositionModel(MeasurementModel):
         base = self.points_at(x, q, device.markers[_index(points, len(q))])
         return base @ device.frame.rotation.T + device.frame.translation
 
+    def predict_many(self, xs: list[np.ndarray], q: np.ndarray, points: np.ndarray | None = None) -> list[np.ndarray]:
+        """:meth:`predict` at several x, the robot's positions in one batched pass."""
+        devices = [self.geometry_at(x) for x in xs]
+        markers = _index(points, len(q))
+        base = self.points_at_many(xs, q, [d.markers[markers] for d in devices])
+        if base is None:
+            return super().predict_many(xs, q, points)
+        return [b @ d.frame.rotation.T + d.frame.translation for b, d in zip(base, devices, strict=True)]
+
     def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
                               points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Device-frame positions (n_rows, 3) [m] and their derivative (n_rows, 3, n_params)."""

@@ -21,6 +21,13 @@ BLAS threads. Timed, both from the data in memory:
 
 Accuracy of both: Euclidean position RMSE [mm] against the noise-free truth at the
 training poses and at 1000 fresh poses.
+
+As whole processes (:func:`whole_processes`), what a user runs, from the files on disk:
+calib-pin's ``calibrate.py ur5 --data FILE --method M --no-html --test-fraction 0``
+(every row trains; it also writes the URDF, the calibration file and report.json), and
+FIGAROH in a fresh Python process that builds the robot from the same URDF, reads its
+YAML and CSV, selects the parameters (its default, ``structural``) and solves; each
+process's wall time from start to exit, interleaved, medians.
 """
 
 from __future__ import annotations
@@ -208,6 +215,100 @@ def against_figaroh(methods: list[str], repeats: int = 5, seed: int = 0,
     except ImportError:
         return None
     return [r for n in sizes for r in race(n, methods, repeats, seed)]
+
+
+#: FIGAROH as a whole process: argv[1:4] = URDF, config YAML, parameter selection.
+_FIGAROH_PROCESS = """
+import contextlib, io, sys, warnings
+warnings.simplefilter("ignore")
+import pinocchio as pin
+from figaroh.calibration.base_calibration import BaseCalibration
+urdf, config, selection = sys.argv[1:4]
+with contextlib.redirect_stdout(io.StringIO()):
+    calibrator = BaseCalibration(pin.RobotWrapper(pin.buildModelFromUrdf(urdf)), config)
+    calibrator.calib_config["known_baseframe"] = False
+    calibrator.calib_config["known_tipframe"] = False
+    calibrator.calib_config["estimation"] = {"method": selection}
+    calibrator.load_data_set()
+    calibrator.create_param_list()
+    calibrator.solve_optimisation()
+"""
+
+
+@dataclass(frozen=True)
+class ProcessRace:
+    """One size and one calib-pin method against FIGAROH's default, as whole processes: median wall s."""
+
+    samples: int
+    method: str
+    calib_s: float
+    figaroh_s: float
+
+    @property
+    def ratio(self) -> float:
+        """FIGAROH's median over calib-pin's."""
+        return self.figaroh_s / self.calib_s
+
+
+def whole_processes(methods: list[str], repeats: int = 5, seed: int = 0,
+                    sizes: tuple[int, ...] = SIZES) -> list[ProcessRace] | None:
+    """Both tools as whole processes on each size's seeded session (see the module
+    docstring), interleaved ``repeats`` times; None when FIGAROH is not installed."""
+    import sys
+
+    from ..measurements.csv_writer import write_measurements
+    from ..robot.chain import resolve_robot
+    from .benchmark_commands import _script, timed_process
+
+    try:
+        import figaroh  # noqa: F401
+    except ImportError:
+        return None
+    out = []
+    for samples in sizes:
+        setup, _, _ = _session(samples, seed)
+        with tempfile.TemporaryDirectory(prefix="calib-pin-figaroh-") as name:
+            folder = Path(name)
+            config = _write_figaroh_files(folder, setup)
+            write_measurements(folder / "ur5.csv", setup.data)
+            figaroh_argv = [sys.executable, "-c", _FIGAROH_PROCESS, str(resolve_robot("ur5").urdf), str(config),
+                            SELECTIONS[0]]
+            times: dict[str, list[float]] = {m: [] for m in [*methods, "figaroh"]}
+            for _ in range(repeats):
+                for m in methods:
+                    argv = [*_script("calibrate"), "ur5", "--data", str(folder / "ur5.csv"), "--method", m,
+                            "--no-html", "--test-fraction", "0", "--seed", str(seed), "--out", str(folder / m)]
+                    wall, _, code = timed_process(argv, folder)
+                    if code:
+                        raise RuntimeError(f"calibrate.py ur5 --method {m} exited {code}")
+                    times[m].append(wall)
+                wall, _, code = timed_process(figaroh_argv, folder)
+                if code:
+                    raise RuntimeError(f"the FIGAROH process exited {code}")
+                times["figaroh"].append(wall)
+        figaroh_s = statistics.median(times["figaroh"])
+        out += [ProcessRace(samples, m, statistics.median(times[m]), figaroh_s) for m in methods]
+    return out
+
+
+def format_processes(rows: list[ProcessRace]) -> str:
+    """The whole-process table: median wall s of each tool and their ratio."""
+    lines = [f"{'samples':>7s} {'calib-pin':10s}{'median s':>9s}{'FIGAROH s':>10s}{'ratio':>8s}"]
+    lines += [f"{r.samples:7d} {r.method:10s}{r.calib_s:9.3f}{r.figaroh_s:10.3f}{r.ratio:7.1f}x" for r in rows]
+    return "\n".join(lines)
+
+
+#: The whole-process goals at the largest size: at least this many times FIGAROH's default.
+PROCESS_GOALS = {"lm": 20.0, "ekf-qibas": 10.0}
+
+
+def format_process_goal(rows: list[ProcessRace]) -> str:
+    """One line: each goal method's whole-process ratio at the largest size, met or not."""
+    largest = max(r.samples for r in rows)
+    parts = [f"{r.method} {r.ratio:.1f}x at {r.samples} (goal >= {PROCESS_GOALS[r.method]:g}x, "
+             f"{'met' if r.ratio >= PROCESS_GOALS[r.method] else 'not met'})"
+             for r in rows if r.samples == largest and r.method in PROCESS_GOALS]
+    return "whole-process goals against FIGAROH's default: " + ("; ".join(parts) or "no goal method ran")
 
 
 def figaroh_version() -> str:
