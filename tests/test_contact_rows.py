@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.analysis.identifiability import distinct_values
 from calib_pin.cli import main
 from calib_pin.problem import data_row_errors, data_rows
 from calib_pin.robot.poses import random_poses
@@ -109,6 +110,7 @@ def test_distance_rows_are_training_rows_never_test_rows(sets):
     training = result.problem.subset(result.train)
     assert ident.n_poses == training.n_values == int(training.row_sizes[: len(result.train)].sum()) + n_distances
     assert any(name.startswith("scale") and seen for name, seen, _ in ident.directions)  # the distance sees it
+    assert distinct_values(training) == training.n_values  # distinct touches, and the distance's value
 
 
 def test_a_stack_with_a_contact_set_first_keeps_every_sets_rows(sets, tmp_path):
