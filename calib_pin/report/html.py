@@ -227,12 +227,6 @@ def _sensor_section(r: dict) -> str:
                 + "; ".join(f"{html.escape(k)} [{', '.join(fmt(v) for v in m)}]" for k, m in r["markers_mm"].items())
                 + ".</p>")
         return _img(_fig().sensor(r, rotation), "device frame and markers") + text
-    if "anchor_mm" not in r:  # fixtures located in the base frame: no drawing here yet, their geometry as text
-        found = [f"tool point [{', '.join(fmt(v) for v in r['tool_mm'])}] mm (end frame, {r.get('tool', '')})"]
-        found += [f"point {k} [{', '.join(fmt(v) for v in p)}] mm" for k, p in r.get("points_mm", {}).items()]
-        found += [f"plane {k}: normal [{', '.join(fmt(v) for v in p['normal'])}], offset {fmt(p['offset_mm'])} mm"
-                  for k, p in r.get("planes", {}).items()]
-        return "<p>" + html.escape("; ".join(found)) + " (base frame unless said).</p>"
     return (_img(_fig().sensor(r), "cable anchor and hook")
             + f"<p>Cable anchor [{', '.join(fmt(v) for v in r['anchor_mm'])}] mm (base frame), hook "
             f"[{', '.join(fmt(v) for v in r['tool_mm'])}] mm (end frame), length offset "
