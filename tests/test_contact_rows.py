@@ -139,3 +139,17 @@ def test_a_stack_with_a_contact_set_first_keeps_every_sets_rows(sets, tmp_path):
         assert s.metrics["test"]["after"].rmse_mm == pytest.approx(
             float(np.sqrt(np.mean(data_row_errors(part, part.residual(s.x)) ** 2))) * 1e3)
     assert result.identifiability.n_poses == training.n_values
+
+
+def test_a_robust_fit_names_outlying_touches_by_their_data_row(sets):
+    """Outliers of a stack whose contact set (with its distance row) comes first are named
+    by data row (the cable's shifted by nothing, no distance row named)."""
+    paths = [str(sets / "day_1.csv"), str(sets / "day_2.csv")]
+    cable = cp.read_measurements(paths[1])
+    values = cable.values.copy()
+    values[3] += 0.01  # a 10 mm gross error on the cable's row 3
+    bad = cp.MeasurementSet(**{**{f: getattr(cable, f) for f in cable.__dataclass_fields__}, "values": values})
+    result = cp.calibrate("irb120", [paths[0], bad], method="lm", loss="huber", test_fraction=0.0)
+    n_contact = len(cp.read_measurements(paths[0]))
+    assert n_contact + 3 in result.outlier_rows
+    assert all(0 <= r < len(result.data) for r in result.outlier_rows)
