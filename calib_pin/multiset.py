@@ -43,7 +43,7 @@ from .exceptions import ArgumentError, CalibPinError, DataError
 from .measurements import MeasurementSet
 from .measurements.checks import check_measurements
 from .parameters import ParameterModel
-from .problem import CalibrationProblem
+from .problem import CalibrationProblem, data_row_errors
 from .report.build import part_report
 from .result import CalibrationResult
 from .robot import Chain
@@ -307,7 +307,8 @@ class StackedSetup:
             for split, rows in (("train", tr), ("test", te)):
                 if len(rows):
                     part = problem.subset(rows)
-                    before, after = part.row_errors(part.residual(zero)), part.row_errors(part.residual(xk))
+                    before = data_row_errors(part, part.residual(zero))  # touches only, not known distances
+                    after = data_row_errors(part, part.residual(xk))
                     metrics[split] = {"before": Metrics.of(before), "after": Metrics.of(after)}
                     pooled.setdefault(split, {"before": [], "after": []})
                     pooled[split]["before"].append(before)

@@ -45,7 +45,7 @@ from .multiset import (
     set_sigma,
 )
 from .parameters import MODELS, ParameterModel, parameter_model
-from .problem import CalibrationProblem
+from .problem import CalibrationProblem, data_row_errors
 from .result import CalibrationResult
 from .robot import Chain, RobotDescription, load_chain, resolve_robot
 from .robot.deflection import Compliance, as_compliance
@@ -177,8 +177,8 @@ class CalibrationSetup:
         for split, rows in (("train", train), ("test", test)):
             if len(rows):
                 part = problem.subset(rows)
-                metrics[split] = {"before": Metrics.of(part.row_errors(part.residual(x0))),
-                                  "after": Metrics.of(part.row_errors(estimate.residual(part)))}
+                metrics[split] = {"before": Metrics.of(data_row_errors(part, part.residual(x0))),
+                                  "after": Metrics.of(data_row_errors(part, estimate.residual(part)))}
         mixed = mixed_setups_warning(self.data, train, metrics["train"]["after"].rmse_mm, noise)
         if mixed:  # several set-ups in one file (its session column says so)
             warnings.append(mixed)

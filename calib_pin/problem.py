@@ -81,6 +81,25 @@ def row_offsets(problem: Any) -> np.ndarray:
     return np.asarray(offsets, dtype=int)
 
 
+def data_rows(problem: Any) -> np.ndarray:
+    """The rows of ``problem`` that are data rows, in order, shape (n_data,): row k of its
+    ``q`` (and of the measurement set) is row ``data_rows(problem)[k]`` of its residual's rows.
+
+    Every row is a data row except a contact set's known-distance rows (``# distance_mm``):
+    they carry no pose, follow its touches, and are kept by every ``subset`` (so they are
+    always training rows and never test rows). ``subset(rows)`` takes data rows (rows of
+    ``q``); ``n_rows``, ``row_offsets``, ``row_residual_with_jacobian`` and ``row_errors``
+    count every row; metrics, per-row figures and test rows are of data rows only.
+    """
+    rows = getattr(problem, "data_rows", None)
+    return np.arange(problem.n_rows) if rows is None else np.asarray(rows, dtype=int)
+
+
+def data_row_errors(problem: Any, residual: np.ndarray) -> np.ndarray:
+    """Size of each data row's error (:func:`data_rows`), shape (n_data,), [the rows' unit]."""
+    return np.asarray(problem.row_errors(residual))[data_rows(problem)]
+
+
 class RowProblem:
     """What every least-squares problem derives from its residual and row size: the
     cost and the rows of residual entries (shared by :class:`CalibrationProblem`,

@@ -105,8 +105,14 @@ class CalibrationResult:
 
     @property
     def outlier_rows(self) -> list[int]:
-        """Data rows (0-based) the robust estimate judged outliers."""
-        return [int(self.train[i]) for i in self.estimate.outliers]
+        """Data rows (0-based) the robust estimate judged outliers (a contact set's
+        known-distance rows, no data row, are never named)."""
+        from .problem import data_rows
+
+        if not self.estimate.outliers:
+            return []
+        at = {int(r): k for k, r in enumerate(data_rows(self.problem.subset(self.train)))}
+        return [int(self.train[at[i]]) for i in self.estimate.outliers if i in at]
 
     @property
     def deltas(self) -> list[pin.SE3]:

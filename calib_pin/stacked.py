@@ -274,12 +274,13 @@ class StackedProblem(RowProblem):
 
     @property
     def q(self) -> np.ndarray:
-        """Every row's joint angles, shape (n_rows, n_joints), [rad]."""
+        """Every data row's joint angles, shape (n_data, n_joints), [rad]: row k is stacked
+        row ``data_rows[k]`` (a contact set's known-distance rows carry no pose)."""
         return np.concatenate([p.q for p in self.parts])
 
     @property
     def points(self) -> np.ndarray | None:
-        """Every row's point index, or None for one-point sensors."""
+        """Every data row's point index, shape (n_data,), or None for one-point sensors."""
         if any(p.points is None for p in self.parts):
             return None
         return np.concatenate([p.points for p in self.parts])  # type: ignore[misc]
@@ -317,12 +318,16 @@ class StackedProblem(RowProblem):
         return w * r, full
 
     def subset(self, rows: np.ndarray | slice) -> StackedProblem:
-        """The stack restricted to some stacked rows (indices in the stacked order, kept
-        in that order within each set); sets left without rows are left out."""
-        index = np.arange(self.n_rows)[rows] if isinstance(rows, slice) else np.asarray(rows, dtype=int).reshape(-1)
+        """The stack restricted to some data rows (rows of :attr:`q`, the sets' data rows in
+        turn, kept in that order within each set; each contact set's known-distance rows
+        stay with its part, :func:`calib_pin.problem.data_rows`); sets left without rows
+        are left out."""
+        n_data = [len(p.q) for p in self.parts]
+        index = np.arange(sum(n_data))[rows] if isinstance(rows, slice) else np.asarray(rows, dtype=int).reshape(-1)
+        starts = np.cumsum([0] + n_data)
         parts, weights, sets = [], [], []
         for k, p in enumerate(self.parts):
-            lo, hi = self._offsets[k], self._offsets[k + 1]
+            lo, hi = starts[k], starts[k + 1]
             mine = index[(index >= lo) & (index < hi)] - lo
             if len(mine):
                 parts.append(p.subset(mine))

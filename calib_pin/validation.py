@@ -32,6 +32,7 @@ import numpy as np
 from .analysis.metrics import Metrics
 from .exceptions import ArgumentError, DataError
 from .measurements import MeasurementSet
+from .problem import data_row_errors
 
 if TYPE_CHECKING:
     from .problem import CalibrationProblem
@@ -202,8 +203,8 @@ def register_session(result: CalibrationResult, test: TestSet, session: Measurem
     before = _fit_sensor(fitted, np.zeros(start))
     after = _fit_sensor(fitted, np.asarray(result.x, dtype=float)[:start])
     part = problem.subset(scored)
-    metrics = {"before": Metrics.of(part.row_errors(part.residual(before))),
-               "after": Metrics.of(part.row_errors(part.residual(after)))}
+    metrics = {"before": Metrics.of(data_row_errors(part, part.residual(before))),
+               "after": Metrics.of(data_row_errors(part, part.residual(after)))}
     lines = None if session.lines is None else np.asarray(session.lines)
     how = f"rows with role={REGISTER_ROLE}" if test.register == "role" else f"first {test.register} poses"
     info = {

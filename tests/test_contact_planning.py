@@ -18,7 +18,7 @@ from calib_pin.analysis.planning import plan_poses
 from calib_pin.cli import main
 from calib_pin.measurements import read_measurements
 from calib_pin.robot.poses import random_poses
-from calib_pin.sensors.contact import ContactModel, Fixtures, default_fixtures
+from calib_pin.sensors.contact import ContactModel, Fixtures, rigid_aligned
 from calib_pin.simulation import Truth, simulate_sessions
 
 SOCKETS = {"points_mm": {"A": [380, 120, 250], "B": [300, -250, 150], "C": [420, -40, 480]},
@@ -33,11 +33,8 @@ def robot():
 
 def _kabsch_rms_mm(predicted: np.ndarray, true: np.ndarray) -> float:
     """RMS distance [mm] after the best rigid motion of ``predicted`` onto ``true`` (the
-    base placement no contact set sees)."""
-    cp_, ct = predicted.mean(axis=0), true.mean(axis=0)
-    u, _, vt = np.linalg.svd((predicted - cp_).T @ (true - ct))
-    rot = vt.T @ np.diag([1.0, 1.0, np.sign(np.linalg.det(vt.T @ u.T))]) @ u.T
-    return float(np.sqrt(np.mean(np.sum(((predicted - cp_) @ rot.T + ct - true) ** 2, axis=1)))) * 1e3
+    base placement no contact set sees: :func:`calib_pin.sensors.contact.rigid_aligned`)."""
+    return float(np.sqrt(np.mean(np.sum((rigid_aligned(predicted, true) - true) ** 2, axis=1)))) * 1e3
 
 
 def _fresh(model, x, truth, tool, fresh) -> float:

@@ -14,7 +14,7 @@ from scipy.optimize import least_squares
 import calib_pin as cp
 from calib_pin.analysis.identifiability import analyze
 from calib_pin.robot.poses import random_poses
-from calib_pin.sensors.contact import ContactModel, fit_fixtures, fixture_rows, simulate_contacts
+from calib_pin.sensors.contact import ContactModel, fit_fixtures, fixture_rows, rigid_aligned, simulate_contacts
 
 PLANE = {"W": ((1.0, 0.0, 1.0), 450.0)}  # a slanted wall, 450 mm from the base origin
 
@@ -34,12 +34,8 @@ def sockets(robot):
 
 def _kabsch_rms_mm(predicted: np.ndarray, true: np.ndarray) -> float:
     """RMS distance [mm] after the best rigid motion of ``predicted`` onto ``true`` (the
-    base placement no contact set sees)."""
-    cp_, ct = predicted.mean(axis=0), true.mean(axis=0)
-    u, _, vt = np.linalg.svd((predicted - cp_).T @ (true - ct))
-    rot = vt.T @ np.diag([1.0, 1.0, np.sign(np.linalg.det(vt.T @ u.T))]) @ u.T
-    moved = (predicted - cp_) @ rot.T + ct
-    return float(np.sqrt(np.mean(np.sum((moved - true) ** 2, axis=1)))) * 1e3
+    base placement no contact set sees: :func:`calib_pin.sensors.contact.rigid_aligned`)."""
+    return float(np.sqrt(np.mean(np.sum((rigid_aligned(predicted, true) - true) ** 2, axis=1)))) * 1e3
 
 
 def test_the_analytic_jacobian_matches_finite_differences(robot):

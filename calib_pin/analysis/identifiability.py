@@ -25,7 +25,7 @@ import numpy as np
 from scipy.linalg import qr
 
 from ..arguments import as_array, as_float, as_instance
-from ..problem import CalibrationProblem, row_offsets
+from ..problem import CalibrationProblem, data_rows, row_offsets
 from ..stacked import StackedProblem
 from .subspace import RCOND, Subspace
 
@@ -200,7 +200,9 @@ def distinct_values(problem: CalibrationProblem | StackedProblem) -> int:
         return sum(distinct_values(p) for p in parts)
     rows = problem.q if problem.points is None else np.column_stack([problem.q, problem.points])
     _, first = np.unique(rows, axis=0, return_index=True)
-    return int(np.diff(row_offsets(problem))[first].sum())
+    sizes = np.diff(row_offsets(problem))
+    data = data_rows(problem)  # row k of q is row data[k]; the rest (known distances) count once each
+    return int(sizes[data[first]].sum() + sizes[np.setdiff1d(np.arange(problem.n_rows), data)].sum())
 
 
 def support_error(problem: CalibrationProblem | StackedProblem, rcond: float = RCOND) -> str | None:

@@ -158,7 +158,8 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
               "(Ctrl-C stops; the finished trials are kept and the same command resumes)", file=sys.stderr, flush=True)
     try:
         result = compare(
-            args.robot, data, methods=args.methods, trials=args.trials, seed=args.seed,
+            args.robot, data, trials=args.trials, seed=args.seed,
+            methods=args.methods if any(a == "--methods" or a.startswith("--methods=") for a in argv) else None,
             test_fraction=args.test_fraction, simulate_noise=args.simulate,
             noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
             checkpoint=out, notify=lambda line: print(line, flush=True), **compliance_options(args),

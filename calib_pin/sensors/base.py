@@ -343,6 +343,13 @@ class MeasurementModel(ABC):
         point once per pose (the rows are pose-major)."""
         return np.arange(n_poses), None
 
+    def fresh_difference(self, predicted: np.ndarray, true: np.ndarray) -> np.ndarray:
+        """Predicted minus noise-free true values at fresh poses (:meth:`grid_points`), as
+        far as the sensor's data can tell them apart, shaped like ``predicted`` [m]: the plain
+        difference here; a sensor blind to some motion of everything it measures (the
+        base placement, for fixtures located in the base frame) removes it first."""
+        return predicted - true
+
     def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
                        correction: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
                        ) -> np.ndarray:

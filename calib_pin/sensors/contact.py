@@ -209,6 +209,18 @@ def known_distances(data: MeasurementSet, points: tuple[str, ...]) -> tuple[tupl
     return tuple(out)
 
 
+def rigid_aligned(points: np.ndarray, onto: np.ndarray) -> np.ndarray:
+    """``points`` (n, 3) moved by the rigid motion (a rotation, no reflection, and a
+    translation; Kabsch's least squares) that brings them closest to ``onto`` (n, 3), same
+    unit: how a contact calibration's tool points are compared with the truth, since the
+    fixtures are located in the base frame and move with it (the base placement is blind)."""
+    points, onto = np.asarray(points, dtype=float), np.asarray(onto, dtype=float)
+    cp_, ct = points.mean(axis=0), onto.mean(axis=0)
+    u, _, vt = np.linalg.svd((points - cp_).T @ (onto - ct))
+    rot = vt.T @ np.diag([1.0, 1.0, np.sign(np.linalg.det(vt.T @ u.T))]) @ u.T
+    return (points - cp_) @ rot.T + ct
+
+
 @dataclass
 class ContactProblem(CalibrationProblem):
     """A calibration problem of contact rows (``points``: each row's fixture index, see
@@ -373,13 +385,25 @@ class ContactModel(MeasurementModel):
     fitted_setup = "fixture points and planes"
 
     def __init__(self, chain: Chain, params: ParameterModel, fixtures: Fixtures,
-                 compliance: ComplianceSpec | None = None) -> None:
+                 compliance: ComplianceSpec | None = None, estimate: tuple[str, ...] | None = None) -> None:
+        """``estimate=()``: nothing of the set-up unknown (the true fixtures and tool point,
+        as :meth:`calib_pin.simulation.Truth.model` builds a truth's model): x holds the
+        robot's unknowns only. None (the default): the points and planes are estimated,
+        and the tool point unless ``fixtures.tool_known``."""
         if not isinstance(fixtures, Fixtures):
             raise ArgumentError("fixtures", f"expected Fixtures, got {type(fixtures).__name__}")
+        if estimate is not None and tuple(estimate):
+            raise ArgumentError("estimate", f"{','.join(estimate)}: a contact model estimates every fixture "
+                                "(None) or nothing of its set-up (())")
+        #: Nothing of the set-up is unknown (``estimate=()``).
+        self.known = estimate is not None
+        if self.known:
+            fixtures = replace(fixtures, tool_known=True)
         extra = [] if fixtures.tool_known else [(f"tool_{a}", "m", 1e-3) for a in "xyz"]
-        extra += [(f"contact{label}_{a}", "m", 1e-3) for label in fixtures.point_labels for a in "xyz"]
-        extra += [(f"plane{label}_{c}", u, s) for label in fixtures.plane_labels
-                  for c, u, s in (("a", "rad", 2e-3), ("b", "rad", 2e-3), ("d", "m", 1e-3))]
+        if not self.known:
+            extra += [(f"contact{label}_{a}", "m", 1e-3) for label in fixtures.point_labels for a in "xyz"]
+            extra += [(f"plane{label}_{c}", u, s) for label in fixtures.plane_labels
+                      for c, u, s in (("a", "rad", 2e-3), ("b", "rad", 2e-3), ("d", "m", 1e-3))]
         super().__init__(chain, params, extra, compliance)
         self.fixtures = fixtures
         self._frames = np.array([_frame_of(n) for n in fixtures.normals]).reshape(-1, 3, 3)
@@ -425,8 +449,10 @@ class ContactModel(MeasurementModel):
 
     def _split(self, x: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """x's tool correction (3,), point corrections (n_points, 3), plane parts (n_planes, 3)."""
-        e = np.zeros(self.n_params - self.sensor_start) if x is None else self.sensor_part(x)
         fx = self.fixtures
+        if self.known:
+            return np.zeros(3), np.zeros((len(fx.points), 3)), np.zeros((len(fx.normals), 3))
+        e = np.zeros(self.n_params - self.sensor_start) if x is None else self.sensor_part(x)
         tool, e = (np.zeros(3), e) if fx.tool_known else (e[:3], e[3:])
         n_points = len(fx.points)
         return tool, e[: 3 * n_points].reshape(-1, 3), e[3 * n_points :].reshape(-1, 3)
@@ -454,6 +480,11 @@ class ContactModel(MeasurementModel):
     def reference_point(self) -> np.ndarray:
         return np.asarray(self.fixtures.tool, dtype=float)
 
+    def fresh_difference(self, predicted: np.ndarray, true: np.ndarray) -> np.ndarray:
+        """Predicted tool points (n, 3) [m] moved by the best rigid motion onto the true
+        ones (:func:`rigid_aligned`: the base placement no contact set sees), minus them."""
+        return rigid_aligned(predicted, true) - true
+
     # --- residuals ------------------------------------------------------------------------
 
     def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
@@ -480,7 +511,7 @@ class ContactModel(MeasurementModel):
             gap = fx.points[a] - fx.points[b]
             size = float(np.linalg.norm(gap))
             r[k] = size - length
-            if jacobian:
+            if jacobian and not self.known:
                 jac[k, first + 3 * a : first + 3 * a + 3] = gap / size
                 jac[k, first + 3 * b : first + 3 * b + 3] = -gap / size
         return r, jac
@@ -508,7 +539,8 @@ class ContactModel(MeasurementModel):
                 parts.append(tips[r] - fx.points[k])
                 if d_tips is not None:
                     j = d_tips[r].copy()
-                    j[:, first_point + 3 * k : first_point + 3 * k + 3] = -np.eye(3)
+                    if not self.known:
+                        j[:, first_point + 3 * k : first_point + 3 * k + 3] = -np.eye(3)
                     jacs.append(j)
             else:
                 m = k - n_points
@@ -516,11 +548,12 @@ class ContactModel(MeasurementModel):
                 parts.append(np.array([normal @ tips[r] - fx.offsets[m]]))
                 if d_tips is not None:
                     j = (normal @ d_tips[r])[None, :]
-                    w = np.array([planes[m, 0], planes[m, 1], 0.0])
-                    # n = R0 exp3(w) e_z: d n = -R0 exp3(w) [e_z]x Jexp3(w) d w
-                    d_normal = -self._frames[m] @ pin.exp3(w) @ pin.skew(_EZ) @ pin.Jexp3(w)
-                    j[0, first_plane + 3 * m : first_plane + 3 * m + 2] = tips[r] @ d_normal[:, :2]
-                    j[0, first_plane + 3 * m + 2] = -1.0
+                    if not self.known:
+                        w = np.array([planes[m, 0], planes[m, 1], 0.0])
+                        # n = R0 exp3(w) e_z: d n = -R0 exp3(w) [e_z]x Jexp3(w) d w
+                        d_normal = -self._frames[m] @ pin.exp3(w) @ pin.skew(_EZ) @ pin.Jexp3(w)
+                        j[0, first_plane + 3 * m : first_plane + 3 * m + 2] = tips[r] @ d_normal[:, :2]
+                        j[0, first_plane + 3 * m + 2] = -1.0
                     jacs.append(j)
         if distances and fx.distances:
             r_d, j_d = self.distance_residual(x, jacobian)

@@ -34,11 +34,12 @@ from ..exceptions import ArgumentError, CalibPinError
 from ..multiset import StackedSetup
 from ..parameters import ParameterModel, parameter_model
 from ..pipeline import CalibrationSetup, prepare
-from ..problem import CalibrationProblem
+from ..problem import CalibrationProblem, data_row_errors
 from ..progress import progress_bar
 from ..robot import Chain, load_chain
 from ..robot.deflection import Compliance, as_compliance
 from ..robot.poses import random_poses
+from ..sensors import sensor_for
 from ..simulation import Truth, simulate
 from .checkpoint import Checkpoint, file_digest, fingerprint
 from .parallel import parallel_map
@@ -284,7 +285,7 @@ def fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Cal
     rows, points = model.grid_points(len(poses))
     q = poses[rows]
     true_values = model.predict(truth.x_model, q, points)
-    return lambda predict: float(np.sqrt(np.mean((predict(q, points) - true_values) ** 2)) * 1e3)
+    return lambda predict: float(np.sqrt(np.mean(model.fresh_difference(predict(q, points), true_values) ** 2)) * 1e3)
 
 
 def start_x(start: Any, problem: Any, training: Any) -> np.ndarray:
@@ -316,10 +317,10 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
     for m in methods:
         est = run_estimator(m, train_problem, x0, seed=seed, noise=setup.noise)
         k, evals = est.converged(CONVERGED_TOLERANCE)
-        residual = test_problem.row_errors(est.residual(test_problem))
+        residual = data_row_errors(test_problem, est.residual(test_problem))
         runs[m] = MethodRun(
             method=m, label=PAPER_LABELS[m],
-            train=Metrics.of(train_problem.row_errors(est.residual(train_problem))), test=Metrics.of(residual),
+            train=Metrics.of(data_row_errors(train_problem, est.residual(train_problem))), test=Metrics.of(residual),
             fresh_rmse_mm=fresh(lambda q, points, est=est: est.predict(model, q, points)),
             iterations=est.iterations, evaluations=est.nfev,
             converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
@@ -328,7 +329,7 @@ def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], see
         )
         if tick is not None:
             tick()
-    before = test_problem.row_errors(test_problem.residual(x0))
+    before = data_row_errors(test_problem, test_problem.residual(x0))
     return Trial(
         seed=seed, source=setup.data.source or "simulated", before=Metrics.of(before),
         before_fresh_rmse_mm=fresh(lambda q, points: model.predict(x0, q, points)),
@@ -390,7 +391,8 @@ def stacked_fresh_scorer(setup: StackedSetup, truths: list[Truth] | None, seed: 
     def score(model: Any, x: np.ndarray) -> float | None:
         if len({value_unit(part) for part in model.parts}) > 1:
             return None
-        error = np.concatenate([(model.parts[k].predict(model.part_x(x, k), q, points) - true).ravel()
+        error = np.concatenate([model.parts[k].fresh_difference(model.parts[k].predict(model.part_x(x, k), q, points),
+                                                                true).ravel()
                                 for k, (q, points, true) in enumerate(cases)])
         return float(np.sqrt(np.mean(error**2)) * 1e3)
 
@@ -417,10 +419,10 @@ def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_frac
         est, problem = result.estimate, result.problem
         train_problem, test_problem = problem.subset(result.train), problem.subset(result.test)
         k, evals = est.converged(CONVERGED_TOLERANCE)
-        residual = test_problem.row_errors(est.residual(test_problem))
+        residual = data_row_errors(test_problem, est.residual(test_problem))
         runs[m] = MethodRun(
             method=m, label=PAPER_LABELS[m],
-            train=Metrics.of(train_problem.row_errors(est.residual(train_problem))), test=Metrics.of(residual),
+            train=Metrics.of(data_row_errors(train_problem, est.residual(train_problem))), test=Metrics.of(residual),
             fresh_rmse_mm=fresh(problem.model, est.x), iterations=est.iterations, evaluations=est.nfev,
             converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
             history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
@@ -428,7 +430,7 @@ def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_frac
         )
         if before is None:  # every method starts from the same sensor geometry, fitted on the same rows
             x0 = start_x(setup.start, problem, train_problem)  # zero, or the start's (setup.run's)
-            before = test_problem.row_errors(test_problem.residual(x0))
+            before = data_row_errors(test_problem, test_problem.residual(x0))
             before_fresh = fresh(problem.model, x0)
         if tick is not None:
             tick()
@@ -510,6 +512,7 @@ def compare(
             trials are kept when ``checkpoint`` is given).
         calib_pin.studies.checkpoint.Interrupted: Ctrl-C with a ``checkpoint``; the finished trials are kept.
     """
+    default = methods is None
     methods = list(PAPER_METHODS) if methods is None else list(methods)
     for m in methods:
         get_method(m)
@@ -527,6 +530,8 @@ def compare(
             raise ArgumentError("nominal", "starts from a robot's own calibration: compare on its measured data "
                                 "(not simulated sets, whose true robot is drawn anew)")
         soft["nominal"] = str(as_path(nominal, "nominal"))
+    if default and simulate_noise is None:
+        methods = _methods_for_data(robot, data, soft, methods, notify)
     with progress_bar(trials * len(methods), "trials x methods") as bar:
         local = jobs == 1 and scheduler is None  # a bar follows only the trials run here
         tick = bar.update if bar is not None and local else None
@@ -534,6 +539,22 @@ def compare(
                             soft, (jobs, scheduler), tick, (checkpoint, notify))
     start = f", started from {Path(nominal).name}" if nominal is not None else ""
     return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(record) + start)
+
+
+def _methods_for_data(robot: str, data: Any, soft: dict[str, Any], methods: list[str],
+                      notify: Callable[[str], Any] | None) -> list[str]:
+    """The default ``methods`` less those the data's sensors refuse (rows of several sizes:
+    ``unsupported_methods``), said through ``notify``; asked-for methods are never dropped."""
+    sets = list(data) if isinstance(data, list | tuple) else [data]
+    setup = prepare(robot, [str(d) for d in sets] if len(sets) > 1 else sets[0], **soft)
+    kinds = {d.kind for d in setup.sets} if isinstance(setup, StackedSetup) else {setup.data.kind}
+    refused = [m for m in methods if any(m in getattr(sensor_for(k), "unsupported_methods", ()) for k in kinds)]
+    if refused and notify is not None:
+        names = ", ".join(sorted({sensor_for(k).data_name for k in kinds
+                                  if set(refused) & set(getattr(sensor_for(k), "unsupported_methods", ()))}))
+        notify(f"left out {', '.join(refused)}: they need rows of one size, and {names} rows differ in size "
+               "(--methods chooses)")
+    return [m for m in methods if m not in refused]
 
 
 def _trials(robot: str, data: Any, methods: list[str], trials: int, seed: int, test_fraction: float,

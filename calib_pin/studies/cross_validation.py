@@ -17,6 +17,7 @@ import numpy as np
 from ..analysis.metrics import Metrics
 from ..estimators import run_estimator
 from ..exceptions import CalibPinError
+from ..problem import data_row_errors
 
 
 @dataclass(frozen=True)
@@ -75,5 +76,5 @@ def cross_validate(setup: Any, method: str, rows: np.ndarray, folds: int, *, see
         problem = setup.problem_on(train)  # the sensor's start fitted on this fold's training rows only
         training, held_out = problem.subset(train), problem.subset(test)
         est = run_estimator(method, training, np.zeros(problem.n_params), seed=seed, noise=setup.noise, loss=loss)
-        out.append(Metrics.of(held_out.row_errors(est.residual(held_out))))
+        out.append(Metrics.of(data_row_errors(held_out, est.residual(held_out))))
     return CrossValidation(folds, seed, tuple(out))
