@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..analysis.subspace import Subspace
-from ..problem import LeastSquares, row_offsets
+from ..problem import LeastSquares, data_rows, row_offsets
 from .base import Callback, EstimateResult, Tracker
 from .filterpy_import import kalman
 
@@ -95,14 +95,20 @@ class EKF:
         track.record_at(x0)
         zero_of = {m: np.zeros((m, 1)) for m in noise_of}
         offsets = row_offsets(problem)
+        batched = len(data_rows(problem)) == problem.n_rows  # subset(rows) takes data rows only
         update = 0
         for _ in range(self.passes):
             for first, end in row_blocks(problem.n_rows):
                 # One batched residual and Jacobian for the block, at the estimate now (z_b).
                 z_b = kf.x.copy()
-                block = problem.subset(np.arange(first, end))
                 x_b = space.to_x(z_b[:, 0])
-                residual, jac = block.residual(x_b), block.jacobian(x_b) @ space.basis
+                if batched:
+                    block = problem.subset(np.arange(first, end))
+                    residual, jac = block.residual(x_b), block.jacobian(x_b) @ space.basis
+                else:  # rows that are no data rows (a contact set's distances): row by row, at the same z_b
+                    pairs = [problem.row_residual_with_jacobian(x_b, k) for k in range(first, end)]
+                    residual = np.concatenate([r for r, _ in pairs])
+                    jac = np.vstack([j for _, j in pairs]) @ space.basis
                 at = offsets[first : end + 1] - offsets[first]
                 for k in range(first, end):
                     track.nfev += 1.0 / problem.n_rows
