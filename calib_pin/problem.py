@@ -205,7 +205,12 @@ class CalibrationProblem(RowProblem):
 
     def residuals(self, xs: np.ndarray | list[np.ndarray]) -> np.ndarray:
         """:meth:`residual` at k points xs (k, n_params), shape (k, n_values), [m]: one
-        batched forward-kinematics pass over (points x rows), the same numbers to the bit."""
+        batched forward-kinematics pass over (points x rows), the same numbers to the bit.
+        A problem whose class has its own :meth:`residual` (a 6-D pose's whitened rotation
+        vector, a contact set's touches and distances) is evaluated point by point with it:
+        the plain batch (predicted minus measured) would be another residual."""
+        if type(self).residual is not CalibrationProblem.residual:
+            return np.array([self.residual(x) for x in xs])
         return np.array([(p - self.readings).reshape(-1) for p in self.model.predict_many(list(xs), self.q, self.points)])
 
     def costs(self, xs: list[np.ndarray]) -> list[float]:

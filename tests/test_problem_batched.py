@@ -2,6 +2,7 @@
 forward-kinematics pass, the same numbers to the bit as one residual per point."""
 
 import numpy as np
+import pytest
 
 import calib_pin as cp
 from calib_pin.estimators import run_estimator
@@ -73,3 +74,16 @@ def test_costs_in_bounded_passes_are_the_same(session, monkeypatch):
     whole = problem.costs(xs)
     monkeypatch.setattr(problem_module, "BATCH_ROWS", 2 * 96)  # two points a pass: 2 + 2 + 1
     assert problem.costs(xs) == whole == [problem.cost(x) for x in xs]
+
+
+@pytest.mark.parametrize("example", ["irb120_pose_example.csv", "irb120_contact_example.csv", "irb120_default.csv"])
+def test_batched_costs_are_each_sensors_own_cost(example):
+    """The searches' batched costs equal the problem's own cost point by point for every
+    shipped sensor: a 6-D pose (whitened rotation vector) and a contact set (touches and
+    distances) have their own residual, which the plain batch must not replace."""
+    from pathlib import Path
+
+    problem = prepare("irb120", Path(__file__).parent.parent / "robots" / example).problem
+    rng = np.random.default_rng(3)
+    xs = [rng.normal(size=problem.n_params) * problem.scale * 0.1 for _ in range(3)]
+    assert problem.costs(xs) == [problem.cost(x) for x in xs]
