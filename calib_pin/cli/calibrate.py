@@ -107,7 +107,7 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    "xacro.load_yaml; ur_description's default_kinematics.yaml too for ur* robots), dh (DH table TOML, "
                    "dh and hayati models)")
     p.add_argument("--no-html", action="store_true", help="do not write DIR/report.html")
-    p.add_argument("--cv", type=count(1000), metavar="K",
+    p.add_argument("--cv", type=count(1000, lower=2), metavar="K",
                    help="also K-fold cross-validate the model on the training poses (split by pose): its held-out "
                    "error in the report and the printout")
     p.add_argument("--analyze", action="store_true",

@@ -180,8 +180,8 @@ def positive_float(upper: float) -> Callable[[str], float]:
 
 
 
-def count(upper: int) -> Callable[[str], int]:
-    """A whole number in [1, upper]."""
+def count(upper: int, lower: int = 1) -> Callable[[str], int]:
+    """A whole number in [lower, upper]."""
     def parse(text: str) -> int:
         try:
             value = int(text)
@@ -191,8 +191,8 @@ def count(upper: int) -> Callable[[str], int]:
                 value = int(as_float) if as_float.is_integer() and abs(as_float) < 1e18 else 0
             except (ValueError, OverflowError):
                 value = 0
-        if not 1 <= value <= upper:
-            raise argparse.ArgumentTypeError(f"expected a whole number from 1 to {upper}, got '{text[:40]}'")
+        if not lower <= value <= upper:
+            raise argparse.ArgumentTypeError(f"expected a whole number from {lower} to {upper}, got '{text[:40]}'")
         return value
 
     return parse
