@@ -205,7 +205,11 @@ class CalibrationProblem(RowProblem):
 
     def residuals(self, xs: np.ndarray | list[np.ndarray]) -> np.ndarray:
         """:meth:`residual` at k points xs (k, n_params), shape (k, n_values), [m]: one
-        batched forward-kinematics pass over (points x rows), the same numbers to the bit."""
+        batched forward-kinematics pass over (points x rows), the same numbers to the bit.
+        A subclass with a residual of its own (a 6-D pose's weighted errors, contact rows
+        and known distances) is evaluated one point at a time with that residual."""
+        if type(self).residual is not CalibrationProblem.residual:
+            return np.array([self.residual(x) for x in xs]).reshape(len(xs), self.n_values)
         return np.array([(p - self.readings).reshape(-1) for p in self.model.predict_many(list(xs), self.q, self.points)])
 
     def costs(self, xs: list[np.ndarray]) -> list[float]:
