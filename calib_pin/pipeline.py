@@ -90,6 +90,19 @@ class CalibrationSetup:
     #: Where the estimate starts (``nominal`` of :func:`prepare`); None: zero deviations.
     start: Any = None
 
+    def start_on(self, problem: Any, training: Any) -> tuple[np.ndarray, tuple[int, ...]]:
+        """Where an estimate on ``training`` (rows of ``problem``) starts, shape (n_params,),
+        SI units (zero deviations, or the robot's own kinematics of ``start``), and the
+        indices of the unknowns held there (``fixed``)."""
+        x0 = np.zeros(problem.n_params)
+        if self.start is not None:  # the robot's own kinematics (--nominal)
+            model = problem.model
+            x0[:model.n_robot] = self.start.robot_x
+            if self.start.compliance is not None:
+                x0[model.n_robot:model.sensor_start] = self.start.compliance
+            x0 = self.start.sensor_fit(training, x0)  # the sensor's geometry as seen by the start
+        return x0, tuple(problem.model.names.index(n) for n in self.fixed)
+
     def problem_on(self, fit_rows: np.ndarray) -> CalibrationProblem:
         """Every row of the data, with the sensor's starting geometry fitted on ``fit_rows``."""
         return sensor_for(self.data.kind).problem_for(self.chain, self.params, self.data, fit_rows, self.options)
@@ -155,14 +168,7 @@ class CalibrationSetup:
         unsupported = support_error(training)  # rank deficiency is normal; a set that calibrates nothing is not
         if unsupported:
             raise DataError(self.data.source, unsupported)
-        x0 = np.zeros(problem.n_params)
-        if self.start is not None:  # the robot's own kinematics (--nominal)
-            model = problem.model
-            x0[:model.n_robot] = self.start.robot_x
-            if self.start.compliance is not None:
-                x0[model.n_robot:model.sensor_start] = self.start.compliance
-            x0 = self.start.sensor_fit(training, x0)  # the sensor's geometry as seen by the start
-        held = tuple(problem.model.names.index(n) for n in self.fixed)
+        x0, held = self.start_on(problem, training)
         noise, noise_from = self.noise_for(method, training)
         if any(part.origin == "default" for part in problem.model.noise_parts()):  # a part's noise from the data
             problem, estimate, fits = fit_noise_parts(problem, train, lambda t: run_estimator(

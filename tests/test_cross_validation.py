@@ -38,3 +38,18 @@ def test_cli_cv_in_report_and_printout(tmp_path, capsys):
     assert code == 0 and "4-fold cross-validation on the training poses" in printed
     cv = json.loads((tmp_path / "report.json").read_text())["cross_validation"]
     assert cv["folds"] == 4 and 0.02 < cv["mean_mm"]["mean"] < 0.1
+
+
+def test_folds_hold_what_the_calibration_holds():
+    """With --fix the folds fit the calibration's model: the unknowns it holds stay at their
+    start in every fold, so held true deviations (theta_2, d_1, a_1) show
+    in the held-out error as it does in the calibration's test error."""
+    chain = load_chain("irb120")
+    data, _ = simulate(chain, parameter_model(chain), 80, 3, noise_mm=0.05)
+    rows = np.arange(60)
+    free = cross_validate(prepare("irb120", data), "lm", rows, 4, seed=1)
+    held = prepare("irb120", data, fix="theta_2,d_1,a_1")
+    cv = cross_validate(held, "lm", rows, 4, seed=1)
+    assert cv.stat("rmse_mm")[0] > 1.5 * free.stat("rmse_mm")[0]
+    result = held.run("lm", seed=1)
+    assert abs(cv.stat("rmse_mm")[0] - result.metrics["test"]["after"].rmse_mm) < 0.5 * result.metrics["test"]["after"].rmse_mm

@@ -87,3 +87,25 @@ def test_batched_costs_are_each_sensors_own_cost(example):
     rng = np.random.default_rng(3)
     xs = [rng.normal(size=problem.n_params) * problem.scale * 0.1 for _ in range(3)]
     assert problem.costs(xs) == [problem.cost(x) for x in xs]
+
+
+def test_pose_rows_batched_costs_are_the_weighted_pose_cost():
+    """A 6-D pose set's residual is its weighted pose error, not predicted minus the 7
+    numbers read: BAS/QIBAS/PSO's batched costs are that residual's."""
+    from calib_pin.simulation import simulate_sessions
+
+    chain = cp.load_chain("irb120")
+    (data,), _ = simulate_sessions(chain, cp.parameter_model(chain), [20], seed=3, kinds=("pose",))
+    problem = prepare("irb120", data).problem_on(np.arange(len(data)))
+    assert type(problem).__name__ == "PoseProblem"
+    _check(problem)
+
+
+def test_contact_rows_batched_costs_keep_the_distance_rows():
+    from calib_pin.sensors.contact import simulate_contacts
+
+    chain = cp.load_chain("irb120")
+    data, _ = simulate_contacts(chain, cp.parameter_model(chain), 6, seed=11, noise_mm=0.05)
+    problem = prepare("irb120", data).problem_on(np.arange(len(data)))
+    assert type(problem).__name__ == "ContactProblem"
+    _check(problem)

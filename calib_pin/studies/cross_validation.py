@@ -2,7 +2,8 @@
 
 :func:`cross_validate` splits the training rows by pose into K seeded folds; each fold is
 held out once while the same method fits the model (geometry, compliance, sensor
-geometry fitted on the other folds' rows only) on the rest, and the held-out rows are
+geometry fitted on the other folds' rows only; the calibration's start and held unknowns,
+``--nominal`` and ``--fix``/``--free``) on the rest, and the held-out rows are
 scored. The figure is the held-out error of *this model on this data*, before a user
 trusts it (``calibrate --cv K``); the calibration's own test split is not touched.
 """
@@ -75,6 +76,8 @@ def cross_validate(setup: Any, method: str, rows: np.ndarray, folds: int, *, see
         train, test = rows[fold != k], rows[fold == k]
         problem = setup.problem_on(train)  # the sensor's start fitted on this fold's training rows only
         training, held_out = problem.subset(train), problem.subset(test)
-        est = run_estimator(method, training, np.zeros(problem.n_params), seed=seed, noise=setup.noise, loss=loss)
+        x0, held = setup.start_on(problem, training)  # --nominal's start, --fix/--free's held unknowns
+        noise = setup.noise_for(method, training)[0]
+        est = run_estimator(method, training, x0, seed=seed, noise=noise, loss=loss, fixed=held)
         out.append(Metrics.of(data_row_errors(held_out, est.residual(held_out))))
     return CrossValidation(folds, seed, tuple(out))
