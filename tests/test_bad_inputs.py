@@ -646,6 +646,9 @@ R3_WRONG: list[Case] = [
     (CAL, ["irb120", "--method", "lm", "--cv", "500", "--no-html"], {}, 2, "--cv 500: needs 2 to 96 folds"),
     (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--compliance", "joint_2", "--compliance-model", "basis",
            "--true-compliance-urad-per-nm", "20"], {}, 2, "a simulated compliant arm needs the CAD compliance model"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--compliance", "joint_2"], {}, 2,
+     "give its true compliances, --true-compliance-urad-per-nm"),
+    (CAL, ["irb120", "--method", "lm", "--cv", "1", "--no-html"], {}, 2, "--cv: expected a whole number from 2 to 1000"),
 ]
 
 

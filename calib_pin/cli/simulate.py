@@ -166,6 +166,9 @@ def _simulate(args: argparse.Namespace) -> int:
     kind = {"dh": "DH", "hayati": "Hayati", "placement": "joint-placement"}[params.name]
     poses = read_pose_list(args.poses_file, chain).q if args.poses_file else None
     true_c = None if args.true_compliance_urad_per_nm is None else np.array(args.true_compliance_urad_per_nm) * 1e-6
+    if args.compliance and true_c is None:
+        raise CalibPinError("--compliance in simulate makes the true arm compliant: give its true compliances, "
+                            "--true-compliance-urad-per-nm C,C (urad/Nm, one per compliant joint)")
     common = {"noise_mm": args.noise_mm, "nominal_rmse_mm": args.nominal_rmse_mm,
               "tool_mm": args.tool_mm or DEFAULT_TOOL_MM, "length_offset_mm": args.length_offset_mm,
               "noise_kind": args.noise_kind, "true_compliance": true_c, **compliance_options(args)}
