@@ -125,11 +125,42 @@ def calibrate_main(argv: Sequence[str] | None = None) -> int:
 SET_KEYS = ("noise_mm", "role", "label")
 
 
+def _file_options(text: str, flag: str, no_file: str, not_pair: str,
+                  keys: Sequence[str] | None = None) -> tuple[str, list[tuple[str, str]]]:
+    """Split ``FILE[:key=value[:key=value ...]]`` into the file and its (key, value) items:
+    the whole argument when it is an existing file, else split at the first ':' whose left
+    part is one. ``keys``: the valid keys (None: any; an unknown key is then named with the
+    valid ones by the caller), each at most once.
+
+    Raises:
+        CalibPinError: naming ``flag``, the argument and the item (no file, not key=value,
+            a key not in ``keys``, a key twice).
+    """
+    from ..exceptions import CalibPinError
+
+    if ":" not in text or Path(text).is_file():
+        return text, []
+    cut = next((i for i, c in enumerate(text) if c == ":" and Path(text[:i]).is_file()), None)
+    if cut is None:
+        head, _, rest = text.partition(":")
+        if "=" in rest.split(":")[0]:
+            raise CalibPinError(f"{flag} '{text}': no file '{head}' ({no_file})")
+        return text, []
+    items: list[tuple[str, str]] = []
+    for item in text[cut + 1:].split(":"):
+        key, eq, value = (part.strip() for part in item.partition("="))
+        if not eq or not key or (keys is not None and key not in keys):
+            raise CalibPinError(f"{flag} '{text}': '{item}' is not {not_pair}")
+        if key in dict(items):
+            raise CalibPinError(f"{flag} '{text}': key '{key}' given twice")
+        items.append((key, value))
+    return text[:cut], items
+
+
 def data_argument(text: str) -> tuple[str, dict[str, Any]]:
-    """A ``--data`` argument ``FILE[:key=value[:key=value ...]]`` as (file, options): the
-    whole argument when it is an existing file, else split at the first ':' whose left part
-    is one. Keys: the sensors' set-up fields (``anchor_mm=600,200,-100``), ``noise_mm``,
-    ``role`` (split, train, test) and ``label``; each value parsed as its flag's.
+    """A ``--data`` argument ``FILE[:key=value[:key=value ...]]`` as (file, options)
+    (:func:`_file_options`). Keys: the sensors' set-up fields (``anchor_mm=600,200,-100``),
+    ``noise_mm``, ``role`` (split, train, test) and ``label``; each value parsed as its flag's.
 
     Raises:
         CalibPinError: naming the argument and the key (unknown, twice, bad value).
@@ -138,29 +169,15 @@ def data_argument(text: str) -> tuple[str, dict[str, Any]]:
     from ..multiset import ROLES
     from ..sensors import setup_types
 
-    if ":" not in text or Path(text).is_file():
-        return text, {}
-    cut = next((i for i, c in enumerate(text) if c == ":" and Path(text[:i]).is_file()), None)
-    if cut is None:
-        head, _, rest = text.partition(":")
-        if "=" in rest.split(":")[0]:
-            raise CalibPinError(f"--data '{text}': no file '{head}' (per-set options follow an existing file: "
-                                "FILE:key=value:key=value)")
-        return text, {}
+    path, items = _file_options(text, "--data", "per-set options follow an existing file: FILE:key=value:key=value",
+                                "key=value (FILE:key=value:key=value)")
     parsers: dict[str, Any] = {f.name: f.metadata.get("parser") for t in setup_types()
                                for f in dataclasses.fields(t) if f.name != "estimate"}
     parsers.update(noise_mm=assumed_noise, role=None, label=None)
     options: dict[str, Any] = {}
-    for item in text[cut + 1:].split(":"):
-        key, eq, value = item.partition("=")
-        key = key.strip()
-        if not eq or not key:
-            raise CalibPinError(f"--data '{text}': '{item}' is not key=value (FILE:key=value:key=value)")
+    for key, value in items:
         if key not in parsers:
             raise CalibPinError(f"--data '{text}': unknown key '{key}' (valid: {', '.join(parsers)})")
-        if key in options:
-            raise CalibPinError(f"--data '{text}': key '{key}' given twice")
-        value = value.strip()
         try:
             if key == "role" and value not in ROLES:
                 raise argparse.ArgumentTypeError(f"expected one of {', '.join(ROLES)}, got '{value[:40]}'")
@@ -169,12 +186,13 @@ def data_argument(text: str) -> tuple[str, dict[str, Any]]:
             options[key] = parsers[key](value) if parsers[key] else value
         except argparse.ArgumentTypeError as e:
             raise CalibPinError(f"--data '{text}': {key}: {e}") from None
-    return text[:cut], options
+    return path, options
 
 
 def validation_argument(text: str | None) -> Any:
     """A ``--test-data`` argument ``FILE[:register=K|role][:same=LABEL]`` as the library's
-    test_data: the file, or a :class:`~calib_pin.validation.TestSet` with its choice.
+    test_data: the file, or a :class:`~calib_pin.validation.TestSet` with its choice
+    (:func:`_file_options`).
 
     Raises:
         CalibPinError: naming the argument and the key (unknown, twice, bad value).
@@ -182,22 +200,14 @@ def validation_argument(text: str | None) -> Any:
     from ..exceptions import CalibPinError
     from ..validation import TestSet
 
-    if text is None or ":" not in text or Path(text).is_file():
-        return text
-    cut = next((i for i, c in enumerate(text) if c == ":" and Path(text[:i]).is_file()), None)
-    if cut is None:
-        head, _, rest = text.partition(":")
-        if "=" in rest.split(":")[0]:
-            raise CalibPinError(f"--test-data '{text}': no file '{head}' (its choice follows an existing file: "
-                                "FILE:register=K)")
-        return text
+    if text is None:
+        return None
+    path, items = _file_options(text, "--test-data", "its choice follows an existing file: FILE:register=K",
+                                "register=K, register=role or same=LABEL", keys=("register", "same"))
+    if not items:
+        return path
     options: dict[str, Any] = {}
-    for item in text[cut + 1:].split(":"):
-        key, eq, value = (part.strip() for part in item.partition("="))
-        if not eq or key not in ("register", "same"):
-            raise CalibPinError(f"--test-data '{text}': '{item}' is not register=K, register=role or same=LABEL")
-        if key in options:
-            raise CalibPinError(f"--test-data '{text}': key '{key}' given twice")
+    for key, value in items:
         if key == "register" and value != "role":
             if not value.isdigit() or int(value) < 1:
                 raise CalibPinError(f"--test-data '{text}': register: expected a number of poses >= 1 or 'role', "
@@ -209,7 +219,7 @@ def validation_argument(text: str | None) -> Any:
             options[key] = value
     if "register" in options and "same" in options:
         raise CalibPinError(f"--test-data '{text}': register (a new set-up) or same (the training set's), not both")
-    return TestSet(text[:cut], **options)
+    return TestSet(path, **options)
 
 
 def _fit_set(path: str, options: dict[str, Any]) -> Any:
