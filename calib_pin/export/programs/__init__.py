@@ -52,6 +52,12 @@ def same_convention(n_joints: int, note: str) -> Convention:
     return Convention((1.0,) * n_joints, (0.0,) * n_joints, note)
 
 
+def convention_of(conventions: dict[str, Convention], robot: str, vendor: str) -> Convention:
+    """``vendor``'s convention of ``robot`` from ``conventions``; else the URDF's, said so."""
+    return conventions.get(robot, same_convention(6, f"URDF joint angles of '{robot}' as they are: "
+                                                     f"no {vendor} convention known for it, check signs and zeros"))
+
+
 @dataclass(frozen=True)
 class Program:
     """Joint commands to write, in order.

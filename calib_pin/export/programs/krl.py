@@ -23,7 +23,7 @@ here for a KUKA URDF whose joints differ from the controller's.
 
 from __future__ import annotations
 
-from . import Convention, Program, comment_lines, note, point_name, same_convention, six_axes
+from . import Convention, Program, comment_lines, convention_of, note, point_name, six_axes
 
 #: Robot name -> the controller's joint convention against the URDF's.
 CONVENTIONS: dict[str, Convention] = {}
@@ -31,8 +31,7 @@ CONVENTIONS: dict[str, Convention] = {}
 
 def convention(robot: str) -> Convention:
     """The KUKA convention of ``robot`` (the URDF's, said so, when none is known)."""
-    return CONVENTIONS.get(robot, same_convention(6, f"URDF joint angles of '{robot}' as they are: "
-                                                     "no KUKA convention known for it, check signs and zeros"))
+    return convention_of(CONVENTIONS, robot, "KUKA")
 
 
 def write(program: Program) -> dict[str, str]:

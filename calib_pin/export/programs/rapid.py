@@ -26,7 +26,7 @@ file says so.
 
 from __future__ import annotations
 
-from . import Convention, Program, comment_lines, note, point_name, same_convention, six_axes
+from . import Convention, Program, comment_lines, convention_of, note, point_name, same_convention, six_axes
 
 #: Robot name -> the controller's joint convention against the URDF's.
 CONVENTIONS: dict[str, Convention] = {
@@ -40,8 +40,7 @@ UNUSED = "9E9"
 
 def convention(robot: str) -> Convention:
     """The ABB convention of ``robot`` (the URDF's, said so, when none is known)."""
-    return CONVENTIONS.get(robot, same_convention(6, f"URDF joint angles of '{robot}' as they are: "
-                                                     "no ABB convention known for it, check signs and zeros"))
+    return convention_of(CONVENTIONS, robot, "ABB")
 
 
 def write(program: Program) -> dict[str, str]:

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import Convention, Program, comment_lines, note, same_convention, six_axes
+from . import Convention, Program, comment_lines, convention_of, note, same_convention, six_axes
 
 #: UR's default joint acceleration [rad/s^2] and speed [rad/s] of movej.
 DEFAULT_ACCEL_RAD_S2, DEFAULT_SPEED_RAD_S = 1.4, 1.05
@@ -34,8 +34,7 @@ CONVENTIONS: dict[str, Convention] = {name: _UR for name in ("ur3", "ur5", "ur10
 
 def convention(robot: str) -> Convention:
     """The UR convention of ``robot`` (the URDF's, said so, when none is known)."""
-    return CONVENTIONS.get(robot, same_convention(6, f"URDF joint angles of '{robot}' as they are: "
-                                                     "no UR convention known for it, check signs and zeros"))
+    return convention_of(CONVENTIONS, robot, "UR")
 
 
 def write(program: Program) -> dict[str, str]:
