@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from .analysis.identifiability import support_error
-from .analysis.metrics import Metrics, check_fraction, split_rows
+from .analysis.metrics import Metrics, check_fraction, pooled_unit, split_rows, units_words
 from .analysis.subspace import Subspace
 from .arguments import MAX_MM, as_choice, as_float, as_instance
 from .estimators import get_method, run_estimator
@@ -345,9 +345,8 @@ class StackedSetup:
                 has, no or a wrong ``same``, a set-up that disagrees with the named set's.
         """
         from .measurements.checks import check_same_setup
-        from .pipeline import _same_rows as same_rows
-        from .pipeline import load_data
-        from .validation import as_test_set, choose_training_set
+        from .measurements.load import load_data
+        from .validation import as_test_set, choose_training_set, same_rows
 
         test = as_test_set(test_data)
         assert test is not None
@@ -370,7 +369,7 @@ class StackedSetup:
         with the named set's set-up (its sensor geometry as calibrated), or re-registered on
         its stated rows with the calibrated robot fixed (the first set of its kind lends the
         sensor's model, :func:`~calib_pin.validation.register_session`)."""
-        from .pipeline import _score_registered, score_session
+        from .validation import score_registered, score_session
 
         kinds = [d.kind for d in self.sets]
         k = self.labels.index(test.same) if test.register is None else kinds.index(test.data.kind)
@@ -380,7 +379,7 @@ class StackedSetup:
             scored = score_session(view, test.data)
             info: dict[str, Any] = {"data": test.data.source, "setup": "same", "same_as": test.same}
         else:
-            scored = _score_registered(view, test, self.options)
+            scored = score_registered(view, test, self.options)
             info = {**(scored.test_registration or {}), "sensor_model_of": self.labels[k]}
         return dataclasses.replace(result, metrics={**result.metrics, "test": scored.metrics["test"]},
                                    test_source=scored.test_source, test_registration=info,
@@ -468,24 +467,6 @@ def value_unit(model: Any) -> str:
     return str(getattr(model, "value_unit", "mm"))
 
 
-def pooled_unit(sets: tuple[SetResult, ...] | list[SetResult]) -> str | None:
-    """The one unit of every set's row errors, or None when they differ (no pool)."""
-    units = {s.unit for s in sets}
-    return units.pop() if len(units) == 1 else None
-
-
-def units_words(sets: tuple[SetResult, ...] | list[SetResult]) -> str:
-    """What the all-sets metrics pool, for people and report.json: ``every set's row errors
-    together, in mm``, or why there are none (``the sets' row errors are in different units
-    (a, b: mm; c: deg)``)."""
-    unit = pooled_unit(sets)
-    if unit is not None:
-        return f"every set's row errors together, in {unit}"
-    by: dict[str, list[str]] = {}
-    for s in sets:
-        by.setdefault(s.unit, []).append(s.label)
-    return "the sets' row errors are in different units (" + "; ".join(
-        f"{', '.join(labels)}: {unit}" for unit, labels in by.items()) + ")"
 
 
 #: A set whose training RMSE after the fit exceeds this many noise sigmas, and whose rows a
@@ -590,4 +571,3 @@ def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...
             raise DataError(data.source or label, f"a {data.kind} set with role 'test' has no training rows to fit "
                             f"its {sensor_for(data.kind).fitted_setup} on: give it role 'split'")
     return tuple(labels)
-

@@ -33,6 +33,7 @@ from .estimators import DEFAULT_METHOD, get_method, run_estimator
 from .exceptions import ArgumentError, CalibPinError, DataError
 from .measurements import MeasurementSet, read_measurements
 from .measurements.checks import check_measurements, check_same_setup
+from .measurements.load import load_data
 from .multiset import (
     FitSet,
     StackedSetup,
@@ -50,7 +51,7 @@ from .result import CalibrationResult
 from .robot import Chain, RobotDescription, load_chain, resolve_robot
 from .robot.deflection import Compliance, as_compliance
 from .sensors import DEFAULT_NOISE_MM, SensorSetup, check_estimate, sensor_for, setup_record
-from .validation import TestSet, as_test_set, register_session
+from .validation import TestSet, as_test_set, same_rows, score_registered, score_session
 
 
 @dataclass
@@ -197,47 +198,7 @@ class CalibrationSetup:
             return result
         if session.register is None:
             return score_session(result, cast(MeasurementSet, session.data))
-        return _score_registered(result, session, self.options)
-
-
-#: A validation session whose own device frame puts its points farther than this from
-#: where the calibration's frame puts them was measured from another placement, [m]
-#: (a refit on the same placement moves them by the calibration's residual, < 1 mm).
-DEVICE_SHIFT_M = 5e-3
-
-
-def score_session(result: CalibrationResult, session: MeasurementSet) -> CalibrationResult:
-    """``result`` with its ``test`` metrics taken from a separate validation session.
-
-    Nothing is fitted on the session: a point the calibration never saw (a new marker) is
-    located from its first row with the model being scored, and the session's other rows
-    are predicted (see :meth:`calib_pin.sensors.base.MeasurementModel.session_errors`).
-    """
-    model: Any = result.problem.model
-    shift = getattr(model, "session_frame_shift", lambda x, data: None)(result.x, session)
-    if shift is not None and shift > DEVICE_SHIFT_M:  # scored with the calibration's frame, every row would be off
-        raise DataError(session.source or "test_data", f"the session's own is {shift * 1e3:.3g} mm (RMS over its "
-                        "points) from the calibration's: the device was moved between the sessions? Measure both "
-                        "from the same placement, or re-register the session on its own first poses "
-                        "(--test-data FILE:register=K)", None, "device frame")
-    before = model.session_errors(None, session)
-    after = model.session_errors(result.x, session, result.estimate.correction)
-    metrics = {**result.metrics, "test": {"before": Metrics.of(before), "after": Metrics.of(after)}}
-    notes = tuple(note for note in (session.ignored_note(),) if note)  # its extra columns, read past
-    return dataclasses.replace(result, metrics=metrics, test_source=session.source, warnings=result.warnings + notes)
-
-
-def _score_registered(result: CalibrationResult, test: TestSet, options: dict[str, Any]) -> CalibrationResult:
-    """``result`` with its ``test`` metrics from a validation session on a new set-up,
-    re-registered on its stated rows (:func:`calib_pin.validation.register_session`)."""
-    session = test.data
-    assert isinstance(session, MeasurementSet)
-    scored, info = register_session(result, test, session, options)
-    extra = [c for c in session.extra if not (c == "role" and test.register == "role")]
-    notes = (f"ignored columns: {', '.join(extra)} (in {Path(session.source).name or 'test_data'}; read and kept, "
-             "not used)",) if extra else ()
-    return dataclasses.replace(result, metrics={**result.metrics, "test": scored}, test_source=session.source,
-                               test_registration=info, warnings=result.warnings + notes)
+        return score_registered(result, session, self.options)
 
 
 def _load_robot(robot: str | RobotDescription, data: str | Path | MeasurementSet | None,
@@ -248,26 +209,6 @@ def _load_robot(robot: str | RobotDescription, data: str | Path | MeasurementSet
         # No tool0 in the URDF: the data file may name the end frame.
         end_frame = (data if isinstance(data, MeasurementSet) else read_measurements(data)).end_frame
     return load_chain(description, end_frame)
-
-
-def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_label: str = "",
-              end_frame: str | None = None) -> tuple[Chain, MeasurementSet]:
-    """The measurement set for ``chain`` (its shipped default when ``data`` is None), and
-    the chain again for the set's own ``end_frame`` when the caller named none; a set in
-    memory is checked as a file is (:func:`~calib_pin.measurements.checks.check_measurements`)."""
-    if data is None:
-        data = chain.description.default_data
-        if data is None or not Path(data).is_file():
-            raise CalibPinError(f"robot '{chain.name}' has no default measurement set: pass --data")
-    given = data if isinstance(data, MeasurementSet) else None
-    loaded = given if given is not None else read_measurements(as_path(data, "data"), chain, robot_label=robot_label)
-    if end_frame is not None and loaded.end_frame and loaded.end_frame != end_frame:
-        raise DataError(loaded.source or "data", f"was measured at end frame '{loaded.end_frame}', not '{end_frame}': "
-                        "leave --end-frame out, or change the file's '# end_frame:' if it is wrong", None, "end_frame")
-    if end_frame is None and loaded.end_frame and loaded.end_frame != chain.end_frame:
-        chain = load_chain(chain.description, loaded.end_frame)
-        loaded = given if given is not None else read_measurements(loaded.source, chain, robot_label=robot_label)
-    return chain, check_measurements(chain, loaded, robot_label)
 
 
 @overload
@@ -530,18 +471,6 @@ def _check_data(data: Any, arg: str) -> None:
         as_path(data, arg)  # os.PathLike passes; anything else is refused naming ``arg``
 
 
-def _same_rows(a: MeasurementSet, b: MeasurementSet) -> bool:
-    """Both sets are one file, or hold the same joint angles and values."""
-    if a.source and b.source:
-        try:
-            if Path(a.source).samefile(b.source):
-                return True
-        except OSError:
-            pass
-    return (np.shape(a.q) == np.shape(b.q) and np.shape(a.values) == np.shape(b.values)
-            and np.array_equal(a.q, b.q) and np.array_equal(a.values, b.values, equal_nan=True))
-
-
 def _validation(setup: CalibrationSetup, test: TestSet, robot_label: str) -> TestSet:
     """A separate validation session for ``setup``'s robot (``test`` with its data
     loaded), of the same kind of data; on the same set-up (``test.register`` None) its own
@@ -558,7 +487,7 @@ def _validation(setup: CalibrationSetup, test: TestSet, robot_label: str) -> Tes
                                 f"{Path(setup.data.source).stem if setup.data.source else 'none, in memory'})")
     if test.register is None:
         check_same_setup(validation, setup.data, setup.options)
-    if _same_rows(validation, setup.data):  # its score would be the training fit's, shown as a test
+    if same_rows(validation, setup.data):  # its score would be the training fit's, shown as a test
         raise DataError(validation.source or "test_data", "holds the training set's own rows: a validation "
                         "session must be another one (or leave it out to hold out a test fraction)")
     return dataclasses.replace(test, data=validation)

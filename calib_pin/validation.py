@@ -6,7 +6,7 @@ drawstring re-anchored. :class:`TestSet` says which, per session:
 - ``register=None`` (the default): the same set-up as the training set (``same``: its
   label). The session's own set-up must agree with the calibration's, else it is refused
   (a drawstring's ``# anchor_mm``; a device frame more than 5 mm from the calibration's);
-  nothing is fitted on it (:func:`calib_pin.pipeline.score_session`).
+  nothing is fitted on it (:func:`score_session`).
 - ``register=k`` (the session's first k poses) or ``register="role"`` (its rows whose
   ``role`` column says ``register``): a new set-up, re-registered first. Only the session's
   own sensor unknowns (a device frame and markers, a drawstring's anchor and offset) are
@@ -23,6 +23,7 @@ its sensor unknowns fitted on the same rows with the nominal robot, the rest sco
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -217,3 +218,55 @@ def register_session(result: CalibrationResult, test: TestSet, session: Measurem
         "sensor": model.describe(), "geometry": model.geometry_report(after),
     }
     return metrics, info
+
+
+#: A validation session whose own device frame puts its points farther than this from
+#: where the calibration's frame puts them was measured from another placement, [m]
+#: (a refit on the same placement moves them by the calibration's residual, < 1 mm).
+DEVICE_SHIFT_M = 5e-3
+
+
+def score_session(result: CalibrationResult, session: MeasurementSet) -> CalibrationResult:
+    """``result`` with its ``test`` metrics taken from a separate validation session.
+
+    Nothing is fitted on the session: a point the calibration never saw (a new marker) is
+    located from its first row with the model being scored, and the session's other rows
+    are predicted (see :meth:`calib_pin.sensors.base.MeasurementModel.session_errors`).
+    """
+    model: Any = result.problem.model
+    shift = getattr(model, "session_frame_shift", lambda x, data: None)(result.x, session)
+    if shift is not None and shift > DEVICE_SHIFT_M:  # scored with the calibration's frame, every row would be off
+        raise DataError(session.source or "test_data", f"the session's own is {shift * 1e3:.3g} mm (RMS over its "
+                        "points) from the calibration's: the device was moved between the sessions? Measure both "
+                        "from the same placement, or re-register the session on its own first poses "
+                        "(--test-data FILE:register=K)", None, "device frame")
+    before = model.session_errors(None, session)
+    after = model.session_errors(result.x, session, result.estimate.correction)
+    metrics = {**result.metrics, "test": {"before": Metrics.of(before), "after": Metrics.of(after)}}
+    notes = tuple(note for note in (session.ignored_note(),) if note)  # its extra columns, read past
+    return dataclasses.replace(result, metrics=metrics, test_source=session.source, warnings=result.warnings + notes)
+
+
+def score_registered(result: CalibrationResult, test: TestSet, options: dict[str, Any]) -> CalibrationResult:
+    """``result`` with its ``test`` metrics from a validation session on a new set-up,
+    re-registered on its stated rows (:func:`calib_pin.validation.register_session`)."""
+    session = test.data
+    assert isinstance(session, MeasurementSet)
+    scored, info = register_session(result, test, session, options)
+    extra = [c for c in session.extra if not (c == "role" and test.register == "role")]
+    notes = (f"ignored columns: {', '.join(extra)} (in {Path(session.source).name or 'test_data'}; read and kept, "
+             "not used)",) if extra else ()
+    return dataclasses.replace(result, metrics={**result.metrics, "test": scored}, test_source=session.source,
+                               test_registration=info, warnings=result.warnings + notes)
+
+
+def same_rows(a: MeasurementSet, b: MeasurementSet) -> bool:
+    """Both sets are one file, or hold the same joint angles and values."""
+    if a.source and b.source:
+        try:
+            if Path(a.source).samefile(b.source):
+                return True
+        except OSError:
+            pass
+    return (np.shape(a.q) == np.shape(b.q) and np.shape(a.values) == np.shape(b.values)
+            and np.array_equal(a.q, b.q) and np.array_equal(a.values, b.values, equal_nan=True))

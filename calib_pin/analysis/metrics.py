@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 
@@ -55,3 +57,24 @@ def check_fraction(test_fraction: float) -> float:
         ArgumentError: not a number in [0, 1).
     """
     return as_float(test_fraction, "test_fraction", 0.0, 1.0, high_open=True)
+
+
+def pooled_unit(sets: Sequence[Any]) -> str | None:
+    """The one unit of every set's row errors (each set's ``unit``), or None when they
+    differ (no pool)."""
+    units = {s.unit for s in sets}
+    return units.pop() if len(units) == 1 else None
+
+
+def units_words(sets: Sequence[Any]) -> str:
+    """What the all-sets metrics pool, for people and report.json: ``every set's row errors
+    together, in mm``, or why there are none (``the sets' row errors are in different units
+    (a, b: mm; c: deg)``)."""
+    unit = pooled_unit(sets)
+    if unit is not None:
+        return f"every set's row errors together, in {unit}"
+    by: dict[str, list[str]] = {}
+    for s in sets:
+        by.setdefault(s.unit, []).append(s.label)
+    return "the sets' row errors are in different units (" + "; ".join(
+        f"{', '.join(labels)}: {unit}" for unit, labels in by.items()) + ")"

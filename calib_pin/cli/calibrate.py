@@ -404,7 +404,7 @@ def _sets_summary(result: Any) -> None:
         print(f"set {s.label}: {rows} rows from {s.source or 'memory'} ({len(s.train)} train, {len(s.test)} test, "
               f"role {s.role}), noise {s.sigma * 1e3:.4f} mm ({s.sigma_origin}){_override_note(s)}")
         print(table(s.metrics, s.unit))
-    from ..multiset import pooled_unit, units_words
+    from ..analysis.metrics import pooled_unit, units_words
 
     unit = pooled_unit(result.sets)
     pooled = {split: stages for split, stages in result.metrics.items()

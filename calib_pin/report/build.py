@@ -172,7 +172,7 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         report["start"] = result.start.as_dict(result.params, result.problem.model.robot(result.x))
     if result.sets:  # several measurement sets: a table each; the metrics above pool them
         report["sets"] = [s.as_dict() for s in result.sets]
-        from ..multiset import units_words
+        from ..analysis.metrics import units_words
 
         report["metrics_pooled"] = units_words(result.sets)
     if result.cross_validation is not None:

@@ -1,0 +1,33 @@
+"""A robot's measurement set: read from its file (or its shipped default), checked
+against the chain, with the chain for the set's own end frame."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..arguments import as_path
+from ..exceptions import CalibPinError, DataError
+from ..robot import Chain, load_chain
+from .checks import check_measurements
+from .csv_reader import read_measurements
+from .dataset import MeasurementSet
+
+
+def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_label: str = "",
+              end_frame: str | None = None) -> tuple[Chain, MeasurementSet]:
+    """The measurement set for ``chain`` (its shipped default when ``data`` is None), and
+    the chain again for the set's own ``end_frame`` when the caller named none; a set in
+    memory is checked as a file is (:func:`~calib_pin.measurements.checks.check_measurements`)."""
+    if data is None:
+        data = chain.description.default_data
+        if data is None or not Path(data).is_file():
+            raise CalibPinError(f"robot '{chain.name}' has no default measurement set: pass --data")
+    given = data if isinstance(data, MeasurementSet) else None
+    loaded = given if given is not None else read_measurements(as_path(data, "data"), chain, robot_label=robot_label)
+    if end_frame is not None and loaded.end_frame and loaded.end_frame != end_frame:
+        raise DataError(loaded.source or "data", f"was measured at end frame '{loaded.end_frame}', not '{end_frame}': "
+                        "leave --end-frame out, or change the file's '# end_frame:' if it is wrong", None, "end_frame")
+    if end_frame is None and loaded.end_frame and loaded.end_frame != chain.end_frame:
+        chain = load_chain(chain.description, loaded.end_frame)
+        loaded = given if given is not None else read_measurements(loaded.source, chain, robot_label=robot_label)
+    return chain, check_measurements(chain, loaded, robot_label)
