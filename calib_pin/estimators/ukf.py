@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..analysis.subspace import Subspace
 from ..problem import LeastSquares, row_offsets
 from .base import Callback, EstimateResult, Tracker
 from .ekf import filter_moments
@@ -26,6 +27,27 @@ def _symmetric_sqrt(p: np.ndarray) -> np.ndarray:
     return (v * np.sqrt(np.clip(w, 0.0, None))) @ v.T
 
 
+class _Predictions:
+    """The measurement function of one update: each sigma point's row residual, computed
+    for all of them in one batched call before filterpy's update asks for them.
+
+    filterpy's update calls ``hx(sigma_point)`` once per point; :meth:`__call__` hands
+    back the row predicted at that point, found by its bytes. A point not among them
+    (none, in filterpy's update) is evaluated on its own: the same numbers either way.
+    """
+
+    def __init__(self, row: LeastSquares, space: Subspace, sigmas: np.ndarray) -> None:
+        self.row, self.space = row, space
+        xs = [space.to_x(s) for s in sigmas]
+        batched = getattr(type(row), "residuals", None)  # a problem class that batches points
+        values = batched(row, xs) if batched is not None else [row.residual(x) for x in xs]
+        self.at = {s.tobytes(): v for s, v in zip(sigmas, values, strict=True)}
+
+    def __call__(self, z: np.ndarray) -> np.ndarray:
+        found = self.at.get(np.asarray(z, dtype=float).tobytes())
+        return found if found is not None else self.row.residual(self.space.to_x(z))
+
+
 @dataclass(frozen=True)
 class UKF:
     """Recursive estimate of the deviations with sigma points instead of a Jacobian.
@@ -35,7 +57,9 @@ class UKF:
     the values of pose k are predicted at the 2 n + 1 sigma points of Van der
     Merwe's scaled set (``alpha``, ``beta``, ``kappa``;
     with alpha = 1 and kappa = 0 the centre point has no weight in the mean and the
-    others sit at +-sqrt(n) standard deviations). No derivative is used.
+    others sit at +-sqrt(n) standard deviations), all of them in one batched
+    forward-kinematics call (the problem's ``residuals``, where its class has one),
+    handed to filterpy's update through its measurement function. No derivative is used.
 
     One iteration is one measurement update (``passes`` x poses in all); each costs
     (2 n + 1) / n_poses evaluations. ``history`` holds the training RMSE before the
@@ -63,7 +87,7 @@ class UKF:
         sizes = np.diff(row_offsets(problem))
         kf = UnscentedKalmanFilter(
             dim_x=n, dim_z=int(sizes[0]), dt=1.0, points=points,
-            fx=lambda z, dt: z, hx=lambda z, row: row.residual(space.to_x(z)),
+            fx=lambda z, dt: z, hx=lambda z, predicted: predicted(z),
         )
         kf.x = np.zeros(n)
         kf.P, kf.Q, r2 = filter_moments(problem, space, self.prior, self.process, noise)
@@ -77,7 +101,8 @@ class UKF:
             for k in range(problem.n_rows):
                 kf.predict()
                 m = int(sizes[k])
-                kf.update(zero_of[m], R=noise_of[m], row=problem.subset(slice(k, k + 1)))
+                predicted = _Predictions(problem.subset(slice(k, k + 1)), space, kf.sigmas_f)
+                kf.update(zero_of[m], R=noise_of[m], predicted=predicted)
                 kf.P = 0.5 * (kf.P + kf.P.T)
                 track.nfev += (2 * n + 1) / problem.n_rows
                 update += 1
