@@ -243,6 +243,22 @@ class Kinematics:
                                 f"({len(q)}, 3), got shape {point.shape}")
         if not jacobian:
             return self._positions(q, point), None
+        return _lever(*self.regressors(q, joints), point)
+
+    def regressors(self, q: np.ndarray, joints: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                        np.ndarray | None]:
+        """Pinocchio's pass over the poses behind :meth:`points` with ``jacobian``: per
+        pose ``forwardKinematics`` (``computeJointJacobians`` with ``joints``) and
+        ``computeFrameKinematicRegressor`` (``getFrameJacobian``) on the working model.
+
+        Args:
+            q: Joint positions, shape (n_poses, n_joints), [rad], finite (as :meth:`points` checked).
+
+        Returns:
+            rotations (n_poses, 3, 3) and translations (n_poses, 3) [m] of the end frame,
+            base frame; the frame kinematic regressors (n_poses, 6, 6 n_joints) and, with
+            ``joints``, the frame Jacobians (n_poses, 6, n_joints) (else None), ``pin.LOCAL``.
+        """
         self._working_model()
         model, data, fid, local = self._model, self._data, self._fid, pin.LOCAL
         configs = self.chain.configuration(q)
@@ -252,22 +268,28 @@ class Kinematics:
         # frame as its 12 numbers in place (the rotation column by column, then the origin).
         reg = np.empty((n, 6, 6 * n_joints))
         jac = np.empty((n, 6, n_joints)) if joints else None
+        jac_rows = None if jac is None else jac[:, :, 0] if n_joints == 1 else jac  # one joint: Pinocchio gives (6,)
         frame = np.empty((n, 12))
         live, live_rot, live_trans = self._frame, self._rotation, self._translation
         moves = pin.computeJointJacobians if joints else pin.forwardKinematics  # with joints: FK and J in one pass
         regressor, frame_jacobian = pin.computeFrameKinematicRegressor, pin.getFrameJacobian
-        for k, config in enumerate(configs):
-            moves(model, data, config)
-            reg[k] = regressor(model, data, fid, local)  # the regressor call updated the frame
-            if live is not None:
+        if live is not None and jac_rows is None:  # the estimators' case: the loop at its leanest
+            for k, config in enumerate(configs):
+                moves(model, data, config)
+                reg[k] = regressor(model, data, fid, local)  # the regressor call updated the frame
                 frame[k] = live
-            else:
-                frame[k, :9], frame[k, 9:] = live_rot.T.reshape(9), live_trans
-            if jac is not None:
-                jac[k] = frame_jacobian(model, data, fid, local)
+        else:
+            for k, config in enumerate(configs):
+                moves(model, data, config)
+                reg[k] = regressor(model, data, fid, local)
+                if live is not None:
+                    frame[k] = live
+                else:
+                    frame[k, :9], frame[k, 9:] = live_rot.T.reshape(9), live_trans
+                if jac_rows is not None:
+                    jac_rows[k] = frame_jacobian(model, data, fid, local)
         rot = np.ascontiguousarray(frame[:, :9].reshape(n, 3, 3).transpose(0, 2, 1))
-        trans = np.ascontiguousarray(frame[:, 9:])
-        return _lever(rot, trans, reg, jac, point)
+        return rot, np.ascontiguousarray(frame[:, 9:]), reg, jac
 
 
 def _joint_positions(q: np.ndarray, n_joints: int, finite: bool = True) -> np.ndarray:
@@ -315,13 +337,19 @@ def _lever(rot: np.ndarray, trans: np.ndarray, reg: np.ndarray, jac: np.ndarray 
     n, m = reg.shape[0], reg.shape[2]
     lever = np.empty((n, 3, 6))
     lever[:, :, :3] = rot
-    lever[:, :, 3:] = rot @ cross_matrices(point)
+    if point.ndim == 1:  # one point: every pose's rows in one product (K = 3: the same bits as a product a pose)
+        rows = rot.reshape(-1, 3)
+        lever[:, :, 3:] = (rows @ cross_matrices(point)).reshape(n, 3, 3)
+        positions = trans + (rows @ point).reshape(n, 3)
+    else:
+        lever[:, :, 3:] = rot @ cross_matrices(point)
+        positions = trans + (rot @ point[..., None])[..., 0]
     d_points = np.empty((n, 3, m + 6 + (0 if jac is None else jac.shape[2])))
     np.matmul(lever, reg, out=d_points[:, :, :m])
     d_points[:, :, m : m + 6] = lever
     if jac is not None:
         np.matmul(lever, jac, out=d_points[:, :, m + 6 :])
-    return trans + (rot @ point[..., None])[..., 0], d_points
+    return positions, d_points
 
 
 def _frame_view(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray | None:
