@@ -8,6 +8,7 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.parameters import dh_transforms
+from calib_pin.robot.kinematics import cross_matrices
 from calib_pin.robot.poses import random_poses
 
 
@@ -165,6 +166,47 @@ def test_batched_positions_match_pinocchio(robot, tmp_path):
         assert np.abs(one[k] - placement.act(points[0])).max() < 1e-12
         assert np.abs(each[k] - placement.act(points[k])).max() < 1e-12
         assert np.abs(each_d[k] - placement.act(points[k])).max() < 1e-12
+
+
+@pytest.mark.parametrize("robot", ["irb120", "mixed", "single"])
+def test_point_derivatives_equal_the_per_pose_product(robot, tmp_path):
+    """The derivative path (regressors copied per pose, the lever products batched) gives
+    the numbers, to the bit, of the plain per-pose products: Pinocchio's FK, regressor and
+    frame Jacobian per pose, the lever L = [R, -R [p]x] and [L @ regressor | L | L @ frame
+    Jacobian]; for one point and one point per pose, with and without the joint columns,
+    and for a one-joint chain (whose frame Jacobian Pinocchio returns as a vector)."""
+    if robot != "irb120":
+        (tmp_path / f"{robot}.urdf").write_text(MIXED_URDF if robot == "mixed" else SINGLE_URDF)
+        robot = str(tmp_path / f"{robot}.urdf")
+    chain = cp.load_chain(robot)
+    rng = np.random.default_rng(6)
+    params = cp.parameter_model(chain, "placement")
+    deltas = params.delta_matrices(rng.normal(size=len(params.names)) * params.scale)
+    model = chain.model.copy()  # placed as the FK path places it: nominal @ delta, in one batched product
+    targets = [model.jointPlacements[j] for j in range(1, model.njoints)] + [model.frames[chain.frame_id].placement]
+    placements = np.array([m.homogeneous for m in targets]) @ deltas
+    for j, placement in enumerate(placements[:-1], start=1):
+        model.jointPlacements[j] = pin.SE3(placement)
+    model.frames[chain.frame_id].placement = pin.SE3(placements[-1])
+    data = model.createData()
+    q = random_poses(chain, 7, rng)
+    kin = cp.Kinematics(chain)
+    kin.set_perturbation(deltas)
+    for point in (rng.normal(size=3) * 0.1, rng.normal(size=(7, 3)) * 0.1):
+        for joints in (False, True):
+            positions, d = kin.points(q, point, jacobian=True, joints=joints)
+            assert d is not None
+            for k, qk in enumerate(chain.configuration(q)):
+                (pin.computeJointJacobians if joints else pin.forwardKinematics)(model, data, qk)
+                regressor = pin.computeFrameKinematicRegressor(model, data, chain.frame_id, pin.LOCAL)
+                rot = np.ascontiguousarray(data.oMf[chain.frame_id].rotation)  # row-major, as the path holds it
+                p = point if point.ndim == 1 else point[k]
+                lever = np.hstack([rot, rot @ cross_matrices(p)])
+                parts = [lever @ regressor, lever]
+                if joints:
+                    parts.append(lever @ pin.getFrameJacobian(model, data, chain.frame_id, pin.LOCAL).reshape(6, -1))
+                assert np.array_equal(d[k], np.hstack(parts))
+                assert np.array_equal(positions[k], data.oMf[chain.frame_id].translation + rot @ p)
 
 
 def test_positions_follow_joint_angles_changed_in_place(chain):

@@ -66,7 +66,7 @@ def benchmark_main(argv: Sequence[str] | None = None) -> int:
 
 def _benchmark(args: argparse.Namespace) -> int:
     from .. import __version__
-    from ..studies.benchmark import benchmark, floor, format_scaling, format_timings, scaling
+    from ..studies.benchmark import benchmark, floor, format_scaling, format_timings, jacobian_profile, scaling
     from . import BLAS_THREADS
 
     what, rows = benchmark(args.methods or list(PAPER_METHODS), args.repeats, args.seed, args.poses)
@@ -80,6 +80,7 @@ def _benchmark(args: argparse.Namespace) -> int:
           ", ".join(f"{k} {v:.3f}" for k, v in cost.items()) +
           f"; residual {cost['residual'] / cost['floor FK']:.1f}x FK, "
           f"Jacobian {cost['jacobian'] / cost['floor FK+regressor']:.1f}x FK+regressor")
+    print(jacobian_profile(cost))
     print("goals: EKF-QIBAS at 96 poses < 30 ms; 10 000 poses < 5 s; cost and memory linear in the poses")
     if args.scaling:
         print(format_scaling(scaling(seed=args.seed)))

@@ -86,6 +86,7 @@ class Kinematics:
         self._targets = [(m.rotation, m.translation) for m in placements]
         self._placement = self._data.oMf[self._fid]
         self._rotation, self._translation = self._placement.rotation, self._placement.translation
+        self._frame = _frame_view(self._rotation, self._translation)
         motions = joint_motions(model)
         turns, slides = np.linalg.norm(motions[:, 3:], axis=1), np.linalg.norm(motions[:, :3], axis=1)
         if np.any(np.minimum(turns, slides) > 1e-9):
@@ -242,27 +243,53 @@ class Kinematics:
                                 f"({len(q)}, 3), got shape {point.shape}")
         if not jacobian:
             return self._positions(q, point), None
+        return _lever(*self.regressors(q, joints), point)
+
+    def regressors(self, q: np.ndarray, joints: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                        np.ndarray | None]:
+        """Pinocchio's pass over the poses behind :meth:`points` with ``jacobian``: per
+        pose ``forwardKinematics`` (``computeJointJacobians`` with ``joints``) and
+        ``computeFrameKinematicRegressor`` (``getFrameJacobian``) on the working model.
+
+        Args:
+            q: Joint positions, shape (n_poses, n_joints), [rad], finite (as :meth:`points` checked).
+
+        Returns:
+            rotations (n_poses, 3, 3) and translations (n_poses, 3) [m] of the end frame,
+            base frame; the frame kinematic regressors (n_poses, 6, 6 n_joints) and, with
+            ``joints``, the frame Jacobians (n_poses, 6, n_joints) (else None), ``pin.LOCAL``.
+        """
         self._working_model()
-        model, data, fid = self._model, self._data, self._fid
+        model, data, fid, local = self._model, self._data, self._fid, pin.LOCAL
         configs = self.chain.configuration(q)
-        n = len(configs)
-        rot, trans = np.empty((n, 3, 3)), np.empty((n, 3))
-        live_rot, live_trans = self._rotation, self._translation
-        n_place = 6 * self.chain.n_joints
-        # Columns: the placement regressor, the end frame's own local twist (identity),
-        # then the joint Jacobian: one product with the lever below gives them all.
-        reg = np.zeros((n, 6, n_place + 6 + (self.chain.n_joints if joints else 0)))
-        reg[:, :, n_place : n_place + 6] = _EYE6
-        for k in range(n):
-            if joints:  # forward kinematics and the joint Jacobians in one pass
-                pin.computeJointJacobians(model, data, configs[k])
-            else:
-                pin.forwardKinematics(model, data, configs[k])
-            reg[k, :, :n_place] = pin.computeFrameKinematicRegressor(model, data, fid, pin.LOCAL)
-            rot[k], trans[k] = live_rot, live_trans  # the regressor call updated the frame
-            if joints:
-                reg[k, :, n_place + 6 :] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
-        return _lever(rot, trans, reg, point)
+        n, n_joints = len(configs), self.chain.n_joints
+        # Per pose one plain copy of each of Pinocchio's matrices (row-major as returned):
+        # the regressor (n, 6, 6 n_joints), the joint Jacobian (n, 6, n_joints), and the end
+        # frame as its 12 numbers in place (the rotation column by column, then the origin).
+        reg = np.empty((n, 6, 6 * n_joints))
+        jac = np.empty((n, 6, n_joints)) if joints else None
+        jac_rows = None if jac is None else jac[:, :, 0] if n_joints == 1 else jac  # one joint: Pinocchio gives (6,)
+        frame = np.empty((n, 12))
+        live, live_rot, live_trans = self._frame, self._rotation, self._translation
+        moves = pin.computeJointJacobians if joints else pin.forwardKinematics  # with joints: FK and J in one pass
+        regressor, frame_jacobian = pin.computeFrameKinematicRegressor, pin.getFrameJacobian
+        if live is not None and jac_rows is None:  # the estimators' case: the loop at its leanest
+            for k, config in enumerate(configs):
+                moves(model, data, config)
+                reg[k] = regressor(model, data, fid, local)  # the regressor call updated the frame
+                frame[k] = live
+        else:
+            for k, config in enumerate(configs):
+                moves(model, data, config)
+                reg[k] = regressor(model, data, fid, local)
+                if live is not None:
+                    frame[k] = live
+                else:
+                    frame[k, :9], frame[k, 9:] = live_rot.T.reshape(9), live_trans
+                if jac_rows is not None:
+                    jac_rows[k] = frame_jacobian(model, data, fid, local)
+        rot = np.ascontiguousarray(frame[:, :9].reshape(n, 3, 3).transpose(0, 2, 1))
+        return rot, np.ascontiguousarray(frame[:, 9:]), reg, jac
 
 
 def _joint_positions(q: np.ndarray, n_joints: int, finite: bool = True) -> np.ndarray:
@@ -299,13 +326,38 @@ def cross_matrices(points: np.ndarray) -> np.ndarray:
     return (points @ _CROSS).reshape(*np.shape(points)[:-1], 3, 3)
 
 
-def _lever(rot: np.ndarray, trans: np.ndarray, reg: np.ndarray,
+def _lever(rot: np.ndarray, trans: np.ndarray, reg: np.ndarray, jac: np.ndarray | None,
            point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Positions of ``point`` (3,) or (n, 3) and their derivative from the end frames'
     rotations (n, 3, 3) and translations (n, 3), and local end-frame twists (v, w) per
-    column (n, 6, m). A local twist moves the point by R (v + w x point) = [R, -R [point]x] (v, w)."""
-    n = len(rot)
+    column: the regressor's (n, 6, m), the end frame's own six (the identity), then the
+    joint Jacobian's (n, 6, n_joints) if given. A local twist moves the
+    point by R (v + w x point) = [R, -R [point]x] (v, w): the lever; its product with the
+    identity is the lever itself."""
+    n, m = reg.shape[0], reg.shape[2]
     lever = np.empty((n, 3, 6))
     lever[:, :, :3] = rot
-    lever[:, :, 3:] = rot @ cross_matrices(point)
-    return trans + (rot @ point[..., None])[..., 0], lever @ reg
+    if point.ndim == 1:  # one point: every pose's rows in one product (K = 3: the same bits as a product a pose)
+        rows = rot.reshape(-1, 3)
+        lever[:, :, 3:] = (rows @ cross_matrices(point)).reshape(n, 3, 3)
+        positions = trans + (rows @ point).reshape(n, 3)
+    else:
+        lever[:, :, 3:] = rot @ cross_matrices(point)
+        positions = trans + (rot @ point[..., None])[..., 0]
+    d_points = np.empty((n, 3, m + 6 + (0 if jac is None else jac.shape[2])))
+    np.matmul(lever, reg, out=d_points[:, :, :m])
+    d_points[:, :, m : m + 6] = lever
+    if jac is not None:
+        np.matmul(lever, jac, out=d_points[:, :, m + 6 :])
+    return positions, d_points
+
+
+def _frame_view(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray | None:
+    """One view of a live placement's 12 numbers (the rotation column by column, then the
+    origin) when Pinocchio keeps them so in one block (it does: an SE3 holds its rotation,
+    column-major, then its translation), else None (the two are then copied apart)."""
+    start = rotation.__array_interface__["data"][0]
+    if rotation.strides != (8, 24) or translation.strides != (8,) or (
+            translation.__array_interface__["data"][0] != start + 72):
+        return None
+    return np.lib.stride_tricks.as_strided(rotation, shape=(12,), strides=(8,))

@@ -452,8 +452,14 @@ class MeasurementModel(ABC):
             points, d_place = self._kin.points(q_eff, point, jacobian=True, joints=True)
         assert d_place is not None
         k = 6 * self.chain.n_joints  # the end frame's linear columns are its rotation
-        jac = np.zeros((len(points), 3, self.n_params))
-        jac[:, :, : self.n_robot] = d_place[:, :, : k + 6] @ self.params.delta_jacobian(xr)
+        # One product a pose (one for all poses, as (3 n_rows, k + 6), would take another
+        # BLAS kernel for some shapes: other last bits).
+        d_robot = d_place[:, :, : k + 6] @ self.params.delta_jacobian(xr)
+        if self.n_params == self.n_robot:
+            jac = d_robot
+        else:
+            jac = np.zeros((len(points), 3, self.n_params))
+            jac[:, :, : self.n_robot] = d_robot
         if soft is not None:
             d_joint = d_place[:, :, k + 6 + soft.columns]
             jac[:, :, self.n_robot : self.sensor_start] = d_joint * minus_tau[:, None, :]

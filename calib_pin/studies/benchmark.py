@@ -128,11 +128,17 @@ def format_scaling(rows: list[tuple[int, str, float, float]]) -> str:
 
 
 def floor(poses: int = 120, seed: int = 0, repeats: int = 50) -> dict[str, float]:
-    """Medians [ms] over the training poses: one residual, one Jacobian, and the Pinocchio
-    floor (FK; FK + computeFrameKinematicRegressor, in a Python loop)."""
+    """Medians [ms] over the training poses: one residual, one Jacobian, the Pinocchio
+    floor (FK; FK + computeFrameKinematicRegressor, in a Python loop, the results
+    dropped: what any Pinocchio program of the same Jacobian calls, FIGAROH's
+    ``calculate_kinematics_model`` among them), and the Jacobian's own Pinocchio pass
+    (the floor's calls on the working model, each regressor and end frame copied into
+    the batch arrays: :meth:`~calib_pin.robot.kinematics.Kinematics.regressors`)."""
     import time
 
     import pinocchio as pin
+
+    from ..robot.kinematics import Kinematics
 
     problem = _training_problem(poses, seed)
     x = np.zeros(problem.n_params)
@@ -150,9 +156,11 @@ def floor(poses: int = 120, seed: int = 0, repeats: int = 50) -> dict[str, float
             pin.forwardKinematics(model, data, q)
             pin.computeFrameKinematicRegressor(model, data, fid, pin.LOCAL)
 
+    kinematics = Kinematics(problem.model.chain)
     out = {}
     for name, fn in (("residual", lambda: problem.residual(x)), ("jacobian", lambda: problem.jacobian(x)),
-                     ("floor FK", fk), ("floor FK+regressor", fk_regressor)):
+                     ("floor FK", fk), ("floor FK+regressor", fk_regressor),
+                     ("jacobian's Pinocchio pass", lambda: kinematics.regressors(problem.q))):
         times = []
         for _ in range(repeats):
             start = time.perf_counter()
@@ -160,3 +168,14 @@ def floor(poses: int = 120, seed: int = 0, repeats: int = 50) -> dict[str, float
             times.append(time.perf_counter() - start)
         out[name] = statistics.median(times) * 1e3
     return out
+
+
+def jacobian_profile(cost: dict[str, float]) -> str:
+    """Where one Jacobian's time goes, from :func:`floor`'s medians: Pinocchio's own calls
+    (the floor), copying their results into the batch arrays, and the rest (the chain rule:
+    the lever product per pose, the parameter model's derivative and transforms, the
+    sensor's projection)."""
+    total, calls, kept = cost["jacobian"], cost["floor FK+regressor"], cost["jacobian's Pinocchio pass"]
+    return (f"Jacobian's time: Pinocchio's FK + regressor calls {calls / total:.0%} (the floor), copying their "
+            f"results out {max(kept - calls, 0.0) / total:.0%}, the chain rule and the sensor's projection "
+            f"{max(total - kept, 0.0) / total:.0%}")
