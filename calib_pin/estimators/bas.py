@@ -92,16 +92,40 @@ class BAS:
         track.record(h[0])
         iterations = 0
         message, status = f"iteration budget {self.max_iter} used", 1
+        look_ahead = interpolate is not None and track.batched
+        b_next = None
+        ahead: tuple[np.ndarray, float, float] | None = None  # (z, f_r, f_l) evaluated ahead
         for iterations in range(1, self.max_iter + 1):
-            b = rng.standard_normal(space.dim)
-            b /= np.linalg.norm(b)
+            if b_next is None:
+                b = rng.standard_normal(space.dim)
+                b /= np.linalg.norm(b)
+            else:
+                b, b_next = b_next, None
             z_r, z_l = z + m * b, z - m * b
-            f_r, f_l = track.costs([space.to_x(z_r), space.to_x(z_l)])  # both antennae in one batched pass
+            if ahead is not None and ahead[0] is z:  # these antennae came with the last call
+                f_r, f_l = ahead[1], ahead[2]
+                track.count(2)
+            else:
+                f_r, f_l = track.costs([space.to_x(z_r), space.to_x(z_l)])  # both antennae in one batched pass
+            ahead = None
             z_bas = z - delta * b * np.sign(f_r - f_l)
             candidates = [(f_r, z_r), (f_l, z_l)]
             if interpolate is not None:
                 z_qi = interpolate(z, m, b, f, f_l, f_r, z_bas)
-                candidates.append((cost(z_qi), z_qi))
+                if look_ahead:
+                    # The next iteration's antennae around z_qi (its direction and antenna
+                    # length are known now) in the same batched call: used, and counted,
+                    # when the beetle moves to z_qi, as it nearly always does.
+                    b_next = rng.standard_normal(space.dim)
+                    b_next /= np.linalg.norm(b_next)
+                    m_next = self.tau * m + m0
+                    f_qi, f_nr, f_nl = track.costs(
+                        [space.to_x(z_qi), space.to_x(z_qi + m_next * b_next), space.to_x(z_qi - m_next * b_next)],
+                        used=1)
+                    ahead = (z_qi, f_nr, f_nl)
+                else:
+                    f_qi = cost(z_qi)
+                candidates.append((f_qi, z_qi))
             if min(c[0] for c in candidates) >= f:
                 candidates.append((cost(z_bas), z_bas))
             f_new, z_new = min(candidates, key=lambda c: c[0])
