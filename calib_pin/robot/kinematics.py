@@ -161,11 +161,16 @@ class Kinematics:
         k, n_place = len(deltas), len(self._nominal)
         # Per placement i, one matmul for all k points: nominal_i @ (delta_i^1 | ... | delta_i^k).
         given = [j for j, delta in enumerate(deltas) if delta is not None]
-        placements = np.empty((n_place, k, 4, 4))
-        placements[:] = self._nominal[:, None]
         if given:
             stacked = np.array([deltas[j] for j in given]).transpose(1, 2, 0, 3).reshape(n_place, 4, -1)
-            placements[:, given] = (self._nominal @ stacked).reshape(n_place, 4, len(given), 4).transpose(0, 2, 1, 3)
+            perturbed = (self._nominal @ stacked).reshape(n_place, 4, len(given), 4).transpose(0, 2, 1, 3)
+        if given and len(given) == k:
+            placements = perturbed  # (n_place, k, 4, 4)
+        else:  # nominal (None) among them, or no point
+            placements = np.empty((n_place, k, 4, 4))
+            placements[:] = self._nominal[:, None]
+            if given:
+                placements[:, given] = perturbed
         # Per joint i, one matmul for all k points: (M_i^1; ...; M_i^k) @ (E_0,i | E_1,i | E_2,i).
         factors = placements[:-1].reshape(n_place - 1, 4 * k, 4) @ self._basis_rows  # (n_joints, 4k, 12)
         # backward[i, j] = [v, 1] @ -> (F0 v | F1 v | F2 v) for point j, shape (n_joints, k, 4, 12)
@@ -301,7 +306,7 @@ def _through_joints(v: np.ndarray, backward: np.ndarray, coef: np.ndarray, q: np
     for i in range(len(coef) - 1, -1, -1):
         products = backward[i].swapaxes(1, 2) @ v  # (k, 12, n): F0 v, F1 v, F2 v
         products *= coef[i]
-        v = products.reshape(k, 3, 4, n).sum(axis=1)  # along the short middle axis: in order, no pairwise sum
+        v = np.add.reduce(products.reshape(k, 3, 4, n), axis=1)  # along the short middle axis: in order
     if not math.isfinite(v.sum()):
         _joint_positions(q, len(coef))
         raise ArgumentError("point", "expected finite numbers (x, y, z in m, end frame)")
