@@ -15,6 +15,17 @@ The beetle sits at z (search coordinates, see :mod:`calib_pin.analysis.subspace`
 5. decays step and antenna length (eq. 12): delta <- mu delta + delta0,
    m <- tau m + m0.
 
+Both antennae are evaluated in one batched call of the problem's ``costs``. QIBAS
+evaluates its interpolated point in one batched call with the next iteration's
+antennae around it (the next direction b is drawn then, from the same random stream,
+and the next antenna length is known): when the beetle moves to the interpolated point,
+as it nearly always does, those are the next iteration's antennae and that iteration
+makes no call of its own; otherwise they are dropped and the antennae evaluated around
+the beetle. The evaluations counted are the points the search uses (a dropped look-ahead
+is not counted), so iterations, evaluations, history and estimate are those of the search
+that evaluates every point on its own, to the bit (``tests/test_problem_batched.py``).
+A problem without batched costs (a robust one) gets no look-ahead.
+
 Antennae are at +-m around z (not at the BAS step's end point). The cost is eq. 6,
 the mean squared residual. It stops after ``max_iter`` iterations, or when the RMSE
 improved by less than ``rtol`` (relative) over the last ``window`` iterations
