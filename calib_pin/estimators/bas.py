@@ -105,18 +105,18 @@ class BAS:
         message, status = f"iteration budget {self.max_iter} used", 1
         look_ahead = interpolate is not None and track.batched
         b_next = None
-        ahead: tuple[np.ndarray, float, float] | None = None  # (z, f_r, f_l) evaluated ahead
+        ahead: tuple[np.ndarray, np.ndarray, np.ndarray, float, float] | None = None  # (z, z_r, z_l, f_r, f_l) ahead
         for iterations in range(1, self.max_iter + 1):
             if b_next is None:
                 b = rng.standard_normal(space.dim)
                 b /= np.linalg.norm(b)
             else:
                 b, b_next = b_next, None
-            z_r, z_l = z + m * b, z - m * b
             if ahead is not None and ahead[0] is z:  # these antennae came with the last call
-                f_r, f_l = ahead[1], ahead[2]
+                _, z_r, z_l, f_r, f_l = ahead
                 track.count(2)
             else:
+                z_r, z_l = z + m * b, z - m * b
                 f_r, f_l = track.costs([space.to_x(z_r), space.to_x(z_l)])  # both antennae in one batched pass
             ahead = None
             z_bas = z - delta * b * np.sign(f_r - f_l)
@@ -129,11 +129,10 @@ class BAS:
                     # when the beetle moves to z_qi, as it nearly always does.
                     b_next = rng.standard_normal(space.dim)
                     b_next /= np.linalg.norm(b_next)
-                    m_next = self.tau * m + m0
-                    f_qi, f_nr, f_nl = track.costs(
-                        [space.to_x(z_qi), space.to_x(z_qi + m_next * b_next), space.to_x(z_qi - m_next * b_next)],
-                        used=1)
-                    ahead = (z_qi, f_nr, f_nl)
+                    m_next = self.tau * m + m0  # the decay below
+                    z_nr, z_nl = z_qi + m_next * b_next, z_qi - m_next * b_next
+                    f_qi, f_nr, f_nl = track.costs([space.to_x(z_qi), space.to_x(z_nr), space.to_x(z_nl)], used=1)
+                    ahead = (z_qi, z_nr, z_nl, f_nr, f_nl)
                 else:
                     f_qi = cost(z_qi)
                 candidates.append((f_qi, z_qi))
