@@ -211,7 +211,8 @@ class CalibrationProblem(RowProblem):
         the plain batch (predicted minus measured) would be another residual."""
         if type(self).residual is not CalibrationProblem.residual:
             return np.array([self.residual(x) for x in xs])
-        return np.array([(p - self.readings).reshape(-1) for p in self.model.predict_many(list(xs), self.q, self.points)])
+        predicted = np.asarray(self.model.predict_many(list(xs), self.q, self.points))  # (k, *readings.shape)
+        return (predicted - self.readings).reshape(len(predicted), -1)
 
     def costs(self, xs: list[np.ndarray]) -> list[float]:
         """:meth:`cost` at several points from batched :meth:`residuals` (at most

@@ -109,3 +109,69 @@ def test_contact_rows_batched_costs_keep_the_distance_rows():
     problem = prepare("irb120", data).problem_on(np.arange(len(data)))
     assert type(problem).__name__ == "ContactProblem"
     _check(problem)
+
+
+class _OneByOne:
+    """The same problem with no batched ``costs``: a search evaluates it one call per
+    point (no look-ahead), the reference for the batched and look-ahead path."""
+
+    def __init__(self, problem):
+        self._problem = problem
+
+    def __getattr__(self, name):
+        if name == "costs":
+            raise AttributeError(name)
+        return getattr(self._problem, name)
+
+
+@pytest.mark.parametrize("method", ["qibas", "ekf-qibas", "bas"])
+@pytest.mark.parametrize("sensor", ["cable", "position"])
+def test_look_ahead_search_is_the_one_by_one_search(session, method, sensor):
+    """QIBAS evaluates the next antennae with its interpolated point in one batched call
+    (counted only when the beetle moves there): the estimate, iterations, evaluations and
+    history are those of the search that evaluates every point on its own, to the bit."""
+    if sensor == "cable":
+        problem = prepare("irb120", session[0]).problem_on(np.arange(96))
+    else:
+        chain = cp.load_chain("ur5")
+        data, _ = cp.simulate_positions(chain, cp.parameter_model(chain), 40, seed=2, noise_mm=0.05)
+        problem = prepare("ur5", data).problem_on(np.arange(len(data)))
+    x0 = np.zeros(problem.n_params)
+    fast = run_estimator(method, problem, x0, seed=1)
+    slow = run_estimator(method, _OneByOne(problem), x0, seed=1)
+    assert Tracker(problem).batched and not Tracker(_OneByOne(problem)).batched
+    assert np.array_equal(fast.x, slow.x)
+    assert (fast.iterations, fast.nfev, fast.stages) == (slow.iterations, slow.nfev, slow.stages)
+    assert fast.history == slow.history and fast.evaluations == slow.evaluations
+
+
+def test_look_ahead_makes_one_call_per_iteration(session, monkeypatch):
+    """The look-ahead is used: after the start, QIBAS calls the batched costs once per
+    iteration (not twice) while the beetle keeps moving to its interpolated point."""
+    problem = prepare("irb120", session[0]).problem_on(np.arange(96))
+    calls = []
+    batched = type(problem).costs
+    monkeypatch.setattr(type(problem), "costs", lambda self, xs: calls.append(len(xs)) or batched(self, xs))
+    result = run_estimator("qibas", problem, np.zeros(problem.n_params), seed=0, history=False)
+    assert calls[0] == 2 and set(calls[1:]) == {3}  # the first antennae, then z_qi with the next antennae
+    assert len(calls) == result.iterations + 1
+
+
+@pytest.mark.parametrize("robot", ["irb120", "ur5"])
+def test_points_many_is_points_one_by_one(robot):
+    """Kinematics.points_many (several perturbations in one pass, stacked products) equals
+    points under each perturbation to the bit: nominal (None) among them, one point or one
+    per pose, one pose or many."""
+    chain = cp.load_chain(robot)
+    params = cp.parameter_model(chain, "placement")
+    rng = np.random.default_rng(7)
+    kin = cp.Kinematics(chain)
+    for n in (1, 2, 37):
+        q = rng.uniform(-2.0, 2.0, size=(n, chain.n_joints))
+        deltas = [params.delta_matrices(rng.normal(size=len(params.names)) * params.scale) for _ in range(3)] + [None]
+        for points in ([rng.normal(size=3) * 0.1 for _ in deltas], [rng.normal(size=(n, 3)) * 0.1 for _ in deltas],
+                       [rng.normal(size=3) * 0.1, rng.normal(size=(n, 3)) * 0.1, np.zeros(3), np.ones((n, 3))]):
+            many = kin.points_many(deltas, q, points)
+            for delta, point, got in zip(deltas, points, many, strict=True):
+                kin.set_perturbation(delta)
+                assert np.array_equal(got, kin.points(q, point)[0])

@@ -15,6 +15,17 @@ The beetle sits at z (search coordinates, see :mod:`calib_pin.analysis.subspace`
 5. decays step and antenna length (eq. 12): delta <- mu delta + delta0,
    m <- tau m + m0.
 
+Both antennae are evaluated in one batched call of the problem's ``costs``. QIBAS
+evaluates its interpolated point in one batched call with the next iteration's
+antennae around it (the next direction b is drawn then, from the same random stream,
+and the next antenna length is known): when the beetle moves to the interpolated point,
+as it nearly always does, those are the next iteration's antennae and that iteration
+makes no call of its own; otherwise they are dropped and the antennae evaluated around
+the beetle. The evaluations counted are the points the search uses (a dropped look-ahead
+is not counted), so iterations, evaluations, history and estimate are those of the search
+that evaluates every point on its own, to the bit (``tests/test_problem_batched.py``).
+A problem without batched costs (a robust one) gets no look-ahead.
+
 Antennae are at +-m around z (not at the BAS step's end point). The cost is eq. 6,
 the mean squared residual. It stops after ``max_iter`` iterations, or when the RMSE
 improved by less than ``rtol`` (relative) over the last ``window`` iterations
@@ -92,16 +103,39 @@ class BAS:
         track.record(h[0])
         iterations = 0
         message, status = f"iteration budget {self.max_iter} used", 1
+        look_ahead = interpolate is not None and track.batched
+        b_next = None
+        ahead: tuple[np.ndarray, np.ndarray, np.ndarray, float, float] | None = None  # (z, z_r, z_l, f_r, f_l) ahead
         for iterations in range(1, self.max_iter + 1):
-            b = rng.standard_normal(space.dim)
-            b /= np.linalg.norm(b)
-            z_r, z_l = z + m * b, z - m * b
-            f_r, f_l = track.costs([space.to_x(z_r), space.to_x(z_l)])  # both antennae in one batched pass
+            if b_next is None:
+                b = rng.standard_normal(space.dim)
+                b /= np.linalg.norm(b)
+            else:
+                b, b_next = b_next, None
+            if ahead is not None and ahead[0] is z:  # these antennae came with the last call
+                _, z_r, z_l, f_r, f_l = ahead
+                track.count(2)
+            else:
+                z_r, z_l = z + m * b, z - m * b
+                f_r, f_l = track.costs([space.to_x(z_r), space.to_x(z_l)])  # both antennae in one batched pass
+            ahead = None
             z_bas = z - delta * b * np.sign(f_r - f_l)
             candidates = [(f_r, z_r), (f_l, z_l)]
             if interpolate is not None:
                 z_qi = interpolate(z, m, b, f, f_l, f_r, z_bas)
-                candidates.append((cost(z_qi), z_qi))
+                if look_ahead:
+                    # The next iteration's antennae around z_qi (its direction and antenna
+                    # length are known now) in the same batched call: used, and counted,
+                    # when the beetle moves to z_qi, as it nearly always does.
+                    b_next = rng.standard_normal(space.dim)
+                    b_next /= np.linalg.norm(b_next)
+                    m_next = self.tau * m + m0  # the decay below
+                    z_nr, z_nl = z_qi + m_next * b_next, z_qi - m_next * b_next
+                    f_qi, f_nr, f_nl = track.costs([space.to_x(z_qi), space.to_x(z_nr), space.to_x(z_nl)], used=1)
+                    ahead = (z_qi, z_nr, z_nl, f_nr, f_nl)
+                else:
+                    f_qi = cost(z_qi)
+                candidates.append((f_qi, z_qi))
             if min(c[0] for c in candidates) >= f:
                 candidates.append((cost(z_bas), z_bas))
             f_new, z_new = min(candidates, key=lambda c: c[0])

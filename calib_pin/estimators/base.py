@@ -201,15 +201,26 @@ class Tracker:
         self.nfev += 1
         return self.problem.cost(x)
 
-    def costs(self, xs: list[np.ndarray]) -> list[float]:
-        """:meth:`cost` at several points, counted as one evaluation each: batched where the
-        problem's own class evaluates several at once (``costs``), else one by one (a
+    def costs(self, xs: list[np.ndarray], used: int | None = None) -> list[float]:
+        """:meth:`cost` at several points, counted as one evaluation each (or as ``used``:
+        the first ``used`` points, when the others are a look-ahead that is counted only
+        if the method uses it, see :meth:`count`): batched where the problem's own class
+        evaluates several at once (``costs``, :attr:`batched`), else one by one (a
         problem with another cost, e.g. a robust one, never inherits the plain batch)."""
-        self.nfev += len(xs)
+        self.nfev += len(xs) if used is None else used
         batched = getattr(type(self.problem), "costs", None)
         if batched is None:
             return [self.problem.cost(x) for x in xs]
         return list(batched(self.problem, xs))
+
+    @property
+    def batched(self) -> bool:
+        """True when :meth:`costs` evaluates several points in one call of the problem's own."""
+        return getattr(type(self.problem), "costs", None) is not None
+
+    def count(self, evaluations: int) -> None:
+        """Count evaluations done ahead (:meth:`costs` with ``used``) once the method uses them."""
+        self.nfev += evaluations
 
     def residual(self, x: np.ndarray) -> np.ndarray:
         """Residual [m], counted as one evaluation."""

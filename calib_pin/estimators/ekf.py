@@ -96,6 +96,10 @@ class EKF:
         zero_of = {m: np.zeros((m, 1)) for m in noise_of}
         offsets = row_offsets(problem)
         batched = len(data_rows(problem)) == problem.n_rows  # subset(rows) takes data rows only
+        # Per row, as Python numbers: its size, and the measurement and noise of that size.
+        row_sizes = [int(m) for m in sizes]
+        row_zero, row_noise = [zero_of[m] for m in row_sizes], [noise_of[m] for m in row_sizes]
+        share = 1.0 / problem.n_rows
         update = 0
         for _ in range(self.passes):
             for first, end in row_blocks(problem.n_rows):
@@ -109,16 +113,15 @@ class EKF:
                     pairs = [problem.row_residual_with_jacobian(x_b, k) for k in range(first, end)]
                     residual = np.concatenate([r for r, _ in pairs])
                     jac = np.vstack([j for _, j in pairs]) @ space.basis
-                at = offsets[first : end + 1] - offsets[first]
+                at = (offsets[first : end + 1] - offsets[first]).tolist()
                 for k in range(first, end):
-                    track.nfev += 1.0 / problem.n_rows
+                    track.nfev += share
                     if self.process:  # F = I: with Q = 0 the prediction leaves x and P as they are
                         kf.predict()
-                    rows = slice(at[k - first], at[k - first + 1])
-                    h, r = jac[rows], residual[rows].reshape(-1, 1)
+                    h, r = jac[at[k - first] : at[k - first + 1]], residual[at[k - first] : at[k - first + 1], None]
                     # The residual (predicted - measured) is the prediction of a zero measurement.
-                    kf.update(zero_of[int(sizes[k])], HJacobian=lambda z, h=h: h,
-                              Hx=lambda z, h=h, r=r, z_b=z_b: r + h @ (z - z_b), R=noise_of[int(sizes[k])])
+                    kf.update(row_zero[k], HJacobian=lambda z, h=h: h,
+                              Hx=lambda z, h=h, r=r, z_b=z_b: r + h @ (z - z_b), R=row_noise[k])
                     update += 1
                     if track.recording:
                         track.record_update(space.to_x(kf.x[:, 0]), update)

@@ -24,9 +24,10 @@ UPSILON0 = 1e-12
 
 
 def parabola_vertex(
-    x1: np.ndarray, x2: np.ndarray, x3: np.ndarray, f1: float, f2: float, f3: float
+    x1: np.ndarray, x2: np.ndarray, x3: np.ndarray | float, f1: float, f2: float, f3: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per-dimension vertex of the parabola through (x1, f1), (x2, f2), (x3, f3) (eq. 16).
+    """Per-dimension vertex of the parabola through (x1, f1), (x2, f2), (x3, f3) (eq. 16);
+    an abscissa given as a number is the same in every dimension.
 
     Returns:
         vertex: shape like x1.
@@ -53,7 +54,7 @@ def interpolated_point(
     well-conditioned whatever the units.
     """
     unit = f if f > 0 else 1.0  # a perfect fit (f = 0) keeps the costs as they are
-    vertex, valid = parabola_vertex(-b, b, np.zeros_like(z), f_l / unit, f_r / unit, f / unit)
+    vertex, valid = parabola_vertex(-b, b, 0.0, f_l / unit, f_r / unit, f / unit)  # z_best at 0 in every dimension
     return np.where(valid, z + m * vertex, z_bas)
 
 

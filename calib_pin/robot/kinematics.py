@@ -95,7 +95,8 @@ class Kinematics:
                              "calib-pin takes chains of revolute and prismatic joints")
         self._revolute = turns > slides
         self._basis = _factors(motions, self._revolute)
-        self._coef_cache = (np.empty((0, len(motions))), np.empty((len(motions), 0, 3)))
+        self._basis_rows = np.ascontiguousarray(self._basis.transpose(1, 2, 0, 3).reshape(-1, 4, 12))  # (E_0 | E_1 | E_2)
+        self._coef_cache = (np.empty((0, len(motions))), np.empty((len(motions), 12, 0)))
         self.set_perturbation(None)
 
     def set_perturbation(self, deltas: np.ndarray | None) -> None:
@@ -130,13 +131,14 @@ class Kinematics:
         return self._backward
 
     def _coefficients(self, q: np.ndarray) -> np.ndarray:
-        """(f0, f1, 1) of each joint at each pose, shape (n_joints, n_poses, 3). The last
+        """The factors of F0 v, F1 v and F2 v in :func:`_through_joints`, (f0, f1, 1), each
+        repeated for the 4 rows of its product, shape (n_joints, 12, n_poses). The last
         poses' are kept: a search evaluates the same poses many times."""
         cached_q, coef = self._coef_cache
         if not (q.shape == cached_q.shape and np.array_equal(q, cached_q)):
-            f0 = np.where(self._revolute, np.cos(q), q).T  # (n_joints, n_poses)
-            f1 = np.sin(q).T  # a prismatic joint's F1 is zero
-            coef = np.stack([f0, f1, np.ones_like(f0)], axis=-1)
+            coef = np.ones((len(self._revolute), 12, len(q)))
+            coef[:, 0:4] = np.where(self._revolute, np.cos(q), q).T[:, None]
+            coef[:, 4:8] = np.sin(q).T[:, None]  # a prismatic joint's F1 is zero
             self._coef_cache = (q.copy(), coef)
         return coef
 
@@ -144,43 +146,47 @@ class Kinematics:
         """Base-frame positions [m] of ``point`` (3,) or (n_poses, 3) at all poses
         q (n_poses, n_joints), back to front: the point through each joint in turn."""
         q = _joint_positions(q, len(self._basis[0]), finite=False)  # checked on the result below
-        coef = self._coefficients(q)
-        backward = self._backward_factors()
         end = self._placements[-1]
-        v = np.empty((len(q), 4))
-        v[:, :3] = point @ end[:3, :3].T + end[:3, 3]
-        v[:, 3] = 1.0
-        for i in range(len(coef) - 1, -1, -1):
-            v = np.einsum("pk,pkj->pj", coef[i], (v @ backward[i]).reshape(-1, 3, 4))
-        if not math.isfinite(v.sum()):  # a NaN or inf in q or the point: one sum, not a pass per input
-            _joint_positions(q, len(coef))
-            raise ArgumentError("point", "expected finite numbers (x, y, z in m, end frame)")
-        return v[:, :3]
+        v = np.empty((1, 4, len(q)))
+        v[0, :3] = np.atleast_2d(point @ end[:3, :3].T + end[:3, 3]).T
+        v[0, 3] = 1.0
+        return _through_joints(v, self._backward_factors()[:, None], self._coefficients(q), q)[0]
 
     def points_many(self, deltas: list[np.ndarray | None], q: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
         """:meth:`points` without derivatives for several perturbations at once: the
         positions of ``points[j]`` (3,) or (n_poses, 3) under ``deltas[j]`` (as
         :meth:`set_perturbation` takes, None: nominal) at the poses q, shape (k, n_poses, 3),
         [m]. One batched pass for all k: the same numbers, to the bit, as k calls of
-        :meth:`points`; the held perturbation is left as it is."""
+        :meth:`points` (the same products, stacked); the held perturbation is left as it is."""
         q = _joint_positions(q, len(self._basis[0]), finite=False)  # checked on the result below
-        coef = self._coefficients(q)
-        k, n = len(deltas), len(q)
-        backward = np.empty((len(coef), k, 4, 12))
-        v = np.empty((k, n, 4))
-        for j, (delta, point) in enumerate(zip(deltas, points, strict=True)):
-            placements = self._nominal if delta is None else self._nominal @ delta
-            factors = placements[:-1] @ self._basis
-            backward[:, j] = factors.transpose(1, 3, 0, 2).reshape(-1, 4, 12)
-            end = placements[-1]
-            v[j, :, :3] = np.asarray(point, dtype=float) @ end[:3, :3].T + end[:3, 3]
-        v[:, :, 3] = 1.0
-        for i in range(len(coef) - 1, -1, -1):
-            v = np.einsum("pk,apkj->apj", coef[i], (v @ backward[i]).reshape(k, -1, 3, 4))
-        if not math.isfinite(v.sum()):
-            _joint_positions(q, len(coef))
-            raise ArgumentError("point", "expected finite numbers (x, y, z in m, end frame)")
-        return v[:, :, :3]
+        k, n_place = len(deltas), len(self._nominal)
+        # Per placement i, one matmul for all k points: nominal_i @ (delta_i^1 | ... | delta_i^k).
+        given = [j for j, delta in enumerate(deltas) if delta is not None]
+        if given:
+            stacked = np.array([deltas[j] for j in given]).transpose(1, 2, 0, 3).reshape(n_place, 4, -1)
+            perturbed = (self._nominal @ stacked).reshape(n_place, 4, len(given), 4).transpose(0, 2, 1, 3)
+        if given and len(given) == k:
+            placements = perturbed  # (n_place, k, 4, 4)
+        else:  # nominal (None) among them, or no point
+            placements = np.empty((n_place, k, 4, 4))
+            placements[:] = self._nominal[:, None]
+            if given:
+                placements[:, given] = perturbed
+        # Per joint i, one matmul for all k points: (M_i^1; ...; M_i^k) @ (E_0,i | E_1,i | E_2,i).
+        factors = placements[:-1].reshape(n_place - 1, 4 * k, 4) @ self._basis_rows  # (n_joints, 4k, 12)
+        # backward[i, j] = [v, 1] @ -> (F0 v | F1 v | F2 v) for point j, shape (n_joints, k, 4, 12)
+        backward = factors.reshape(-1, k, 4, 3, 4).transpose(0, 1, 4, 3, 2).reshape(-1, k, 4, 12)
+        v = np.empty((k, 4, len(q)))
+        ends = placements[-1]
+        shapes = {np.shape(point) for point in points}
+        if len(points) == k and len(shapes) == 1 and shapes <= {(3,), (len(q), 3)}:  # in the end frame, stacked
+            stacked = np.array(points, dtype=float).reshape(k, -1, 3)
+            v[:, :3] = (stacked @ ends[:, :3, :3].transpose(0, 2, 1) + ends[:, None, :3, 3]).transpose(0, 2, 1)
+        else:
+            for j, (end, point) in enumerate(zip(ends, points, strict=True)):
+                v[j, :3] = np.atleast_2d(np.asarray(point, dtype=float) @ end[:3, :3].T + end[:3, 3]).T
+        v[:, 3] = 1.0
+        return _through_joints(v, backward, self._coefficients(q), q)
 
     def frames(self, q: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The end frame's placement at many poses, and its frame Jacobian.
@@ -308,6 +314,30 @@ def _joint_positions(q: np.ndarray, n_joints: int, finite: bool = True) -> np.nd
     if finite and not np.isfinite(q).all():
         raise ArgumentError("q", "joint positions must be finite numbers (NaN or inf given)")
     return q
+
+
+def _through_joints(v: np.ndarray, backward: np.ndarray, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Points [v, 1] in the end joint's frame carried back to the base through every
+    joint, component-major (k, 4, n_poses) (each component of all poses contiguous, so
+    each step is a few whole-array operations); positions shape (k, n_poses, 3), [m].
+    Per joint i, last to first, v <- f0 (F0 v) + f1 (F1 v) + 1 (F2 v): the three products
+    from one matmul with ``backward[i]`` (k, 4, 12; row-wise [v, 1] @ backward[i] =
+    (F0 v | F1 v | F2 v), used transposed: the same BLAS call, so the same numbers, as
+    the pose-major product), scaled by ``coef[i]`` (12, n_poses) of
+    :meth:`Kinematics._coefficients` and summed in that order.
+
+    Raises:
+        ArgumentError: a NaN or inf in q (checked on the result: one sum, not a pass per input) or in a point.
+    """
+    k, n = len(v), v.shape[2]
+    for i in range(len(coef) - 1, -1, -1):
+        products = backward[i].swapaxes(1, 2) @ v  # (k, 12, n): F0 v, F1 v, F2 v
+        products *= coef[i]
+        v = np.add.reduce(products.reshape(k, 3, 4, n), axis=1)  # along the short middle axis: in order
+    if not math.isfinite(v.sum()):
+        _joint_positions(q, len(coef))
+        raise ArgumentError("point", "expected finite numbers (x, y, z in m, end frame)")
+    return np.ascontiguousarray(v[:, :3].transpose(0, 2, 1))
 
 
 #: The end frame's own twist columns of the regressor (read only).

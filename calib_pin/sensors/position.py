@@ -386,7 +386,10 @@ class PositionModel(MeasurementModel):
         base = self.points_at_many(xs, q, [d.markers[markers] for d in devices])
         if base is None:
             return super().predict_many(xs, q, points)
-        return [b @ d.frame.rotation.T + d.frame.translation for b, d in zip(base, devices, strict=True)]
+        # Every point's device frame in one stacked product (each slice the product predict makes).
+        rotations_t = np.array([d.frame.rotation.T for d in devices])
+        translations = np.array([d.frame.translation for d in devices])
+        return list(base @ rotations_t + translations[:, None, :])
 
     def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
                               points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
