@@ -123,12 +123,12 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
     import numpy as np
     import pinocchio as pin
 
-    from . import write_dh_table, write_joint_origins_yaml, write_ur_kinematics_yaml
+    from .. import export  # each writer's module is imported when its format is written
 
     name = result.chain.name
     writers = {"urdf": lambda tmp: result.to_urdf(tmp),
-               "yaml": lambda tmp: write_joint_origins_yaml(result.chain, result.deltas, tmp),
-               "dh": lambda tmp: write_dh_table(result.params, result.problem.model.robot(result.x), tmp)}
+               "yaml": lambda tmp: export.write_joint_origins_yaml(result.chain, result.deltas, tmp),
+               "dh": lambda tmp: export.write_dh_table(result.params, result.problem.model.robot(result.x), tmp)}
     todo = [(fmt, _FILES[fmt].format(name=name)) for fmt in formats]
     if "yaml" in formats and name.startswith("ur"):
         todo.append(("ur_kinematics", _FILES["ur_kinematics"].format(name=name)))
@@ -138,7 +138,7 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
         for fmt, file in todo:
             path = Path(tmp) / file
             if fmt == "ur_kinematics":
-                rest = write_ur_kinematics_yaml(result.chain, result.deltas, path)
+                rest = export.write_ur_kinematics_yaml(result.chain, result.deltas, path)
                 if np.linalg.norm(pin.log6(rest).vector) > 1e-9:
                     notes.append(f"{file}: part of the tool0 correction does not fit ur_description's layout; "
                                  "its header gives it as a tool offset")
