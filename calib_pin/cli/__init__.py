@@ -162,11 +162,12 @@ def limit_blas_threads(threads: int = BLAS_THREADS) -> None:
     global _ENVIRONMENT_LIMITED
     for variable in THREAD_VARIABLES:
         os.environ[variable] = str(threads)
-    if threads == _ENVIRONMENT_LIMITED:  # every pool loaded since read the environment: nothing to limit
-        return
+    if threads == _ENVIRONMENT_LIMITED and "threadpoolctl" not in sys.modules:
+        return  # every pool loaded since read the environment, and none was changed since: nothing to limit
     if not any(name in sys.modules for name in NATIVE_MODULES):  # no pool loaded yet: the environment suffices
         _ENVIRONMENT_LIMITED = threads
         return
+    _ENVIRONMENT_LIMITED = None  # the loaded pools are limited to another count from here
     import numpy  # noqa: F401 - threadpoolctl limits the libraries already loaded
     from threadpoolctl import threadpool_limits
 
