@@ -450,7 +450,11 @@ def _extra(parsed: _Parsed, cols: Columns) -> dict[str, np.ndarray]:
 
 
 def _check_unique(pose_ids: np.ndarray, point_ids: np.ndarray | None, lines: list[int], path: Path) -> None:
-    seen: set = set()
+    if point_ids is None or point_ids.dtype.kind in "iu":  # whole numbers: every key distinct, at once
+        keys = pose_ids[:, None] if point_ids is None else np.stack([pose_ids, point_ids], axis=1)
+        if len(np.unique(keys, axis=0)) == len(keys):
+            return
+    seen: set = set()  # row by row: the first key seen twice, named
     for r, line in enumerate(lines):
         key = (int(pose_ids[r]), point_label(point_ids[r])) if point_ids is not None else int(pose_ids[r])
         if key in seen:
