@@ -10,13 +10,18 @@ The public API is below; each name is imported from its module on first use, so
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
-try:
-    __version__ = version("calib-pin")
-except PackageNotFoundError:  # a source tree that was not installed
-    __version__ = "0+unknown"
+
+def _version() -> str:
+    """The installed distribution's version; read on first use of ``__version__``
+    (importlib.metadata costs a command ~25 ms at start-up)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("calib-pin")
+    except PackageNotFoundError:  # a source tree that was not installed
+        return "0+unknown"
 
 #: Public name -> the module that defines it.
 _API = {
@@ -101,6 +106,9 @@ __all__ = [
 
 
 def __getattr__(name: str) -> Any:
+    if name == "__version__":
+        globals()[name] = value = _version()
+        return value
     if name in _API:
         value = getattr(importlib.import_module(f".{_API[name]}", __name__), name)
         globals()[name] = value
@@ -113,6 +121,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:
+    __version__: str
     from .analysis.identifiability import analyze
     from .compensation import CalibratedRobot
     from .estimators import ESTIMATORS, EstimateResult, run_estimator

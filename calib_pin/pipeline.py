@@ -105,13 +105,25 @@ class CalibrationSetup:
         return x0, tuple(problem.model.names.index(n) for n in self.fixed)
 
     def problem_on(self, fit_rows: np.ndarray) -> CalibrationProblem:
-        """Every row of the data, with the sensor's starting geometry fitted on ``fit_rows``."""
+        """Every row of the data, with the sensor's starting geometry fitted on ``fit_rows``.
+        Fitted on every row (``test_fraction`` 0, a separate test session), it is
+        :attr:`problem` when that was made from the same data and options: the same fit,
+        not made twice."""
+        made, inputs = self.__dict__.get("problem"), self.__dict__.get("_problem_inputs")
+        if (made is not None and inputs is not None and _same_objects(inputs, self._inputs())
+                and len(fit_rows) == len(self.data) and np.array_equal(fit_rows, np.arange(len(self.data)))):
+            return cast(CalibrationProblem, made)
         return sensor_for(self.data.kind).problem_for(self.chain, self.params, self.data, fit_rows, self.options)
+
+    def _inputs(self) -> list[Any]:
+        """What a problem is made from: the chain, parameter model, data, option keys and values."""
+        return [self.chain, self.params, self.data, *self.options.keys(), *self.options.values()]
 
     @cached_property
     def problem(self) -> CalibrationProblem:
         """Every row, the sensor's starting geometry fitted on all of them (for an
         analysis of the whole set; :meth:`run` fits on the training rows only)."""
+        self.__dict__["_problem_inputs"] = self._inputs()
         return self.problem_on(np.arange(len(self.data)))
 
     def split(self, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -463,6 +475,11 @@ def calibrate(
     if progress is not None:
         progress(prepared)
     return prepared.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)
+
+
+def _same_objects(a: list[Any], b: list[Any]) -> bool:
+    """The same objects (identity, not equality: a field replaced or an option changed is another)."""
+    return len(a) == len(b) and all(x is y for x, y in zip(a, b, strict=True))
 
 
 def _check_data(data: Any, arg: str) -> None:

@@ -217,6 +217,19 @@ def test_every_command_runs_blas_on_one_thread():
     assert out.stdout.strip() == "1"
 
 
+def test_the_thread_limit_before_any_blas_loads_is_the_environment_alone():
+    """Limited before numpy loads, the pools read the environment (threadpoolctl is not
+    imported); limited again after a caller changed them, threadpoolctl sets them back."""
+    code = ("import sys; from calib_pin.cli import limit_blas_threads; limit_blas_threads(); "
+            "import numpy, scipy.linalg, pinocchio; before = 'threadpoolctl' in sys.modules; limit_blas_threads(); "
+            "from threadpoolctl import threadpool_info, threadpool_limits; first = max(i['num_threads'] for i in "
+            "threadpool_info()); threadpool_limits(2); limit_blas_threads(); "
+            "print(before, first, max(i['num_threads'] for i in threadpool_info()))")
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.split() == ["False", "1", "1"]
+
+
 def test_ctrl_c_while_a_command_loads_or_parses_is_one_line(monkeypatch, capsys):
     """Ctrl-C in the half second the libraries load, or while the options are parsed,
     once printed a 30-line traceback: it is one line and exit 130 (the interrupt is raised

@@ -66,3 +66,19 @@ def test_exported_model_is_the_calibrated_one(exported, fresh):
     kin = cp.Kinematics(chain)
     via_file = np.linalg.norm(kin.points(q, result.sensor.tool)[0] - result.sensor.anchor, axis=1)
     np.testing.assert_allclose(via_file + result.sensor.length_offset, result.predict(q), atol=1e-9)
+
+
+def test_the_files_made_in_memory_are_the_files_written(exported, tmp_path):
+    """write_outputs makes the URDF and the calibration file in memory (issue 24): the same
+    text as result.to_urdf and write_calibration write to disk."""
+    from calib_pin.export.bundle import render_outputs
+    from calib_pin.export.calibration_file import calibration_text, write_calibration
+    from calib_pin.export.urdf import calibrated_urdf
+
+    result, path = exported
+    assert calibrated_urdf(result.chain, result.deltas) == path.read_bytes()
+    written = write_calibration(result, tmp_path / "c.json")
+    assert calibration_text(result) == written.read_text(encoding="utf-8")
+    rendered = render_outputs(result, html=False)
+    assert rendered.files["irb120_calibrated.urdf"] == path.read_text(encoding="utf-8")
+    assert rendered.files["irb120_calibration.json"] == written.read_text(encoding="utf-8")

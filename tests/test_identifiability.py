@@ -104,3 +104,34 @@ def test_a_set_that_calibrates_nothing_is_refused_by_the_library_before_any_esti
     same = dataclasses.replace(data, q=np.repeat(data.q[:1], len(data), axis=0), values=np.repeat(data.values[:1], len(data)))
     with pytest.raises(cp.CalibPinError, match="1 distinct pose"):
         cp.calibrate("irb120", same, method=method)
+
+
+def _as_fields(ident):
+    """An Identifiability as comparable values (arrays as bytes)."""
+    return {f.name: (v.tobytes() if isinstance(v, np.ndarray) else v)
+            for f in dataclasses.fields(ident) for v in [getattr(ident, f.name)]}
+
+
+def test_the_shared_jacobian_and_svd_give_the_analysis_made_afresh():
+    """The support check and the report's analysis share one Jacobian and SVD (issue 24):
+    the analysis after the check is the one made with nothing kept, to the bit; another
+    set's analysis is its own."""
+    from calib_pin.analysis import identifiability as ident
+
+    setup = cp.prepare("irb120")
+    training = setup.problem.subset(np.arange(0, len(setup.data), 2))
+    ident._LAST_JACOBIAN.clear()
+    ident._LAST_SVD.clear()
+    fresh = _as_fields(analyze(training))
+    ident._LAST_JACOBIAN.clear()
+    ident._LAST_SVD.clear()
+    assert ident.support_error(training) is None
+    again = analyze(setup.problem.subset(np.arange(0, len(setup.data), 2)))  # another object, the same rows
+    assert _as_fields(again) == fresh
+    other = analyze(setup.problem.subset(np.arange(1, len(setup.data), 2)))
+    assert other.singular_values.tobytes() != again.singular_values.tobytes()
+    ident._LAST_JACOBIAN.clear()
+    ident._LAST_SVD.clear()
+    assert _as_fields(analyze(setup.problem.subset(np.arange(1, len(setup.data), 2)))) == _as_fields(other)
+    held = analyze(training, fixed=("theta_6",))  # columns left out: the SVD of the kept ones
+    assert "theta_6" not in held.names and held.rank == fresh["rank"]

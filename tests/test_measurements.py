@@ -223,3 +223,64 @@ def test_csv_line_overrides_the_detection(tmp_path, chain):
     data = cp.read_measurements(_write(tmp_path, text), chain)
     assert data.extra["note;x"].tolist() == ["a"]
     assert "csv" not in data.notes  # describes this file's text only: never written back
+
+
+# --- reading a column at a time (issue 24): the row-by-row numbers, to the bit ----------
+
+
+def _both_ways(path, chain, monkeypatch, **options):
+    """The set read a column at a time (the fast path) and row by row (the reference)."""
+    from calib_pin.measurements import csv_reader
+
+    fast = cp.read_measurements(path, chain, **options)
+    with monkeypatch.context() as m:
+        m.setattr(csv_reader, "_rows_at_once", lambda *args, **kwargs: None)
+        slow = cp.read_measurements(path, chain, **options)
+    return fast, slow
+
+
+def test_columns_at_once_give_the_row_by_row_numbers(tmp_path, chain, session, monkeypatch):
+    """Degrees and mm, radians and m, a ';' file with decimal commas, positions, a pose list:
+    the same angles and values to the bit as row by row."""
+    data, _ = session
+    cp.write_measurements(tmp_path / "set.csv", data)
+    rng = np.random.default_rng(3)
+    rad = rng.uniform(0.9 * np.asarray(chain.lower), 0.9 * np.asarray(chain.upper), (40, 6))
+    deg = np.rad2deg(rad)
+    rad_rows = "\n".join(",".join(repr(float(v)) for v in row) + f",{float(rng.uniform(0.5, 1.5))!r}" for row in rad)
+    comma_rows = "\n".join(";".join(f"{v:.7f}".replace(".", ",") for v in row) + f";{rng.uniform(500, 900):.4f}"
+                           .replace(".", ",") for row in deg)
+    files = [tmp_path / "set.csv",
+             _write(tmp_path, META + HEADER.replace("_deg", "_rad").replace("_mm", "_m") + "\n" + rad_rows + "\n", "r.csv"),
+             _write(tmp_path, META.replace(", ", "; ") + HEADER.replace(",", ";") + "\n" + comma_rows + "\n", "c.csv")]
+    for path in files:
+        fast, slow = _both_ways(path, chain, monkeypatch)
+        assert fast.q.tobytes() == slow.q.tobytes() and fast.values.tobytes() == slow.values.tobytes()
+        assert fast.q.shape == slow.q.shape and fast.values.shape == slow.values.shape
+    ur5 = cp.load_chain("ur5")
+    positions = cp.simulate_positions(ur5, cp.parameter_model(ur5), 30, 1)[0]
+    cp.write_measurements(tmp_path / "p.csv", positions)
+    fast, slow = _both_ways(tmp_path / "p.csv", ur5, monkeypatch)
+    assert fast.values.tobytes() == slow.values.tobytes() and fast.q.tobytes() == slow.q.tobytes()
+    write_poses(tmp_path / "poses.csv", rad[:5], robot="irb120")
+    fast, slow = _both_ways(tmp_path / "poses.csv", chain, monkeypatch, readings=False)
+    assert np.isnan(fast.values).all() and fast.q.tobytes() == slow.q.tobytes()
+
+
+def test_a_bad_row_is_named_as_row_by_row(tmp_path, chain, monkeypatch):
+    """A field that is no number, a NaN, an angle beyond the limits, a negative length: the
+    same one-line error naming its line and column as the row-by-row reading gives."""
+    from calib_pin.measurements import csv_reader
+
+    rows = [ROW] * 5
+    for bad, message in ((ROW.replace("20", "2O"), ":8: q2_deg: '2O' is not a number"),
+                         (ROW.replace("-30", "nan"), ":8: q3_deg: 'nan' is not a finite number"),
+                         (ROW.replace("10,", "400,", 1), ":8: q1_deg: 400 is outside the limits"),
+                         (ROW.replace("812.5", "-1"), ":8: length_mm: -1 is negative")):
+        path = _write(tmp_path, META + HEADER + "\n" + "\n".join(rows[:3] + [bad] + rows[3:]) + "\n")
+        with pytest.raises(cp.DataError) as fast:
+            cp.read_measurements(path, chain)
+        with monkeypatch.context() as m, pytest.raises(cp.DataError) as slow:
+            m.setattr(csv_reader, "_rows_at_once", lambda *args, **kwargs: None)
+            cp.read_measurements(path, chain)
+        assert message in str(fast.value) and str(fast.value) == str(slow.value)

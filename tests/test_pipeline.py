@@ -99,3 +99,32 @@ def test_import_pulls_in_no_optional_dependency():
             "print([m for m in ('serial', 'minimalmodbus', 'matplotlib') if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_the_sensor_frame_is_fitted_once_when_every_row_trains(monkeypatch):
+    """With test_fraction 0 the run's problem is the setup's (one device-frame fit, issue 24),
+    and the calibration is the one made with two fits; with a test fraction the training
+    rows get their own fit; data replaced after prepare gets a new one."""
+    from calib_pin.sensors import position
+
+    real, calls = position.fit_device, []
+
+    def counted(*args, **kwargs):
+        calls.append(len(args[2]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(position, "fit_device", counted)
+    setup = cp.prepare("irb120", WU2015)
+    assert calls == [len(setup.data)]
+    once = setup.run("lm", test_fraction=0)
+    assert calls == [len(setup.data)] and once.problem is setup.problem
+    twice = cp.prepare("irb120", WU2015)
+    twice.__dict__.pop("_problem_inputs")  # made as before: no record of what the problem was made from
+    again = twice.run("lm", test_fraction=0)
+    assert len(calls) == 3 and again.problem is not twice.problem
+    assert again.x.tobytes() == once.x.tobytes() and again.metrics == once.metrics
+    setup.run("lm", test_fraction=0.2)
+    assert len(calls) == 4 and calls[-1] < len(setup.data)
+    setup.data = dataclasses.replace(setup.data)  # another data object: made again
+    setup.run("lm", test_fraction=0)
+    assert len(calls) == 5 and calls[-1] == len(setup.data)

@@ -19,7 +19,8 @@ singular value is "metres of reading per typical deviation". With J D = U S V^T
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 from scipy.linalg import qr
@@ -130,6 +131,71 @@ def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list
     return out
 
 
+#: The largest Jacobian (values) :func:`_jacobian` and :func:`_svd` keep for the next call
+#: (8 MB): a calibration's support check and its report analyse the same training rows.
+MEMO_VALUES = 1_000_000
+
+#: The last Jacobian and SVD made here, each with what it was made from: ``[key, value]``.
+_LAST_JACOBIAN: list[Any] = []
+_LAST_SVD: list[Any] = []
+
+
+def _key(problem: Any, x: np.ndarray) -> tuple[Any, ...] | None:
+    """What ``problem``'s Jacobian at ``x`` is made from: its class, its measurement model
+    (the object) and every array field's bytes; None for a problem of other fields (a
+    stacked problem's parts), which is not kept."""
+    if not isinstance(problem, CalibrationProblem):
+        return None
+    key: list[Any] = [type(problem), x.tobytes()]
+    for f in fields(problem):
+        value = getattr(problem, f.name)
+        if isinstance(value, np.ndarray):
+            key.append((value.dtype.str, value.shape, value.tobytes()))
+        elif value is None or f.name == "model":
+            key.append(value)
+        else:
+            return None
+    return tuple(key)
+
+
+def _same(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
+    """Keys of :func:`_key` equal: the same class and model objects, equal bytes."""
+    return len(a) == len(b) and all(u == v if isinstance(u, bytes | tuple) else u is v
+                                    for u, v in zip(a, b, strict=True))
+
+
+def _jacobian(problem: CalibrationProblem | StackedProblem, x: np.ndarray) -> np.ndarray:
+    """``problem.jacobian(x)``; when the last call here was of the same rows, model and x,
+    the (read-only) copy of that call's array: a Jacobian is a pure function of them."""
+    key = _key(problem, x)
+    if key is not None and _LAST_JACOBIAN and _same(_LAST_JACOBIAN[0], key):
+        return _LAST_JACOBIAN[1]
+    jacobian = problem.jacobian(x)
+    _LAST_JACOBIAN[:] = []
+    if key is not None and jacobian.size <= MEMO_VALUES:
+        kept = np.array(jacobian)  # a copy: the caller's array stays its own
+        kept.setflags(write=False)
+        _LAST_JACOBIAN[:] = [key, kept]
+    return jacobian
+
+
+def _svd(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The singular values and right singular vectors of ``np.linalg.svd(matrix,
+    full_matrices=False)``; for a matrix of the same bytes as the last call's, (read-only)
+    copies of that call's."""
+    key = (matrix.shape, matrix.tobytes())
+    if _LAST_SVD and _LAST_SVD[0] == key:
+        return _LAST_SVD[1]
+    _, s, vt = np.linalg.svd(matrix, full_matrices=False)
+    _LAST_SVD[:] = []
+    if matrix.size <= MEMO_VALUES:
+        kept = (np.array(s), np.array(vt))  # copies: the caller's arrays stay its own
+        for array in kept:
+            array.setflags(write=False)
+        _LAST_SVD[:] = [key, kept]
+    return s, vt
+
+
 def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None = None, rcond: float = RCOND,
             fixed: tuple[str, ...] = ()) -> Identifiability:
     """Identifiability of ``problem``'s unknowns at x (default zero).
@@ -150,11 +216,11 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
     x = np.zeros(len(names)) if x is None else as_array(x, "x", (len(names),))
     rcond = as_float(rcond, "rcond", 0.0, 1.0, low_open=True, high_open=True)
     keep = np.array([n not in fixed for n in names], dtype=bool)
-    jacobian = problem.jacobian(x)[:, keep]
+    jacobian = _jacobian(problem, x)[:, keep]
     scale, units = np.asarray(model.scale)[keep], [u for u, k in zip(model.units, keep, strict=True) if k]
     names = [n for n, k in zip(names, keep, strict=True) if k]
-    space = Subspace.of(jacobian, scale, x[keep], rcond)
     scaled = jacobian * scale
+    space = Subspace.of_svd(*_svd(scaled), scale, x[keep], rcond)  # Subspace.of(jacobian, scale, ...)
     m, n = scaled.shape
     s, rank, kept = space.singular_values, space.rank, space.kept
     column = np.linalg.norm(scaled, axis=0)
@@ -162,7 +228,10 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
     live = np.flatnonzero(~dead)
     # The null space of the live columns: every right singular vector, so the square
     # factor is (live x live), never (m x m).
-    _, s_live, vt_live = np.linalg.svd(scaled[:, live], full_matrices=m < len(live))
+    if len(live) == n and m >= n:  # every column: the SVD above
+        s_live, vt_live = _svd(scaled)
+    else:
+        _, s_live, vt_live = np.linalg.svd(scaled[:, live], full_matrices=m < len(live))
     live_rank = int(np.sum(s_live > rcond * s[0]))
     null = vt_live[live_rank:]
     _, _, pivots = qr(scaled, pivoting=True, mode="economic")
@@ -222,8 +291,8 @@ def support_error(problem: CalibrationProblem | StackedProblem, rcond: float = R
     model = problem.model
     n = problem.n_params
     sensor = n - model.sensor_start
-    scaled = problem.jacobian(np.zeros(n)) * model.scale
-    space = Subspace.of(scaled, np.ones(n), rcond=rcond)
+    scaled = _jacobian(problem, np.zeros(n)) * model.scale
+    space = Subspace.of_svd(*_svd(scaled), np.ones(n), rcond=rcond)  # Subspace.of(scaled, np.ones(n), ...)
     poses = len(np.unique(problem.q, axis=0))
     values = distinct_values(problem)
     reason = None

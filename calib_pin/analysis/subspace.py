@@ -59,6 +59,14 @@ class Subspace:
         """
         scale = np.asarray(scale, dtype=float)
         _, s, vt = np.linalg.svd(jacobian * scale, full_matrices=False)
+        return cls.of_svd(s, vt, scale, x0, rcond)
+
+    @classmethod
+    def of_svd(cls, s: np.ndarray, vt: np.ndarray, scale: np.ndarray, x0: np.ndarray | None = None,
+               rcond: float = RCOND) -> Subspace:
+        """:meth:`of` from the economy SVD of ``jacobian * scale`` already made: its
+        singular values ``s`` (descending) and right singular vectors ``vt``."""
+        scale = np.asarray(scale, dtype=float)
         keep = s > rcond * s[0] if len(s) and s[0] > 0 else np.zeros(len(s), dtype=bool)
         x0 = np.zeros(len(scale)) if x0 is None else np.array(x0, dtype=float)
         return cls(x0, scale, s, vt[keep], rcond)

@@ -159,12 +159,28 @@ def limit_blas_threads(threads: int = BLAS_THREADS) -> None:
     starts) to ``threads``: threadpoolctl for the libraries already loaded, the
     environment for those loaded later (scipy bundles its own OpenBLAS, loaded with
     scipy.linalg, and Pinocchio brings OpenMP)."""
+    global _ENVIRONMENT_LIMITED
     for variable in THREAD_VARIABLES:
         os.environ[variable] = str(threads)
+    if threads == _ENVIRONMENT_LIMITED and "threadpoolctl" not in sys.modules:
+        return  # every pool loaded since read the environment, and none was changed since: nothing to limit
+    if not any(name in sys.modules for name in NATIVE_MODULES):  # no pool loaded yet: the environment suffices
+        _ENVIRONMENT_LIMITED = threads
+        return
+    _ENVIRONMENT_LIMITED = None  # the loaded pools are limited to another count from here
     import numpy  # noqa: F401 - threadpoolctl limits the libraries already loaded
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(limits=threads)
+
+
+#: The modules that bring a BLAS or OpenMP pool (numpy's OpenBLAS, scipy's own, Pinocchio's
+#: OpenMP); until one is imported, no pool exists and the environment limits them all.
+NATIVE_MODULES = ("numpy", "scipy", "pinocchio")
+
+#: The thread count the environment was set to before any of :data:`NATIVE_MODULES` was
+#: imported (each pool then read it when it loaded); None: not so in this process.
+_ENVIRONMENT_LIMITED: int | None = None
 
 
 def command(name: str) -> Callable[[Sequence[str] | None], int]:

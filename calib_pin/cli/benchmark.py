@@ -94,17 +94,18 @@ def _benchmark(args: argparse.Namespace) -> int:
 
 
 def _quick_start(args: argparse.Namespace) -> None:
-    from ..studies.benchmark_commands import quick_start_phases
+    from ..studies.benchmark_commands import PROCESS_NOTE, quick_start_phases
 
     phases, wall = quick_start_phases(max(args.repeats, 3))
     print(f"quick start (calibrate.py irb120, whole process, median of {max(args.repeats, 3)}): {wall:.2f} s; "
           "its phases in a "
           "fresh process [s]: " + ", ".join(f"{k} {v:.3f}" for k, v in phases.items()))
+    print(f"({PROCESS_NOTE})")
     print("goal: the quick start under 3 s warm")
 
 
 def _commands(args: argparse.Namespace) -> None:
-    from ..studies.benchmark_commands import COMMAND_SIZES, format_commands, time_commands
+    from ..studies.benchmark_commands import COMMAND_SIZES, PROCESS_NOTE, format_commands, time_commands
 
     sizes = tuple(n for n in COMMAND_SIZES if n <= args.max_rows) or (args.max_rows,)
     method = args.command_method[0]
@@ -113,14 +114,16 @@ def _commands(args: argparse.Namespace) -> None:
     print(f"the user's commands as whole processes (python scripts/COMMAND.py, simulated IRB120 drawstring sets, "
           f"seed {args.seed}; calibrate, --no-html and batch with --method {method}; batch: 8 sets of rows/8 "
           "poses; compare --trials 10, every method; compensate: 1000 targets), median wall s of "
-          f"{args.repeats} run(s), ratio to the size before, peak resident MiB:")
+          f"{args.repeats} run(s), ratio to the size before, peak resident MiB; {PROCESS_NOTE}:")
     print(format_commands(runs))
     print("goals: calibrate at 10 000 rows <= 12x its time at 1 000; peak memory at 100 000 rows <= 1 GB")
 
 
 def _against_figaroh(args: argparse.Namespace) -> None:
     """Print the FIGAROH race, or one line saying it is skipped."""
+    from ..studies.benchmark_commands import PROCESS_NOTE
     from ..studies.benchmark_figaroh import (
+        FLOOR_PROCESS,
         FRESH_POSES,
         NOISE_MM,
         TIMED,
@@ -151,6 +154,8 @@ def _against_figaroh(args: argparse.Namespace) -> None:
     if processes is not None:
         print(f"as whole processes (what a user runs; calibrate.py ur5 --data FILE --method M --no-html "
               f"--test-fraction 0, against FIGAROH's default in a fresh Python process from its URDF, YAML and "
-              f"CSV), interleaved, median wall s of {args.repeats} run(s):")
+              f"CSV), interleaved, median wall s of {args.repeats} run(s); {PROCESS_NOTE}:")
         print(format_processes(processes))
+        print(f"floor: a process that only runs '{FLOOR_PROCESS}' (what both tools import); above: calib-pin's "
+              "median minus the floor, its own imports and work")
         print(format_process_goal(processes))

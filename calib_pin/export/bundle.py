@@ -22,6 +22,7 @@ in one, with its summary, and commits once).
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import tempfile
@@ -123,12 +124,13 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
     import numpy as np
     import pinocchio as pin
 
-    from . import write_dh_table, write_joint_origins_yaml, write_ur_kinematics_yaml
+    from .. import export  # each writer's module is imported when its format is written
+    from .urdf import calibrated_urdf
 
     name = result.chain.name
     writers = {"urdf": lambda tmp: result.to_urdf(tmp),
-               "yaml": lambda tmp: write_joint_origins_yaml(result.chain, result.deltas, tmp),
-               "dh": lambda tmp: write_dh_table(result.params, result.problem.model.robot(result.x), tmp)}
+               "yaml": lambda tmp: export.write_joint_origins_yaml(result.chain, result.deltas, tmp),
+               "dh": lambda tmp: export.write_dh_table(result.params, result.problem.model.robot(result.x), tmp)}
     todo = [(fmt, _FILES[fmt].format(name=name)) for fmt in formats]
     if "yaml" in formats and name.startswith("ur"):
         todo.append(("ur_kinematics", _FILES["ur_kinematics"].format(name=name)))
@@ -137,8 +139,12 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
     with tempfile.TemporaryDirectory() as tmp:
         for fmt, file in todo:
             path = Path(tmp) / file
+            if fmt == "urdf":  # made in memory: the bytes result.to_urdf writes (the fit is within the bound here)
+                files[file] = _as_read(calibrated_urdf(result.chain, result.deltas))
+                exports[fmt] = file
+                continue
             if fmt == "ur_kinematics":
-                rest = write_ur_kinematics_yaml(result.chain, result.deltas, path)
+                rest = export.write_ur_kinematics_yaml(result.chain, result.deltas, path)
                 if np.linalg.norm(pin.log6(rest).vector) > 1e-9:
                     notes.append(f"{file}: part of the tool0 correction does not fit ur_description's layout; "
                                  "its header gives it as a tool offset")
@@ -147,6 +153,12 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
             files[file] = path.read_text(encoding="utf-8")
             exports[fmt] = file
     return files, exports
+
+
+def _as_read(data: bytes) -> str:
+    """``data`` as ``Path.read_text(encoding="utf-8")`` reads a file of these bytes (universal
+    newlines): a file's text made in memory is the text written and read back."""
+    return io.TextIOWrapper(io.BytesIO(data), encoding="utf-8").read()
 
 
 def planned_files(result: CalibrationResult, formats: str | Sequence[str] = ("urdf",), *,
@@ -202,7 +214,7 @@ def render_outputs(result: CalibrationResult, formats: str | Sequence[str] = ("u
 
 def _render(result: CalibrationResult, formats: tuple[str, ...], html: bool, silence: str) -> RenderedOutputs:
     from ..report.build import build_report
-    from .calibration_file import calibration_path, write_calibration
+    from .calibration_file import calibration_path, calibration_text
 
     report = build_report(result)
     refused = result.sanity_error() if result.kinematic else None
@@ -214,9 +226,7 @@ def _render(result: CalibrationResult, formats: tuple[str, ...], html: bool, sil
     report["urdf_refused"] = refused or (None if result.kinematic else
                                          f"{result.method} learns a correction of the measured values, which a URDF cannot hold")
     if "urdf" in exports:  # the calibration file goes with the URDF: geometry, compliance, sensor, versions
-        with tempfile.TemporaryDirectory() as tmp:
-            path = write_calibration(result, calibration_path(tmp, result.chain.name))
-            files[path.name] = path.read_text(encoding="utf-8")
+        files[calibration_path(".", result.chain.name).name] = _as_read(calibration_text(result).encode("utf-8"))
     if html:
         page = _html({**report, "urdf": None, "exports": {}}, silence)
         if page is not None:

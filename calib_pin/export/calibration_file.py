@@ -121,8 +121,8 @@ def calibration_document(result: CalibrationResult) -> dict[str, Any]:
     }
 
 
-def write_calibration(result: CalibrationResult, path: str | Path) -> Path:
-    """Write the calibration file of ``result`` to ``path``.
+def calibration_text(result: CalibrationResult) -> str:
+    """The text :func:`write_calibration` writes: the calibration file of ``result``.
 
     Raises:
         CalibPinError: the method estimates no kinematic parameters (``rbf``), or a
@@ -134,8 +134,19 @@ def write_calibration(result: CalibrationResult, path: str | Path) -> Path:
     negative = [model.names[i] for i in model.nonnegative if not result.x[i] >= 0]
     if negative:  # compensate would use it blindly
         raise CalibPinError(f"{negative[0]} is negative (a compliance is >= 0): no calibration file written")
+    return json.dumps(calibration_document(result), indent=2, allow_nan=False) + "\n"
+
+
+def write_calibration(result: CalibrationResult, path: str | Path) -> Path:
+    """Write the calibration file of ``result`` to ``path``.
+
+    Raises:
+        CalibPinError: the method estimates no kinematic parameters (``rbf``), or a
+            compliance is negative (or NaN).
+    """
+    text = calibration_text(result)
     path = Path(path)
-    write_text(path, json.dumps(calibration_document(result), indent=2, allow_nan=False) + "\n")
+    write_text(path, text)
     return path
 
 

@@ -101,6 +101,26 @@ def corrected_origins(
     return out
 
 
+def calibrated_urdf(chain: Chain, deltas: Sequence[pin.SE3], robot_name: str | None = None) -> bytes:
+    """The bytes :func:`write_calibrated_urdf` writes: the chain's URDF with perturbed joint
+    origins (UTF-8).
+
+    Raises:
+        RobotError: the end frame has a deviation but no fixed joint to carry it.
+    """
+    tree = etree.parse(str(chain.description.urdf), etree.XMLParser(remove_blank_text=False))
+    root = tree.getroot()
+    joints = top_level_joints(root)
+    for name, placement in corrected_origins(joints, chain, deltas).items():
+        _set_origin(joints[name], placement)
+    if robot_name:
+        root.set("name", robot_name)
+    # Top-level comments one per line around the root (lxml keeps no text between them).
+    nodes = [*reversed(list(root.itersiblings(preceding=True))), root, *root.itersiblings()]
+    body = b"\n".join(etree.tostring(node, encoding="utf-8", with_tail=False) for node in nodes)
+    return b'<?xml version="1.0" encoding="utf-8"?>\n' + body + b"\n"
+
+
 def write_calibrated_urdf(
     chain: Chain, deltas: Sequence[pin.SE3], path: str | Path, robot_name: str | None = None
 ) -> Path:
@@ -115,17 +135,8 @@ def write_calibrated_urdf(
     Raises:
         RobotError: the end frame has a deviation but no fixed joint to carry it.
     """
-    tree = etree.parse(str(chain.description.urdf), etree.XMLParser(remove_blank_text=False))
-    root = tree.getroot()
-    joints = top_level_joints(root)
-    for name, placement in corrected_origins(joints, chain, deltas).items():
-        _set_origin(joints[name], placement)
-    if robot_name:
-        root.set("name", robot_name)
+    data = calibrated_urdf(chain, deltas, robot_name)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    # Top-level comments one per line around the root (lxml keeps no text between them).
-    nodes = [*reversed(list(root.itersiblings(preceding=True))), root, *root.itersiblings()]
-    body = b"\n".join(etree.tostring(node, encoding="utf-8", with_tail=False) for node in nodes)
-    write_bytes(path, b'<?xml version="1.0" encoding="utf-8"?>\n' + body + b"\n")
+    write_bytes(path, data)
     return path

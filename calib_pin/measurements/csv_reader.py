@@ -304,6 +304,70 @@ def _angles(fields: list[str], header: list[str], cols: Columns, chain: Chain | 
     return q
 
 
+#: A column of numbers as :func:`~calib_pin.measurements.dialect.number` reads each, one a line.
+_NUMBERS = re.compile(r"(?:[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\n)*")
+
+
+def _column(rows: list[tuple[int, list[str]]], col: int, decimal: str) -> np.ndarray | None:
+    """Column ``col`` of every row as :func:`~calib_pin.measurements.dialect.number` reads
+    each field (the same floats), in one pass; None when any field is not a number it
+    accepts (the row-by-row reading then names it)."""
+    texts = [fields[col].strip() for _, fields in rows]
+    if decimal == ",":
+        if any("." in t for t in texts):
+            return None
+        texts = [t.replace(",", ".") for t in texts]
+    if not _NUMBERS.fullmatch("\n".join(texts) + "\n"):
+        return None
+    try:
+        values = np.array(list(map(float, texts)), dtype=float)
+    except ValueError:  # a field with a line break inside (a quoted one)
+        return None
+    if len(values) != len(rows) or not np.all(np.abs(values) <= 1e12):
+        return None
+    return values
+
+
+def _rows_at_once(parsed: _Parsed, cols: Columns, chain: Chain | None, n_joints: int, width: int,
+                  decimal: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """The joint angles (n, n_joints) and values (n, width) of every row, a column at a
+    time: the numbers :func:`_angles` and :func:`_values` give row by row, to the bit.
+    None when any row is one they refuse (they then name its line and column) or the
+    columns are of a kind read only row by row (labels, a sensor's unit-free columns)."""
+    if cols.label_kind or cols.plain_kind or cols.plain:
+        return None
+    rows, n = parsed.rows, len(parsed.rows)
+    q = np.empty((n, n_joints))
+    for i in range(1, n_joints + 1):
+        col, unit = cols.joints[i]
+        if chain is not None and chain.joint_kinds[i - 1].startswith("JointModelP") != (unit in ("m", "mm")):
+            return None
+        value = _column(rows, col, decimal)
+        if value is None:
+            return None
+        angle = np.radians(value) if unit == "deg" else value * 1e-3 if unit == "mm" else value  # as math.radians
+        if chain is not None:
+            lo, hi = chain.lower[i - 1], chain.upper[i - 1]
+            if not np.all((lo - 1e-9 <= angle) & (angle <= hi + 1e-9)):
+                return None
+        q[:, i - 1] = angle
+    if cols.sensor_kind:
+        columns = list(cols.sensor.values())
+    elif cols.position:
+        columns = [cols.coords[axis] for axis in "xyz"]
+    elif cols.length is None:
+        return q, np.full((n, width), np.nan)
+    else:
+        columns = [cols.length]
+    values = np.empty((n, width))
+    for k, (col, unit) in enumerate(columns):
+        value = _column(rows, col, decimal)
+        if value is None or (not cols.sensor_kind and not cols.position and np.any(value < 0)):  # a negative length
+            return None
+        values[:, k] = value * (1e-3 if unit == "mm" else 1.0)
+    return q, values
+
+
 def _values(fields: list[str], header: list[str], cols: Columns, path: Path, line: int, decimal: str) -> np.ndarray:
     if cols.label_kind:  # a row that names what it touched holds no value
         return np.zeros(0)
@@ -386,7 +450,11 @@ def _extra(parsed: _Parsed, cols: Columns) -> dict[str, np.ndarray]:
 
 
 def _check_unique(pose_ids: np.ndarray, point_ids: np.ndarray | None, lines: list[int], path: Path) -> None:
-    seen: set = set()
+    if point_ids is None or point_ids.dtype.kind in "iu":  # whole numbers: every key distinct, at once
+        keys = pose_ids[:, None] if point_ids is None else np.stack([pose_ids, point_ids], axis=1)
+        if len(np.unique(keys, axis=0)) == len(keys):
+            return
+    seen: set = set()  # row by row: the first key seen twice, named
     for r, line in enumerate(lines):
         key = (int(pose_ids[r]), point_label(point_ids[r])) if point_ids is not None else int(pose_ids[r])
         if key in seen:
@@ -446,7 +514,13 @@ def read_measurements(
     width = 0 if cols.label_kind else len(cols.sensor) if cols.sensor_kind else 3 if cols.position else 1
     values = np.empty((n, width + len(cols.plain)))
     pose_ids = np.empty(n, dtype=int)
-    for r, (number_, fields) in enumerate(parsed.rows):
+    at_once = _rows_at_once(parsed, cols, chain, n_joints, width, decimal) if n else None
+    if at_once is not None:  # every row's numbers read a column at a time
+        q, values = at_once
+        if cols.pose is not None:
+            for r, (number_, fields) in enumerate(parsed.rows):
+                pose_ids[r] = _integer(fields[cols.pose], path, number_, "pose")
+    for r, (number_, fields) in enumerate(parsed.rows if at_once is None else ()):
         q[r] = _angles(fields, header, cols, chain, n_joints, path, number_, decimal)
         values[r] = _values(fields, header, cols, path, number_, decimal)
         if cols.pose is not None:

@@ -3,6 +3,7 @@ that ``report.json``, the console summary and the HTML report show."""
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -221,6 +222,6 @@ def _finite(value: Any) -> Any:
         return {k: _finite(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [_finite(v) for v in value]
-    if isinstance(value, float | np.floating) and not np.isfinite(value):
+    if isinstance(value, float | np.floating) and not math.isfinite(value):  # math: a scalar's test, 20x numpy's
         return None
     return value

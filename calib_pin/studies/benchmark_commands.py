@@ -14,7 +14,9 @@ process's wall time and peak resident memory (``os.wait4``). Commands:
 * ``compensate``: ``compensate`` of 1000 targets with the ``calibrate`` run's calibration.
 
 Each size's ratio to the size before is printed beside its time. The machine may be
-shared: each cell is the median of ``repeats`` runs.
+shared: each cell is the median of ``repeats`` runs. Every process runs as a user's does,
+with its bytecode (``PYTHONDONTWRITEBYTECODE`` unset: :func:`user_environment`), after one
+untimed warm-up run of the same command (:func:`warm_up`).
 """
 
 from __future__ import annotations
@@ -64,10 +66,28 @@ def _script(name: str) -> list[str]:
     return [sys.executable, "-c", "import sys; from calib_pin.cli import main; sys.exit(main())", name]
 
 
+#: How the child processes run, for the printed notes.
+PROCESS_NOTE = ("each process with bytecode as a user's install has it (PYTHONDONTWRITEBYTECODE unset), "
+                "after one untimed warm-up run of the same command")
+
+
+def user_environment() -> dict[str, str]:
+    """This process's environment as a user's shell has it: without ``PYTHONDONTWRITEBYTECODE``
+    (a user's install has its bytecode; without it every process recompiles its modules)."""
+    return {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
+def warm_up(argv: list[str], cwd: Path) -> None:
+    """One untimed run of ``argv`` (its bytecode written, its files in the page cache)."""
+    subprocess.run(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=user_environment())
+
+
 def timed_process(argv: list[str], cwd: Path) -> tuple[float, float, int]:
-    """Wall time [s], peak resident memory [MiB] and exit code of one process (output discarded)."""
+    """Wall time [s], peak resident memory [MiB] and exit code of one process (output
+    discarded), run in :func:`user_environment`."""
+    env = user_environment()
     start = time.perf_counter()
-    proc = subprocess.Popen(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - start
     proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait again
@@ -139,6 +159,7 @@ def time_commands(commands: tuple[str, ...] = COMMANDS, sizes: tuple[int, ...] =
                     continue
                 if name == "compensate" and not (folder / "cal").is_dir():
                     subprocess.run(command_argv("calibrate", folder, method), cwd=folder, capture_output=True)
+                warm_up(command_argv(name, folder, method), folder)
                 measured = [timed_process(command_argv(name, folder, method), folder) for _ in range(repeats)]
                 runs.append(Run(name, rows, method, statistics.median(m[0] for m in measured),
                                 max(m[1] for m in measured), max(m[2] for m in measured)))
@@ -199,11 +220,14 @@ def quick_start_phases(repeats: int = 3) -> tuple[dict[str, float], float]:
     phases: list[dict[str, float]] = []
     walls = []
     with tempfile.TemporaryDirectory(prefix="calib-pin-quick-") as tmp:
+        quick = [*_script("calibrate"), "irb120", "--out", str(Path(tmp) / "out")]
+        warm_up([sys.executable, "-c", PHASES_SCRIPT], Path(tmp))
+        warm_up(quick, Path(tmp))
         for _ in range(repeats):
-            run = subprocess.run([sys.executable, "-c", PHASES_SCRIPT], capture_output=True, text=True, cwd=tmp)
+            run = subprocess.run([sys.executable, "-c", PHASES_SCRIPT], capture_output=True, text=True, cwd=tmp,
+                                 env=user_environment())
             if run.returncode:
                 raise RuntimeError(f"the quick start's phases failed: {run.stderr.strip().splitlines()[-1:]}")
             phases.append(json.loads(run.stdout.strip().splitlines()[-1]))
-            walls.append(timed_process([*_script("calibrate"), "irb120", "--out", str(Path(tmp) / "out")],
-                                       Path(tmp))[0])
+            walls.append(timed_process(quick, Path(tmp))[0])
     return {k: statistics.median(p[k] for p in phases) for k in phases[0]}, statistics.median(walls)

@@ -27,7 +27,11 @@ calib-pin's ``calibrate.py ur5 --data FILE --method M --no-html --test-fraction 
 (every row trains; it also writes the URDF, the calibration file and report.json), and
 FIGAROH in a fresh Python process that builds the robot from the same URDF, reads its
 YAML and CSV, selects the parameters (its default, ``structural``) and solves; each
-process's wall time from start to exit, interleaved, medians.
+process's wall time from start to exit, interleaved, medians. Both tools are run alike:
+with bytecode, as a user's install has it (``PYTHONDONTWRITEBYTECODE`` unset), after one
+untimed warm-up run each; beside them the floor, a process that only imports numpy,
+Pinocchio and scipy.optimize (:data:`FLOOR_PROCESS`), so the table shows how much of
+calib-pin's process is its own.
 """
 
 from __future__ import annotations
@@ -243,11 +247,19 @@ class ProcessRace:
     method: str
     calib_s: float
     figaroh_s: float
+    #: The median of a process that only imports numpy, Pinocchio and scipy.optimize
+    #: (:data:`FLOOR_PROCESS`): what any tool built on them pays before its own work; None: not measured.
+    floor_s: float | None = None
 
     @property
     def ratio(self) -> float:
         """FIGAROH's median over calib-pin's."""
         return self.figaroh_s / self.calib_s
+
+
+#: The floor of a whole process (Python code run with ``-c``): the imports calib-pin's LM
+#: and FIGAROH both need, nothing else.
+FLOOR_PROCESS = "import numpy, pinocchio, scipy.optimize"
 
 
 def whole_processes(methods: list[str], repeats: int = 5, seed: int = 0,
@@ -258,7 +270,7 @@ def whole_processes(methods: list[str], repeats: int = 5, seed: int = 0,
 
     from ..measurements.csv_writer import write_measurements
     from ..robot.chain import resolve_robot
-    from .benchmark_commands import _script, timed_process
+    from .benchmark_commands import _script, timed_process, warm_up
 
     try:
         import figaroh  # noqa: F401
@@ -273,28 +285,36 @@ def whole_processes(methods: list[str], repeats: int = 5, seed: int = 0,
             write_measurements(folder / "ur5.csv", setup.data)
             figaroh_argv = [sys.executable, "-c", _FIGAROH_PROCESS, str(resolve_robot("ur5").urdf), str(config),
                             SELECTIONS[0]]
-            times: dict[str, list[float]] = {m: [] for m in [*methods, "figaroh"]}
+            argvs = {m: [*_script("calibrate"), "ur5", "--data", str(folder / "ur5.csv"), "--method", m,
+                         "--no-html", "--test-fraction", "0", "--seed", str(seed), "--out", str(folder / m)]
+                     for m in methods}
+            argvs["figaroh"] = figaroh_argv
+            argvs["floor"] = [sys.executable, "-c", FLOOR_PROCESS]
+            for argv in argvs.values():  # both tools alike: one untimed run each first
+                warm_up(argv, folder)
+            times: dict[str, list[float]] = {m: [] for m in argvs}
             for _ in range(repeats):
-                for m in methods:
-                    argv = [*_script("calibrate"), "ur5", "--data", str(folder / "ur5.csv"), "--method", m,
-                            "--no-html", "--test-fraction", "0", "--seed", str(seed), "--out", str(folder / m)]
+                for m, argv in argvs.items():
                     wall, _, code = timed_process(argv, folder)
                     if code:
-                        raise RuntimeError(f"calibrate.py ur5 --method {m} exited {code}")
+                        what = f"calibrate.py ur5 --method {m}" if m in methods else f"the {m} process"
+                        raise RuntimeError(f"{what} exited {code}")
                     times[m].append(wall)
-                wall, _, code = timed_process(figaroh_argv, folder)
-                if code:
-                    raise RuntimeError(f"the FIGAROH process exited {code}")
-                times["figaroh"].append(wall)
-        figaroh_s = statistics.median(times["figaroh"])
-        out += [ProcessRace(samples, m, statistics.median(times[m]), figaroh_s) for m in methods]
+        figaroh_s, floor_s = statistics.median(times["figaroh"]), statistics.median(times["floor"])
+        out += [ProcessRace(samples, m, statistics.median(times[m]), figaroh_s, floor_s) for m in methods]
     return out
 
 
 def format_processes(rows: list[ProcessRace]) -> str:
-    """The whole-process table: median wall s of each tool and their ratio."""
-    lines = [f"{'samples':>7s} {'calib-pin':10s}{'median s':>9s}{'FIGAROH s':>10s}{'ratio':>8s}"]
-    lines += [f"{r.samples:7d} {r.method:10s}{r.calib_s:9.3f}{r.figaroh_s:10.3f}{r.ratio:7.1f}x" for r in rows]
+    """The whole-process table: median wall s of each tool and their ratio; with the floor
+    (:data:`FLOOR_PROCESS`) measured, its median and calib-pin's time above it (its own)."""
+    floor = any(r.floor_s is not None for r in rows)
+    extra = f"{'floor s':>9s}{'above s':>9s}" if floor else ""
+    lines = [f"{'samples':>7s} {'calib-pin':10s}{'median s':>9s}{'FIGAROH s':>10s}{'ratio':>8s}{extra}"]
+    for r in rows:
+        cells = ("" if not floor else f"{'-':>9s}{'-':>9s}" if r.floor_s is None
+                 else f"{r.floor_s:9.3f}{r.calib_s - r.floor_s:9.3f}")
+        lines.append(f"{r.samples:7d} {r.method:10s}{r.calib_s:9.3f}{r.figaroh_s:10.3f}{r.ratio:7.1f}x{cells}")
     return "\n".join(lines)
 
 
