@@ -2,8 +2,8 @@
 
 Run in a fresh interpreter (a subprocess), since the test session has imported everything:
 ``simulate`` and ``calibrate --no-html`` work without the ``[hardware]`` extra (serial and
-Modbus made unimportable), import neither matplotlib nor scipy.stats (filterpy's Kalman
-filters come without it: :mod:`calib_pin.estimators.filterpy_import`) nor tqdm; and the
+Modbus made unimportable), import neither matplotlib nor scipy.stats nor scipy.ndimage
+(filterpy's Kalman filters come without them: :mod:`calib_pin.estimators.filterpy_import`) nor tqdm; and the
 calibration they give is the one the test session computes in process.
 """
 
@@ -21,7 +21,8 @@ sys.modules['serial'] = None; sys.modules['minimalmodbus'] = None  # no [hardwar
 from calib_pin.cli import command
 codes = [command('simulate')(['irb120', '--poses', '30', '--out', 's', '--force']),
          command('calibrate')(['irb120', '--data', 's', '--method', 'ekf-qibas', '--no-html', '--out', 'o'])]
-loaded = [m for m in ('matplotlib', 'scipy.stats', 'tqdm', 'serial', 'filterpy.stats.stats') if sys.modules.get(m)]
+loaded = [m for m in ('matplotlib', 'scipy.stats', 'scipy.ndimage', 'tqdm', 'serial', 'filterpy.stats.stats',
+                      'filterpy.discrete_bayes.discrete_bayes') if sys.modules.get(m)]
 print(json.dumps({'codes': codes, 'loaded': loaded}))
 """
 
@@ -48,6 +49,17 @@ def test_deferred_filterpy_stats_loads_on_use():
     assert filterpy_import.kalman().ExtendedKalmanFilter.__name__ == "ExtendedKalmanFilter"
     np.testing.assert_allclose(stats.logpdf([1.0], [0.0], [[1.0]]), -0.5 * np.log(2 * np.pi) - 0.5)
     assert callable(stats.multivariate_gaussian)
+
+
+def test_deferred_filterpy_discrete_bayes_loads_on_use():
+    """The stand-in filterpy.discrete_bayes gives the real functions when used."""
+    from calib_pin.estimators import filterpy_import
+
+    filterpy_import.kalman()
+    import filterpy.discrete_bayes as discrete_bayes
+
+    np.testing.assert_allclose(discrete_bayes.normalize(np.array([1.0, 3.0])), [0.25, 0.75])
+    assert callable(discrete_bayes.predict)
 
 
 LM_SCRIPT = """

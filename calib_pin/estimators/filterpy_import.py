@@ -1,15 +1,17 @@
-"""filterpy's Kalman filters without the import of scipy.stats they do not need here.
+"""filterpy's Kalman filters without the imports of scipy.stats and scipy.ndimage they do not need here.
 
-``import filterpy`` runs its package ``__init__``, which imports every subpackage, and
+``import filterpy`` runs its package ``__init__``, which imports every subpackage:
 ``filterpy.stats`` imports ``scipy.stats`` (about 0.6 s warm on a loaded 2-core machine,
-most of a quick start's import time). The filters use ``filterpy.stats`` for one thing,
+most of a quick start's import time) and ``filterpy.discrete_bayes`` imports
+``scipy.ndimage`` (0.1-0.25 s). The filters use ``filterpy.stats`` for one thing,
 ``logpdf``, inside their lazily computed ``log_likelihood``/``likelihood`` properties,
-which calib-pin never reads. :func:`kalman` puts a stand-in ``filterpy.stats`` in
-``sys.modules`` first: a module whose ``logpdf`` (the one name filterpy's filters
-import from it) loads the real ``filterpy.stats.stats`` (and so scipy.stats) when
-called, and whose other attributes load it on first access. Everything filterpy does works as before; only
-the moment scipy.stats is imported moves. When ``filterpy.stats`` was already imported
-the stand-in is not installed.
+which calib-pin never reads, and never use ``discrete_bayes``. :func:`kalman` puts
+stand-ins for both in ``sys.modules`` first: modules whose attributes load the real
+module (:data:`DEFERRED`) on first access, and a ``logpdf`` (the one name filterpy's
+filters import from ``stats``) that loads the real ``filterpy.stats.stats`` (and so
+scipy.stats) when called. Everything filterpy does works as before; only the moment
+scipy.stats and scipy.ndimage are imported moves. When filterpy or either subpackage was
+already imported the stand-ins are not installed.
 """
 
 from __future__ import annotations
@@ -19,6 +21,10 @@ import importlib.util
 import sys
 import types
 from typing import Any
+
+#: filterpy subpackages put off: stand-in name -> the module holding its names.
+DEFERRED = {"filterpy.stats": "filterpy.stats.stats",
+            "filterpy.discrete_bayes": "filterpy.discrete_bayes.discrete_bayes"}
 
 
 def _real_stats() -> types.ModuleType:
@@ -30,34 +36,36 @@ def _logpdf(*args: Any, **kwargs: Any) -> Any:
     return _real_stats().logpdf(*args, **kwargs)
 
 
-class _DeferredStats(types.ModuleType):
-    """``filterpy.stats`` whose attributes come from the real module, imported on first use."""
+class _Deferred(types.ModuleType):
+    """A filterpy subpackage whose attributes come from its real module (:data:`DEFERRED`),
+    imported on first use."""
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("__"):
             raise AttributeError(name)
-        real = _real_stats()
+        real = importlib.import_module(DEFERRED[self.__name__])  # found through the stand-in's __path__
         self.__dict__.update({k: v for k, v in vars(real).items() if not k.startswith("__")})
         if name not in self.__dict__:
-            raise AttributeError(f"module 'filterpy.stats' has no attribute '{name}'")
+            raise AttributeError(f"module '{self.__name__}' has no attribute '{name}'")
         return self.__dict__[name]
 
 
 def _defer_stats() -> None:
-    if "filterpy.stats" in sys.modules or "filterpy" in sys.modules:
+    if "filterpy" in sys.modules or any(name in sys.modules for name in DEFERRED):
         return
     spec = importlib.util.find_spec("filterpy")
     if spec is None or not spec.submodule_search_locations:
         return  # filterpy is missing: the import below says so
-    stats = _DeferredStats("filterpy.stats")
-    stats.__path__ = [f"{spec.submodule_search_locations[0]}/stats"]
-    stats.__package__ = "filterpy.stats"
-    stats.logpdf = _logpdf  # type: ignore[attr-defined]
-    sys.modules["filterpy.stats"] = stats
+    for name in DEFERRED:
+        stand_in = _Deferred(name)
+        stand_in.__path__ = [f"{spec.submodule_search_locations[0]}/{name.rsplit('.', 1)[1]}"]
+        stand_in.__package__ = name
+        sys.modules[name] = stand_in
+    sys.modules["filterpy.stats"].logpdf = _logpdf  # type: ignore[attr-defined]
 
 
 def kalman() -> types.ModuleType:
     """``filterpy.kalman`` (ExtendedKalmanFilter, UnscentedKalmanFilter, MerweScaledSigmaPoints),
-    imported with ``filterpy.stats`` deferred (see the module docstring)."""
+    imported with ``filterpy.stats`` and ``filterpy.discrete_bayes`` deferred (see the module docstring)."""
     _defer_stats()
     return importlib.import_module("filterpy.kalman")
