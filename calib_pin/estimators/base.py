@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from ..analysis.subspace import Subspace
-from ..problem import LeastSquares
+from ..problem import BATCH_ROWS, LeastSquares
 
 #: ``callback(rmse, evaluations)``: training RMSE [m] reached with that many evaluations.
 Callback = Callable[[float, float], None]
@@ -184,6 +184,7 @@ class Tracker:
         self.stride = 1
         self.updates = 0
         self.recorded: list[int] = []  # the update each entry follows, when thinned
+        self.pending: list[tuple[np.ndarray, float]] = []  # row updates' (x, nfev) not yet reported
 
     @property
     def recording(self) -> bool:
@@ -235,13 +236,26 @@ class Tracker:
     def record(self, rmse_m: float) -> None:
         """Report a training RMSE [m] reached with the evaluations counted so far."""
         if self.callback is not None:
+            self.flush()
             self.callback(float(rmse_m), self.nfev)
 
     def record_at(self, x: np.ndarray) -> None:
         """Report the training RMSE at x; computed only when recording, and not counted
         as work (it is bookkeeping, not part of the method)."""
         if self.callback is not None:
+            self.flush()
             self.callback(rmse(self.problem.residual(x)), self.nfev)
+
+    def flush(self) -> None:
+        """Report the row updates' RMSEs held back by :meth:`record_update`, in order: their
+        residuals in one batched pass of the problem's own ``residuals`` (the same numbers to
+        the bit as one :meth:`record_at` each, the same callback calls in the same order)."""
+        if not self.pending:
+            return
+        pending, self.pending = self.pending, []
+        residuals = type(self.problem).residuals(self.problem, [x for x, _ in pending])  # type: ignore[attr-defined]
+        for (_, nfev), r in zip(pending, residuals, strict=True):
+            self.callback(rmse(r), nfev)  # type: ignore[misc]
 
     def thin(self, updates: int) -> None:
         """Record at most :data:`HISTORY_POINTS` of ``updates`` row updates after the start
@@ -257,10 +271,20 @@ class Tracker:
             return
         if self.stride > 1:
             self.recorded.append(update)
-        self.record_at(x)
+        if getattr(type(self.problem), "residuals", None) is None:
+            self.record_at(x)
+            return
+        # Held back and evaluated in batches of at most BATCH_ROWS point-rows (one batched
+        # pass instead of one residual call per recorded update: the history of a filter run
+        # cost about as much as the filter itself).
+        self.pending.append((np.array(x, dtype=float), self.nfev))
+        if len(self.pending) * self.problem.n_rows >= BATCH_ROWS or update == self.updates:
+            self.flush()
 
     def result(self, x: np.ndarray, iterations: int, message: str, *, status: int = 0,
                **extras: Any) -> EstimateResult:
+        if self.callback is not None:
+            self.flush()
         if self.recorded and self.callback is not None:
             extras.setdefault("history_iterations", tuple(self.recorded))
         return EstimateResult(
