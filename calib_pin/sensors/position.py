@@ -177,8 +177,11 @@ class PositionModel(MeasurementModel):
         missing = [label for k, label in enumerate(labels) if k not in seen]
         if missing:
             raise DataError(data.source, f"point_id {missing[0]} is only in held-out rows: nothing locates it", None, "point_id")
-        device = fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels)
-        model = cls(chain, params, device, compliance=options.get("compliance"))
+        device, fitted = _fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels)
+        if options.get("compliance") is None and type(fitted) is cls:  # the fit's own model: no second Kinematics
+            fitted.device, model = device, fitted
+        else:
+            model = cls(chain, params, device, compliance=options.get("compliance"))
         return CalibrationProblem(model, data.q, data.values, points)
 
     @classmethod
@@ -381,15 +384,32 @@ class PositionModel(MeasurementModel):
 
     def predict_many(self, xs: list[np.ndarray], q: np.ndarray, points: np.ndarray | None = None) -> list[np.ndarray]:
         """:meth:`predict` at several x, the robot's positions in one batched pass."""
-        devices = [self.geometry_at(x) for x in xs]
         markers = _index(points, len(q))
-        base = self.points_at_many(xs, q, [d.markers[markers] for d in devices])
+        frames, rows = self._geometries_many(xs, markers)
+        base = self.points_at_many(xs, q, rows)
         if base is None:
             return super().predict_many(xs, q, points)
         # Every point's device frame in one stacked product (each slice the product predict makes).
-        rotations_t = np.array([d.frame.rotation.T for d in devices])
-        translations = np.array([d.frame.translation for d in devices])
+        rotations_t = np.array([frame.rotation.T for frame in frames])
+        translations = np.array([frame.translation for frame in frames])
         return list(base @ rotations_t + translations[:, None, :])
+
+    def _geometries_many(self, xs: list[np.ndarray], markers: np.ndarray) -> tuple[list[pin.SE3], Any]:
+        """:meth:`geometry_at` at each of xs, as the device frames and each point's rows'
+        markers (k, n_rows, 3) stacked (or a list of (n_rows, 3)): the same exp6 and sums,
+        without a :class:`PositionDevice` per point."""
+        if not self.estimate or any(x is None for x in xs):
+            devices = [self.geometry_at(x) for x in xs]
+            return [d.frame for d in devices], [d.markers[markers] for d in devices]
+        extra = np.asarray(xs, dtype=float)[:, self.sensor_start :]
+        frame = self.device.frame
+        if "device" in self.estimate:
+            frames, extra = [frame * pin.exp6(e) for e in extra[:, :6]], extra[:, 6:]
+        else:
+            frames = [frame] * len(xs)
+        if "markers" in self.estimate:
+            return frames, (self.device.markers + extra.reshape(len(xs), -1, 3))[:, markers]
+        return frames, [self.device.markers[markers]] * len(xs)
 
     def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
                               points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -491,6 +511,13 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
         positions: Measured positions, shape (n_poses, 3), [m], device frame.
         markers: Each row's marker index into ``labels``, shape (n_poses,).
     """
+    return _fit_device(chain, params, q, positions, markers, labels)[0]
+
+
+def _fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: np.ndarray,
+                markers: np.ndarray, labels: tuple[PointLabel, ...]) -> tuple[PositionDevice, PositionModel]:
+    """:func:`fit_device`, and the model it fitted with (device and markers estimated, no
+    compliance), free to take the fitted device (:meth:`PositionModel.problem_for`)."""
     n_markers = len(labels)
     model = PositionModel(chain, params, PositionDevice(pin.SE3.Identity(), np.zeros((n_markers, 3)), labels))
     end_rot, origin = model.end_frames(None, q)
@@ -518,4 +545,4 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
     from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
 
     fit = least_squares(residual, np.zeros(model.n_params - model.n_robot), jac=jacobian, method="lm")
-    return model.geometry_at(np.concatenate([zero, fit.x]))
+    return model.geometry_at(np.concatenate([zero, fit.x])), model
