@@ -384,15 +384,20 @@ class PositionModel(MeasurementModel):
 
     def predict_many(self, xs: list[np.ndarray], q: np.ndarray, points: np.ndarray | None = None) -> list[np.ndarray]:
         """:meth:`predict` at several x, the robot's positions in one batched pass."""
+        return list(self.predict_stacked(xs, q, points))
+
+    def predict_stacked(self, xs: list[np.ndarray], q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`predict_many` as one array, shape (k, n_rows, 3), [m] (what a batched
+        residual subtracts the readings from)."""
         markers = _index(points, len(q))
         frames, rows = self._geometries_many(xs, markers)
         base = self.points_at_many(xs, q, rows)
         if base is None:
-            return super().predict_many(xs, q, points)
+            return np.asarray(super().predict_many(xs, q, points))
         # Every point's device frame in one stacked product (each slice the product predict makes).
         rotations_t = np.array([frame.rotation.T for frame in frames])
         translations = np.array([frame.translation for frame in frames])
-        return list(base @ rotations_t + translations[:, None, :])
+        return base @ rotations_t + translations[:, None, :]
 
     def _geometries_many(self, xs: list[np.ndarray], markers: np.ndarray) -> tuple[list[pin.SE3], Any]:
         """:meth:`geometry_at` at each of xs, as the device frames and each point's rows'
