@@ -247,7 +247,7 @@ def test_position_geometries_of_many_points_are_geometry_at_to_the_bit():
                 zip(model.predict_many(xs, problem.q, index), xs, strict=True)] == [True] * 3
 
 
-def test_position_problem_keeps_the_fit_and_its_model_to_the_bit():
+def test_position_problem_starts_from_the_fit_to_the_bit():
     from calib_pin.sensors.position import PositionModel, fit_device
 
     problem = _position_problem()

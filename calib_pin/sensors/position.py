@@ -177,11 +177,8 @@ class PositionModel(MeasurementModel):
         missing = [label for k, label in enumerate(labels) if k not in seen]
         if missing:
             raise DataError(data.source, f"point_id {missing[0]} is only in held-out rows: nothing locates it", None, "point_id")
-        device, fitted = _fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels)
-        if options.get("compliance") is None and type(fitted) is cls:  # the fit's own model: no second Kinematics
-            fitted.device, model = device, fitted
-        else:
-            model = cls(chain, params, device, compliance=options.get("compliance"))
+        device = fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels)
+        model = cls(chain, params, device, compliance=options.get("compliance"))
         return CalibrationProblem(model, data.q, data.values, points)
 
     @classmethod
@@ -516,13 +513,6 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
         positions: Measured positions, shape (n_poses, 3), [m], device frame.
         markers: Each row's marker index into ``labels``, shape (n_poses,).
     """
-    return _fit_device(chain, params, q, positions, markers, labels)[0]
-
-
-def _fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: np.ndarray,
-                markers: np.ndarray, labels: tuple[PointLabel, ...]) -> tuple[PositionDevice, PositionModel]:
-    """:func:`fit_device`, and the model it fitted with (device and markers estimated, no
-    compliance), free to take the fitted device (:meth:`PositionModel.problem_for`)."""
     n_markers = len(labels)
     model = PositionModel(chain, params, PositionDevice(pin.SE3.Identity(), np.zeros((n_markers, 3)), labels))
     end_rot, origin = model.end_frames(None, q)
@@ -550,4 +540,4 @@ def _fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: 
     from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
 
     fit = least_squares(residual, np.zeros(model.n_params - model.n_robot), jac=jacobian, method="lm")
-    return model.geometry_at(np.concatenate([zero, fit.x])), model
+    return model.geometry_at(np.concatenate([zero, fit.x]))
