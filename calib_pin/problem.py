@@ -211,7 +211,9 @@ class CalibrationProblem(RowProblem):
         the plain batch (predicted minus measured) would be another residual."""
         if type(self).residual is not CalibrationProblem.residual:
             return np.array([self.residual(x) for x in xs])
-        predicted = np.asarray(self.model.predict_many(list(xs), self.q, self.points))  # (k, *readings.shape)
+        stacked = getattr(self.model, "predict_stacked", None)  # a model that stacks them itself: no copy
+        predicted = (stacked(list(xs), self.q, self.points) if stacked is not None
+                     else np.asarray(self.model.predict_many(list(xs), self.q, self.points)))  # (k, *readings.shape)
         return (predicted - self.readings).reshape(len(predicted), -1)
 
     def costs(self, xs: list[np.ndarray]) -> list[float]:

@@ -175,3 +175,87 @@ def test_points_many_is_points_one_by_one(robot):
             for delta, point, got in zip(deltas, points, many, strict=True):
                 kin.set_perturbation(delta)
                 assert np.array_equal(got, kin.points(q, point)[0])
+
+
+# --- the faster paths of the position searches (EKF-QIBAS), against their references, to the bit ---
+
+
+def _position_problem(markers_mm=((60.0, 0.0, 40.0), (0.0, 50.0, 30.0)), n=20, seed=3):
+    chain = cp.load_chain("ur5")
+    data, _ = cp.simulate_positions(chain, cp.parameter_model(chain), n, seed=seed, noise_mm=0.05,
+                                    markers_mm=markers_mm)
+    return prepare("ur5", data).problem_on(np.arange(len(data)))
+
+
+def _same(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def test_interpolated_point_is_the_reference_vertex_to_the_bit():
+    from calib_pin.estimators.qibas import _vertex_about_best, interpolated_point, parabola_vertex
+
+    rng = np.random.default_rng(5)
+    for t in range(3000):
+        b = rng.standard_normal(int(rng.integers(1, 40)))
+        b /= np.linalg.norm(b)
+        if t % 5 == 0:  # exact zeros of both signs and components at the distinctness threshold
+            b[rng.integers(len(b))] = rng.choice([0.0, -0.0, 1e-10, -1e-10, 5e-10, 1e-9])
+        f = [float(rng.choice([rng.random(), 1.0, 0.0, 1e-12 * rng.random(), 1.0 + rng.random()])) for _ in range(3)]
+        with np.errstate(all="ignore"):
+            reference = parabola_vertex(-b, b, 0.0, *f)
+            fast = _vertex_about_best(b, *f)
+        assert _same(reference[0], fast[0]) and _same(reference[1], fast[1])
+        z, z_bas, m = rng.standard_normal(len(b)), rng.standard_normal(len(b)), float(rng.random())
+        unit = f[2] if f[2] > 0 else 1.0
+        with np.errstate(all="ignore"):
+            vertex, valid = parabola_vertex(-b, b, 0.0, f[0] / unit, f[1] / unit, f[2] / unit)
+            assert _same(interpolated_point(z, m, b, f[2], f[0], f[1], z_bas), np.where(valid, z + m * vertex, z_bas))
+
+
+def test_stacked_deltas_and_points_are_the_listed_ones_to_the_bit():
+    problem = _position_problem()
+    model, kin = problem.model, problem.model._kin
+    xs = _points(problem, k=3, seed=4)
+    robot = [model.robot(x) for x in xs]
+    stacked = model.params.delta_matrices_many(robot)
+    assert _same(stacked, np.array([model.params.delta_matrices(r) for r in robot]))
+    rows = [model.device.markers[problem.points] + 1e-3 * j for j in range(3)]
+    listed = kin.points_many(list(stacked), problem.q, rows)
+    assert _same(kin.points_many(stacked, problem.q, np.array(rows)), listed)
+    assert _same(kin.points_many(stacked, problem.q, np.array([r[0] for r in rows])),
+                 kin.points_many(list(stacked), problem.q, [r[0] for r in rows]))
+    for delta, row, got in zip(stacked, rows, listed, strict=True):
+        kin.set_perturbation(delta)
+        assert _same(kin.points(problem.q, row)[0], got)
+
+
+def test_position_geometries_of_many_points_are_geometry_at_to_the_bit():
+    from calib_pin.sensors.position import PositionModel
+
+    problem = _position_problem()
+    fitted = problem.model
+    index = problem.points
+    for estimate in (("device", "markers"), ("device",), ("markers",), ()):
+        model = PositionModel(fitted.chain, fitted.params, fitted.device, estimate=estimate)
+        xs = [0.5 * model.scale * np.random.default_rng(j).standard_normal(model.n_params) for j in range(3)]
+        frames, rows = model._geometries_many(xs, index)
+        for x, frame, row in zip(xs, frames, rows, strict=True):
+            device = model.geometry_at(x)
+            assert _same(frame.homogeneous, device.frame.homogeneous) and _same(row, device.markers[index])
+        assert [_same(a, model.predict(x, problem.q, index)) for a, x in
+                zip(model.predict_many(xs, problem.q, index), xs, strict=True)] == [True] * 3
+
+
+def test_position_problem_starts_from_the_fit_to_the_bit():
+    from calib_pin.sensors.position import PositionModel, fit_device
+
+    problem = _position_problem()
+    model = problem.model
+    device = fit_device(model.chain, model.params, problem.q, problem.readings, problem.points, model.device.labels)
+    assert _same(model.device.frame.homogeneous, device.frame.homogeneous) and _same(model.device.markers, device.markers)
+    fresh = cp.CalibrationProblem(PositionModel(model.chain, model.params, device), problem.q, problem.readings,
+                                  problem.points)
+    assert fresh.model.names == model.names and _same(fresh.scale, model.scale)
+    for x in [np.zeros(problem.n_params), *_points(problem, k=2)]:
+        assert _same(problem.residual(x), fresh.residual(x)) and _same(problem.jacobian(x), fresh.jacobian(x))

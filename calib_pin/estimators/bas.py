@@ -109,7 +109,7 @@ class BAS:
         for iterations in range(1, self.max_iter + 1):
             if b_next is None:
                 b = rng.standard_normal(space.dim)
-                b /= np.linalg.norm(b)
+                b /= np.sqrt(b.dot(b))  # np.linalg.norm(b), its own operations, without its checks
             else:
                 b, b_next = b_next, None
             if ahead is not None and ahead[0] is z:  # these antennae came with the last call
@@ -128,7 +128,7 @@ class BAS:
                     # length are known now) in the same batched call: used, and counted,
                     # when the beetle moves to z_qi, as it nearly always does.
                     b_next = rng.standard_normal(space.dim)
-                    b_next /= np.linalg.norm(b_next)
+                    b_next /= np.sqrt(b_next.dot(b_next))  # as b above
                     m_next = self.tau * m + m0  # the decay below
                     z_nr, z_nl = z_qi + m_next * b_next, z_qi - m_next * b_next
                     f_qi, f_nr, f_nl = track.costs([space.to_x(z_qi), space.to_x(z_nr), space.to_x(z_nl)], used=1)

@@ -54,8 +54,27 @@ def interpolated_point(
     well-conditioned whatever the units.
     """
     unit = f if f > 0 else 1.0  # a perfect fit (f = 0) keeps the costs as they are
-    vertex, valid = parabola_vertex(-b, b, 0.0, f_l / unit, f_r / unit, f / unit)  # z_best at 0 in every dimension
+    vertex, valid = _vertex_about_best(b, f_l / unit, f_r / unit, f / unit)  # z_best at 0 in every dimension
     return np.where(valid, z + m * vertex, z_bas)
+
+
+def _vertex_about_best(b: np.ndarray, f1: float, f2: float, f3: float) -> tuple[np.ndarray, np.ndarray]:
+    """``parabola_vertex(-b, b, 0.0, f1, f2, f3)`` for a finite b, the same bits with fewer
+    array operations, by identities exact in floating point: (-b)**2 == b**2, so
+    x2**2 - x1**2 is +0 and its term the number 0.0 * f3; x - 0.0 == x (also for -0.0), so
+    x1 - x3 is x1 and d23 is b; |0.0 - x1| == |b|, so d31's test is d23's
+    (``tests/test_problem_batched.py`` checks it against the reference, to the bit)."""
+    x1 = -b
+    sq = b**2
+    num = (sq * f2 + (0.0 - sq) * f1) + 0.0 * f3
+    den = x1 * f2 + (0.0 - b) * f1 + (b - x1) * f3
+    d12, d31 = x1 - b, 0.0 - x1
+    distinct = (np.abs(d12) > 1e-9) & (np.abs(b) > 1e-9)  # d23's test, and d31's
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = num / (2.0 * den + UPSILON0)
+        c2 = -(f1 * b + f2 * d31 + f3 * d12) / (d12 * b * d31)
+    valid = distinct & (c2 > 0) & np.isfinite(vertex)
+    return vertex, valid
 
 
 @dataclass(frozen=True)

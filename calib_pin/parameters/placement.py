@@ -36,6 +36,12 @@ class PlacementModel:
         """:meth:`deltas` as homogeneous matrices, shape (n + 1, 4, 4)."""
         return np.array([m.homogeneous for m in self.deltas(x)])
 
+    def delta_matrices_many(self, xs: list[np.ndarray]) -> np.ndarray:
+        """:meth:`delta_matrices` at k points xs (each (6 (n + 1),)) in one array, shape
+        (k, n + 1, 4, 4): the same exp6 of each twist, stacked (no per-point array)."""
+        twists = np.asarray(xs, dtype=float).reshape(-1, 6)
+        return np.array([pin.exp6(t).homogeneous for t in twists]).reshape(len(xs), -1, 4, 4)
+
     def delta_jacobian(self, x: np.ndarray) -> np.ndarray:
         """Block diagonal of exp6's right Jacobians, shape (6 (n + 1), 6 (n + 1))."""
         twists = np.asarray(x, dtype=float).reshape(-1, 6)

@@ -152,18 +152,25 @@ class Kinematics:
         v[0, 3] = 1.0
         return _through_joints(v, self._backward_factors()[:, None], self._coefficients(q), q)[0]
 
-    def points_many(self, deltas: list[np.ndarray | None], q: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
+    def points_many(self, deltas: list[np.ndarray | None] | np.ndarray, q: np.ndarray,
+                    points: list[np.ndarray] | np.ndarray) -> np.ndarray:
         """:meth:`points` without derivatives for several perturbations at once: the
         positions of ``points[j]`` (3,) or (n_poses, 3) under ``deltas[j]`` (as
-        :meth:`set_perturbation` takes, None: nominal) at the poses q, shape (k, n_poses, 3),
+        :meth:`set_perturbation` takes, None: nominal; or all of them stacked, shape
+        (k, n_joints + 1, 4, 4)) at the poses q, shape (k, n_poses, 3),
         [m]. One batched pass for all k: the same numbers, to the bit, as k calls of
         :meth:`points` (the same products, stacked); the held perturbation is left as it is."""
         q = _joint_positions(q, len(self._basis[0]), finite=False)  # checked on the result below
         k, n_place = len(deltas), len(self._nominal)
         # Per placement i, one matmul for all k points: nominal_i @ (delta_i^1 | ... | delta_i^k).
-        given = [j for j, delta in enumerate(deltas) if delta is not None]
+        given: list[int] | range
+        if isinstance(deltas, np.ndarray):  # stacked already, shape (k, n_place, 4, 4): every point perturbed
+            given, chosen = range(k), deltas
+        else:
+            given = [j for j, delta in enumerate(deltas) if delta is not None]
+            chosen = np.array([deltas[j] for j in given])
         if given:
-            stacked = np.array([deltas[j] for j in given]).transpose(1, 2, 0, 3).reshape(n_place, 4, -1)
+            stacked = chosen.transpose(1, 2, 0, 3).reshape(n_place, 4, -1)
             perturbed = (self._nominal @ stacked).reshape(n_place, 4, len(given), 4).transpose(0, 2, 1, 3)
         if given and len(given) == k:
             placements = perturbed  # (n_place, k, 4, 4)
@@ -178,10 +185,15 @@ class Kinematics:
         backward = factors.reshape(-1, k, 4, 3, 4).transpose(0, 1, 4, 3, 2).reshape(-1, k, 4, 12)
         v = np.empty((k, 4, len(q)))
         ends = placements[-1]
-        shapes = {np.shape(point) for point in points}
-        if len(points) == k and len(shapes) == 1 and shapes <= {(3,), (len(q), 3)}:  # in the end frame, stacked
-            stacked = np.array(points, dtype=float).reshape(k, -1, 3)
-            v[:, :3] = (stacked @ ends[:, :3, :3].transpose(0, 2, 1) + ends[:, None, :3, 3]).transpose(0, 2, 1)
+        ends_frame: np.ndarray | None = None  # the points in the end frame, stacked (k, 1 or n_poses, 3)
+        if isinstance(points, np.ndarray) and points.shape in ((k, 3), (k, len(q), 3)):
+            ends_frame = np.asarray(points, dtype=float).reshape(k, -1, 3)
+        else:
+            shapes = {np.shape(point) for point in points}
+            if len(points) == k and len(shapes) == 1 and shapes <= {(3,), (len(q), 3)}:
+                ends_frame = np.array(points, dtype=float).reshape(k, -1, 3)
+        if ends_frame is not None:
+            v[:, :3] = (ends_frame @ ends[:, :3, :3].transpose(0, 2, 1) + ends[:, None, :3, 3]).transpose(0, 2, 1)
         else:
             for j, (end, point) in enumerate(zip(ends, points, strict=True)):
                 v[j, :3] = np.atleast_2d(np.asarray(point, dtype=float) @ end[:3, :3].T + end[:3, 3]).T

@@ -418,6 +418,9 @@ class MeasurementModel(ABC):
         None with joint compliances (the deflected angles differ per x: no shared pass)."""
         if self.deflection is not None:
             return None
+        many = getattr(self.params, "delta_matrices_many", None)
+        if many is not None and len(xs):  # the parameter model stacks them itself (the same matrices)
+            return self._kin.points_many(many([self.robot(x) for x in xs]), q, points)
         deltas = [self.params.delta_matrices(self.robot(x)) for x in xs]
         return self._kin.points_many(deltas, q, points)
 

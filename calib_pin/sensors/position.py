@@ -381,15 +381,37 @@ class PositionModel(MeasurementModel):
 
     def predict_many(self, xs: list[np.ndarray], q: np.ndarray, points: np.ndarray | None = None) -> list[np.ndarray]:
         """:meth:`predict` at several x, the robot's positions in one batched pass."""
-        devices = [self.geometry_at(x) for x in xs]
+        return list(self.predict_stacked(xs, q, points))
+
+    def predict_stacked(self, xs: list[np.ndarray], q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`predict_many` as one array, shape (k, n_rows, 3), [m] (what a batched
+        residual subtracts the readings from)."""
         markers = _index(points, len(q))
-        base = self.points_at_many(xs, q, [d.markers[markers] for d in devices])
+        frames, rows = self._geometries_many(xs, markers)
+        base = self.points_at_many(xs, q, rows)
         if base is None:
-            return super().predict_many(xs, q, points)
+            return np.asarray(super().predict_many(xs, q, points))
         # Every point's device frame in one stacked product (each slice the product predict makes).
-        rotations_t = np.array([d.frame.rotation.T for d in devices])
-        translations = np.array([d.frame.translation for d in devices])
-        return list(base @ rotations_t + translations[:, None, :])
+        rotations_t = np.array([frame.rotation.T for frame in frames])
+        translations = np.array([frame.translation for frame in frames])
+        return base @ rotations_t + translations[:, None, :]
+
+    def _geometries_many(self, xs: list[np.ndarray], markers: np.ndarray) -> tuple[list[pin.SE3], Any]:
+        """:meth:`geometry_at` at each of xs, as the device frames and each point's rows'
+        markers (k, n_rows, 3) stacked (or a list of (n_rows, 3)): the same exp6 and sums,
+        without a :class:`PositionDevice` per point."""
+        if not self.estimate or any(x is None for x in xs):
+            devices = [self.geometry_at(x) for x in xs]
+            return [d.frame for d in devices], [d.markers[markers] for d in devices]
+        extra = np.asarray(xs, dtype=float)[:, self.sensor_start :]
+        frame = self.device.frame
+        if "device" in self.estimate:
+            frames, extra = [frame * pin.exp6(e) for e in extra[:, :6]], extra[:, 6:]
+        else:
+            frames = [frame] * len(xs)
+        if "markers" in self.estimate:
+            return frames, (self.device.markers + extra.reshape(len(xs), -1, 3))[:, markers]
+        return frames, [self.device.markers[markers]] * len(xs)
 
     def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
                               points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
