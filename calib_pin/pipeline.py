@@ -8,6 +8,7 @@ rows only (nothing is ever fitted on a test row) and runs any estimator
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -107,17 +108,19 @@ class CalibrationSetup:
     def problem_on(self, fit_rows: np.ndarray) -> CalibrationProblem:
         """Every row of the data, with the sensor's starting geometry fitted on ``fit_rows``.
         Fitted on every row (``test_fraction`` 0, a separate test session), it is
-        :attr:`problem` when that was made from the same data and options: the same fit,
-        not made twice."""
+        :attr:`problem` when that was made from the same chain, parameter model and data
+        (the same objects) and options of equal value (an option changed in place since is
+        seen): the same fit, not made twice."""
         made, inputs = self.__dict__.get("problem"), self.__dict__.get("_problem_inputs")
-        if (made is not None and inputs is not None and _same_objects(inputs, self._inputs())
+        if (made is not None and inputs is not None and _same_inputs(inputs, self._inputs())
                 and len(fit_rows) == len(self.data) and np.array_equal(fit_rows, np.arange(len(self.data)))):
             return cast(CalibrationProblem, made)
         return sensor_for(self.data.kind).problem_for(self.chain, self.params, self.data, fit_rows, self.options)
 
-    def _inputs(self) -> list[Any]:
-        """What a problem is made from: the chain, parameter model, data, option keys and values."""
-        return [self.chain, self.params, self.data, *self.options.keys(), *self.options.values()]
+    def _inputs(self) -> tuple[list[Any], dict[str, Any]]:
+        """What a problem is made from: the chain, parameter model and data (objects), and a
+        copy of the options (values)."""
+        return [self.chain, self.params, self.data], copy.deepcopy(dict(self.options))
 
     @cached_property
     def problem(self) -> CalibrationProblem:
@@ -477,9 +480,28 @@ def calibrate(
     return prepared.run(method, seed=seed, test_fraction=test_fraction, loss=loss, test_data=validation)
 
 
-def _same_objects(a: list[Any], b: list[Any]) -> bool:
-    """The same objects (identity, not equality: a field replaced or an option changed is another)."""
-    return len(a) == len(b) and all(x is y for x, y in zip(a, b, strict=True))
+def _same_inputs(a: tuple[list[Any], dict[str, Any]], b: tuple[list[Any], dict[str, Any]]) -> bool:
+    """The same chain, parameter model and data objects (a field replaced is another) and
+    options of equal value (:func:`_equal`)."""
+    (objects_a, options_a), (objects_b, options_b) = a, b
+    return (len(objects_a) == len(objects_b) and all(x is y for x, y in zip(objects_a, objects_b, strict=True))
+            and _equal(options_a, options_b))
+
+
+def _equal(a: Any, b: Any) -> bool:
+    """Equal values, arrays element by element and containers item by item (NaN equal to NaN)."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return a.shape == b.shape and a.dtype == b.dtype and bool(
+            np.array_equal(a, b, equal_nan=a.dtype.kind in "fc"))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b, strict=True))
+    try:
+        return bool(a == b) or (a is b)
+    except (TypeError, ValueError):
+        return a is b
 
 
 def _check_data(data: Any, arg: str) -> None:

@@ -15,6 +15,7 @@ from calib_pin.measurements import write_measurements
 
 ROBOTS = Path(__file__).resolve().parent.parent / "robots"
 WU2015 = ROBOTS / "irb120_wu2015.csv"
+DEFAULT_CSV = ROBOTS / "irb120_default.csv"
 
 
 def _with_test_rows_moved(data: cp.MeasurementSet, test: np.ndarray) -> cp.MeasurementSet:
@@ -128,3 +129,16 @@ def test_the_sensor_frame_is_fitted_once_when_every_row_trains(monkeypatch):
     setup.data = dataclasses.replace(setup.data)  # another data object: made again
     setup.run("lm", test_fraction=0)
     assert len(calls) == 5 and calls[-1] == len(setup.data)
+
+
+def test_an_option_changed_in_place_after_prepare_makes_a_new_problem():
+    """The reused problem (every row trains) is the setup's only while its options keep their
+    values: an anchor changed in place after prepare is seen (review of issue 24), as it was
+    when every run made its own problem."""
+    setup = cp.prepare("irb120", DEFAULT_CSV, anchor_mm=[600.0, 200.0, -100.0])
+    first = setup.run("lm", test_fraction=0)
+    assert first.problem is setup.problem
+    setup.options["anchor_mm"][0] = 900.0
+    moved = setup.run("lm", test_fraction=0)
+    assert moved.problem is not setup.problem
+    assert moved.metrics["train"]["before"].rmse_mm > 50 * first.metrics["train"]["before"].rmse_mm
