@@ -135,3 +135,14 @@ def test_the_shared_jacobian_and_svd_give_the_analysis_made_afresh():
     assert _as_fields(analyze(setup.problem.subset(np.arange(1, len(setup.data), 2)))) == _as_fields(other)
     held = analyze(training, fixed=("theta_6",))  # columns left out: the SVD of the kept ones
     assert "theta_6" not in held.names and held.rank == fresh["rank"]
+
+
+def test_an_analysis_from_the_kept_svd_is_the_callers_own():
+    """An analysis made from the kept Jacobian and SVD gives writable arrays of its own
+    (review of issue 24: a repeat analysis handed back the memo's read-only arrays)."""
+    setup = cp.prepare("irb120")
+    first = analyze(setup.problem)
+    again = analyze(setup.problem)
+    assert again.singular_values.tobytes() == first.singular_values.tobytes()
+    again.singular_values[:] = 0.0  # the caller's own array
+    assert analyze(setup.problem).singular_values.tobytes() == first.singular_values.tobytes()

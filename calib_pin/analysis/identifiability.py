@@ -166,10 +166,11 @@ def _same(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
 
 def _jacobian(problem: CalibrationProblem | StackedProblem, x: np.ndarray) -> np.ndarray:
     """``problem.jacobian(x)``; when the last call here was of the same rows, model and x,
-    the (read-only) copy of that call's array: a Jacobian is a pure function of them."""
+    a copy of that call's array (kept read-only here; the caller's copy is its own): a
+    Jacobian is a pure function of them."""
     key = _key(problem, x)
     if key is not None and _LAST_JACOBIAN and _same(_LAST_JACOBIAN[0], key):
-        return _LAST_JACOBIAN[1]
+        return np.array(_LAST_JACOBIAN[1])
     jacobian = problem.jacobian(x)
     _LAST_JACOBIAN[:] = []
     if key is not None and jacobian.size <= MEMO_VALUES:
@@ -181,11 +182,12 @@ def _jacobian(problem: CalibrationProblem | StackedProblem, x: np.ndarray) -> np
 
 def _svd(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The singular values and right singular vectors of ``np.linalg.svd(matrix,
-    full_matrices=False)``; for a matrix of the same bytes as the last call's, (read-only)
-    copies of that call's."""
+    full_matrices=False)``; for a matrix of the same bytes as the last call's, copies of
+    that call's (kept read-only here; the caller's copies are its own)."""
     key = (matrix.shape, matrix.tobytes())
     if _LAST_SVD and _LAST_SVD[0] == key:
-        return _LAST_SVD[1]
+        s, vt = _LAST_SVD[1]
+        return np.array(s), np.array(vt)
     _, s, vt = np.linalg.svd(matrix, full_matrices=False)
     _LAST_SVD[:] = []
     if matrix.size <= MEMO_VALUES:
