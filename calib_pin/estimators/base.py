@@ -15,7 +15,12 @@ and not its bookkeeping. A method whose iteration is one row's update (the Kalma
 filters) computes the training RMSE over every row for each entry: it records at most
 :data:`HISTORY_POINTS` entries, spread evenly over its updates (every update when it
 has no more), so the record costs O(rows), not O(rows^2); the result's
-``history_iterations`` then says which update each entry follows.
+``history_iterations`` then says which update each entry follows. Those entries are
+computed in batches (one batched residual pass over at most
+:data:`calib_pin.problem.BATCH_ROWS` point-rows, :meth:`Tracker.flush`) and handed to the
+callback when a batch is full, at the last update and before any other entry: the
+callback gets the same calls with the same values in the same order, only later; a
+callback that raises to stop a filter stops it at the end of that batch, not at its entry.
 
 Work is counted in *evaluations*: one evaluation is the residual (or the Jacobian) of
 the whole training set; a Kalman update that predicts one row counts 1/n_rows of an
