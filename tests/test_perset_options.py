@@ -115,3 +115,29 @@ def test_a_cable_key_on_a_position_set_is_refused(tmp_path):
     data = [FitSet(tmp_path / "a.csv", setup=CableSetup(anchor_mm=(1, 2, 3))), FitSet(tmp_path / "b.csv")]
     with pytest.raises(CalibPinError, match="anchor_mm: not a set-up option of positions"):
         cp.prepare("irb120", data)
+
+
+@pytest.mark.parametrize(("files", "typed", "says"), [
+    (["irb120_default"], "noise_deg=2", "noise_deg: is for 6-D data; {} holds drawstring readings"),
+    (["irb120_contact_example"], "noise_deg=2", "noise_deg: is for 6-D data; {} holds contact fixtures"),
+    (["irb120_wu2015"], "tool_mm=1,2,3", "tool_mm: is for drawstring and contact data; {} holds positions"),
+    (["irb120_wu2015"], "anchor_mm=1,2,3", "anchor_mm: is for drawstring data; {} holds positions"),
+    (["irb120_default"], "noise_deg=200", "noise_deg: expected a number in (0, 180] deg, got 200"),
+    (["irb120_default"], "role=train", "role: 'train' for the only set"),
+    (["irb120_default", "irb120_wu2015"], "noise_deg=2", "noise_deg: not a set-up option of drawstring readings"),
+    (["irb120_default", "irb120_wu2015"], "noise_deg=200", "noise_deg: expected a number in (0, 180] deg"),
+])
+def test_a_refused_per_set_option_names_the_data_argument(files, typed, says, capsys):
+    paths = [f"robots/{name}.csv" for name in files]
+    first = f"{paths[0]}:{typed}"
+    argv = ["irb120", "--data", first, *[a for p in paths[1:] for a in ("--data", p)], "--analyze"]
+    assert calibrate_main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: --data '{first}': {says.format(paths[0])}")
+    assert err.count("\n") == 1 and "--noise-deg" not in err and "--tool-mm" not in err and "argument " not in err
+
+
+def test_a_global_flag_refused_still_names_the_flag(capsys):
+    assert calibrate_main(["irb120", "--data", "robots/irb120_default.csv:noise_mm=0.1", "--noise-deg", "2",
+                           "--analyze"]) == 2
+    assert capsys.readouterr().err == "error: --noise-deg is for 6-D data; robots/irb120_default.csv holds drawstring readings\n"

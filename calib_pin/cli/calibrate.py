@@ -118,7 +118,44 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
 def calibrate_main(argv: Sequence[str] | None = None) -> int:
     """``calibrate.py ROBOT [--data CSV] [--method NAME] [--seed N] [--test-fraction F] [--out DIR]``."""
     args = parse_args("calibrate", argv)
-    return run(lambda: _analyze(args) if args.analyze else _calibrate(args))
+    return run(lambda: _per_set_named(args, _analyze if args.analyze else _calibrate))
+
+
+def _per_set_named(args: argparse.Namespace, action: Any) -> int:
+    """``action(args)``, with a refusal of a per-set option (``--data FILE:key=value``)
+    that the library checks later (a value its record refuses, a key the file's sensor
+    does not take, a role for the only set) naming that argument and key, as the parse
+    of :func:`data_argument` does, rather than the global flag (``--noise-deg``) or the
+    library's argument (``noise_deg``) the user never typed.
+
+    Raises:
+        CalibPinError: ``action``'s, reworded for a per-set key given in one ``--data``.
+    """
+    from ..exceptions import ArgumentError, CalibPinError, DataError
+    from ..sensors.setup import flag_of
+
+    try:
+        return action(args)
+    except CalibPinError as e:
+        try:
+            typed = [(text, path, key) for text in args.data or () for path, options in [data_argument(text)]
+                     for key in options]
+        except CalibPinError:  # refused before its --data was read: the first error stands
+            raise e from None
+        for text, path, key in typed:
+            flag = flag_of(key)
+            if getattr(args, key, None) is not None:
+                continue  # the global flag was given too: the library's message may be about it
+            if (isinstance(e, ArgumentError) and e.argument == key) or \
+                    (isinstance(e, DataError) and e.field == key and e.line is None and Path(e.path) == Path(path)):
+                reason = e.reason
+            elif not isinstance(e, ArgumentError | DataError) and str(e).startswith(f"{flag} is for ") \
+                    and f"{path} holds " in str(e):
+                reason = str(e)[len(flag) + 1:]
+            else:
+                continue
+            raise CalibPinError(f"--data '{text}': {key}: {reason}") from None
+        raise
 
 
 #: The keys a ``--data`` argument may carry besides its sensor's set-up fields.
