@@ -91,7 +91,28 @@ def test_geometry_rows_take_the_unit_from_the_key():
                           "points_mm": {"A": [1, 2, 3]}, "offset_mm": 4.25, "tool": "given"})
     assert rows == [["anchor", "[1, 2, 3]", "mm"], ["frame / rpy", "[0.5, 0, 90]", "deg"],
                     ["frame / meaning", "p = R q", ""], ["points / A", "[1, 2, 3]", "mm"], ["offset", "4.25", "mm"],
-                    ["tool", "given", ""]]
+                    ["tool point given or estimated", "given", ""]]
+
+
+def test_a_contact_sets_tool_point_and_its_origin_have_distinct_rows(chain):
+    """A contact set's geometry has the tool point (``tool_mm``) and whether it was given
+    (``tool``): two rows that both read "tool" before; now named apart, the point in mm."""
+    from calib_pin.report.html import fmt
+    from calib_pin.sensors.contact import simulate_contacts
+
+    params = cp.parameter_model(chain)
+    data = simulate_contacts(chain, params, 10, seed=3)[0]
+    result = cp.calibrate("irb120", data, method="lm")
+    geometry = build_report(result)["sensor_geometry"]
+    rows = geometry_rows(geometry)
+    labels = [row[0] for row in rows]
+    assert len(labels) == len(set(labels)), labels
+    by_label = {row[0]: row for row in rows}
+    tool = geometry["tool_mm"]
+    assert by_label["tool point (end frame)"][1:] == [f"[{', '.join(fmt(v) for v in tool)}]", "mm"]
+    assert by_label["tool point given or estimated"][1:] == [geometry["tool"], ""]
+    text = _sensor_section(sensor_html(build_report(result), figures=False))
+    assert "tool point (end frame)" in text and "tool point given or estimated" in text
 
 
 def test_a_shared_flag_names_every_sensor_that_takes_it():

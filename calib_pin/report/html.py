@@ -135,6 +135,10 @@ def _deviation_section(r: dict, rows: list[dict]) -> str:
 
 #: Key endings that name a unit (``anchor_mm``, ``rpy_deg``), shown in the geometry table's unit column.
 UNITS = ("mm", "deg", "m", "rad")
+#: Table names of top-level geometry keys whose bare name would be ambiguous: a contact set
+#: reports its tool point (``tool_mm``) and whether it was given or estimated (``tool``),
+#: which both read "tool" (a drawstring's ``tool_mm`` is its hook, a tool point too).
+LABELS = {"tool_mm": "tool point (end frame)", "tool": "tool point given or estimated"}
 
 
 def _cell(value: Any) -> str:
@@ -153,13 +157,14 @@ def _cell(value: Any) -> str:
 def geometry_rows(geometry: dict, prefix: str = "") -> list[list[str]]:
     """A sensor's geometry (its model's ``geometry_report``, the unit in each key's ending)
     as table rows (quantity, value, unit): nested records flattened, their names joined by
-    " / " (``device_frame / translation``). Names no sensor: any record a sensor reports is shown."""
+    " / " (``device_frame / translation``), a top-level key of :data:`LABELS` by its name
+    there. Names no sensor: any record a sensor reports is shown."""
     rows: list[list[str]] = []
     for key, value in geometry.items():
         name, _, unit = str(key).rpartition("_")
         if unit not in UNITS or not name:
             name, unit = str(key), ""
-        label = f"{prefix}{name.replace('_', ' ')}"
+        label = LABELS[key] if not prefix and key in LABELS else f"{prefix}{name.replace('_', ' ')}"
         if isinstance(value, dict):
             if value and all(not isinstance(v, dict) for v in value.values()) and unit:  # labelled points in one unit
                 rows += [[html.escape(f"{label} / {k}"), _cell(v), unit] for k, v in value.items()]
