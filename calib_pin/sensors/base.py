@@ -59,6 +59,12 @@ class NoisePart:
         return {f"noise_{self.unit}": self.sigma * self.per_si, "noise_from": self.origin}
 
 
+def frame_unknowns(prefix: str, metres: float, radians: float) -> list[tuple[str, str, float]]:
+    """The six unknowns (name, unit, typical size) of a frame correction: ``PREFIX_x/y/z``
+    [m], typical ``metres``, then ``PREFIX_rx/ry/rz`` [rad], typical ``radians``."""
+    return [(f"{prefix}_{a}", "m", metres) for a in "xyz"] + [(f"{prefix}_r{a}", "rad", radians) for a in "xyz"]
+
+
 def chosen(estimate: Any, valid: tuple[str, ...], sensor: str) -> tuple[str, ...]:
     """The sensor unknowns to estimate (a comma-separated str or a sequence of names), in
     ``valid``'s order.

@@ -45,7 +45,7 @@ from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
-from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart, chosen
+from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart, chosen, frame_unknowns
 from .setup import SensorSetup, finite, option
 
 if TYPE_CHECKING:
@@ -267,9 +267,9 @@ class PoseModel(MeasurementModel):
         self.estimate = chosen(estimate, POSE_EXTRAS, "a 6-D pose device")
         extra = []
         if "device" in self.estimate:
-            extra += [(f"device_{a}", "m", 2e-3) for a in "xyz"] + [(f"device_r{a}", "rad", 2e-3) for a in "xyz"]
+            extra += frame_unknowns("device", 2e-3, 2e-3)
         if "body" in self.estimate:
-            extra += [(f"body_{a}", "m", 1e-3) for a in "xyz"] + [(f"body_r{a}", "rad", 2e-3) for a in "xyz"]
+            extra += frame_unknowns("body", 1e-3, 2e-3)
         #: Which of the 12 corrections (device translation, rotation, body translation, rotation) x holds.
         self._parts = np.array([6 * k + i for k, name in enumerate(POSE_EXTRAS) if name in self.estimate
                                 for i in range(6)], dtype=int)

@@ -33,7 +33,7 @@ from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
-from .base import MeasurementModel, chosen
+from .base import MeasurementModel, chosen, frame_unknowns
 from .setup import SensorSetup
 
 if TYPE_CHECKING:
@@ -154,7 +154,7 @@ class PositionModel(MeasurementModel):
         self.estimate = chosen(estimate, POSITION_EXTRAS, "a position device")
         extra = []
         if "device" in self.estimate:
-            extra += [(f"device_{a}", "m", 2e-3) for a in "xyz"] + [(f"device_r{a}", "rad", 2e-3) for a in "xyz"]
+            extra += frame_unknowns("device", 2e-3, 2e-3)
         if "markers" in self.estimate:
             extra += [(f"marker{label}_{a}", "m", 1e-3) for label in device.labels for a in "xyz"]
         super().__init__(chain, params, extra, compliance)
