@@ -15,6 +15,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import os
 import re
 import socket
 import time
@@ -131,8 +132,23 @@ def parallel_completed(
         yield from _joblib_completed(limited(fn), items, jobs)
 
 
+#: loky's resource tracker (a process of its own, started with the first pool) warns on its
+#: stderr about the semaphores of a worker that was killed, after calib-pin has said so in one
+#: line (:class:`ParallelFault`); it is started with that warning off (the environment's
+#: PYTHONWARNINGS, which it reads when it starts).
+QUIET_TRACKER = "ignore::UserWarning:joblib.externals.loky.backend.resource_tracker"
+
+
+def _quiet_resource_tracker() -> None:
+    """Add :data:`QUIET_TRACKER` to PYTHONWARNINGS (kept: the caller's own filters)."""
+    current = os.environ.get("PYTHONWARNINGS", "")
+    if QUIET_TRACKER not in current.split(","):
+        os.environ["PYTHONWARNINGS"] = ",".join(part for part in (current, QUIET_TRACKER) if part)
+
+
 def _joblib_completed(fn: Callable, items: list, jobs: int) -> Iterator[tuple[int, Any]]:
     joblib = require("joblib")
+    _quiet_resource_tracker()
     from joblib.externals.loky.process_executor import TerminatedWorkerError
 
     run = joblib.Parallel(n_jobs=min(jobs, len(items)), backend="loky", batch_size=1, return_as="generator_unordered")
