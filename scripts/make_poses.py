@@ -3,7 +3,7 @@
 
 import sys
 
-from calib_pin.cli import command
+from calib_pin.cli.process import run_command
 
 if __name__ == "__main__":
-    sys.exit(command("make-poses")(sys.argv[1:]))
+    sys.exit(run_command("make-poses", sys.argv[1:]))
