@@ -42,8 +42,10 @@ from ..problem import BATCH_ROWS, LeastSquares
 Callback = Callable[[float, float], None]
 
 #: Most history entries a method records over its row updates (see the module docstring):
-#: a convergence figure is drawn from a few hundred points as well as from every one.
-HISTORY_POINTS = 300
+#: a convergence figure is drawn from a hundred points as well as from every one (each
+#: entry is the training RMSE over every row: at 100 000 rows, 300 entries were about 30 %
+#: of ``calibrate --method ekf-qibas``'s CPU time, 100 entries cost a third of that).
+HISTORY_POINTS = 100
 
 #: ``correction(q, points)``: what to add to the values a model predicts at joint angles
 #: q (n_rows, n_joints) [rad] for rows measuring points ``points`` (each row's point

@@ -29,7 +29,7 @@ def _estimate(result: CalibrationResult) -> dict[str, Any]:
         "stop_reason": est.message,
         "train_rmse_history_mm": [h * 1e3 for h in est.history],
         "history_evaluations": list(est.evaluations),
-        # the iteration each history entry follows (a Kalman filter records a few hundred updates)
+        # the iteration each history entry follows (a Kalman filter records at most a hundred updates)
         "history_iterations": [est.iteration_of(k) for k in range(len(est.history))],
     }
 

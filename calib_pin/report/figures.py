@@ -245,7 +245,7 @@ def workspace(r: dict) -> bytes:
 
 def convergence(r: dict) -> bytes:
     """Training RMSE per iteration of the estimator (at the iterations the history holds:
-    at most a few hundred of a Kalman filter's row updates, see
+    at most a hundred of a Kalman filter's row updates, see
     :data:`calib_pin.estimators.base.HISTORY_POINTS`)."""
     h = np.asarray(r["train_rmse_history_mm"])
     iterations = np.asarray(r.get("history_iterations") or np.arange(len(h)))
