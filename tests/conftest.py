@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import gc
+
 import numpy as np
 import pytest
 
@@ -43,3 +45,15 @@ def fresh_rmse_mm(fresh):
         return float(np.sqrt(np.mean((result.predict(q) - true_readings) ** 2)) * 1e3)
 
     return rmse
+
+
+@pytest.fixture(autouse=True)
+def _collector_as_it_was():
+    """A test that runs a script in this process (runpy) goes through calib_pin.cli.process,
+    which turns the cyclic collector off and freezes every object for the process's exit:
+    put the test session's collector back after each test."""
+    enabled = gc.isenabled()
+    yield
+    gc.unfreeze()
+    if enabled:
+        gc.enable()

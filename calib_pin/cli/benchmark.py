@@ -156,6 +156,7 @@ def _against_figaroh(args: argparse.Namespace) -> None:
               f"--test-fraction 0, against FIGAROH's default in a fresh Python process from its URDF, YAML and "
               f"CSV), interleaved, median wall s of {args.repeats} run(s); {PROCESS_NOTE}:")
         print(format_processes(processes))
-        print(f"floor: a process that only runs '{FLOOR_PROCESS}' (what both tools import); above: calib-pin's "
-              "median minus the floor, its own imports and work")
+        print(f"floor: a process that only runs '{FLOOR_PROCESS}' (what both tools import, with Python's cyclic "
+              "collector as calib-pin's command process has it: calib_pin.cli.process); above: calib-pin's median "
+              "minus the floor, its own imports and work")
         print(format_process_goal(processes))

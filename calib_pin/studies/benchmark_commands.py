@@ -63,7 +63,7 @@ def _script(name: str) -> list[str]:
     path = ROOT / "scripts" / f"{name}.py"
     if path.is_file():
         return [sys.executable, str(path)]
-    return [sys.executable, "-c", "import sys; from calib_pin.cli import main; sys.exit(main())", name]
+    return [sys.executable, "-c", "import sys; from calib_pin.cli.process import main; sys.exit(main())", name]
 
 
 #: How the child processes run, for the printed notes.
@@ -188,9 +188,11 @@ def format_commands(runs: list[Run]) -> str:
     return "\n".join(lines)
 
 
-#: The quick start's phases, timed inside one fresh process (see :func:`quick_start_phases`).
+#: The quick start's phases, timed inside one fresh process (see :func:`quick_start_phases`),
+#: with Python's cyclic collector off as in the command's own process (:mod:`calib_pin.cli.process`).
 PHASES_SCRIPT = r"""
-import json, sys, time
+import gc, json, sys, time
+gc.disable()
 t0 = time.perf_counter()
 import calib_pin.cli.calibrate, calib_pin.pipeline, calib_pin.export.bundle, calib_pin.estimators.ekf
 t1 = time.perf_counter()

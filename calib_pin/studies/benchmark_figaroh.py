@@ -30,7 +30,8 @@ YAML and CSV, selects the parameters (its default, ``structural``) and solves; e
 process's wall time from start to exit, interleaved, medians. Both tools are run alike:
 with bytecode, as a user's install has it (``PYTHONDONTWRITEBYTECODE`` unset), after one
 untimed warm-up run each; beside them the floor, a process that only imports numpy,
-Pinocchio and scipy.optimize (:data:`FLOOR_PROCESS`), so the table shows how much of
+Pinocchio and scipy.optimize, with the collector as calib-pin's process has it
+(:data:`FLOOR_PROCESS`), so the table shows how much of
 calib-pin's process is its own.
 """
 
@@ -258,8 +259,10 @@ class ProcessRace:
 
 
 #: The floor of a whole process (Python code run with ``-c``): the imports calib-pin's LM
-#: and FIGAROH both need, nothing else.
-FLOOR_PROCESS = "import numpy, pinocchio, scipy.optimize"
+#: and FIGAROH both need, nothing else, with Python's cyclic collector as calib-pin's
+#: command process has it (off while a one-pass command runs, every object frozen at exit:
+#: :mod:`calib_pin.cli.process`), so that calib-pin's time above it is its own imports and work.
+FLOOR_PROCESS = "import gc; gc.disable(); import numpy, pinocchio, scipy.optimize; gc.freeze()"
 
 
 def whole_processes(methods: list[str], repeats: int = 5, seed: int = 0,
