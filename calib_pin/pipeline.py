@@ -54,6 +54,10 @@ from .robot.deflection import Compliance, as_compliance
 from .sensors import DEFAULT_NOISE_MM, SensorSetup, check_estimate, sensor_for, setup_record
 from .validation import TestSet, as_test_set, same_rows, score_registered, score_session
 
+#: The largest noise [m] a Kalman filter takes (``run_estimator``'s ``noise``): an estimate
+#: beyond it is a misfit of the data, refused naming the data (not the argument).
+MAX_FILTER_NOISE_M = 1.0
+
 
 @dataclass
 class CalibrationSetup:
@@ -86,6 +90,10 @@ class CalibrationSetup:
         from .analysis.noise import noise_from_data
 
         found = noise_from_data(training)
+        if found.sigma > MAX_FILTER_NOISE_M:  # a misfit, not a noise: run_estimator would name its argument
+            raise DataError(self.data.source or "the measurement set", f"a first LM fit leaves {found.sigma:.4g} m "
+                            f"per value (the noise {method} would assume; at most {MAX_FILTER_NOISE_M:g} m): the "
+                            "readings do not fit this robot and sensor set-up (a unit or frame mistake?)")
         return found.sigma, found.words()
     #: Unknowns held at their start (``fix``/``free`` of :func:`prepare`), by name.
     fixed: tuple[str, ...] = ()

@@ -607,7 +607,7 @@ R3_WRONG: list[Case] = [
      "--data 'a.csv:noise_deg=2': noise_deg: is for 6-D data; a.csv holds drawstring readings"),
     (CAL, ["irb120", "--data", "a.csv:noise_deg=200", "--data", "b.csv", "--analyze"],
      {"a.csv": pose_set(), "b.csv": pose_set()}, 2,
-     "--data 'a.csv:noise_deg=200': noise_deg: expected a number in (0, 180] deg, got 200"),
+     "--data 'a.csv:noise_deg=200': noise_deg: expected a number in (0, 180] deg, got '200'"),
     (CAL, ["irb120", "--dat", "a.csv", "--analyze"], {"a.csv": data()}, 2, "--dat"),
     (CAL, ["irb120", "--method", "lm", "--method=ekf", "--analyze"], {}, 2, "--method given twice"),
     (SIM, ["irb120", "--out", "a.csv", "--out", "b.csv"], {}, 2, "--out given twice"),
@@ -872,6 +872,74 @@ I25_CONTROLLER: list[Case] = [
 ]
 
 
+def scaled_wu(factor: float) -> str:
+    """The real Wu position set with every coordinate times ``factor`` (a unit mistake)."""
+    rows = [",".join([*r.split(",")[:2], *(f"{float(v) * factor:.6f}" for v in r.split(",")[2:5]), *r.split(",")[5:]])
+            for r in WU_ROWS]
+    return "\n".join([*WU_META, WU_HEAD, *rows]) + "\n"
+
+
+#: Every key a --data argument takes (calibrate's data_keys), each with an out-of-range
+#: value: the refusal names the argument and its own key, the value and the valid range or
+#: unit, whether the parse, the set-up record or the check of the set-up against the
+#: readings refuses it (an anchor 100 m away named 'argument noise' before).
+I26_PERSET: list[Case] = [
+    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: 100000,0,0 mm (given; the sensor point P0 in the base frame) "
+     "does not fit the readings"),
+    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e5,0,0", "--no-html", "--out", "out"], {"a.csv": data()}, 2,
+     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: 100000,0,0 mm"),
+    (CAL, ["irb120", "--data", "a.csv:anchor_mm=2e6,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:anchor_mm=2e6,0,0': anchor_mm: expected 3 numbers 'x,y,z' in mm, each of magnitude below 1000000"),
+    (CAL, ["irb120", "--data", "a.csv:tool_mm=1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:tool_mm=1e5,0,0': tool_mm: 100000,0,0 mm (given; the tool point in the end frame) does not fit "
+     "the readings"),
+    (CAL, ["irb120", "--data", "a.csv:length_offset_mm=1e5", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:length_offset_mm=1e5': length_offset_mm: 100000 mm (given; the sensor's zero offset) does not "
+     "fit the readings"),
+    (CAL, ["irb120", "--data", "a.csv:length_offset_mm=2e6", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:length_offset_mm=2e6': length_offset_mm: expected a number of magnitude below 1000000"),
+    (CAL, ["irb120", "--data", "c.csv:tool_mm=1e5,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
+     "--data 'c.csv:tool_mm=1e5,0,0': tool_mm: 100000,0,0 mm (given; the tool point in the end frame) does not fit "
+     "the touches"),
+    (CAL, ["irb120", "--data", "c.csv:tool_mm=2e6,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
+     "--data 'c.csv:tool_mm=2e6,0,0': tool_mm: expected 3 numbers 'x,y,z' in mm, each of magnitude below 1000000"),
+    (CAL, ["irb120", "--data", "p.csv:noise_deg=0", "--analyze"], {"p.csv": pose_set()}, 2,
+     "--data 'p.csv:noise_deg=0': noise_deg: expected a number in (0, 180] deg, got '0'"),
+    (CAL, ["irb120", "--data", "p.csv:noise_deg=200", "--analyze"], {"p.csv": pose_set()}, 2,
+     "--data 'p.csv:noise_deg=200': noise_deg: expected a number in (0, 180] deg, got '200'"),
+    (CAL, ["irb120", "--data", "a.csv:noise_mm=1e3", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:noise_mm=1e3': noise_mm: expected a number in (0, 100], got '1e3'"),
+    (CAL, ["irb120", "--data", "a.csv:role=validate", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:role=validate': role: expected one of split, train, test, got 'validate'"),
+    (CAL, ["irb120", "--data", "a.csv:label=", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:label=': label: an empty label"),
+    # the same set-up checks for the global flags and the file's own metadata
+    (CAL, ["irb120", "--data", "a.csv", "--anchor-mm", "1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "a.csv: anchor_mm: 100000,0,0 mm (given; the sensor point P0 in the base frame) does not fit the readings"),
+    (CAL, ["irb120", "--data", "a.csv", "--analyze"], {"a.csv": anchor("# anchor_mm: 600000, 200, -100")}, 2,
+     "a.csv: anchor_mm: 600000,200,-100 mm (the file's; the sensor point P0 in the base frame) does not fit"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# tool_mm: 0, 0, 50000")}, 2,
+     "c.csv: tool_mm: 0,0,50000 mm (the file's; the tool point in the end frame) does not fit the touches"),
+    (CAL, ["irb120", "--data", "a.csv:anchor_mm=650,200,-100", "--analyze"], {"a.csv": data()}, 0, "rank"),
+    # a set that no robot fits (positions in um read as mm): the data named, not the filter's argument
+    (CAL, ["irb120", "--data", "w.csv", "--method", "ekf", "--no-html", "--out", "out"], {"w.csv": scaled_wu(1e3)}, 2,
+     "w.csv: a first LM fit leaves"),
+    (CAL, ["irb120", "--tool-mm", "2e6,0,0", "--analyze"], {}, 2,
+     "--tool-mm: expected 3 numbers 'x,y,z' in mm, each of magnitude below 1000000"),
+    (CAL, ["irb120", "--length-offset-mm", "2e6", "--analyze"], {}, 2,
+     "--length-offset-mm: expected a number of magnitude below 1000000"),
+]
+
+
+def test_every_data_key_has_an_out_of_range_row():
+    from calib_pin.cli.calibrate import data_keys
+
+    typed = {item.split("=")[0] for _, argv, *_ in I26_PERSET for arg in argv if ":" in arg and "=" in arg
+             for item in arg.split(":")[1:]}
+    assert typed == set(data_keys())
+
+
 #: The rows of the earlier rounds, then round 3's by class (docs/bad_input.md lists them all).
 BASE_CASES = list(CASES)
 SECTIONS: list[tuple[str, list[Case]]] = [
@@ -881,6 +949,7 @@ SECTIONS: list[tuple[str, list[Case]]] = [
     ("Round 3: compliance >= 0, rank-deficient sets calibrate, figures optional", R3_COMPLIANCE),
     ("Round 3: real files (extra columns, string labels, ';' and decimal comma)", R3_FILES),
     ("Issue 25: parameters held fixed, a start file, controller programs", I25_CONTROLLER),
+    ("Round 26: per-set options name their own key; a set-up that misses the readings", I26_PERSET),
 ]
 CASES += [row for _, rows in SECTIONS for row in rows]
 

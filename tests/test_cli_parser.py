@@ -204,3 +204,27 @@ def test_shared_options_fail_in_one_line(argv, fragment, capsys):
     assert done.value.code == 2
     err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert len(err) == 1 and fragment in err[0], err
+
+
+def test_data_help_lists_every_key_the_parse_takes(tmp_path):
+    """calibrate's --data help and its parse read one table (data_keys): every key the
+    parse takes is in the help, with its unit or choices, and no other (noise_deg was missing)."""
+    import re
+
+    from calib_pin.cli.calibrate import data_argument, data_keys
+    from calib_pin.exceptions import CalibPinError
+    from calib_pin.sensors import setup_types
+
+    text = " ".join(_action(command_parser(parser(), "calibrate"), "--data").help.split())
+    listed = re.findall(r"(?:keys |\), )(\w+) \(", text.partition("FILE:key=value")[2])
+    taken = [f.name for t in setup_types() for f in dataclasses.fields(t) if f.name != "estimate"]
+    assert listed == list(data_keys()) == list(dict.fromkeys([*taken, "noise_mm", "role", "label"]))
+    assert "noise_deg (deg; 6-D pose sets)" in text
+    path = tmp_path / "a.csv"
+    path.write_text("q1_deg\n")
+    with pytest.raises(CalibPinError, match=re.escape(f"(valid: {', '.join(listed)})")):
+        data_argument(f"{path}:colour=red")
+    for key in listed:  # each listed key is one the parse takes (refused for its value, not as unknown)
+        with pytest.raises(CalibPinError) as e:
+            data_argument(f"{path}:{key}=" + ("" if key == "label" else "bad"))
+        assert f": {key}: " in str(e.value) and "unknown key" not in str(e.value)

@@ -122,7 +122,7 @@ def test_a_cable_key_on_a_position_set_is_refused(tmp_path):
     (["irb120_contact_example"], "noise_deg=2", "noise_deg: is for 6-D data; {} holds contact fixtures"),
     (["irb120_wu2015"], "tool_mm=1,2,3", "tool_mm: is for drawstring and contact data; {} holds positions"),
     (["irb120_wu2015"], "anchor_mm=1,2,3", "anchor_mm: is for drawstring data; {} holds positions"),
-    (["irb120_default"], "noise_deg=200", "noise_deg: expected a number in (0, 180] deg, got 200"),
+    (["irb120_default"], "noise_deg=200", "noise_deg: expected a number in (0, 180] deg, got '200'"),
     (["irb120_default"], "role=train", "role: 'train' for the only set"),
     (["irb120_default", "irb120_wu2015"], "noise_deg=2", "noise_deg: not a set-up option of drawstring readings"),
     (["irb120_default", "irb120_wu2015"], "noise_deg=200", "noise_deg: expected a number in (0, 180] deg"),

@@ -74,12 +74,12 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
     p.description = ("Calibrate a robot's kinematics from drawstring readings or marker positions and "
                      "write the corrected URDF and a JSON report.")
     add_robot_arguments(p, "default: the file's", "default: the file's")
+    keys = ", ".join(f"{key} ({words})" for key, (_, words) in data_keys().items())
     p.add_argument("--data", action="append",
                    help="measurement set CSV (default: the robot's shipped set); repeat it to fit several sets "
                    "(sessions, anchors, tracker stations) with one robot: each file's own set-up metadata "
-                   "(# anchor_mm, # tool_mm, # length_offset_mm, # noise_mm) is used for its rows, unless its "
-                   "argument overrides it: FILE:key=value[:key=value...] with keys anchor_mm, tool_mm, "
-                   "length_offset_mm ('x,y,z' / number, mm), noise_mm, role (split, train, test), label; "
+                   "(# anchor_mm, # tool_mm, # length_offset_mm, # noise_mm, # noise_deg) is used for its rows, "
+                   f"unless its argument overrides it: FILE:key=value[:key=value...] with keys {keys}; "
                    "e.g. s2.csv:anchor_mm=600,200,-100:noise_mm=0.3")
     p.add_argument("--test-data", help="a separate validation session CSV: train on all of --data, test on this; "
                    "FILE (or FILE:same=LABEL): measured with the training set's sensor set-up (checked); "
@@ -162,6 +162,30 @@ def _per_set_named(args: argparse.Namespace, action: Any) -> int:
 SET_KEYS = ("noise_mm", "role", "label")
 
 
+def data_keys() -> dict[str, tuple[Any, str]]:
+    """Every key a ``--data`` argument takes, in order, with its value's parser (None:
+    checked by :func:`data_argument` itself) and its words for ``--help`` (unit, the
+    sensors whose sets take it): the sensors' set-up fields (every registered sensor's,
+    but ``estimate``, a choice for every set), then :data:`SET_KEYS`. The one table both
+    the parse and the help read.
+    """
+    from ..multiset import ROLES
+    from ..sensors import setup_types
+
+    types = setup_types()
+    keys: dict[str, tuple[Any, str]] = {}
+    for t in types:
+        for f in dataclasses.fields(t):
+            if f.name == "estimate" or f.name in keys or "help" not in f.metadata:
+                continue
+            shape = "'x,y,z' " if "'x,y,z'" in f.metadata["help"] else ""
+            takers = " and ".join(other.title for other in types if f.name in other.field_names())
+            keys[f.name] = (f.metadata.get("parser"), f"{shape}{f.metadata['unit']}; {takers} sets")
+    keys.update(noise_mm=(assumed_noise, "mm, in (0, 100]: the sensor sigma of the Kalman filters"),
+                role=(None, ", ".join(ROLES)), label=(None, "a name for the printout and report.json"))
+    return keys
+
+
 def _file_options(text: str, flag: str, no_file: str, not_pair: str,
                   keys: Sequence[str] | None = None) -> tuple[str, list[tuple[str, str]]]:
     """Split ``FILE[:key=value[:key=value ...]]`` into the file and its (key, value) items:
@@ -196,21 +220,18 @@ def _file_options(text: str, flag: str, no_file: str, not_pair: str,
 
 def data_argument(text: str) -> tuple[str, dict[str, Any]]:
     """A ``--data`` argument ``FILE[:key=value[:key=value ...]]`` as (file, options)
-    (:func:`_file_options`). Keys: the sensors' set-up fields (``anchor_mm=600,200,-100``),
-    ``noise_mm``, ``role`` (split, train, test) and ``label``; each value parsed as its flag's.
+    (:func:`_file_options`). Keys: :func:`data_keys` (the sensors' set-up fields,
+    ``anchor_mm=600,200,-100``, then ``noise_mm``, ``role`` and ``label``); each value parsed as its flag's.
 
     Raises:
         CalibPinError: naming the argument and the key (unknown, twice, bad value).
     """
     from ..exceptions import CalibPinError
     from ..multiset import ROLES
-    from ..sensors import setup_types
 
     path, items = _file_options(text, "--data", "per-set options follow an existing file: FILE:key=value:key=value",
                                 "key=value (FILE:key=value:key=value)")
-    parsers: dict[str, Any] = {f.name: f.metadata.get("parser") for t in setup_types()
-                               for f in dataclasses.fields(t) if f.name != "estimate"}
-    parsers.update(noise_mm=assumed_noise, role=None, label=None)
+    parsers = {key: parser for key, (parser, _) in data_keys().items()}
     options: dict[str, Any] = {}
     for key, value in items:
         if key not in parsers:

@@ -128,6 +128,42 @@ def _gives_offset(data: MeasurementSet) -> bool:
     return bool({"length_offset_mm", "length_offset_m"} & keys) if keys is not None else data.length_offset != 0.0
 
 
+#: A given drawstring set-up whose cable lengths at the nominal robot miss the readings by
+#: more than this (median over the rows) [m] is refused: no kinematic deviation within the
+#: sanity bounds (:mod:`calib_pin.sanity`) moves the tool point that far (1.4 mm on the
+#: shipped set; an anchor 1 m off fails every method there, estimated or not).
+SETUP_MISFIT_M = 0.5
+
+
+def _check_setup_fits(model: CableModel, data: MeasurementSet, options: Mapping[str, Any]) -> None:
+    """Refuse a known set-up (anchor, tool point, offset: the caller's or the file's) whose
+    cable lengths at the nominal robot are not the readings (a unit mistake, an anchor in
+    another frame): a first fit would chase it and say only that the noise is metres.
+
+    Raises:
+        DataError: naming the file and the set-up field the caller gave (else the file's
+            ``anchor_mm``), its value, the lengths and the readings.
+    """
+    lengths = model.predict(None, data.q)
+    misfit = float(np.median(np.abs(lengths - data.values)))
+    if not misfit > SETUP_MISFIT_M:  # NaN-safe: a reading NaN is the checks' business
+        return
+    sensor = model.sensor
+    values = {"anchor_mm": sensor.anchor * 1e3, "tool_mm": sensor.tool * 1e3,
+              "length_offset_mm": np.array([sensor.length_offset * 1e3])}
+    field = next((k for k in values if options.get(k) is not None), "anchor_mm")
+    meaning = {"anchor_mm": "the sensor point P0 in the base frame", "tool_mm": "the tool point in the end frame",
+               "length_offset_mm": "the sensor's zero offset"}[field]
+    origin = "given" if options.get(field) is not None else "the file's"
+    others = ", ".join(f"{k} {','.join(f'{v:g}' for v in vs)}" for k, vs in values.items() if k != field)
+    raise DataError(data.source, f"{','.join(f'{v:g}' for v in values[field])} mm "
+                    f"({origin}; {meaning}) "
+                    f"does not fit the readings: the cable lengths at the nominal robot are {lengths.min():.4g}-"
+                    f"{lengths.max():.4g} m, the readings {data.values.min():.4g}-{data.values.max():.4g} m, a "
+                    f"median miss of {misfit:.4g} m (valid: within {SETUP_MISFIT_M:g} m, a robot's deviation; with "
+                    f"{others}): a unit or frame mistake?", None, field)
+
+
 def _vector_mm(value: Any, name: str) -> np.ndarray:
     v = np.asarray(value, dtype=float).reshape(-1)
     if v.shape != (3,) or not np.all(np.isfinite(v)):
@@ -214,6 +250,8 @@ class CableModel(MeasurementModel):
         assert tool is not None
         model = cls(chain, params, Drawstring(anchor, tool, offset), estimate, get("compliance"))
         model.prefit = prefit
+        if prefit is None:
+            _check_setup_fits(model, data, options)
         return CalibrationProblem(model, data.q, data.values)
 
     @classmethod

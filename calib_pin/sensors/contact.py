@@ -443,7 +443,10 @@ class ContactModel(MeasurementModel):
                                 None, "plane_id" if k >= len(points) else "contact_id")
         fixtures = fit_fixtures(chain, params, data.q[fit_rows], rows[fit_rows], points, planes, tool, distances)
         model = cls(chain, params, fixtures, options.get("compliance"))
-        return ContactProblem(model, data.q, np.zeros((len(data), 0)), rows)
+        problem = ContactProblem(model, data.q, np.zeros((len(data), 0)), rows)
+        if tool is not None:
+            _check_tool_fits(problem, data, given is not None)
+        return problem
 
     # --- geometry -------------------------------------------------------------------------
 
@@ -770,6 +773,32 @@ def _touched(model: ContactModel, q: np.ndarray) -> np.ndarray:
                             f"{gaps[far[0], rows[far[0]]] * 1e3:.1f} mm off): give touches planned for it "
                             "(plan-poses --sensor contact)")
     return rows
+
+
+#: A given tool point whose touches at the nominal robot miss their fitted fixtures by more
+#: than this (median over the rows) [m] is refused: no kinematic deviation within the sanity
+#: bounds (:mod:`calib_pin.sanity`) moves the tool point that far (0.6 mm on the shipped set).
+TOOL_MISFIT_M = 0.5
+
+
+def _check_tool_fits(problem: ContactProblem, data: MeasurementSet, caller: bool) -> None:
+    """Refuse a known tool point (the caller's, ``caller``, or the file's) whose touches at
+    the nominal robot, with the fixtures fitted to them, miss those fixtures by metres (a
+    unit mistake, a point in another frame): the fit would only hit the sanity bound.
+
+    Raises:
+        DataError: naming the file, ``tool_mm``, its value and the miss.
+    """
+    errors = problem.row_errors(problem.residual(np.zeros(problem.n_params)))
+    miss = float(np.median(errors))
+    if not miss > TOOL_MISFIT_M:
+        return
+    tool = ",".join(f"{v * 1e3:g}" for v in problem.model.fixtures.tool)
+    origin = "given" if caller else "the file's"
+    raise DataError(data.source, f"{tool} mm ({origin}; the tool point in "
+                    f"the end frame) does not fit the touches: at the nominal robot the tool point misses its fitted "
+                    f"point or plane by a median {miss:.4g} m, max {errors.max():.4g} m (valid: within "
+                    f"{TOOL_MISFIT_M:g} m, a robot's deviation): a unit or frame mistake?", None, "tool_mm")
 
 
 def fit_fixtures(chain: Chain, params: ParameterModel, q: np.ndarray, rows: np.ndarray, points: tuple[str, ...],

@@ -46,7 +46,7 @@ from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
 from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart, chosen, frame_unknowns
-from .setup import SensorSetup, finite, option
+from .setup import SensorSetup, option
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
@@ -120,11 +120,15 @@ class PoseRig:
 
 
 def _positive_deg(text: str) -> float:
-    value = finite(text)
-    if value <= 0:
-        import argparse
+    """``--noise-deg``: an angle in (0, 180] deg, the record's range (one message for both ends)."""
+    import argparse
 
-        raise argparse.ArgumentTypeError(f"expected a positive angle in degrees, got '{text[:40]}'")
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0.0 < value <= 180.0:
+        raise argparse.ArgumentTypeError(f"expected a number in (0, 180] deg, got '{text[:40]}'")
     return value
 
 

@@ -21,26 +21,37 @@ from ..exceptions import ArgumentError
 
 # --- the flags' parsers (argparse types; the CLI's other flags use them too) ---
 
+#: The largest magnitude a flag's length takes, [mm] (:data:`calib_pin.arguments.MAX_MM`: 1 km,
+#: beyond it a unit mistake).
+FLAG_MAX_MM = 1e6
+
+
 def xyz_mm(text: str) -> tuple[float, float, float]:
-    """``x,y,z`` in mm: three finite numbers."""
+    """``x,y,z`` in mm: three finite numbers, each of magnitude below :data:`FLAG_MAX_MM`."""
     parts = [p for p in text.replace(",", " ").split() if p]
     try:
         values = tuple(float(p) for p in parts)
     except ValueError:
         values = ()
-    if len(values) != 3 or not all(np.isfinite(v) and abs(v) < 1e6 for v in values):
+    if len(values) != 3 or not all(np.isfinite(v) for v in values):
         raise argparse.ArgumentTypeError(f"expected 3 numbers 'x,y,z' in mm, got '{text[:40]}'")
+    if not all(abs(v) < FLAG_MAX_MM for v in values):
+        raise argparse.ArgumentTypeError(f"expected 3 numbers 'x,y,z' in mm, each of magnitude below "
+                                         f"{FLAG_MAX_MM:.0f} (1 km: a unit mistake?), got '{text[:40]}'")
     return values  # type: ignore[return-value]
 
 
 def finite(text: str) -> float:
-    """A finite number (|value| < 1e6)."""
+    """A finite number of magnitude below :data:`FLAG_MAX_MM` (the flags' lengths, mm)."""
     try:
         value = float(text)
     except ValueError:
         value = float("nan")
-    if not (np.isfinite(value) and abs(value) < 1e6):
+    if not np.isfinite(value):
         raise argparse.ArgumentTypeError(f"expected a finite number, got '{text[:40]}'")
+    if not abs(value) < FLAG_MAX_MM:
+        raise argparse.ArgumentTypeError(f"expected a number of magnitude below {FLAG_MAX_MM:.0f} (mm: 1 km, a unit "
+                                         f"mistake?), got '{text[:40]}'")
     return value
 
 
