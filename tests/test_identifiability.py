@@ -146,3 +146,81 @@ def test_an_analysis_from_the_kept_svd_is_the_callers_own():
     assert again.singular_values.tobytes() == first.singular_values.tobytes()
     again.singular_values[:] = 0.0  # the caller's own array
     assert analyze(setup.problem).singular_values.tobytes() == first.singular_values.tobytes()
+
+
+def _terms(line: str) -> dict[str, float]:
+    """``{'d_2': 1.0, 'd_3': -1.0}`` of a combination line ``d_2 +1 mm with d_3 -1 mm``."""
+    return {name: float(value) for name, value, _ in (term.split() for term in line.split(" with "))}
+
+
+#: The problems :func:`_start_case` makes: shipped robots and sets, UR5 sets simulated.
+START_CASES = ("irb120 shipped", "irb120 wu2015", "irb120 contact", "ur5 cable", "ur5 position")
+
+
+def _start_case(name: str):
+    """(problem, a start near zero) of ``name``: the IRB120's shipped drawstring set, the
+    real Wu set and the contact example, each at a seeded draw of half the typical
+    deviations; a UR5 drawstring and position set simulated, at their true deviations."""
+    robot, kind = name.split()
+    if robot == "irb120":
+        data = {"shipped": None, "wu2015": ROOT / "robots" / "irb120_wu2015.csv",
+                "contact": ROOT / "robots" / "irb120_contact_example.csv"}[kind]
+        problem = cp.prepare(robot, data).problem
+        n = problem.model.n_robot
+        x = np.zeros(problem.n_params)
+        x[:n] = 0.5 * np.random.default_rng(7).standard_normal(n) * problem.model.scale[:n]
+        return problem, x
+    chain = cp.load_chain("ur5")
+    data, truth = (cp.simulate if kind == "cable" else cp.simulate_positions)(chain, cp.parameter_model(chain), 40,
+                                                                                seed=3)
+    problem = cp.prepare("ur5", data).problem
+    x = np.zeros(problem.n_params)
+    x[:problem.model.n_robot] = truth.x
+    return problem, x
+
+
+@pytest.mark.parametrize("name", START_CASES)
+def test_combinations_at_a_start_near_zero_are_those_at_zero(name):
+    """At a start near zero (a --nominal calibration) an exact degeneracy of zero deviations
+    is only slightly broken: the combinations read the same (the same parameters, the same
+    coefficients to the printed digits or nearly), none with the huge coefficients an RREF
+    pivoting on such a sliver printed (theta_6 -6e16 mrad); a parameter blind at zero (a
+    zero column) is at most a line of its own there."""
+    problem, x = _start_case(name)
+    at_zero, at_start = analyze(problem), analyze(problem, x)
+    assert at_start.rank == at_zero.rank
+    zero, start = [_terms(c) for c in at_zero.combinations], [_terms(c) for c in at_start.combinations]
+    assert len(start) == len(zero) + len(at_zero.unidentifiable) - len(at_start.unidentifiable)
+    for line in zero + start:
+        assert max(abs(v) for v in line.values()) <= 1 / 0.05 * 2 + 1e-9, line  # below 1/tol typical sizes
+    for line in zero:
+        match = next((s for s in start if set(s) == set(line)), None)
+        assert match is not None, (line, at_start.combinations)
+        for k, v in line.items():
+            assert match[k] == pytest.approx(v, rel=0.1, abs=0.02), (line, match)
+    blind = [s for s in start if not any(set(s) == set(z) for z in zero)]
+    assert all(len(s) == 1 and next(iter(s)) in at_zero.unidentifiable for s in blind), blind
+
+
+def test_analyze_nominal_analyses_at_the_start_and_says_so(tmp_path, capsys):
+    """calibrate --analyze --nominal FILE analyses the data's poses at that start (the
+    start's deviations, the sensor fitted there), and the printout says where; without
+    --nominal at zero deviations, as before."""
+    from calib_pin.cli import main
+    from calib_pin.cli.calibrate import analysis_point
+
+    assert main(["calibrate", "irb120", "--method", "lm", "--no-html", "--out", str(tmp_path)]) == 0
+    start = tmp_path / "irb120_calibration.json"
+    capsys.readouterr()
+    assert main(["calibrate", "irb120", "--analyze", "--nominal", str(start)]) == 0
+    out = capsys.readouterr().out
+    assert "analysed at the start irb120_calibration.json (calib-pin calibration file)" in out
+    setup = cp.prepare("irb120", nominal=str(start))
+    x, _ = analysis_point(setup)
+    assert np.array_equal(x[:setup.problem.model.n_robot], setup.start.robot_x) and np.any(x != 0)
+    assert analyze(setup.problem, x).report() in out
+    assert analyze(setup.problem).report() not in out  # not the analysis at zero
+    assert "d_2 +1 mm with d_3 -1 mm" in out and "e+" not in out
+    assert main(["calibrate", "irb120", "--analyze"]) == 0
+    out = capsys.readouterr().out
+    assert "analysed at zero deviations" in out and analyze(setup.problem).report() in out

@@ -100,29 +100,50 @@ class Identifiability:
         return "\n".join(lines)
 
 
+#: The smallest entry of an orthonormal null-space basis (scaled coordinates) that
+#: :func:`_readable` takes as a pivot: a smaller one is a start's slight breaking of an exact
+#: degeneracy (at zero deviations it is 0), and dividing by it printed coefficients of 1e16.
+PIVOT_TOL = 1e-3
+
+
 def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list[str],
-              tol: float = 0.05) -> list[str]:
-    """Null-space basis (k, n) of scaled coordinates in reduced row-echelon form, as
-    text: each line is a change of the parameters (in mm and mrad) that no reading sees."""
+              tol: float = 0.05, pivot_tol: float = PIVOT_TOL) -> list[str]:
+    """Null-space basis (k, n) of scaled coordinates, orthonormal rows, in reduced
+    row-echelon form, as text: each line is a change of the parameters (in mm and mrad)
+    that no reading sees, led by its pivot (+1 typical size), its terms in parameter order.
+
+    The pivots are chosen in parameter order, each the largest entry of its column among
+    the rows left, and only if it is at least ``tol`` of the largest entry of its row (its
+    line then keeps the parameters that make it up); the rows left then take any pivot
+    above ``pivot_tol``. So no coefficient grows beyond 1 / tol (then 1 / pivot_tol): at a
+    start, where an exact degeneracy of zero deviations is slightly broken, the lines are
+    those at zero (an RREF pivoting on such a sliver printed theta_6 -6e16 mrad). A term
+    below ``tol`` (scaled) is left out.
+    """
     a = null.copy()
     rows, cols = a.shape
-    pivot_row = 0
-    for c in range(cols):
-        if pivot_row == rows:
-            break
-        p = pivot_row + int(np.argmax(np.abs(a[pivot_row:, c])))
-        if abs(a[p, c]) < 1e-9:
-            continue
-        a[[pivot_row, p]] = a[[p, pivot_row]]
-        a[pivot_row] /= a[pivot_row, c]
-        for r in range(rows):
-            if r != pivot_row:
-                a[r] -= a[r, c] * a[pivot_row]
-        pivot_row += 1
+    pivots: list[int] = []
+    for ratio in (tol, 0.0):
+        for c in range(cols):
+            if len(pivots) == rows:
+                break
+            if c in pivots:
+                continue
+            top = len(pivots)
+            p = top + int(np.argmax(np.abs(a[top:, c])))
+            free = [k for k in range(cols) if k not in pivots]
+            if abs(a[p, c]) < max(pivot_tol, ratio * np.abs(a[p, free]).max()):
+                continue
+            a[[top, p]] = a[[p, top]]
+            a[top] /= a[top, c]
+            for r in range(rows):
+                if r != top:
+                    a[r] -= a[r, c] * a[top]
+            pivots.append(c)
     out = []
-    for row in a[:pivot_row]:
+    for k in np.argsort(pivots, kind="stable"):
         terms = []
-        for i, v in enumerate(row):
+        for i, v in enumerate(a[k]):
             if abs(v) > tol:
                 size = v * scale[i] * 1e3
                 unit = {"m": "mm", "rad/Nm": "mrad/Nm"}.get(units[i], "mrad")

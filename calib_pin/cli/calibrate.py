@@ -333,10 +333,34 @@ def _analyze(args: argparse.Namespace) -> int:
     setup = prepare(args.robot, _data(args), **_setup_options(args))
     print(f"{setup.chain.name}: {setup.data.describe_rows()} from {setup.data.source}, "
           f"{setup.params.name} model, {setup.problem.model.describe()}")
-    print(analyze(setup.problem, fixed=getattr(setup, "fixed", ())).report())
+    x, where = analysis_point(setup)
+    print(f"analysed at {where}")
+    print(analyze(setup.problem, x, fixed=getattr(setup, "fixed", ())).report())
     print("the estimators move only the identifiable directions: the deviations along the blind "
-          "ones above stay at zero in the export")
+          f"ones above stay at {'the start' if setup.start is not None else 'zero'} in the export")
     return 0
+
+
+def analysis_point(setup: Any) -> tuple[Any, str]:
+    """Where ``--analyze`` analyses the data's poses, SI units (n_params,), and its words:
+    zero deviations (the catalogue URDF), or with ``--nominal`` the start a calibration
+    would take (the start's robot deviations and compliances, every sensor's geometry
+    fitted to all rows with the robot held there, as :meth:`CalibrationSetup.start_on`
+    does on the training rows)."""
+    import numpy as np
+
+    problem = setup.problem
+    x = np.zeros(problem.n_params)
+    start = setup.start
+    if start is None:
+        return x, "zero deviations (the catalogue URDF; --nominal analyses at a start)"
+    model = problem.model
+    x[:model.n_robot] = start.robot_x
+    if start.compliance is not None:
+        x[model.n_robot:model.sensor_start] = start.compliance
+    x = start.sensor_fit(problem, x)
+    return x, (f"the start {start.describe()}: its robot deviations, the sensor geometry fitted to every row "
+               "with the robot held there")
 
 
 def table(metrics: dict[str, dict[str, Metrics]], unit: str = "mm") -> str:
