@@ -185,7 +185,7 @@ def test_combinations_at_a_start_near_zero_are_those_at_zero(name):
     is only slightly broken: the combinations read the same (the same parameters, the same
     coefficients to the printed digits or nearly), none with the huge coefficients an RREF
     pivoting on such a sliver printed (theta_6 -6e16 mrad); a parameter blind at zero (a
-    zero column) is at most a line of its own there."""
+    zero column) stays among the parameters not identifiable."""
     problem, x = _start_case(name)
     at_zero, at_start = analyze(problem), analyze(problem, x)
     assert at_start.rank == at_zero.rank
@@ -200,6 +200,10 @@ def test_combinations_at_a_start_near_zero_are_those_at_zero(name):
             assert match[k] == pytest.approx(v, rel=0.1, abs=0.02), (line, match)
     blind = [s for s in start if not any(set(s) == set(z) for z in zero)]
     assert all(len(s) == 1 and next(iter(s)) in at_zero.unidentifiable for s in blind), blind
+    # A parameter blind at zero (a zero column) stays named blind at the start, where its
+    # column is a sliver: a null direction of its own, not a "combination" of one.
+    assert at_start.unidentifiable == at_zero.unidentifiable
+    assert all(len(line) > 1 for line in zero + start)
 
 
 def test_analyze_nominal_analyses_at_the_start_and_says_so(tmp_path, capsys):

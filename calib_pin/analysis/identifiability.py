@@ -43,7 +43,8 @@ class Identifiability:
         rank: Identifiable directions r.
         condition: s_1 / s_r.
         o1, o3, o4: Observability indices (module docstring) [m].
-        unidentifiable: Parameters the readings do not depend on.
+        unidentifiable: Parameters the readings do not depend on: a zero column, or a null
+            direction of that parameter alone (at a start that slightly breaks a degeneracy).
         combinations: Combinations identifiable only together, readable text.
         base: Base parameter set (r names, QR with column pivoting).
         directions: Named directions the sensor states (a contact set's scale), each
@@ -108,6 +109,12 @@ PIVOT_TOL = 1e-3
 
 def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list[str],
               tol: float = 0.05, pivot_tol: float = PIVOT_TOL) -> list[str]:
+    """:func:`_null_lines` as text, one line each: its terms joined by "with"."""
+    return [" with ".join(text for _, text in line) for line in _null_lines(null, names, scale, units, tol, pivot_tol)]
+
+
+def _null_lines(null: np.ndarray, names: list[str], scale: np.ndarray, units: list[str],
+                tol: float = 0.05, pivot_tol: float = PIVOT_TOL) -> list[list[tuple[int, str]]]:
     """Null-space basis (k, n) of scaled coordinates, orthonormal rows, in reduced
     row-echelon form, as text: each line is a change of the parameters (in mm and mrad)
     that no reading sees, led by its pivot (+1 typical size), its terms in parameter order.
@@ -118,7 +125,8 @@ def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list
     above ``pivot_tol``. So no coefficient grows beyond 1 / tol (then 1 / pivot_tol): at a
     start, where an exact degeneracy of zero deviations is slightly broken, the lines are
     those at zero (an RREF pivoting on such a sliver printed theta_6 -6e16 mrad). A term
-    below ``tol`` (scaled) is left out.
+    below ``tol`` (scaled) is left out. Each line is its terms as (column, text), the
+    text a parameter's change in mm or mrad (``d_2 +1 mm``).
     """
     a = null.copy()
     rows, cols = a.shape
@@ -140,6 +148,13 @@ def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list
                 if r != top:
                     a[r] -= a[r, c] * a[top]
             pivots.append(c)
+    return _terms(a, pivots, names, scale, units, tol)
+
+
+def _terms(a: np.ndarray, pivots: list[int], names: list[str], scale: np.ndarray, units: list[str],
+           tol: float) -> list[list[tuple[int, str]]]:
+    """The lines of :func:`_readable` from its reduced rows ``a`` and their ``pivots``, in
+    pivot order: each line's terms above ``tol`` (scaled), as (column, text)."""
     out = []
     for k in np.argsort(pivots, kind="stable"):
         terms = []
@@ -147,8 +162,8 @@ def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list
             if abs(v) > tol:
                 size = v * scale[i] * 1e3
                 unit = {"m": "mm", "rad/Nm": "mrad/Nm"}.get(units[i], "mrad")
-                terms.append(f"{names[i]} {size:+.2g} {unit}")
-        out.append(" with ".join(terms))
+                terms.append((i, f"{names[i]} {size:+.2g} {unit}"))
+        out.append(terms)
     return out
 
 
@@ -257,6 +272,10 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
         _, s_live, vt_live = np.linalg.svd(scaled[:, live], full_matrices=m < len(live))
     live_rank = int(np.sum(s_live > rcond * s[0]))
     null = vt_live[live_rank:]
+    lines = _null_lines(null, [names[i] for i in live], scale[live], [units[i] for i in live]) if len(null) else []
+    # A null direction of one parameter alone: its column is not zero (a start's slight
+    # breaking of an exact degeneracy: theta_6 beside a tiny a_6) but no reading sees it.
+    alone = [int(live[line[0][0]]) for line in lines if len(line) == 1]
     _, _, pivots = qr(scaled, pivoting=True, mode="economic")
     directions = []
     named = getattr(problem, "named_directions", None)  # the sensor's own, if it names any
@@ -273,10 +292,8 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
         o1=float(np.exp(np.mean(np.log(kept))) / np.sqrt(m)),
         o3=float(kept[-1]),
         o4=float(kept[-1] ** 2 / kept[0]),
-        unidentifiable=tuple(names[i] for i in np.flatnonzero(dead)),
-        combinations=tuple(_readable(
-            null, [names[i] for i in live], scale[live],
-            [units[i] for i in live])) if len(null) else (),
+        unidentifiable=tuple(names[i] for i in sorted(set(np.flatnonzero(dead)) | set(alone))),
+        combinations=tuple(" with ".join(text for _, text in line) for line in lines if len(line) > 1),
         base=tuple(names[i] for i in sorted(pivots[:rank])),
         fixed=tuple(n for n in model.names if n in fixed),
         directions=tuple(directions),
