@@ -219,8 +219,10 @@ class CalibrationProblem(RowProblem):
     def costs(self, xs: list[np.ndarray]) -> list[float]:
         """:meth:`cost` at several points from batched :meth:`residuals` (at most
         :data:`BATCH_ROWS` point-rows a pass, to bound the memory), [m^2] each."""
+        step = max(1, BATCH_ROWS // max(1, len(self.readings)))
+        if len(xs) <= step:  # one pass (a search's few candidates)
+            return [float(r @ r) / len(r) for r in self.residuals(xs)]
         out = []
-        step = max(1, BATCH_ROWS // max(1, self.n_rows))
         for start in range(0, len(xs), step):
             for r in self.residuals(xs[start : start + step]):
                 out.append(float(r @ r) / len(r))

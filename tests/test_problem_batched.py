@@ -239,10 +239,12 @@ def test_position_geometries_of_many_points_are_geometry_at_to_the_bit():
     for estimate in (("device", "markers"), ("device",), ("markers",), ()):
         model = PositionModel(fitted.chain, fitted.params, fitted.device, estimate=estimate)
         xs = [0.5 * model.scale * np.random.default_rng(j).standard_normal(model.n_params) for j in range(3)]
-        frames, rows = model._geometries_many(xs, index)
-        for x, frame, row in zip(xs, frames, rows, strict=True):
-            device = model.geometry_at(x)
-            assert _same(frame.homogeneous, device.frame.homogeneous) and _same(row, device.markers[index])
+        for given in (xs, np.array(xs), [xs[0], None, xs[2]]):  # a list, stacked, a nominal point among them
+            rotations_t, translations, rows = model._geometries_many(given, index)
+            for x, rotation_t, translation, row in zip(given, rotations_t, translations, rows, strict=True):
+                device = model.geometry_at(x)
+                assert _same(rotation_t, device.frame.rotation.T) and _same(translation, device.frame.translation)
+                assert _same(row, device.markers[index])
         assert [_same(a, model.predict(x, problem.q, index)) for a, x in
                 zip(model.predict_many(xs, problem.q, index), xs, strict=True)] == [True] * 3
 
