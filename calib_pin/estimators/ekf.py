@@ -112,7 +112,7 @@ class EKF:
                     residual = np.concatenate([r for r, _ in pairs])
                     jac = np.vstack([j for _, j in pairs]) @ space.basis
                 at = (offsets[first : end + 1] - offsets[first]).tolist()
-                for k, start, stop in zip(range(first, end), at, at[1:]):
+                for k, start, stop in zip(range(first, end), at[:-1], at[1:], strict=True):
                     track.nfev += share
                     if self.process:  # F = I: with Q = 0 the prediction leaves x and P as they are
                         kf.predict()
