@@ -173,14 +173,13 @@ class Kinematics:
         else:
             # Per placement i, one matmul for the perturbed points: nominal_i @ (delta_i^1 | ... ).
             given = [j for j, delta in enumerate(deltas) if delta is not None]
-            perturbed = self._perturbed(np.array([deltas[j] for j in given])) if given else None
             if len(given) == k:
-                placements = perturbed  # (n_place, k, 4, 4)
+                placements = self._perturbed(np.array(deltas))  # (n_place, k, 4, 4)
             else:  # nominal (None) among them
                 placements = np.empty((n_place, k, 4, 4))
                 placements[:] = self._nominal[:, None]
                 if given:
-                    placements[:, given] = perturbed
+                    placements[:, given] = self._perturbed(np.array([deltas[j] for j in given]))
         ends_frame: np.ndarray | None = None  # the points in the end frame, stacked (k, 1 or n_poses, 3)
         if isinstance(points, np.ndarray) and points.shape in ((k, 3), (k, len(q), 3)):
             ends_frame = np.asarray(points, dtype=float).reshape(k, -1, 3)
