@@ -214,13 +214,13 @@ class CalibrationProblem(RowProblem):
         stacked = getattr(self.model, "predict_stacked", None)  # a model that stacks them itself: no copy
         predicted = (stacked(list(xs), self.q, self.points) if stacked is not None
                      else np.asarray(self.model.predict_many(list(xs), self.q, self.points)))  # (k, *readings.shape)
-        return (predicted - self.readings).reshape(len(predicted), -1)
+        return (predicted - self.readings).reshape(len(predicted), self.n_values)
 
     def costs(self, xs: list[np.ndarray]) -> list[float]:
         """:meth:`cost` at several points from batched :meth:`residuals` (at most
         :data:`BATCH_ROWS` point-rows a pass, to bound the memory), [m^2] each."""
         step = max(1, BATCH_ROWS // max(1, len(self.readings)))
-        if len(xs) <= step:  # one pass (a search's few candidates)
+        if 0 < len(xs) <= step:  # one pass (a search's few candidates)
             return [float(r @ r) / len(r) for r in self.residuals(xs)]
         out = []
         for start in range(0, len(xs), step):

@@ -24,6 +24,7 @@ def _check(problem):
     for x, r in zip(xs, batched, strict=True):
         assert np.array_equal(r, problem.residual(x))
     assert problem.costs(xs) == [problem.cost(x) for x in xs]
+    assert problem.costs([]) == []
 
 
 def test_cable_rows_batched_to_the_bit(session):
