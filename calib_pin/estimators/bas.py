@@ -135,16 +135,10 @@ class BAS:
                     ahead = (z_qi, z_nr, z_nl, f_nr, f_nl)
                 else:
                     f_qi = cost(z_qi)
-            # The best candidate, as min(candidates, key=cost) picks it (the first of the
-            # lowest: a later one replaces it only when lower): the antennae, the interpolated
-            # point, then the BAS point only if none of those is below f.
-            f_new, z_new = (f_l, z_l) if f_l < f_r else (f_r, z_r)
-            if interpolate is not None and f_qi < f_new:
-                f_new, z_new = f_qi, z_qi
+            # The antennae and the interpolated point, then the BAS point only if none of them is below f.
+            f_new, z_new = _best(f_r, z_r, f_l, z_l, *((f_qi, z_qi) if interpolate is not None else ()))
             if f_new >= f:
-                f_bas = cost(z_bas)
-                if f_bas < f_new:
-                    f_new, z_new = f_bas, z_bas
+                f_new, z_new = _best(f_new, z_new, cost(z_bas), z_bas)
             if f_new < f:
                 f, z = f_new, z_new
             h.append(np.sqrt(f))
@@ -155,3 +149,14 @@ class BAS:
                 message, status = f"RMSE improved by less than {self.rtol:g} (relative) in {window} iterations", 0
                 break
         return track.result(space.to_x(z), iterations, message, status=status)
+
+
+def _best(*pairs: float | np.ndarray) -> tuple[float, np.ndarray]:
+    """The (cost, point) of pairs given flat (cost, point, cost, point, ...) that
+    ``min(candidates, key=cost)`` picks: the first of the lowest (a later one replaces it
+    only when lower, so a NaN never does), without building the list and key calls."""
+    f, z = pairs[0], pairs[1]
+    for k in range(2, len(pairs), 2):
+        if pairs[k] < f:
+            f, z = pairs[k], pairs[k + 1]
+    return f, z  # type: ignore[return-value]
