@@ -212,9 +212,12 @@ class CalibrationProblem(RowProblem):
         if type(self).residual is not CalibrationProblem.residual:
             return np.array([self.residual(x) for x in xs])
         stacked = getattr(self.model, "predict_stacked", None)  # a model that stacks them itself: no copy
-        predicted = (stacked(list(xs), self.q, self.points) if stacked is not None
-                     else np.asarray(self.model.predict_many(list(xs), self.q, self.points)))  # (k, *readings.shape)
-        return (predicted - self.readings).reshape(len(predicted), self.n_values)
+        if stacked is None:
+            predicted = np.asarray(self.model.predict_many(list(xs), self.q, self.points))  # (k, *readings.shape)
+            return (predicted - self.readings).reshape(len(predicted), self.n_values)
+        predicted = stacked(list(xs), self.q, self.points)
+        predicted -= self.readings  # predict_stacked's own new array: the difference in place
+        return predicted.reshape(len(predicted), self.n_values)
 
     def costs(self, xs: list[np.ndarray]) -> list[float]:
         """:meth:`cost` at several points from batched :meth:`residuals` (at most

@@ -194,7 +194,9 @@ class Kinematics:
         v = np.empty((k, 4, len(q)))
         ends = placements[-1]
         if ends_frame is not None:
-            v[:, :3] = (ends_frame @ ends[:, :3, :3].transpose(0, 2, 1) + ends[:, None, :3, 3]).transpose(0, 2, 1)
+            # The same product and sum, the sum written straight into v (component-major).
+            np.add((ends_frame @ ends[:, :3, :3].transpose(0, 2, 1)).transpose(0, 2, 1), ends[:, :3, 3, None],
+                   out=v[:, :3])
         else:
             for j, (end, point) in enumerate(zip(ends, points, strict=True)):
                 v[j, :3] = np.atleast_2d(np.asarray(point, dtype=float) @ end[:3, :3].T + end[:3, 3]).T

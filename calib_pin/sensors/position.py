@@ -396,7 +396,9 @@ class PositionModel(MeasurementModel):
         if base is None:
             return np.asarray(super().predict_many(list(xs), q, points))
         # Every point's device frame in one stacked product (each slice the product predict makes).
-        return base @ rotations_t + translations[:, None, :]
+        device = base @ rotations_t
+        device += translations[:, None, :]
+        return device
 
     def _geometries_many(self, xs: list[np.ndarray] | np.ndarray,
                          markers: np.ndarray) -> tuple[np.ndarray, np.ndarray, Any]:
@@ -405,7 +407,7 @@ class PositionModel(MeasurementModel):
         point's rows' markers (k, n_rows, 3) stacked (or a list of (n_rows, 3)): the same
         exp6 and sums, without a :class:`PositionDevice` per point."""
         k = len(xs)
-        if not self.estimate or any(x is None for x in xs):
+        if not self.estimate or not isinstance(xs, np.ndarray) and any(x is None for x in xs):
             devices = [self.geometry_at(x) for x in xs]
             frames, rows = [d.frame for d in devices], [d.markers[markers] for d in devices]
         else:
