@@ -212,15 +212,20 @@ class CalibrationProblem(RowProblem):
         if type(self).residual is not CalibrationProblem.residual:
             return np.array([self.residual(x) for x in xs])
         stacked = getattr(self.model, "predict_stacked", None)  # a model that stacks them itself: no copy
-        predicted = (stacked(list(xs), self.q, self.points) if stacked is not None
-                     else np.asarray(self.model.predict_many(list(xs), self.q, self.points)))  # (k, *readings.shape)
-        return (predicted - self.readings).reshape(len(predicted), -1)
+        if stacked is None:
+            predicted = np.asarray(self.model.predict_many(list(xs), self.q, self.points))  # (k, *readings.shape)
+            return (predicted - self.readings).reshape(len(predicted), self.n_values)
+        predicted = stacked(list(xs), self.q, self.points)
+        predicted -= self.readings  # predict_stacked's own new array: the difference in place
+        return predicted.reshape(len(predicted), self.n_values)
 
     def costs(self, xs: list[np.ndarray]) -> list[float]:
         """:meth:`cost` at several points from batched :meth:`residuals` (at most
         :data:`BATCH_ROWS` point-rows a pass, to bound the memory), [m^2] each."""
+        step = max(1, BATCH_ROWS // max(1, len(self.readings)))
+        if 0 < len(xs) <= step:  # one pass (a search's few candidates)
+            return [float(r @ r) / len(r) for r in self.residuals(xs)]
         out = []
-        step = max(1, BATCH_ROWS // max(1, self.n_rows))
         for start in range(0, len(xs), step):
             for r in self.residuals(xs[start : start + step]):
                 out.append(float(r @ r) / len(r))

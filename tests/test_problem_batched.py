@@ -24,6 +24,7 @@ def _check(problem):
     for x, r in zip(xs, batched, strict=True):
         assert np.array_equal(r, problem.residual(x))
     assert problem.costs(xs) == [problem.cost(x) for x in xs]
+    assert problem.costs([]) == []
 
 
 def test_cable_rows_batched_to_the_bit(session):
@@ -239,10 +240,12 @@ def test_position_geometries_of_many_points_are_geometry_at_to_the_bit():
     for estimate in (("device", "markers"), ("device",), ("markers",), ()):
         model = PositionModel(fitted.chain, fitted.params, fitted.device, estimate=estimate)
         xs = [0.5 * model.scale * np.random.default_rng(j).standard_normal(model.n_params) for j in range(3)]
-        frames, rows = model._geometries_many(xs, index)
-        for x, frame, row in zip(xs, frames, rows, strict=True):
-            device = model.geometry_at(x)
-            assert _same(frame.homogeneous, device.frame.homogeneous) and _same(row, device.markers[index])
+        for given in (xs, np.array(xs), [xs[0], None, xs[2]]):  # a list, stacked, a nominal point among them
+            rotations_t, translations, rows = model._geometries_many(given, index)
+            for x, rotation_t, translation, row in zip(given, rotations_t, translations, rows, strict=True):
+                device = model.geometry_at(x)
+                assert _same(rotation_t, device.frame.rotation.T) and _same(translation, device.frame.translation)
+                assert _same(row, device.markers[index])
         assert [_same(a, model.predict(x, problem.q, index)) for a, x in
                 zip(model.predict_many(xs, problem.q, index), xs, strict=True)] == [True] * 3
 
@@ -259,3 +262,43 @@ def test_position_problem_starts_from_the_fit_to_the_bit():
     assert fresh.model.names == model.names and _same(fresh.scale, model.scale)
     for x in [np.zeros(problem.n_params), *_points(problem, k=2)]:
         assert _same(problem.residual(x), fresh.residual(x)) and _same(problem.jacobian(x), fresh.jacobian(x))
+
+
+def test_best_candidate_is_the_one_min_picks():
+    """BAS/QIBAS's best candidate (bas._best, without the list and key calls) is the one
+    min(candidates, key=cost) picks: the first of the lowest, ties and NaNs included; the
+    BAS point appended after is the min of the four."""
+    from calib_pin.estimators.bas import _best
+
+    rng = np.random.default_rng(9)
+    values = [0.0, 1.0, 1.0, 2.0, float("nan"), float("inf"), -0.0]
+    for _ in range(2000):
+        costs = [float(rng.choice(values)) if rng.random() < 0.5 else float(rng.random()) for _ in range(4)]
+        points = [np.full(2, j) for j in range(4)]
+        for n in (2, 3, 4):
+            candidates = list(zip(costs[:n], points[:n], strict=True))
+            f, z = _best(*[v for c in candidates for v in c])
+            f_ref, z_ref = min(candidates, key=lambda c: c[0])
+            assert z is z_ref and (f == f_ref or (np.isnan(f) and np.isnan(f_ref)))
+        three = list(zip(costs[:3], points[:3], strict=True))
+        f3, z3 = _best(*[v for c in three for v in c])
+        assert _best(f3, z3, costs[3], points[3])[1] is min([*three, (costs[3], points[3])], key=lambda c: c[0])[1]
+
+
+def test_zero_measurement_as_a_number_is_the_zero_vector_to_the_bit():
+    """The EKF hands filterpy its zero measurement as 0.0: the update (innovation 0.0 - h(x),
+    gain, state, covariance) has the bits of the update with zeros((m, 1)), for rows of 1 and 3 values."""
+    from calib_pin.estimators.ekf import ExtendedKalmanFilter
+
+    rng = np.random.default_rng(2)
+    for m in (1, 3):
+        h, r = rng.normal(size=(m, 5)), rng.normal(size=(m, 1))
+        filters = []
+        for zero in (0.0, np.zeros((m, 1))):
+            kf = ExtendedKalmanFilter(dim_x=5, dim_z=m)
+            kf.x, kf.P = np.full((5, 1), 0.1), np.eye(5) * 2.0
+            for _ in range(3):
+                kf.update(zero, HJacobian=lambda z: h, Hx=lambda z: r + h @ z, R=np.eye(m) * 1e-2)
+            filters.append(kf)
+        assert _same(filters[0].x, filters[1].x) and _same(filters[0].P, filters[1].P)
+        assert _same(filters[0].y, filters[1].y) and _same(filters[0].K, filters[1].K)

@@ -249,3 +249,13 @@ def test_screw_joint_is_refused(chain):
                                 lower=np.array([-1.0]), upper=np.array([1.0]))
     with pytest.raises(cp.CalibPinError, match="joint 'screw' .* both turns and slides"):
         cp.Kinematics(screw)
+
+
+def test_points_many_of_no_perturbation_is_empty(chain):
+    """points_many with no perturbation (k = 0) gives shape (0, n_poses, 3), from a list or a stacked array."""
+    q = random_poses(chain, 5, np.random.default_rng(8))
+    kin = cp.Kinematics(chain)
+    for deltas in ([], np.empty((0, chain.n_joints + 1, 4, 4))):
+        many = kin.points_many(deltas, q, [])
+        assert many.shape == (0, 5, 3) and many.dtype == float
+    assert kin.points_many([], q[0], []).shape == (0, 1, 3)

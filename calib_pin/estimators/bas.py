@@ -34,6 +34,7 @@ improved by less than ``rtol`` (relative) over the last ``window`` iterations
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
@@ -109,7 +110,7 @@ class BAS:
         for iterations in range(1, self.max_iter + 1):
             if b_next is None:
                 b = rng.standard_normal(space.dim)
-                b /= np.sqrt(b.dot(b))  # np.linalg.norm(b), its own operations, without its checks
+                b /= math.sqrt(b.dot(b))  # np.linalg.norm(b), its own operations, without its checks
             else:
                 b, b_next = b_next, None
             if ahead is not None and ahead[0] is z:  # these antennae came with the last call
@@ -120,7 +121,6 @@ class BAS:
                 f_r, f_l = track.costs([space.to_x(z_r), space.to_x(z_l)])  # both antennae in one batched pass
             ahead = None
             z_bas = z - delta * b * np.sign(f_r - f_l)
-            candidates = [(f_r, z_r), (f_l, z_l)]
             if interpolate is not None:
                 z_qi = interpolate(z, m, b, f, f_l, f_r, z_bas)
                 if look_ahead:
@@ -128,17 +128,17 @@ class BAS:
                     # length are known now) in the same batched call: used, and counted,
                     # when the beetle moves to z_qi, as it nearly always does.
                     b_next = rng.standard_normal(space.dim)
-                    b_next /= np.sqrt(b_next.dot(b_next))  # as b above
+                    b_next /= math.sqrt(b_next.dot(b_next))  # as b above (math.sqrt: the same correctly rounded root)
                     m_next = self.tau * m + m0  # the decay below
                     z_nr, z_nl = z_qi + m_next * b_next, z_qi - m_next * b_next
                     f_qi, f_nr, f_nl = track.costs([space.to_x(z_qi), space.to_x(z_nr), space.to_x(z_nl)], used=1)
                     ahead = (z_qi, z_nr, z_nl, f_nr, f_nl)
                 else:
                     f_qi = cost(z_qi)
-                candidates.append((f_qi, z_qi))
-            if min(c[0] for c in candidates) >= f:
-                candidates.append((cost(z_bas), z_bas))
-            f_new, z_new = min(candidates, key=lambda c: c[0])
+            # The antennae and the interpolated point, then the BAS point only if none of them is below f.
+            f_new, z_new = _best(f_r, z_r, f_l, z_l, *((f_qi, z_qi) if interpolate is not None else ()))
+            if f_new >= f:
+                f_new, z_new = _best(f_new, z_new, cost(z_bas), z_bas)
             if f_new < f:
                 f, z = f_new, z_new
             h.append(np.sqrt(f))
@@ -149,3 +149,14 @@ class BAS:
                 message, status = f"RMSE improved by less than {self.rtol:g} (relative) in {window} iterations", 0
                 break
         return track.result(space.to_x(z), iterations, message, status=status)
+
+
+def _best(*pairs: float | np.ndarray) -> tuple[float, np.ndarray]:
+    """The (cost, point) of pairs given flat (cost, point, cost, point, ...) that
+    ``min(candidates, key=cost)`` picks: the first of the lowest (a later one replaces it
+    only when lower, so a NaN never does), without building the list and key calls."""
+    f, z = pairs[0], pairs[1]
+    for k in range(2, len(pairs), 2):
+        if pairs[k] < f:
+            f, z = pairs[k], pairs[k + 1]
+    return f, z  # type: ignore[return-value]

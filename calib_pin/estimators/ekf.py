@@ -93,12 +93,10 @@ class EKF:
         kf.R = noise_of[int(sizes[0])]
         track.thin(self.passes * problem.n_rows)
         track.record_at(x0)
-        zero_of = {m: np.zeros((m, 1)) for m in noise_of}
         offsets = row_offsets(problem)
         batched = len(data_rows(problem)) == problem.n_rows  # subset(rows) takes data rows only
         # Per row, as Python numbers: its size, and the measurement and noise of that size.
-        row_sizes = [int(m) for m in sizes]
-        row_zero, row_noise = [zero_of[m] for m in row_sizes], [noise_of[m] for m in row_sizes]
+        row_noise = [noise_of[int(m)] for m in sizes]
         share = 1.0 / problem.n_rows
         update = 0
         for _ in range(self.passes):
@@ -114,13 +112,15 @@ class EKF:
                     residual = np.concatenate([r for r, _ in pairs])
                     jac = np.vstack([j for _, j in pairs]) @ space.basis
                 at = (offsets[first : end + 1] - offsets[first]).tolist()
-                for k in range(first, end):
+                for k, start, stop in zip(range(first, end), at[:-1], at[1:], strict=True):
                     track.nfev += share
                     if self.process:  # F = I: with Q = 0 the prediction leaves x and P as they are
                         kf.predict()
-                    h, r = jac[at[k - first] : at[k - first + 1]], residual[at[k - first] : at[k - first + 1], None]
-                    # The residual (predicted - measured) is the prediction of a zero measurement.
-                    kf.update(row_zero[k], HJacobian=lambda z, h=h: h,
+                    h, r = jac[start:stop], residual[start:stop, None]
+                    # The residual (predicted - measured) is the prediction of a zero measurement,
+                    # given as the number 0.0: filterpy's innovation 0.0 - h(x) has the bits of
+                    # zeros((m, 1)) - h(x), and its deepcopy of the measurement is then cheap.
+                    kf.update(0.0, HJacobian=lambda z, h=h: h,
                               Hx=lambda z, h=h, r=r, z_b=z_b: r + h @ (z - z_b), R=row_noise[k])
                     update += 1
                     if track.recording:

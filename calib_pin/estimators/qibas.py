@@ -62,14 +62,15 @@ def _vertex_about_best(b: np.ndarray, f1: float, f2: float, f3: float) -> tuple[
     """``parabola_vertex(-b, b, 0.0, f1, f2, f3)`` for a finite b, the same bits with fewer
     array operations, by identities exact in floating point: (-b)**2 == b**2, so
     x2**2 - x1**2 is +0 and its term the number 0.0 * f3; x - 0.0 == x (also for -0.0), so
-    x1 - x3 is x1 and d23 is b; |0.0 - x1| == |b|, so d31's test is d23's
+    x1 - x3 is x1 and d23 is b; |0.0 - x1| == |b|, so d31's test is d23's; |x1 - x2| ==
+    |-b - b| == 2 |b| (exact), above 1e-9 wherever |b| is, so d12's test is implied by it
     (``tests/test_problem_batched.py`` checks it against the reference, to the bit)."""
     x1 = -b
     sq = b**2
     num = (sq * f2 + (0.0 - sq) * f1) + 0.0 * f3
     den = x1 * f2 + (0.0 - b) * f1 + (b - x1) * f3
     d12, d31 = x1 - b, 0.0 - x1
-    distinct = (np.abs(d12) > 1e-9) & (np.abs(b) > 1e-9)  # d23's test, and d31's
+    distinct = np.abs(b) > 1e-9  # d23's test, and d31's; d12's too: |d12| = |-b - b| = 2 |b| exactly
     with np.errstate(divide="ignore", invalid="ignore"):
         vertex = num / (2.0 * den + UPSILON0)
         c2 = -(f1 * b + f2 * d31 + f3 * d12) / (d12 * b * d31)

@@ -96,7 +96,9 @@ class Kinematics:
         self._revolute = turns > slides
         self._basis = _factors(motions, self._revolute)
         self._basis_rows = np.ascontiguousarray(self._basis.transpose(1, 2, 0, 3).reshape(-1, 4, 12))  # (E_0 | E_1 | E_2)
-        self._coef_cache = (np.empty((0, len(motions))), np.empty((len(motions), 12, 0)))
+        #: The last poses' shape and bits, and their factors (:meth:`_coefficients`).
+        self._coef_cache: tuple[tuple[int, ...], bytes, np.ndarray] = ((0, len(motions)), b"",
+                                                                       np.empty((len(motions), 12, 0)))
         self.set_perturbation(None)
 
     def set_perturbation(self, deltas: np.ndarray | None) -> None:
@@ -134,12 +136,13 @@ class Kinematics:
         """The factors of F0 v, F1 v and F2 v in :func:`_through_joints`, (f0, f1, 1), each
         repeated for the 4 rows of its product, shape (n_joints, 12, n_poses). The last
         poses' are kept: a search evaluates the same poses many times."""
-        cached_q, coef = self._coef_cache
-        if not (q.shape == cached_q.shape and np.array_equal(q, cached_q)):
+        shape, bits, coef = self._coef_cache
+        key = q.tobytes()  # the same bits of a float (n_poses, n_joints) q: the same factors
+        if not (q.shape == shape and key == bits):
             coef = np.ones((len(self._revolute), 12, len(q)))
             coef[:, 0:4] = np.where(self._revolute, np.cos(q), q).T[:, None]
             coef[:, 4:8] = np.sin(q).T[:, None]  # a prismatic joint's F1 is zero
-            self._coef_cache = (q.copy(), coef)
+            self._coef_cache = (q.shape, key, coef)
         return coef
 
     def _positions(self, q: np.ndarray, point: np.ndarray) -> np.ndarray:
@@ -159,32 +162,24 @@ class Kinematics:
         :meth:`set_perturbation` takes, None: nominal; or all of them stacked, shape
         (k, n_joints + 1, 4, 4)) at the poses q, shape (k, n_poses, 3),
         [m]. One batched pass for all k: the same numbers, to the bit, as k calls of
-        :meth:`points` (the same products, stacked); the held perturbation is left as it is."""
+        :meth:`points` (the same products, stacked); the held perturbation is left as it is.
+        No perturbation (k = 0): shape (0, n_poses, 3)."""
         q = _joint_positions(q, len(self._basis[0]), finite=False)  # checked on the result below
         k, n_place = len(deltas), len(self._nominal)
-        # Per placement i, one matmul for all k points: nominal_i @ (delta_i^1 | ... | delta_i^k).
-        given: list[int] | range
+        if not k:
+            return np.empty((0, len(q), 3))
         if isinstance(deltas, np.ndarray):  # stacked already, shape (k, n_place, 4, 4): every point perturbed
-            given, chosen = range(k), deltas
+            placements = self._perturbed(deltas)
         else:
+            # Per placement i, one matmul for the perturbed points: nominal_i @ (delta_i^1 | ... ).
             given = [j for j, delta in enumerate(deltas) if delta is not None]
-            chosen = np.array([deltas[j] for j in given])
-        if given:
-            stacked = chosen.transpose(1, 2, 0, 3).reshape(n_place, 4, -1)
-            perturbed = (self._nominal @ stacked).reshape(n_place, 4, len(given), 4).transpose(0, 2, 1, 3)
-        if given and len(given) == k:
-            placements = perturbed  # (n_place, k, 4, 4)
-        else:  # nominal (None) among them, or no point
-            placements = np.empty((n_place, k, 4, 4))
-            placements[:] = self._nominal[:, None]
-            if given:
-                placements[:, given] = perturbed
-        # Per joint i, one matmul for all k points: (M_i^1; ...; M_i^k) @ (E_0,i | E_1,i | E_2,i).
-        factors = placements[:-1].reshape(n_place - 1, 4 * k, 4) @ self._basis_rows  # (n_joints, 4k, 12)
-        # backward[i, j] = [v, 1] @ -> (F0 v | F1 v | F2 v) for point j, shape (n_joints, k, 4, 12)
-        backward = factors.reshape(-1, k, 4, 3, 4).transpose(0, 1, 4, 3, 2).reshape(-1, k, 4, 12)
-        v = np.empty((k, 4, len(q)))
-        ends = placements[-1]
+            if len(given) == k:
+                placements = self._perturbed(np.array(deltas))  # (n_place, k, 4, 4)
+            else:  # nominal (None) among them
+                placements = np.empty((n_place, k, 4, 4))
+                placements[:] = self._nominal[:, None]
+                if given:
+                    placements[:, given] = self._perturbed(np.array([deltas[j] for j in given]))
         ends_frame: np.ndarray | None = None  # the points in the end frame, stacked (k, 1 or n_poses, 3)
         if isinstance(points, np.ndarray) and points.shape in ((k, 3), (k, len(q), 3)):
             ends_frame = np.asarray(points, dtype=float).reshape(k, -1, 3)
@@ -192,13 +187,28 @@ class Kinematics:
             shapes = {np.shape(point) for point in points}
             if len(points) == k and len(shapes) == 1 and shapes <= {(3,), (len(q), 3)}:
                 ends_frame = np.array(points, dtype=float).reshape(k, -1, 3)
+        # Per joint i, one matmul for all k points: (M_i^1; ...; M_i^k) @ (E_0,i | E_1,i | E_2,i).
+        factors = placements[:-1].reshape(n_place - 1, 4 * k, 4) @ self._basis_rows  # (n_joints, 4k, 12)
+        # backward[i, j] = [v, 1] @ -> (F0 v | F1 v | F2 v) for point j, shape (n_joints, k, 4, 12)
+        backward = factors.reshape(-1, k, 4, 3, 4).transpose(0, 1, 4, 3, 2).reshape(-1, k, 4, 12)
+        v = np.empty((k, 4, len(q)))
+        ends = placements[-1]
         if ends_frame is not None:
-            v[:, :3] = (ends_frame @ ends[:, :3, :3].transpose(0, 2, 1) + ends[:, None, :3, 3]).transpose(0, 2, 1)
+            # The same product and sum, the sum written straight into v (component-major).
+            np.add((ends_frame @ ends[:, :3, :3].transpose(0, 2, 1)).transpose(0, 2, 1), ends[:, :3, 3, None],
+                   out=v[:, :3])
         else:
             for j, (end, point) in enumerate(zip(ends, points, strict=True)):
                 v[j, :3] = np.atleast_2d(np.asarray(point, dtype=float) @ end[:3, :3].T + end[:3, 3]).T
         v[:, 3] = 1.0
         return _through_joints(v, backward, self._coefficients(q), q)
+
+    def _perturbed(self, deltas: np.ndarray) -> np.ndarray:
+        """nominal @ delta for k stacked perturbations (k, n_place, 4, 4), per placement
+        one matmul for all k (nominal_i @ (delta_i^1 | ... | delta_i^k)), as (n_place, k, 4, 4)."""
+        n_place, k = len(self._nominal), len(deltas)
+        stacked = deltas.transpose(1, 2, 0, 3).reshape(n_place, 4, -1)
+        return (self._nominal @ stacked).reshape(n_place, 4, k, 4).transpose(0, 2, 1, 3)
 
     def frames(self, q: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The end frame's placement at many poses, and its frame Jacobian.

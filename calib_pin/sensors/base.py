@@ -419,14 +419,17 @@ class MeasurementModel(ABC):
         to the bit; a sensor may batch them (see :meth:`points_at_many`)."""
         return [self.predict(x, q, points) for x in xs]
 
-    def points_at_many(self, xs: list[np.ndarray], q: np.ndarray, points: list[np.ndarray]) -> np.ndarray | None:
-        """:meth:`points_at` at several x in one batched pass, shape (k, n_rows, 3), [m];
-        None with joint compliances (the deflected angles differ per x: no shared pass)."""
+    def points_at_many(self, xs: list[np.ndarray] | np.ndarray, q: np.ndarray,
+                       points: list[np.ndarray] | np.ndarray) -> np.ndarray | None:
+        """:meth:`points_at` at several x (a list, or an array (k, n_params)) in one batched
+        pass, shape (k, n_rows, 3), [m]; None with joint compliances (the deflected angles
+        differ per x: no shared pass)."""
         if self.deflection is not None:
             return None
         many = getattr(self.params, "delta_matrices_many", None)
         if many is not None and len(xs):  # the parameter model stacks them itself (the same matrices)
-            return self._kin.points_many(many([self.robot(x) for x in xs]), q, points)
+            robot = xs[:, : self.n_robot] if isinstance(xs, np.ndarray) else [self.robot(x) for x in xs]
+            return self._kin.points_many(many(robot), q, points)
         deltas = [self.params.delta_matrices(self.robot(x)) for x in xs]
         return self._kin.points_many(deltas, q, points)
 

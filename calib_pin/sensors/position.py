@@ -383,35 +383,47 @@ class PositionModel(MeasurementModel):
         """:meth:`predict` at several x, the robot's positions in one batched pass."""
         return list(self.predict_stacked(xs, q, points))
 
-    def predict_stacked(self, xs: list[np.ndarray], q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+    def predict_stacked(self, xs: list[np.ndarray] | np.ndarray, q: np.ndarray,
+                        points: np.ndarray | None = None) -> np.ndarray:
         """:meth:`predict_many` as one array, shape (k, n_rows, 3), [m] (what a batched
-        residual subtracts the readings from)."""
+        residual subtracts the readings from); xs a list of k points or an array (k, n_params)."""
         markers = _index(points, len(q))
-        frames, rows = self._geometries_many(xs, markers)
-        base = self.points_at_many(xs, q, rows)
+        if not len(xs):
+            return np.empty((0, len(q), 3))
+        stacked = None if any(x is None for x in xs) else np.asarray(xs, dtype=float)  # (k, n_params): one copy
+        rotations_t, translations, rows = self._geometries_many(xs if stacked is None else stacked, markers)
+        base = self.points_at_many(xs if stacked is None else stacked, q, rows)
         if base is None:
-            return np.asarray(super().predict_many(xs, q, points))
+            return np.asarray(super().predict_many(list(xs), q, points))
         # Every point's device frame in one stacked product (each slice the product predict makes).
-        rotations_t = np.array([frame.rotation.T for frame in frames])
-        translations = np.array([frame.translation for frame in frames])
-        return base @ rotations_t + translations[:, None, :]
+        device = base @ rotations_t
+        device += translations[:, None, :]
+        return device
 
-    def _geometries_many(self, xs: list[np.ndarray], markers: np.ndarray) -> tuple[list[pin.SE3], Any]:
-        """:meth:`geometry_at` at each of xs, as the device frames and each point's rows'
-        markers (k, n_rows, 3) stacked (or a list of (n_rows, 3)): the same exp6 and sums,
-        without a :class:`PositionDevice` per point."""
-        if not self.estimate or any(x is None for x in xs):
+    def _geometries_many(self, xs: list[np.ndarray] | np.ndarray,
+                         markers: np.ndarray) -> tuple[np.ndarray, np.ndarray, Any]:
+        """:meth:`geometry_at` at each of xs (a list, or an array (k, n_params)), as the
+        device frames' transposed rotations (k, 3, 3) and translations (k, 3) [m] and each
+        point's rows' markers (k, n_rows, 3) stacked (or a list of (n_rows, 3)): the same
+        exp6 and sums, without a :class:`PositionDevice` per point."""
+        k = len(xs)
+        if not self.estimate or not isinstance(xs, np.ndarray) and any(x is None for x in xs):
             devices = [self.geometry_at(x) for x in xs]
-            return [d.frame for d in devices], [d.markers[markers] for d in devices]
-        extra = np.asarray(xs, dtype=float)[:, self.sensor_start :]
-        frame = self.device.frame
-        if "device" in self.estimate:
-            frames, extra = [frame * pin.exp6(e) for e in extra[:, :6]], extra[:, 6:]
+            frames, rows = [d.frame for d in devices], [d.markers[markers] for d in devices]
         else:
-            frames = [frame] * len(xs)
-        if "markers" in self.estimate:
-            return frames, (self.device.markers + extra.reshape(len(xs), -1, 3))[:, markers]
-        return frames, [self.device.markers[markers]] * len(xs)
+            extra = np.asarray(xs, dtype=float)[:, self.sensor_start :]
+            frame = self.device.frame
+            if "device" in self.estimate:
+                frames, extra = [frame * pin.exp6(e) for e in extra[:, :6]], extra[:, 6:]
+            else:
+                frames = [frame] * k
+            if "markers" in self.estimate:
+                rows = (self.device.markers + extra.reshape(k, -1, 3))[:, markers]
+            else:
+                rows = [self.device.markers[markers]] * k
+        # The frames' numbers copied out of one array of their matrices (C-ordered, as predict's product reads them).
+        homogeneous = np.array([f.homogeneous for f in frames]).reshape(k, 4, 4)
+        return homogeneous[:, :3, :3].transpose(0, 2, 1).copy(), homogeneous[:, :3, 3].copy(), rows
 
     def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
                               points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
