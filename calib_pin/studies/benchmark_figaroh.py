@@ -5,7 +5,8 @@ dependency: :func:`against_figaroh` returns None when it is not installed. For e
 one seeded simulated UR5 session (one marker on tool0 measured in a device frame 2 m
 away, 0.05 mm noise per axis, nominal error 2 mm RMSE) is calibrated by both tools,
 interleaved (calib-pin, FIGAROH, calib-pin, FIGAROH, ...), in one process with the same
-BLAS threads. Timed, both from the data in memory:
+BLAS threads, each run as :mod:`timeit` times (the garbage of the runs before collected
+first, untimed; Python's cyclic collector off while it runs). Timed, both from the data in memory:
 
 * calib-pin: the problem on every row (the device frame and marker fitted: Kabsch
   rounds, then scipy's LM) and the estimator (history recording off), the parameter
@@ -38,11 +39,13 @@ calib-pin's process is its own.
 from __future__ import annotations
 
 import contextlib
+import gc
 import io
 import statistics
 import tempfile
 import time
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -72,7 +75,8 @@ GOAL_RATIO = 30.0
 TIMED = ("calib-pin: problem on the rows (device frame and marker fitted: Kabsch rounds, then LM) + estimator, "
          "history off; "
          "FIGAROH: create_param_list() + solve_optimisation() (parameter selection, frame guess, LM with "
-         "outlier rounds), not its YAML/CSV reading nor solve()'s report")
+         "outlier rounds), not its YAML/CSV reading nor solve()'s report; each run as timeit times it (the runs "
+         "before collected first, the cyclic collector off while it runs)")
 
 
 @dataclass(frozen=True)
@@ -170,6 +174,21 @@ def _calib_pin(setup: CalibrationSetup, method: str, seed: int) -> tuple[Any, An
     return problem.model, estimate, time.perf_counter() - start
 
 
+@contextlib.contextmanager
+def _collected_then_off() -> Iterator[None]:
+    """Around one tool's timed run in the race, as :mod:`timeit` times: the garbage of the
+    runs before collected first (untimed), Python's cyclic collector off while it runs, so
+    neither tool is charged for a collection of the other's objects."""
+    gc.collect()
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
 def _session(samples: int, seed: int) -> tuple[CalibrationSetup, Any, np.ndarray]:
     """The seeded UR5 session ready to calibrate, its truth, and the fresh poses [rad]."""
     chain = load_chain("ur5")
@@ -196,14 +215,16 @@ def race(samples: int, methods: list[str], repeats: int, seed: int,
             warnings.simplefilter("ignore")  # BaseCalibration's default cost function warns on every call
             for _ in range(repeats):
                 for m in methods:
-                    model, estimate, seconds = _calib_pin(setup, m, seed)
+                    with _collected_then_off():
+                        model, estimate, seconds = _calib_pin(setup, m, seed)
                     times[m].append(seconds)
                     scores[m] = (_rmse_mm(estimate.predict(model, setup.data.q, points), true_train),
                                  _rmse_mm(estimate.predict(model, fresh, np.zeros(len(fresh), dtype=int)), true_fresh),
                                  len(estimate.x))
                 for selection in selections:
                     calibrator = tool.loaded(selection)
-                    x, seconds = tool.calibrate(calibrator)
+                    with _collected_then_off():
+                        x, seconds = tool.calibrate(calibrator)
                     times[selection].append(seconds)
                     scores[selection] = (_rmse_mm(tool.positions(calibrator, x, setup.data.q), true_train),
                                          _rmse_mm(tool.positions(calibrator, x, fresh), true_fresh), len(x))
