@@ -57,6 +57,10 @@ ROLES = ("split", "train", "test")
 #: At most this many fits of the variance-component estimation.
 MAX_VCE_FITS = 5
 
+#: The largest noise [m] a Kalman filter takes (``run_estimator``'s ``noise``): an estimate
+#: beyond it is a misfit of the data, refused naming the data (not the argument).
+MAX_FILTER_NOISE_M = 1.0
+
 #: The estimation stops when no sigma moves by more than this (relative).
 VCE_TOLERANCE = 0.01
 
@@ -392,6 +396,14 @@ class StackedSetup:
         unknown = [k for k, s in enumerate(self.sigmas) if s is None] if len(self.sets) > 1 else []
 
         def fit(now: list[float]) -> tuple[Any, Any]:
+            misfit = [k for k in unknown if now[k] > MAX_FILTER_NOISE_M]
+            if misfit:  # a misfit, not a noise (run_estimator would name its argument): the worst set named
+                k = max(misfit, key=lambda j: now[j])
+                others = [self.labels[j] for j in misfit if j != k]
+                raise DataError(self.sets[k].source or self.labels[k], f"the fit leaves {now[k]:.4g} m per value "
+                                f"(this set's estimated noise; at most {MAX_FILTER_NOISE_M:g} m"
+                                + (f"; also {', '.join(others)}" if others else "") + "): its readings do not fit "
+                                "this robot and sensor set-up, or not the other sets' (a unit or frame mistake?)")
             training = full.with_weights(now).subset(train)
             return run_estimator(method, training, x0, seed=seed, noise=now[0], loss=loss, fixed=held), training
 

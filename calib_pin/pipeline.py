@@ -36,6 +36,7 @@ from .measurements import MeasurementSet, read_measurements
 from .measurements.checks import check_measurements, check_same_setup
 from .measurements.load import load_data
 from .multiset import (
+    MAX_FILTER_NOISE_M,
     FitSet,
     StackedSetup,
     check_sets,
@@ -53,10 +54,6 @@ from .robot import Chain, RobotDescription, load_chain, resolve_robot
 from .robot.deflection import Compliance, as_compliance
 from .sensors import DEFAULT_NOISE_MM, SensorSetup, check_estimate, sensor_for, setup_record
 from .validation import TestSet, as_test_set, same_rows, score_registered, score_session
-
-#: The largest noise [m] a Kalman filter takes (``run_estimator``'s ``noise``): an estimate
-#: beyond it is a misfit of the data, refused naming the data (not the argument).
-MAX_FILTER_NOISE_M = 1.0
 
 
 @dataclass

@@ -885,18 +885,18 @@ def scaled_wu(factor: float) -> str:
 #: readings refuses it (an anchor 100 m away named 'argument noise' before).
 I26_PERSET: list[Case] = [
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
-     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: 100000,0,0 mm (given; the sensor point P0 in the base frame) "
-     "does not fit the readings"),
+     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: the set-up (anchor_mm 100000,0,0 mm (given), tool_mm 0,0,50 mm "
+     "(the file's), length_offset_mm 0 mm (the file's)) does not fit the readings"),
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e5,0,0", "--no-html", "--out", "out"], {"a.csv": data()}, 2,
-     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: 100000,0,0 mm"),
+     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: the set-up (anchor_mm 100000,0,0 mm"),
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=2e6,0,0", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:anchor_mm=2e6,0,0': anchor_mm: expected 3 numbers 'x,y,z' in mm, each of magnitude below 1000000"),
     (CAL, ["irb120", "--data", "a.csv:tool_mm=1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
-     "--data 'a.csv:tool_mm=1e5,0,0': tool_mm: 100000,0,0 mm (given; the tool point in the end frame) does not fit "
-     "the readings"),
+     "--data 'a.csv:tool_mm=1e5,0,0': tool_mm: the set-up (anchor_mm 600,200,-100 mm (the file's), tool_mm "
+     "100000,0,0 mm (given), length_offset_mm 0 mm (the file's)) does not fit the readings"),
     (CAL, ["irb120", "--data", "a.csv:length_offset_mm=1e5", "--analyze"], {"a.csv": data()}, 2,
-     "--data 'a.csv:length_offset_mm=1e5': length_offset_mm: 100000 mm (given; the sensor's zero offset) does not "
-     "fit the readings"),
+     "--data 'a.csv:length_offset_mm=1e5': length_offset_mm: 100000 mm (given) does not fit the readings: they "
+     "miss the cable lengths at the nominal robot by the same "),
     (CAL, ["irb120", "--data", "a.csv:length_offset_mm=2e6", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:length_offset_mm=2e6': length_offset_mm: expected a number of magnitude below 1000000"),
     (CAL, ["irb120", "--data", "c.csv:tool_mm=1e5,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
@@ -916,12 +916,23 @@ I26_PERSET: list[Case] = [
      "--data 'a.csv:label=': label: an empty label"),
     # the same set-up checks for the global flags and the file's own metadata
     (CAL, ["irb120", "--data", "a.csv", "--anchor-mm", "1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
-     "a.csv: anchor_mm: 100000,0,0 mm (given; the sensor point P0 in the base frame) does not fit the readings"),
+     "a.csv: anchor_mm: the set-up (anchor_mm 100000,0,0 mm (given), tool_mm 0,0,50 mm (the file's)"),
     (CAL, ["irb120", "--data", "a.csv", "--analyze"], {"a.csv": anchor("# anchor_mm: 600000, 200, -100")}, 2,
-     "a.csv: anchor_mm: 600000,200,-100 mm (the file's; the sensor point P0 in the base frame) does not fit"),
+     "a.csv: the set-up (anchor_mm 600000,200,-100 mm (the file's), tool_mm 0,0,50 mm (the file's), "
+     "length_offset_mm 0 mm (the file's)) does not fit the readings"),
     (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# tool_mm: 0, 0, 50000")}, 2,
      "c.csv: tool_mm: 0,0,50000 mm (the file's; the tool point in the end frame) does not fit the touches"),
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=650,200,-100", "--analyze"], {"a.csv": data()}, 0, "rank"),
+    # the file's offset wrong: the same miss on every row names the offset, not the anchor
+    (CAL, ["irb120", "--data", "a.csv", "--analyze"],
+     {"a.csv": csv(*ROWS[:40], meta=(*META[:4], "# length_offset_mm: 700", *META[5:]))}, 2,
+     "a.csv: length_offset_mm: 700 mm (the file's) does not fit the readings: they miss the cable lengths at the "
+     "nominal robot by the same +0.7"),
+    # the file's anchor wrong, a right --tool-mm given: every part of the set-up named, with where it came from
+    (CAL, ["irb120", "--data", "a.csv", "--tool-mm", "0,0,50", "--analyze"],
+     {"a.csv": anchor("# anchor_mm: 6000, 200, -100")}, 2,
+     "the set-up (anchor_mm 6000,200,-100 mm (the file's), tool_mm 0,0,50 mm (given), length_offset_mm 0 mm (the "
+     "file's)) does not fit the readings"),
     # a set that no robot fits (positions in um read as mm): the data named, not the filter's argument
     (CAL, ["irb120", "--data", "w.csv", "--method", "ekf", "--no-html", "--out", "out"], {"w.csv": scaled_wu(1e3)}, 2,
      "w.csv: a first LM fit leaves"),

@@ -73,6 +73,35 @@ def test_estimate_tool_without_anchor_or_tool(chain, params):
         cp.calibrate("irb120", dataclasses.replace(data, anchor=None, tool=None), method="lm")
 
 
+
+@pytest.mark.parametrize("method", ["lm", "ekf-qibas"])
+def test_estimate_tool_with_the_anchor_known(chain, params, method):
+    """--estimate tool on a set that gives its anchor but no tool point (the advice of the
+    'no tool point' refusal): the tool point's start is fitted on the nominal robot with the
+    anchor held (from the flange origin the estimate split the tool's z with d_6 and tripped
+    the 20 mm sanity bound; before that an assert failed), and the fresh error is that of the
+    fit with the tool point given."""
+    from calib_pin.robot.poses import random_poses
+    from calib_pin.sensors.cable import fit_tool_point
+
+    data, truth = cp.simulate(chain, params, 120, seed=8, noise_mm=0.05, tool_mm=(30.0, -20.0, 80.0))
+    q = random_poses(chain, 1000, np.random.default_rng(5))
+    true = cp.CableModel(chain, params, truth.sensor).predict(truth.x, q)
+
+    def fresh(result) -> float:
+        return float(np.sqrt(np.mean((result.predict(q) - true) ** 2)))
+
+    start = fit_tool_point(chain, params, data.q, data.values, truth.sensor.anchor, truth.sensor.length_offset)
+    np.testing.assert_allclose(start, truth.sensor.tool, atol=5e-3)  # the nominal robot: mm off
+    given = cp.calibrate("irb120", data, method=method, test_fraction=0)
+    free = cp.calibrate("irb120", dataclasses.replace(data, tool=None), method=method, test_fraction=0,
+                        estimate=("tool",))
+    assert free.problem.model.prefit is None  # the anchor stays the file's
+    np.testing.assert_array_equal(free.problem.model.sensor.anchor, truth.sensor.anchor)
+    assert fresh(free) < 1.1 * fresh(given)
+    with pytest.raises(cp.CalibPinError, match="tool point"):
+        fit_tool_point(chain, params, data.q[:3], data.values[:3], truth.sensor.anchor, 0.0, "s.csv")
+
 def test_tool_columns_match_finite_differences(chain, params, session):
     """The tool point's columns (end frame) with anchor and offset: central differences."""
     data, truth = session

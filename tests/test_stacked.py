@@ -247,3 +247,19 @@ def test_kalman_filters_update_row_by_row_over_stacked_sets(chain, params, three
         assert error < 1.3 * _fresh_rmse_mm(chain, params, truth, ref.model, ref.x, anchor_mm) + 0.005
     with pytest.raises(cp.CalibPinError, match=r"result.sets\[k\].predict"):
         result.predict(np.zeros(6))
+
+
+@pytest.mark.parametrize("method", ["lm", "ekf"])
+def test_a_set_no_robot_fits_is_refused_naming_the_data_not_the_noise_argument(method):
+    """Two sets, one of positions in the wrong unit (metres read as mm): the estimated noise
+    would be metres, which the filters refuse as their argument ('argument noise'); the
+    refusal names a data file, and every set it finds so (a stacked fit cannot tell which
+    one is wrong when one spoils the common estimate)."""
+    data = cp.read_measurements("robots/irb120_wu2015.csv")
+    ids = np.array([int(p) for p in data.point_ids])
+    m12, m3 = data.subset(np.flatnonzero(ids <= 2)), data.subset(np.flatnonzero(ids == 3))
+    wrong = dataclasses.replace(m3, values=m3.values * 1e3, source="m3_in_um.csv")
+    with pytest.raises(cp.DataError, match=r"the fit leaves .* m per value .*do not fit this robot") as refused:
+        cp.calibrate("irb120", [FitSet(m12, "m12"), FitSet(wrong, "m3")], method=method)
+    assert "argument noise" not in str(refused.value)
+    assert "m3_in_um.csv" in str(refused.value) or "also m3" in str(refused.value)

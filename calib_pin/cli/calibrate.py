@@ -12,6 +12,7 @@ says so and the run writes everything else.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import sys
 from collections.abc import Sequence
@@ -36,6 +37,7 @@ from .common import (
     positive_float,
     run,
 )
+from .process import collecting
 
 
 def export_formats(text: str) -> tuple[str, ...]:
@@ -400,8 +402,11 @@ def _calibrate(args: argparse.Namespace) -> int:
     inputs = {**robot_inputs(args.robot), **sets, "--test-data": getattr(test_file, "data", test_file),
               "--nominal": args.nominal}
     # an input in --out is never replaced, nor removed as stale; all files together or none
-    done = write_outputs(result, Path(args.out), args.export, html=not args.no_html, inputs=inputs,
-                         silence="--no-html silences this")
+    # report.html draws figures per set, which only the collector frees: on for several sets
+    # (one set's are a bounded 15 MB, and the collector's passes over matplotlib 0.1 s)
+    with collecting() if len(result.sets) > 1 else contextlib.nullcontext():
+        done = write_outputs(result, Path(args.out), args.export, html=not args.no_html, inputs=inputs,
+                             silence="--no-html silences this")
     report = done.report
     if done.refused:
         return fail(f"{done.refused} (report: {done.folder / 'report.json'})")
