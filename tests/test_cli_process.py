@@ -98,3 +98,47 @@ def test_a_script_process_exits_with_its_command_status(tmp_path):
     assert done.returncode == 2
     assert len(done.stderr.strip().splitlines()) == 1 and "no-such-robot" in done.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_collecting_turns_the_collector_on_for_its_part_with_what_came_before_frozen():
+    """Inside a one-pass command (collector off): on within, every earlier object frozen
+    (its passes skip them), off again after; with the collector on, nothing changes."""
+    gc.disable()
+    before = gc.get_freeze_count()
+    with process.collecting():
+        assert gc.isenabled()
+        assert gc.get_freeze_count() > before
+    assert not gc.isenabled()
+    gc.enable()
+    gc.unfreeze()
+    frozen = gc.get_freeze_count()
+    with process.collecting():
+        assert gc.isenabled()
+    assert gc.isenabled() and gc.get_freeze_count() == frozen
+
+
+def test_a_report_of_several_sets_is_drawn_with_the_collector_on(monkeypatch, tmp_path):
+    """calibrate's report.html of several sets (figures per set, freed only by the
+    collector) is written inside collecting(); one set's is not."""
+    import contextlib
+
+    import calib_pin.cli.calibrate as calibrate_cli
+
+    entered: list[int] = []
+
+    @contextlib.contextmanager
+    def spy():
+        entered.append(1)
+        yield
+
+    monkeypatch.setattr(calibrate_cli, "collecting", spy)
+    assert calibrate_cli.calibrate_main(["irb120", "--method", "lm", "--no-html", "--out", str(tmp_path / "one")]) == 0
+    assert entered == []
+    lines = (ROOT / "robots" / "irb120_default.csv").read_text().splitlines(keepends=True)
+    head = [ln for ln in lines if ln.startswith("#")] + [next(ln for ln in lines if not ln.startswith("#"))]
+    rows = [ln for ln in lines if ln not in head]
+    for k, part in enumerate((rows[:60], rows[60:])):
+        (tmp_path / f"s{k}.csv").write_text("".join(head + part))
+    two = ["--data", str(tmp_path / "s0.csv"), "--data", str(tmp_path / "s1.csv")]
+    code = calibrate_cli.calibrate_main(["irb120", *two, "--method", "lm", "--no-html", "--out", str(tmp_path / "two")])
+    assert code == 0 and entered == [1]
