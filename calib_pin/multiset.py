@@ -290,12 +290,8 @@ class StackedSetup:
         unsupported = support_error(training)
         if unsupported:
             raise DataError(self.data.source, unsupported)
-        x0 = np.zeros(full.n_params)
-        if self.start is not None:  # the robot's own kinematics (--nominal), shared by every set
-            x0[:full.model.n_robot] = self.start.robot_x
-            if self.start.compliance is not None:
-                x0[full.model.n_robot:full.model.sensor_start] = self.start.compliance
-            x0 = self.start.sensor_fit(full.subset(train), x0)  # each set's geometry as seen by the start
+        # the robot's own kinematics (--nominal), shared by every set; each set's geometry as seen by it
+        x0 = np.zeros(full.n_params) if self.start is None else self.start.x0(full, full.subset(train))
         held = tuple(full.model.names.index(n) for n in self.fixed)
         estimate, sigmas, fits = self._fit(method, full, train, sigmas, x0, seed, loss, held)
         full = full.with_weights(sigmas)

@@ -101,13 +101,8 @@ class CalibrationSetup:
         """Where an estimate on ``training`` (rows of ``problem``) starts, shape (n_params,),
         SI units (zero deviations, or the robot's own kinematics of ``start``), and the
         indices of the unknowns held there (``fixed``)."""
-        x0 = np.zeros(problem.n_params)
-        if self.start is not None:  # the robot's own kinematics (--nominal)
-            model = problem.model
-            x0[:model.n_robot] = self.start.robot_x
-            if self.start.compliance is not None:
-                x0[model.n_robot:model.sensor_start] = self.start.compliance
-            x0 = self.start.sensor_fit(training, x0)  # the sensor's geometry as seen by the start
+        # the robot's own kinematics (--nominal), the sensor's geometry as seen by it
+        x0 = np.zeros(problem.n_params) if self.start is None else self.start.x0(problem, training)
         return x0, tuple(problem.model.names.index(n) for n in self.fixed)
 
     def problem_on(self, fit_rows: np.ndarray) -> CalibrationProblem:

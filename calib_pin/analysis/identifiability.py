@@ -102,22 +102,17 @@ class Identifiability:
 
 
 #: The smallest entry of an orthonormal null-space basis (scaled coordinates) that
-#: :func:`_readable` takes as a pivot: a smaller one is a start's slight breaking of an exact
+#: :func:`_null_lines` takes as a pivot: a smaller one is a start's slight breaking of an exact
 #: degeneracy (at zero deviations it is 0), and dividing by it printed coefficients of 1e16.
 PIVOT_TOL = 1e-3
-
-
-def _readable(null: np.ndarray, names: list[str], scale: np.ndarray, units: list[str],
-              tol: float = 0.05, pivot_tol: float = PIVOT_TOL) -> list[str]:
-    """:func:`_null_lines` as text, one line each: its terms joined by "with"."""
-    return [" with ".join(text for _, text in line) for line in _null_lines(null, names, scale, units, tol, pivot_tol)]
 
 
 def _null_lines(null: np.ndarray, names: list[str], scale: np.ndarray, units: list[str],
                 tol: float = 0.05, pivot_tol: float = PIVOT_TOL) -> list[list[tuple[int, str]]]:
     """Null-space basis (k, n) of scaled coordinates, orthonormal rows, in reduced
-    row-echelon form, as text: each line is a change of the parameters (in mm and mrad)
-    that no reading sees, led by its pivot (+1 typical size), its terms in parameter order.
+    row-echelon form, as lines of text: each line is a change of the parameters (in mm and
+    mrad) that no reading sees, led by its pivot (+1 typical size), its terms in parameter
+    order, the lines in pivot order.
 
     The pivots are chosen in parameter order, each the largest entry of its column among
     the rows left, and only if it is at least ``tol`` of the largest entry of its row (its
@@ -148,13 +143,6 @@ def _null_lines(null: np.ndarray, names: list[str], scale: np.ndarray, units: li
                 if r != top:
                     a[r] -= a[r, c] * a[top]
             pivots.append(c)
-    return _terms(a, pivots, names, scale, units, tol)
-
-
-def _terms(a: np.ndarray, pivots: list[int], names: list[str], scale: np.ndarray, units: list[str],
-           tol: float) -> list[list[tuple[int, str]]]:
-    """The lines of :func:`_readable` from its reduced rows ``a`` and their ``pivots``, in
-    pivot order: each line's terms above ``tol`` (scaled), as (column, text)."""
     out = []
     for k in np.argsort(pivots, kind="stable"):
         terms = []

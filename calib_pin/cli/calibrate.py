@@ -346,23 +346,15 @@ def _analyze(args: argparse.Namespace) -> int:
 def analysis_point(setup: Any) -> tuple[Any, str]:
     """Where ``--analyze`` analyses the data's poses, SI units (n_params,), and its words:
     zero deviations (the catalogue URDF), or with ``--nominal`` the start a calibration
-    would take (the start's robot deviations and compliances, every sensor's geometry
-    fitted to all rows with the robot held there, as :meth:`CalibrationSetup.start_on`
-    does on the training rows)."""
+    would take (:meth:`~calib_pin.parameters.start.Start.x0`, the sensor's geometry fitted
+    to every row with the robot held there)."""
     import numpy as np
 
-    problem = setup.problem
-    x = np.zeros(problem.n_params)
-    start = setup.start
+    problem, start = setup.problem, setup.start
     if start is None:
-        return x, "zero deviations (the catalogue URDF; --nominal analyses at a start)"
-    model = problem.model
-    x[:model.n_robot] = start.robot_x
-    if start.compliance is not None:
-        x[model.n_robot:model.sensor_start] = start.compliance
-    x = start.sensor_fit(problem, x)
-    return x, (f"the start {start.describe()}: its robot deviations, the sensor geometry fitted to every row "
-               "with the robot held there")
+        return np.zeros(problem.n_params), "zero deviations (the catalogue URDF; --nominal analyses at a start)"
+    return start.x0(problem, problem), (f"the start {start.describe()}: its robot deviations, the sensor geometry "
+                                        "fitted to every row with the robot held there")
 
 
 def table(metrics: dict[str, dict[str, Metrics]], unit: str = "mm") -> str:

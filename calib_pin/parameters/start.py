@@ -56,6 +56,18 @@ class Start:
     compliance: np.ndarray | None
     fit_m: float
 
+    def x0(self, problem: Any, training: Any) -> np.ndarray:
+        """Where an estimate of ``problem``'s unknowns starts, shape (n_params,), SI: the
+        start's robot deviations and compliances, the sensor's geometry fitted to
+        ``training`` (rows of ``problem``, or all of it) with the robot held there
+        (:meth:`sensor_fit`)."""
+        x = np.zeros(problem.n_params)
+        model = problem.model
+        x[:model.n_robot] = self.robot_x
+        if self.compliance is not None:
+            x[model.n_robot:model.sensor_start] = self.compliance
+        return self.sensor_fit(training, x)
+
     def sensor_fit(self, problem: Any, x0: np.ndarray) -> np.ndarray:
         """x0 with its sensor unknowns (device frame, markers, anchor) fitted to ``problem``'s
         rows with the robot held at the start (scipy least squares on the active set's

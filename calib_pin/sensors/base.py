@@ -59,6 +59,23 @@ class NoisePart:
         return {f"noise_{self.unit}": self.sigma * self.per_si, "noise_from": self.origin}
 
 
+#: A sensor set-up given by the caller or the file (a drawstring's anchor, tool point and
+#: offset; a contact set's tool point) whose values at the nominal robot miss the readings
+#: by more than this (median over the rows) [m] is refused: no kinematic deviation within
+#: the sanity bounds (:mod:`calib_pin.sanity`) moves the tool point that far (1.4 mm on
+#: the shipped drawstring set, 0.6 mm on the contact example).
+SETUP_MISFIT_M = 0.5
+#: At most this many rows, evenly spread over a set, check its set-up (:func:`check_rows`):
+#: a gross misfit shows on any 1 000.
+CHECK_ROWS = 1000
+
+
+def check_rows(n_rows: int) -> np.ndarray:
+    """The rows of a set of ``n_rows`` that check its set-up: at most :data:`CHECK_ROWS`,
+    evenly spread, first and last included."""
+    return np.unique(np.linspace(0, n_rows - 1, min(n_rows, CHECK_ROWS)).astype(int))
+
+
 def frame_unknowns(prefix: str, metres: float, radians: float) -> list[tuple[str, str, float]]:
     """The six unknowns (name, unit, typical size) of a frame correction: ``PREFIX_x/y/z``
     [m], typical ``metres``, then ``PREFIX_rx/ry/rz`` [rad], typical ``radians``."""

@@ -19,7 +19,7 @@ from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
-from .base import MeasurementModel, chosen
+from .base import SETUP_MISFIT_M, MeasurementModel, check_rows, chosen
 from .setup import SensorSetup, estimate_names, finite, option, xyz_mm
 
 if TYPE_CHECKING:
@@ -128,15 +128,6 @@ def _gives_offset(data: MeasurementSet) -> bool:
     return bool({"length_offset_mm", "length_offset_m"} & keys) if keys is not None else data.length_offset != 0.0
 
 
-#: A given drawstring set-up whose cable lengths at the nominal robot miss the readings by
-#: more than this (median over the rows) [m] is refused: no kinematic deviation within the
-#: sanity bounds (:mod:`calib_pin.sanity`) moves the tool point that far (1.4 mm on the
-#: shipped set; an anchor 1 m off fails every method there, estimated or not).
-SETUP_MISFIT_M = 0.5
-#: The rows, evenly spread over the set, that check (a gross misfit shows on any 1 000).
-CHECK_ROWS = 1000
-
-
 def _check_setup_fits(model: CableModel, data: MeasurementSet, options: Mapping[str, Any]) -> None:
     """Refuse a known set-up (anchor, tool point, offset: the caller's or the file's) whose
     cable lengths at the nominal robot are not the readings (a unit mistake, an anchor in
@@ -149,7 +140,7 @@ def _check_setup_fits(model: CableModel, data: MeasurementSet, options: Mapping[
         DataError: naming the file, the set-up's values (each given or the file's), the
             lengths and the readings.
     """
-    rows = np.unique(np.linspace(0, len(data.q) - 1, min(len(data.q), CHECK_ROWS)).astype(int))
+    rows = check_rows(len(data.q))
     lengths, readings = model.predict(None, data.q[rows]), data.values[rows]
     miss = lengths - readings
     misfit = float(np.median(np.abs(miss)))
@@ -484,6 +475,17 @@ class DrawstringPrefit:
         return text + (f", tool {mm(self.sensor.tool)} mm" if self.tool_fitted else "")
 
 
+def _cables(origin: np.ndarray, end_rot: np.ndarray, tool: np.ndarray,
+            anchor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The cable lengths |c_i + R_i t - P0| [m], shape (n,), and their unit directions from
+    the anchor, shape (n, 3), for the end frames' origins c (n, 3) [m] and rotations R
+    (n, 3, 3), the tool point t [m, end frame] and the anchor P0 [m, base frame]: the
+    pre-fits' residual and its derivative."""
+    cable = origin + end_rot @ tool - anchor
+    lengths = np.linalg.norm(cable, axis=1)
+    return lengths, cable / np.maximum(lengths, 1e-12)[:, None]
+
+
 def fit_tool_point(chain: Chain, params: ParameterModel, q: np.ndarray, readings: np.ndarray, anchor: np.ndarray,
                    offset: float, source: str = "") -> np.ndarray:
     """Best-fit tool point [m, end frame] for the nominal robot with the anchor P0 [m, base
@@ -504,12 +506,10 @@ def fit_tool_point(chain: Chain, params: ParameterModel, q: np.ndarray, readings
     end_rot, origin = model.end_frames(None, q)
 
     def residual(t: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(origin + end_rot @ t - anchor, axis=1) + offset - readings
+        return _cables(origin, end_rot, t, anchor)[0] + offset - readings
 
     def jacobian(t: np.ndarray) -> np.ndarray:
-        cable = origin + end_rot @ t - anchor
-        u = cable / np.maximum(np.linalg.norm(cable, axis=1), 1e-12)[:, None]
-        return np.einsum("ni,nij->nj", u, end_rot)
+        return np.einsum("ni,nij->nj", _cables(origin, end_rot, t, anchor)[1], end_rot)
 
     return np.array(least_squares(residual, np.zeros(3), jac=jacobian, method="lm").x, dtype=float)
 
@@ -552,12 +552,11 @@ def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings
 
     def residual(v: np.ndarray) -> np.ndarray:
         anchor, offset, t = unpack(v)
-        return np.linalg.norm(origin + end_rot @ t - anchor, axis=1) + offset - readings
+        return _cables(origin, end_rot, t, anchor)[0] + offset - readings
 
     def jacobian(v: np.ndarray) -> np.ndarray:
         anchor, _, t = unpack(v)
-        cable = origin + end_rot @ t - anchor
-        u = cable / np.maximum(np.linalg.norm(cable, axis=1), 1e-12)[:, None]
+        u = _cables(origin, end_rot, t, anchor)[1]
         cols = [-u] + ([] if fixed else [np.ones((len(q), 1))]) + ([np.einsum("ni,nij->nj", u, end_rot)] if fit_tool else [])
         return np.hstack(cols)
 

@@ -45,7 +45,7 @@ from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
-from .base import DEFAULT_NOISE_MM, MeasurementModel
+from .base import DEFAULT_NOISE_MM, SETUP_MISFIT_M, MeasurementModel, check_rows
 from .setup import SensorSetup, option, xyz_mm
 
 if TYPE_CHECKING:
@@ -775,14 +775,6 @@ def _touched(model: ContactModel, q: np.ndarray) -> np.ndarray:
     return rows
 
 
-#: A given tool point whose touches at the nominal robot miss their fitted fixtures by more
-#: than this (median over the rows) [m] is refused: no kinematic deviation within the sanity
-#: bounds (:mod:`calib_pin.sanity`) moves the tool point that far (0.6 mm on the shipped set).
-TOOL_MISFIT_M = 0.5
-#: The rows, evenly spread over the set, that check (a gross misfit shows on any 1 000).
-CHECK_ROWS = 1000
-
-
 def _check_tool_fits(problem: ContactProblem, data: MeasurementSet, caller: bool) -> None:
     """Refuse a known tool point (the caller's, ``caller``, or the file's) whose touches at
     the nominal robot, with the fixtures fitted to them, miss those fixtures by metres (a
@@ -791,18 +783,18 @@ def _check_tool_fits(problem: ContactProblem, data: MeasurementSet, caller: bool
     Raises:
         DataError: naming the file, ``tool_mm``, its value and the miss.
     """
-    rows = np.unique(np.linspace(0, problem.n_data - 1, min(problem.n_data, CHECK_ROWS)).astype(int))
+    rows = check_rows(problem.n_data)
     part = problem.subset(rows) if len(rows) < problem.n_data else problem
     errors = part.row_errors(part.residual(np.zeros(problem.n_params)))
     miss = float(np.median(errors))
-    if not miss > TOOL_MISFIT_M:
+    if not miss > SETUP_MISFIT_M:
         return
     tool = ",".join(f"{v * 1e3:g}" for v in problem.model.fixtures.tool)
     origin = "given" if caller else "the file's"
     raise DataError(data.source, f"{tool} mm ({origin}; the tool point in "
                     f"the end frame) does not fit the touches: at the nominal robot the tool point misses its fitted "
                     f"point or plane by a median {miss:.4g} m, max {errors.max():.4g} m (valid: within "
-                    f"{TOOL_MISFIT_M:g} m, a robot's deviation): a unit or frame mistake?", None, "tool_mm")
+                    f"{SETUP_MISFIT_M:g} m, a robot's deviation): a unit or frame mistake?", None, "tool_mm")
 
 
 def fit_fixtures(chain: Chain, params: ParameterModel, q: np.ndarray, rows: np.ndarray, points: tuple[str, ...],
