@@ -105,14 +105,15 @@ class CalibrationSetup:
         x0 = np.zeros(problem.n_params) if self.start is None else self.start.x0(problem, training)
         return x0, tuple(problem.model.names.index(n) for n in self.fixed)
 
-    def problem_on(self, fit_rows: np.ndarray) -> CalibrationProblem:
+    def problem_on(self, fit_rows: np.ndarray, reuse: bool = True) -> CalibrationProblem:
         """Every row of the data, with the sensor's starting geometry fitted on ``fit_rows``.
         Fitted on every row (``test_fraction`` 0, a separate test session), it is
         :attr:`problem` when that was made from the same chain, parameter model and data
         (the same objects) and options of equal value (an option changed in place since is
-        seen): the same fit, not made twice."""
+        seen): the same fit, not made twice. ``reuse`` False: fitted anew all the same (a
+        benchmark timing the whole fit)."""
         made, inputs = self.__dict__.get("problem"), self.__dict__.get("_problem_inputs")
-        if (made is not None and inputs is not None and _same_inputs(inputs, self._inputs())
+        if (reuse and made is not None and inputs is not None and _same_inputs(inputs, self._inputs())
                 and len(fit_rows) == len(self.data) and np.array_equal(fit_rows, np.arange(len(self.data)))):
             return cast(CalibrationProblem, made)
         return sensor_for(self.data.kind).problem_for(self.chain, self.params, self.data, fit_rows, self.options)

@@ -131,6 +131,26 @@ def test_the_sensor_frame_is_fitted_once_when_every_row_trains(monkeypatch):
     assert len(calls) == 5 and calls[-1] == len(setup.data)
 
 
+def test_problem_on_without_reuse_fits_anew(monkeypatch):
+    """``reuse=False`` fits the sensor's start again even on every row (what a benchmark
+    times), to the same problem values as the kept one."""
+    from calib_pin.sensors import position
+
+    real, calls = position.fit_device, []
+
+    def counted(*args, **kwargs):
+        calls.append(len(args[2]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(position, "fit_device", counted)
+    setup = cp.prepare("irb120", WU2015)
+    rows = np.arange(len(setup.data))
+    assert setup.problem_on(rows) is setup.problem and len(calls) == 1
+    fresh = setup.problem_on(rows, reuse=False)
+    assert len(calls) == 2 and fresh is not setup.problem
+    assert fresh.residual(None).tobytes() == setup.problem.residual(None).tobytes()
+
+
 def test_an_option_changed_in_place_after_prepare_makes_a_new_problem():
     """The reused problem (every row trains) is the setup's only while its options keep their
     values: an anchor changed in place after prepare is seen (review of issue 24), as it was

@@ -165,10 +165,12 @@ class _Figaroh:
 
 
 def _calib_pin(setup: CalibrationSetup, method: str, seed: int) -> tuple[Any, Any, float]:
-    """(model, estimate, seconds) of calib-pin on every row of the session."""
+    """(model, estimate, seconds) of calib-pin on every row of the session: the sensor's
+    start fitted anew in every timed run (``prepare`` made and kept one on every row,
+    which :meth:`~calib_pin.pipeline.CalibrationSetup.problem_on` would otherwise reuse)."""
     rows = np.arange(len(setup.data))
     start = time.perf_counter()
-    problem = setup.problem_on(rows)
+    problem = setup.problem_on(rows, reuse=False)
     estimate = run_estimator(method, problem, np.zeros(problem.n_params), seed=seed, noise=setup.noise,
                              history=False)
     return problem.model, estimate, time.perf_counter() - start
