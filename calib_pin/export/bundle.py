@@ -23,7 +23,6 @@ in one, with its summary, and commits once).
 from __future__ import annotations
 
 import io
-import json
 import os
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
@@ -33,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..arguments import as_bool, as_instance, as_names, as_path
 from ..exceptions import ArgumentError, CalibPinError
+from .json_text import dumps_readable
 from .outputs import Inputs, OutputError, Outputs, input_role
 
 if TYPE_CHECKING:
@@ -262,7 +262,7 @@ def add_outputs(out: Outputs, rendered: RenderedOutputs, folder: str | os.PathLi
     report = report_in(rendered, folder)
     for file, text in rendered.files.items():
         out.add(folder / file, _writer(text))
-    out.add(folder / "report.json", _writer(json.dumps(report, indent=2, allow_nan=False) + "\n"))
+    out.add(folder / "report.json", _writer(dumps_readable(report) + "\n"))
     return report
 
 

@@ -1,0 +1,44 @@
+"""JSON text a person can read and numpy-free code can parse, written fast at any size.
+
+``json.dumps(obj, indent=2)`` puts every number of a list on a line of its own and runs
+json's pure-Python encoder (the C one serves only unindented output): report.json of
+100 000 rows was 600 000 lines and 0.6 s. :func:`dumps_readable` indents the structure
+(objects, lists of objects or lists) and writes each list of plain values (numbers,
+strings, booleans, null) on one line with the C encoder: the same JSON value, parsed
+back equal, in a few hundred lines.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import secrets
+from typing import Any
+
+#: Separators of the one-line lists: a space after each comma, as the indented text has.
+_INLINE_SEPARATORS = (", ", ": ")
+
+
+def dumps_readable(obj: Any, indent: int = 2, allow_nan: bool = False) -> str:
+    """``obj`` as JSON text: objects and lists of containers indented by ``indent``, each
+    list (or tuple) of plain values on one line.
+
+    Raises:
+        ValueError: a NaN or infinity with ``allow_nan`` False (as :func:`json.dumps`).
+        TypeError: a value JSON cannot hold (as :func:`json.dumps`).
+    """
+    token = secrets.token_hex(8)  # placeholders no string of obj can equal
+    inline: list[str] = []
+
+    def skeleton(value: Any) -> Any:
+        if isinstance(value, dict):
+            return {k: skeleton(v) for k, v in value.items()}
+        if isinstance(value, list | tuple):
+            if value and not any(issubclass(t, dict | list | tuple) for t in set(map(type, value))):
+                inline.append(json.dumps(value, separators=_INLINE_SEPARATORS, allow_nan=allow_nan))
+                return f"@{token}:{len(inline) - 1}@"
+            return [skeleton(v) for v in value]
+        return value
+
+    text = json.dumps(skeleton(obj), indent=indent, allow_nan=allow_nan)
+    return re.sub(f'"@{token}:(\\d+)@"', lambda m: inline[int(m.group(1))], text)
