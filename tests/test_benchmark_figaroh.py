@@ -97,3 +97,20 @@ def test_format_processes_and_their_goals_at_the_largest_size():
     assert "lm 25.0x at 1000 (goal >= 20x, met)" in line
     assert "ekf-qibas 5.0x at 1000 (goal >= 10x, not met)" in line
     assert "at 100 " not in line
+
+
+def test_the_ekf_qibas_stages_split_the_timed_run():
+    """The stage line (printed under the race; no FIGAROH needed): the three stages timed, the
+    QIBAS stage's iterations those of the whole EKF-QIBAS run's QIBAS stage."""
+    import numpy as np
+
+    from calib_pin.estimators import run_estimator
+
+    stages, iterations = benchmark_figaroh.ekf_qibas_stages(samples=30, repeats=1)
+    assert set(stages) == {"problem", "ekf", "qibas"} and all(v > 0 for v in stages.values())
+    setup, _, _ = benchmark_figaroh._session(30, 0)
+    problem = setup.problem_on(np.arange(30))
+    whole = run_estimator("ekf-qibas", problem, np.zeros(problem.n_params), noise=setup.noise, history=False)
+    assert iterations == whole.extras["stages"]["qibas"]
+    line = benchmark_figaroh.format_stages(stages, iterations, 30)
+    assert line.startswith("calib-pin's ekf-qibas at 30 samples by stage") and f"({iterations} iterations)" in line

@@ -128,11 +128,13 @@ def _against_figaroh(args: argparse.Namespace) -> None:
         NOISE_MM,
         TIMED,
         against_figaroh,
+        ekf_qibas_stages,
         figaroh_version,
         format_goal,
         format_process_goal,
         format_processes,
         format_races,
+        format_stages,
         whole_processes,
     )
     from . import BLAS_THREADS
@@ -150,6 +152,8 @@ def _against_figaroh(args: argparse.Namespace) -> None:
           f"truth at the training poses and at {FRESH_POSES} fresh poses [mm]; params: calib-pin/FIGAROH unknowns")
     print(f"timed: {TIMED}")
     print(format_goal(rows))
+    if DEFAULT_METHOD in chosen:
+        print(format_stages(*ekf_qibas_stages(repeats=max(args.repeats, 5), seed=args.seed)))
     processes = whole_processes(chosen, args.repeats, args.seed)
     if processes is not None:
         print(f"as whole processes (what a user runs; calibrate.py ur5 --data FILE --method M --no-html "

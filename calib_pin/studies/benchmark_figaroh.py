@@ -176,6 +176,40 @@ def _calib_pin(setup: CalibrationSetup, method: str, seed: int) -> tuple[Any, An
     return problem.model, estimate, time.perf_counter() - start
 
 
+def ekf_qibas_stages(samples: int = SIZES[0], repeats: int = 5, seed: int = 0) -> tuple[dict[str, float], int]:
+    """Where the race's timed EKF-QIBAS run goes at ``samples``: the median seconds of its
+    problem (the device frame and marker fitted anew), its EKF stage and its QIBAS stage,
+    each run timed as the race times it (collector off), and the QIBAS stage's iterations."""
+    from ..estimators import get_estimator
+
+    setup, _, _ = _session(samples, seed)
+    rows = np.arange(len(setup.data))
+    method = get_estimator("ekf-qibas")
+    times: dict[str, list[float]] = {"problem": [], "ekf": [], "qibas": []}
+    iterations = 0
+    for _ in range(repeats):
+        with _collected_then_off():
+            start = time.perf_counter()
+            problem = setup.problem_on(rows, reuse=False)
+            fitted = time.perf_counter()
+            first = method.ekf(problem, np.zeros(problem.n_params), seed=seed, noise=setup.noise)
+            filtered = time.perf_counter()
+            second = method.qibas(problem, first.x, seed=seed, noise=setup.noise)
+            searched = time.perf_counter()
+        times["problem"].append(fitted - start)
+        times["ekf"].append(filtered - fitted)
+        times["qibas"].append(searched - filtered)
+        iterations = second.iterations
+    return {k: statistics.median(v) for k, v in times.items()}, iterations
+
+
+def format_stages(stages: dict[str, float], iterations: int, samples: int = SIZES[0]) -> str:
+    """One line: the EKF-QIBAS run's stages at ``samples`` in ms."""
+    return (f"calib-pin's ekf-qibas at {samples} samples by stage, medians [ms]: problem (device frame and marker "
+            f"fitted) {stages['problem'] * 1e3:.2f}, EKF {stages['ekf'] * 1e3:.2f}, QIBAS {stages['qibas'] * 1e3:.2f} "
+            f"({iterations} iterations)")
+
+
 @contextlib.contextmanager
 def _collected_then_off() -> Iterator[None]:
     """Around one tool's timed run in the race, as :mod:`timeit` times: the garbage of the
