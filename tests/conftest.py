@@ -57,3 +57,18 @@ def _collector_as_it_was():
     gc.unfreeze()
     if enabled:
         gc.enable()
+
+
+@pytest.fixture
+def device_fits(monkeypatch) -> list[int]:
+    """The rows of every position device-frame fit made while the test runs (``fit_device`` counted)."""
+    from calib_pin.sensors import position
+
+    real, calls = position.fit_device, []
+
+    def counted(*args, **kwargs):
+        calls.append(len(args[2]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(position, "fit_device", counted)
+    return calls

@@ -46,23 +46,15 @@ def test_race_with_figaroh_scores_both_against_truth():
     assert excitation.figaroh_fresh_mm == pytest.approx(excitation.calib_fresh_mm, abs=1e-3)
 
 
-def test_the_timed_calib_pin_run_fits_the_device_frame_every_time(monkeypatch):
+def test_the_timed_calib_pin_run_fits_the_device_frame_every_time(device_fits):
     """The race times calib-pin from building the problem (its device-frame fit) through the
     estimate, as it says: the problem ``prepare`` kept is not reused (it was, until issue 24's
     fourth round, leaving the 2 ms fit out of every timed run)."""
-    from calib_pin.sensors import position
-
-    setup, _, _ = benchmark_figaroh._session(30, 0)
-    real, calls = position.fit_device, []
-
-    def counted(*args, **kwargs):
-        calls.append(len(args[2]))
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(position, "fit_device", counted)
+    setup, _, _ = benchmark_figaroh._session(30, 0)  # prepare fitted it once
+    device_fits.clear()
     for _ in range(2):
         benchmark_figaroh._calib_pin(setup, "lm", 0)
-    assert calls == [30, 30]
+    assert device_fits == [30, 30]
 
 
 def test_format_races_one_row_per_race():

@@ -102,19 +102,11 @@ def test_import_pulls_in_no_optional_dependency():
     assert out.strip() == "[]"
 
 
-def test_the_sensor_frame_is_fitted_once_when_every_row_trains(monkeypatch):
+def test_the_sensor_frame_is_fitted_once_when_every_row_trains(device_fits):
     """With test_fraction 0 the run's problem is the setup's (one device-frame fit, issue 24),
     and the calibration is the one made with two fits; with a test fraction the training
     rows get their own fit; data replaced after prepare gets a new one."""
-    from calib_pin.sensors import position
-
-    real, calls = position.fit_device, []
-
-    def counted(*args, **kwargs):
-        calls.append(len(args[2]))
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(position, "fit_device", counted)
+    calls = device_fits
     setup = cp.prepare("irb120", WU2015)
     assert calls == [len(setup.data)]
     once = setup.run("lm", test_fraction=0)
@@ -131,18 +123,10 @@ def test_the_sensor_frame_is_fitted_once_when_every_row_trains(monkeypatch):
     assert len(calls) == 5 and calls[-1] == len(setup.data)
 
 
-def test_problem_on_without_reuse_fits_anew(monkeypatch):
+def test_problem_on_without_reuse_fits_anew(device_fits):
     """``reuse=False`` fits the sensor's start again even on every row (what a benchmark
     times), to the same problem values as the kept one."""
-    from calib_pin.sensors import position
-
-    real, calls = position.fit_device, []
-
-    def counted(*args, **kwargs):
-        calls.append(len(args[2]))
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(position, "fit_device", counted)
+    calls = device_fits
     setup = cp.prepare("irb120", WU2015)
     rows = np.arange(len(setup.data))
     assert setup.problem_on(rows) is setup.problem and len(calls) == 1
