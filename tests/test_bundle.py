@@ -38,6 +38,17 @@ def test_write_outputs_writes_the_robot_its_calibration_file_and_the_report(resu
     assert report["test"]["after"]["rmse_mm"] == pytest.approx(result.metrics["test"]["after"].rmse_mm)
 
 
+def test_report_json_holds_each_list_of_values_on_one_line(result, tmp_path):
+    """report.json's per-row lists are one line each (export/json_text): its lines do not grow
+    with the rows, where one number a line gave several per row (about 4 000 lines here)."""
+    done = cp.write_outputs(result, tmp_path, html=False)
+    lines = (tmp_path / "report.json").read_text().splitlines()
+    assert len(json.dumps(done.report, indent=2).splitlines()) > 3000
+    assert len(lines) < 1000
+    assert sum(line.lstrip().startswith('"after_mm": [') for line in lines) == 1
+    assert lines[0] == "{" and lines[1].startswith('  "')  # the structure still indented
+
+
 def test_a_fit_beyond_the_sanity_bound_writes_the_report_only(result, tmp_path, monkeypatch):
     cp.write_outputs(result, tmp_path, html=False)  # an earlier, good run
     monkeypatch.setattr(CalibrationResult, "sanity_error", lambda self: "d_2 = 2 m: the data cannot support it")
