@@ -162,3 +162,32 @@ def test_compare_nominal_starts_every_method_at_the_robots_own_calibration(chain
     assert fresh.before_fresh_rmse_mm < 3 * NOISE_MM and fresh.runs["lm"].fresh_rmse_mm < 3 * NOISE_MM
     with pytest.raises(cp.ArgumentError, match="not simulated sets"):
         cp.compare("irb120", simulate_noise="gauss", poses=10, methods=["lm"], nominal=path)
+
+
+def test_outliers_of_several_sets_are_named_with_their_set(three, tmp_path):
+    """A robust fit of two files marks a gross reading in set b: report.json gives each outlier's
+    set beside its file line, and calibrate prints the lines per set (a line number alone does
+    not say which file it is in)."""
+    from calib_pin.cli.calibrate import _outlier_lines
+
+    sets, _ = three
+    paths = []
+    for name, data in (("a", sets[0]), ("b", sets[1])):
+        paths.append(tmp_path / f"{name}.csv")
+        write_measurements(paths[-1], data)
+    lines = paths[1].read_text().splitlines()
+    first = next(k for k, line in enumerate(lines) if line[:1].isdigit() or line[:1] == "-")
+    cells = lines[first + 6].split(",")
+    cells[-1] = f"{float(cells[-1]) + 5.0:.6f}"  # 5 mm off: a snagged cable on b's row 6
+    lines[first + 6] = ",".join(cells)
+    paths[1].write_text("\n".join(lines) + "\n")
+    result = cp.calibrate("irb120", [FitSet(str(p), label=p.stem) for p in paths], method="lm", loss="huber",
+                          test_fraction=0)
+    report = build_report(result)
+    assert len(report["outlier_sets"]) == len(report["outlier_lines"]) == len(report["outlier_rows"])
+    assert ("b", first + 7) in set(zip(report["outlier_sets"], report["outlier_lines"], strict=True))
+    shown = _outlier_lines(report)
+    assert "b line" in shown and str(first + 7) in shown.split("b line")[1]
+    assert _outlier_lines({"outlier_lines": [16, 19]}) == "file lines 16, 19"
+    assert _outlier_lines({"outlier_lines": [16, 19, 20], "outlier_sets": ["a", "b", "b"]}) == "a line 16; b lines 19, 20"
+    assert _outlier_lines({"outlier_lines": []}) == "file lines none"

@@ -577,8 +577,7 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     if report.get("fixed"):
         print(f"fixed (held at their nominal value, --fix/--free): {', '.join(report['fixed'])}")
     if result.loss != "linear":
-        lines = ", ".join(str(line) for line in report["outlier_lines"]) or "none"
-        print(f"outliers ({result.loss} loss): {len(result.outlier_rows)} training rows, file lines {lines}")
+        print(f"outliers ({result.loss} loss): {len(result.outlier_rows)} training rows, {_outlier_lines(report)}")
     after, before = (result.metrics["train"][stage] if "train" in result.metrics else None
                      for stage in ("after", "before"))
     if after is not None and before is not None and after.rmse_mm > before.rmse_mm:
@@ -587,3 +586,19 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
         print(f"warning: {warning}")
     if not result.kinematic:
         print(f"no URDF written: {result.method} learns a correction of the measured values, which a URDF cannot hold")
+
+
+
+def _outlier_lines(report: dict[str, Any]) -> str:
+    """Where the outliers are: ``file lines 16, 19``, or with several sets each set's
+    (``mix_1 line 16; mix_2 lines 19, 20``): a line number alone does not name its file."""
+    lines, sets = report["outlier_lines"], report.get("outlier_sets")
+    if not lines:
+        return "file lines none"
+    if not sets:
+        return "file lines " + ", ".join(str(line) for line in lines)
+    by_set: dict[str, list[int]] = {}
+    for label, line in zip(sets, lines, strict=True):
+        by_set.setdefault(label, []).append(line)
+    return "; ".join(f"{label} line{'s' if len(found) > 1 else ''} {', '.join(map(str, found))}"
+                     for label, found in by_set.items())

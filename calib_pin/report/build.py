@@ -35,9 +35,16 @@ def _estimate(result: CalibrationResult) -> dict[str, Any]:
 
 
 def _outliers(result: CalibrationResult) -> dict[str, Any]:
+    """The rows a robust fit marked (0-based, of ``result.data``), their file lines and, with
+    several sets, the label of the set (file) each belongs to."""
     lines = result.data.lines
     rows = result.outlier_rows
-    return {"outlier_rows": rows, "outlier_lines": [int(lines[r]) for r in rows] if lines is not None else []}
+    out: dict[str, Any] = {"outlier_rows": rows,
+                           "outlier_lines": [int(lines[r]) for r in rows] if lines is not None else []}
+    if result.sets:  # several files: a line number alone does not say whose
+        owner = {int(r): part.label for part in result.sets for r in part.rows}
+        out["outlier_sets"] = [owner[int(r)] for r in rows]
+    return out
 
 
 def _residuals(result: CalibrationResult) -> dict[str, Any]:
