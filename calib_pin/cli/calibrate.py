@@ -588,7 +588,6 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
         print(f"no URDF written: {result.method} learns a correction of the measured values, which a URDF cannot hold")
 
 
-
 def _outlier_lines(report: dict[str, Any]) -> str:
     """Where the outliers are: ``file lines 16, 19``, or with several sets each set's
     (``mix_1 line 16; mix_2 lines 19, 20``): a line number alone does not name its file."""

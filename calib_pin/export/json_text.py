@@ -2,10 +2,10 @@
 
 ``json.dumps(obj, indent=2)`` puts every number of a list on a line of its own and runs
 json's pure-Python encoder (the C one serves only unindented output): report.json of
-100 000 rows was 603 847 lines and took 0.37 s to write (761 lines and 0.19 s now). :func:`dumps_readable` indents the structure
-(objects, lists of objects or lists) and writes each list of plain values (numbers,
-strings, booleans, null) on one line with the C encoder: the same JSON value, parsed
-back equal, in a few hundred lines.
+100 000 rows was 603 847 lines and took 0.37 s to write. :func:`dumps_readable` indents
+the structure (objects, lists of objects or lists) and writes each list of plain values
+(numbers, strings, booleans, null) on one line with the C encoder: the same JSON value,
+parsed back equal, in 761 lines and 0.19 s.
 """
 
 from __future__ import annotations
