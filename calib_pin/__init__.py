@@ -3,7 +3,7 @@ positions, on Pinocchio.
 
 The public API is below; each name is imported from its module on first use, so
 ``import calib_pin`` is quick and pulls in no optional dependency. Figures
-(matplotlib) are in :mod:`calib_pin.report.comparison_figures`, the sensor hardware in
+(matplotlib) are in :mod:`calib_pin.studies.comparison_figures`, the sensor hardware in
 :mod:`calib_pin.hardware`.
 """
 
@@ -25,13 +25,13 @@ def _version() -> str:
 
 #: Public name -> the module that defines it.
 _API = {
-    "calibrate": "pipeline", "prepare": "pipeline", "CalibrationSetup": "pipeline",
-    "CalibrationResult": "result",
-    "load_calibration": "export.calibration_file", "CalibratedRobot": "compensation",
-    "write_outputs": "export.bundle", "WrittenOutputs": "export.bundle", "OutputError": "export.outputs",
+    "calibrate": "calibration.pipeline", "prepare": "calibration.pipeline", "CalibrationSetup": "calibration.pipeline",
+    "CalibrationResult": "calibration.result",
+    "load_calibration": "export.calibration_file", "CalibratedRobot": "export.compensation",
+    "write_outputs": "report.bundle", "WrittenOutputs": "report.bundle", "OutputError": "util.outputs",
     "compare": "studies.comparison", "Comparison": "studies.comparison",
     "analyze": "analysis.identifiability",
-    "CalibrationProblem": "problem", "StackedProblem": "stacked", "FitSet": "multiset", "SetResult": "multiset",
+    "CalibrationProblem": "estimators.problem", "StackedProblem": "calibration.problem", "FitSet": "calibration.multiset", "SetResult": "calibration.multiset",
     "Chain": "robot", "Kinematics": "robot", "load_chain": "robot", "Compliance": "robot.deflection",
     "DHModel": "parameters", "HayatiModel": "parameters", "PlacementModel": "parameters",
     "parameter_model": "parameters",
@@ -41,8 +41,8 @@ _API = {
     "ContactModel": "sensors", "ContactSetup": "sensors", "Fixtures": "sensors",
     "MeasurementSet": "measurements", "read_measurements": "measurements", "write_measurements": "measurements",
     "check_measurements": "measurements.checks",
-    "simulate": "simulation", "simulate_positions": "simulation", "simulate_sessions": "simulation",
-    "Truth": "simulation",
+    "simulate": "simulation.simulate", "simulate_positions": "simulation.simulate", "simulate_sessions": "simulation.simulate",
+    "Truth": "simulation.simulate",
     "ESTIMATORS": "estimators", "EstimateResult": "estimators", "run_estimator": "estimators",
     "ArgumentError": "exceptions", "CalibPinError": "exceptions", "DataError": "exceptions", "EstimatorError": "exceptions",
     "RobotError": "exceptions",
@@ -123,24 +123,24 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:
     __version__: str
     from .analysis.identifiability import analyze
-    from .compensation import CalibratedRobot
+    from .calibration.multiset import FitSet, SetResult
+    from .calibration.pipeline import CalibrationSetup, calibrate, prepare
+    from .calibration.problem import StackedProblem
+    from .calibration.result import CalibrationResult
     from .estimators import ESTIMATORS, EstimateResult, run_estimator
+    from .estimators.problem import CalibrationProblem
     from .exceptions import ArgumentError, CalibPinError, DataError, EstimatorError, RobotError
-    from .export.bundle import WrittenOutputs, write_outputs
     from .export.calibration_file import load_calibration
-    from .export.outputs import OutputError
+    from .export.compensation import CalibratedRobot
     from .measurements import MeasurementSet, read_measurements, write_measurements
     from .measurements.checks import check_measurements
-    from .multiset import FitSet, SetResult
     from .parameters import DHModel, HayatiModel, PlacementModel, parameter_model
-    from .pipeline import CalibrationSetup, calibrate, prepare
-    from .problem import CalibrationProblem
-    from .result import CalibrationResult
+    from .report.bundle import WrittenOutputs, write_outputs
     from .robot import Chain, Kinematics, load_chain
     from .robot.deflection import Compliance
     from .sensors import CableModel, CableSetup, Drawstring, PositionDevice, PositionModel, PositionSetup
     from .sensors.contact import ContactModel, ContactSetup, Fixtures
     from .sensors.pose import PoseModel, PoseRig, PoseSetup
-    from .simulation import Truth, simulate, simulate_positions, simulate_sessions
-    from .stacked import StackedProblem
+    from .simulation.simulate import Truth, simulate, simulate_positions, simulate_sessions
     from .studies.comparison import Comparison, compare
+    from .util.outputs import OutputError

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.sensors import CableModel
 from calib_pin.robot.poses import random_poses
+from calib_pin.sensors import CableModel
 
 
 @pytest.fixture(scope="session")

@@ -11,7 +11,7 @@ or ``SENSORS[DistanceModel.kind] = DistanceModel`` in ``calib_pin/sensors/__init
 its set-up record (CLI flags from its fields), its CSV value column (``distance_mm``)
 and metadata keys (``# target_mm``, ``# zero_mm``), its geometry, its predictions and
 their Jacobian, its report section, and its simulated rows (``simulate_rows``: then
-``calib_pin.simulation.simulate_set`` and ``simulate_sessions(kinds=[..., "distance"])``
+``calib_pin.simulation.simulate.simulate_set`` and ``simulate_sessions(kinds=[..., "distance"])``
 simulate it with truth). No other module of calib-pin is touched.
 """
 
@@ -23,12 +23,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from calib_pin.arguments import as_optional, as_xyz_mm
+from calib_pin.estimators.problem import CalibrationProblem
 from calib_pin.exceptions import DataError
-from calib_pin.problem import CalibrationProblem
 from calib_pin.sensors import SENSORS
 from calib_pin.sensors.base import MeasurementModel
 from calib_pin.sensors.setup import SensorSetup, option, xyz_mm
+from calib_pin.util.arguments import as_optional, as_xyz_mm
 
 
 @dataclass(frozen=True, eq=False)

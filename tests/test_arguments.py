@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.arguments import as_angles_rad, as_array, as_names, as_xyz_mm
-from calib_pin.export.calibration_file import calibration_path, write_calibration
 from calib_pin.exceptions import ArgumentError
+from calib_pin.export.calibration_file import calibration_path, write_calibration
 from calib_pin.robot.deflection import ComplianceSpec
-from calib_pin.sensors import Drawstring
 from calib_pin.robot.poses import random_poses
+from calib_pin.sensors import Drawstring
+from calib_pin.util.arguments import as_angles_rad, as_array, as_names, as_xyz_mm
 
 NAN3 = (float("nan"), 0.0, 0.0)
 
@@ -208,7 +208,7 @@ CASES = [
     ("CableModel", "estimate", lambda f: cp.CableModel(f.chain, f.params, Drawstring(np.zeros(3), np.zeros(3)),
                                                        estimate="moon")),
     ("PositionModel", "device", lambda f: cp.PositionModel(f.chain, f.params, "tracker")),
-    # several sets (calib_pin.multiset): each FitSet's fields, checked by calibrate/prepare
+    # several sets (calib_pin.calibration.multiset): each FitSet's fields, checked by calibrate/prepare
     ("FitSet", "role", lambda f: cp.calibrate("irb120", [cp.FitSet(f.small, role="held"), f.small], method="lm")),
     ("FitSet", "label", lambda f: cp.calibrate("irb120", [cp.FitSet(f.small, label=3), f.small], method="lm")),
     ("FitSet", "noise_mm", lambda f: cp.calibrate("irb120", [cp.FitSet(f.small, noise_mm=-1), f.small], method="lm")),
@@ -310,7 +310,7 @@ def test_argument_error_carries_the_name():
 def test_a_negative_zero_is_zero(chain, params):
     """-0.0 passes 'noise >= 0' but numpy's normal() refused it (ValueError 'scale < 0'):
     a checked number is returned as +0.0."""
-    from calib_pin.arguments import as_float
+    from calib_pin.util.arguments import as_float
 
     assert str(as_float(-0.0, "noise_mm", 0.0)) == "0.0"
     data, _ = cp.simulate(chain, params, 5, seed=0, noise_mm=-0.0)

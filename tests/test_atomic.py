@@ -9,8 +9,7 @@ import signal
 import subprocess
 import sys
 
-
-from calib_pin.atomic import write_text
+from calib_pin.util.atomic import write_text
 
 #: Writes 300 poses (about 20 kB) over p.csv with the public writer.
 WRITE = ("import numpy as np; from calib_pin.measurements import write_poses; "

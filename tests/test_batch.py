@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.studies.batch import SUMMARY_COLUMNS, BatchTask, parallel_map, run_batch
 from calib_pin.exceptions import CalibPinError
-from calib_pin.sensors import CableModel
 from calib_pin.robot.poses import random_poses
+from calib_pin.sensors import CableModel
+from calib_pin.studies.batch import SUMMARY_COLUMNS, BatchTask, parallel_map, run_batch
 
 
 @pytest.fixture(scope="module")

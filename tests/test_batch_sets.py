@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.studies.batch import BatchTask, run_batch, task_key
 from calib_pin.cli.batch import batch_main, calibration_files
 from calib_pin.cli.compare import compare_main
 from calib_pin.exceptions import CalibPinError
+from calib_pin.studies.batch import BatchTask, run_batch, task_key
 
 
 @pytest.fixture(scope="module")

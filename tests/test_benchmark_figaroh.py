@@ -6,8 +6,8 @@ import builtins
 
 import pytest
 
-from calib_pin.studies import benchmark_figaroh
 from calib_pin.cli.benchmark import _against_figaroh, benchmark_parser
+from calib_pin.studies import benchmark_figaroh
 
 
 @pytest.fixture

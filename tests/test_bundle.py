@@ -9,9 +9,9 @@ import json
 import pytest
 
 import calib_pin as cp
+from calib_pin.calibration.result import CalibrationResult
 from calib_pin.export.calibration_file import load_calibration
-from calib_pin.export.bundle import render_outputs
-from calib_pin.result import CalibrationResult
+from calib_pin.report.bundle import render_outputs
 
 
 @pytest.fixture(scope="module")
@@ -80,7 +80,7 @@ def test_rendered_outputs_are_json_and_refuse_an_unknown_format(result):
 
 
 def test_the_planned_files_are_the_files_written(result, tmp_path):
-    from calib_pin.export.bundle import planned_files
+    from calib_pin.report.bundle import planned_files
 
     done = cp.write_outputs(result, tmp_path, "urdf,dh", html=False)
     assert planned_files(result, "urdf,dh", html=False) == [p.name for p in done.files]

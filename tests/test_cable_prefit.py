@@ -130,7 +130,7 @@ def test_validation_of_an_anchor_free_calibration(session, chain, params):
     """A calibration whose anchor was pre-fitted: a validation session without an anchor
     is scored with the calibrated one; a session that states one cannot be checked against
     it and is refused (never scored with the other anchor silently), unless re-registered."""
-    from calib_pin.validation import TestSet
+    from calib_pin.calibration.validation import TestSet
 
     data, _ = session
     free = dataclasses.replace(data.subset(np.arange(80)), anchor=None)

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.calibration.pipeline import CalibrationSetup
 from calib_pin.measurements.checks import check_measurements, check_same_setup
-from calib_pin.pipeline import CalibrationSetup
 
 
 @pytest.fixture(scope="module")

@@ -32,7 +32,7 @@ def test_without_matplotlib_a_warning_and_no_html(tmp_path, capsys, monkeypatch)
     def missing(module):
         raise CalibPinError(f"this needs the optional package '{module}': pip install 'calib-pin[plots]'")
 
-    monkeypatch.setattr("calib_pin.optional.require", missing)
+    monkeypatch.setattr("calib_pin.util.optional.require", missing)
     assert calibrate_main(["irb120", "--method", "lm", "--out", str(tmp_path)]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "pip install 'calib-pin[plots]'" in err[0] and err[0].startswith("warning: no report.html")

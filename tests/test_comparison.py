@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.report.comparison_figures import convergence_figure, residual_figure
+from calib_pin.studies.comparison_figures import convergence_figure, residual_figure
 
 
 @pytest.fixture(scope="module")

@@ -12,12 +12,12 @@ import pinocchio as pin
 import pytest
 
 import calib_pin as cp
-from calib_pin.export.calibration_file import calibration_path, write_calibration
 from calib_pin.cli import command
-from calib_pin.compensation import CalibratedRobot
-from calib_pin.measurements.pose_list import read_pose_list
+from calib_pin.export.calibration_file import calibration_path, write_calibration
+from calib_pin.export.compensation import CalibratedRobot
 from calib_pin.measurements import write_measurements
 from calib_pin.measurements.csv_writer import write_poses
+from calib_pin.measurements.pose_list import read_pose_list
 from calib_pin.robot.deflection import ComplianceSpec
 from calib_pin.robot.poses import random_poses
 

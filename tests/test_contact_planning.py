@@ -19,7 +19,7 @@ from calib_pin.cli import main
 from calib_pin.measurements import read_measurements
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors.contact import ContactModel, Fixtures, rigid_aligned
-from calib_pin.simulation import Truth, simulate_sessions
+from calib_pin.simulation.simulate import Truth, simulate_sessions
 
 SOCKETS = {"points_mm": {"A": [380, 120, 250], "B": [300, -250, 150], "C": [420, -40, 480]},
            "distances_mm": [["A", "B"]], "data_kind": "contact"}

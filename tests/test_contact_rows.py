@@ -2,7 +2,7 @@
 
 A contact problem's rows are its touches (data rows, one per row of ``q`` and of the
 file), then one row per known distance (``# distance_mm``), which carries no pose, is kept
-by every ``subset`` (always trained on) and is never a test row: :func:`calib_pin.problem.data_rows`.
+by every ``subset`` (always trained on) and is never a test row: :func:`calib_pin.estimators.problem.data_rows`.
 Also: a contact truth's model (``Truth.model``) and compare's fresh-pose score, measured after
 the best rigid motion (the base placement no contact set sees)."""
 
@@ -16,10 +16,10 @@ import pytest
 import calib_pin as cp
 from calib_pin.analysis.identifiability import distinct_values
 from calib_pin.cli import main
-from calib_pin.problem import data_row_errors, data_rows
+from calib_pin.estimators.problem import data_row_errors, data_rows
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors.contact import rigid_aligned
-from calib_pin.simulation import Truth
+from calib_pin.simulation.simulate import Truth
 from calib_pin.studies.comparison import _methods_for_data, compare
 
 

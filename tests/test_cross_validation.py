@@ -7,10 +7,10 @@ import json
 
 import numpy as np
 
+from calib_pin.calibration.pipeline import prepare
 from calib_pin.parameters import parameter_model
-from calib_pin.pipeline import prepare
 from calib_pin.robot import load_chain
-from calib_pin.simulation import simulate
+from calib_pin.simulation.simulate import simulate
 from calib_pin.studies.cross_validation import cross_validate
 
 

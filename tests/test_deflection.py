@@ -11,8 +11,8 @@ import pinocchio as pin
 import pytest
 
 from calib_pin.estimators import run_estimator
+from calib_pin.estimators.problem import CalibrationProblem
 from calib_pin.exceptions import CalibPinError, RobotError
-from calib_pin.problem import CalibrationProblem
 from calib_pin.report.build import build_report
 from calib_pin.robot import Kinematics, load_chain
 from calib_pin.robot.deflection import (
@@ -25,10 +25,10 @@ from calib_pin.robot.deflection import (
     fixed_point_angles,
     stiffness,
 )
+from calib_pin.robot.poses import random_poses
 from calib_pin.sensors.cable import CableModel, Drawstring
 from calib_pin.sensors.position import PositionModel, fit_device
-from calib_pin.robot.poses import random_poses
-from calib_pin.simulation import simulate, simulate_positions
+from calib_pin.simulation.simulate import simulate, simulate_positions
 
 JOINTS_23 = ("joint_2", "joint_3")
 #: True compliances of joints 2 and 3 [rad/Nm]: up to 0.5 mrad, 0.4 mm at the tool.
@@ -238,9 +238,9 @@ def test_calibrate_reports_compliance_and_refuses_bad_options():
 def test_simulated_truth_with_compliance_through_the_pipeline(chain, params, tmp_path):
     """simulate(compliance=...) carries the true compliances; calibrating with them brings
     the fresh-pose error to the floor, without them it stays several times higher."""
+    from calib_pin.calibration.pipeline import prepare
+    from calib_pin.simulation.simulate import Truth
     from calib_pin.studies.comparison import fresh_scorer
-    from calib_pin.pipeline import prepare
-    from calib_pin.simulation import Truth
 
     spec = ComplianceSpec(JOINTS_23, cable_tension_n=5.0)
     data, truth = simulate(chain, params, 150, seed=9, compliance=spec, true_compliance=TRUE_C)

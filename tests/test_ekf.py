@@ -3,10 +3,10 @@ together, against the row-by-row relinearisation (blocks of one row) and the tru
 
 import numpy as np
 
+from calib_pin.calibration.pipeline import prepare
 from calib_pin.estimators import ekf as ekf_module
 from calib_pin.estimators.ekf import EKF, row_blocks
-from calib_pin.pipeline import prepare
-from calib_pin.problem import RowProblem
+from calib_pin.estimators.problem import RowProblem
 
 
 def test_row_blocks_double_up_to_the_cap_and_cover_every_row_once(monkeypatch):

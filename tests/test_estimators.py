@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.calibration.pipeline import prepare
 from calib_pin.estimators import PAPER_LABELS, PAPER_METHODS, get_estimator
 from calib_pin.estimators.ekf import EKF
 from calib_pin.estimators.qibas import parabola_vertex
-from calib_pin.pipeline import prepare
+from calib_pin.estimators.subspace import Subspace
 from calib_pin.report.build import build_report
 from calib_pin.robot.poses import random_poses
-from calib_pin.analysis.subspace import Subspace
 
 #: The paper's nine methods; rbf is the one that estimates no kinematic parameters
 #: (lm+rbf, the one combination, is tested in test_rbf.py).

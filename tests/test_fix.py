@@ -1,5 +1,5 @@
 """Unknowns held at their nominal value (calibrate --fix / --free,
-calib_pin.parameters.held): the held ones stay exactly at the start, the others are
+calib_pin.calibration.held): the held ones stay exactly at the start, the others are
 estimated against the simulator's truth, --analyze leaves them out, bad names refused."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import pytest
 import calib_pin as cp
 from calib_pin.analysis.identifiability import analyze
 from calib_pin.cli import command
-from calib_pin.sensors import CableModel
 from calib_pin.robot.poses import random_poses
+from calib_pin.sensors import CableModel
 
 ROOT = Path(__file__).resolve().parents[1]
 WU = str(ROOT / "robots" / "irb120_wu2015.csv")

@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 
 from calib_pin.estimators import run_estimator
+from calib_pin.estimators.problem import CalibrationProblem
 from calib_pin.parameters import parameter_model
-from calib_pin.problem import CalibrationProblem
 from calib_pin.robot import load_chain
 from calib_pin.robot.deflection import ComplianceSpec, Payload, compliance_spec, has_inertial_data
 from calib_pin.robot.gravity_basis import GravityBasis
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors.position import PositionModel, fit_device
-from calib_pin.simulation import simulate_positions
+from calib_pin.simulation.simulate import simulate_positions
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import calib_pin
-from calib_pin.report.html import deviation_rows, fmt, write_html_report
 from calib_pin.analysis.metrics import Metrics
 from calib_pin.report.build import build_report
+from calib_pin.report.html import deviation_rows, fmt, write_html_report
 from calib_pin.robot.description import ROBOTS_DIR
 
 IMG = re.compile(r'<img [^>]*src="data:image/png;base64,([A-Za-z0-9+/=]+)"')

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from calib_pin.export.json_text import dumps_readable
+from calib_pin.report.json_text import dumps_readable
 
 DOC = {
     "robot": "irb120",

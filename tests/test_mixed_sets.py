@@ -10,12 +10,12 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.analysis.identifiability import distinct_values, support_error
+from calib_pin.calibration.multiset import FitSet
+from calib_pin.calibration.problem import StackedProblem
 from calib_pin.cli.calibrate import calibrate_main
-from calib_pin.multiset import FitSet
-from calib_pin.problem import row_offsets
+from calib_pin.estimators.problem import row_offsets
 from calib_pin.robot.poses import random_poses
-from calib_pin.simulation import simulate_set
-from calib_pin.stacked import StackedProblem
+from calib_pin.simulation.simulate import simulate_set
 
 #: The two sets' noise (1 sigma) [mm]: a drawstring's and a tracker's (per axis).
 CABLE_MM, TRACKER_MM = 0.05, 0.02

@@ -8,10 +8,10 @@ import dataclasses
 import numpy as np
 
 from calib_pin.analysis.noise import noise_from_data
+from calib_pin.calibration.pipeline import prepare
 from calib_pin.parameters import parameter_model
-from calib_pin.pipeline import prepare
 from calib_pin.robot import load_chain
-from calib_pin.simulation import simulate
+from calib_pin.simulation.simulate import simulate
 
 
 def _set(noise_mm: float, poses: int = 150, seed: int = 4):

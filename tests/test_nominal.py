@@ -1,4 +1,4 @@
-"""Starting from a robot's own kinematics (calibrate --nominal, calib_pin.parameters.start):
+"""Starting from a robot's own kinematics (calibrate --nominal, calib_pin.calibration.start):
 a UR default_kinematics.yaml (read back by calib_pin.export.yaml.read_ur_kinematics_yaml)
 or a calib-pin calibration file; checked against the simulator's truth."""
 
@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.calibration.start import load_start
 from calib_pin.cli import command
 from calib_pin.export.calibration_file import calibration_path, write_calibration
 from calib_pin.export.yaml import write_ur_kinematics_yaml
 from calib_pin.measurements.pose_list import read_pose_list
-from calib_pin.parameters.start import load_start
 from calib_pin.robot.kinematics import Kinematics
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors import CableModel

@@ -13,7 +13,7 @@ import pytest
 
 import calib_pin
 from calib_pin.cli.calibrate import calibrate_main
-from calib_pin.optional import figures_or_warn
+from calib_pin.util.optional import figures_or_warn
 
 ROOT = Path(__file__).resolve().parent.parent
 #: A small, quick calibration (the shipped cable set, LM).

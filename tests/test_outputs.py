@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from calib_pin.cli import command
-from calib_pin.export.outputs import OutputError, Outputs
+from calib_pin.util.outputs import OutputError, Outputs
 
 #: Run ``calib-pin ARGS`` in a process whose files may not grow past ``limit`` bytes.
 ENTRY = "import sys; from calib_pin.cli import main; sys.exit(main(sys.argv[1:]))"
@@ -259,7 +259,7 @@ def test_a_robot_given_by_name_keeps_its_files(name, argv, calibration, tmp_path
 def test_ctrl_c_after_the_commit_does_not_say_nothing_was_written(name, argv, tmp_path, monkeypatch, capsys):
     """Ctrl-C while the summary is printed, after every output is in place, once said
     'nothing was written': the line names what was written in full."""
-    import calib_pin.export.outputs as outputs
+    import calib_pin.util.outputs as outputs
 
     real = outputs.Outputs.commit
 

@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: Set names whose calibration the hook slows down (30 s) or whose worker it kills.
 HOOK_BATCH = """
     import glob, os, time
-    import calib_pin.pipeline as _pipeline
+    import calib_pin.calibration.pipeline as _pipeline
     _calibrate = _pipeline.calibrate
     def calibrate(robot, data, *args, **kwargs):
         name = os.path.basename(str(data))

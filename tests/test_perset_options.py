@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.calibration.multiset import FitSet
 from calib_pin.cli.calibrate import calibrate_main, data_argument
 from calib_pin.exceptions import CalibPinError
-from calib_pin.multiset import FitSet
 from calib_pin.sensors import CableModel, CableSetup, Drawstring
 
 #: Three anchors of one drawstring, base frame [mm]; every file says WRONG_MM instead.

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.cli.poses import plan_poses_main
 from calib_pin.analysis.planning import plan_poses
-from calib_pin.sensors import CableModel
+from calib_pin.cli.poses import plan_poses_main
 from calib_pin.robot.poses import random_poses
+from calib_pin.sensors import CableModel
 
 
 def _fresh_error(chain, params, truth, q, rng, fresh):

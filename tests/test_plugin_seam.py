@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.sensors import SENSORS, CableSetup, PositionSetup, add_sensor_arguments, setup_record
 from calib_pin.robot.poses import random_poses
+from calib_pin.sensors import SENSORS, CableSetup, PositionSetup, add_sensor_arguments, setup_record
 
 PACKAGE = Path(cp.__file__).parent
 #: Where kinds may be named: the sensors themselves and the CSV layer.
@@ -30,14 +30,14 @@ ALLOWED = {
     # Each sensor simulates its own rows (MeasurementModel.simulate_rows); what is left here
     # are the two sensors' public shorthands (simulate, simulate_positions and the anchors_mm /
     # devices arguments of simulate_sessions), whose signatures the users and the tests keep.
-    "simulation.py": "the drawstring and position shorthands of the sensor-owned simulate_rows",
+    "simulation/simulate.py": "the drawstring and position shorthands of the sensor-owned simulate_rows",
     # The collector drives a drawstring through its serial reader and writes its sessions;
     # a collector per sensor is the follow-up issue's (more low-cost sensors).
     "hardware/session.py": "the drawstring collector",
     # 'cable' there is the compliance's cable-pull argument (a Deflection input), not a
     # sensor kind: the compliance arguments belong to another part of this issue.
     "export/calibration_file.py": "the compliance's 'cable' pull argument name",
-    "compensation.py": "the compliance's 'cable' pull argument name",
+    "export/compensation.py": "the compliance's 'cable' pull argument name",
 }
 
 

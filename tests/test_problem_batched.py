@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.calibration.pipeline import prepare
 from calib_pin.estimators import run_estimator
 from calib_pin.estimators.base import Tracker
 from calib_pin.estimators.robust import RobustProblem
-from calib_pin.pipeline import prepare
 from calib_pin.robot.deflection import Compliance
 
 
@@ -67,7 +67,7 @@ def test_qibas_reaches_the_truth_with_batched_antennae(session, fresh):
 
 
 def test_costs_in_bounded_passes_are_the_same(session, monkeypatch):
-    from calib_pin import problem as problem_module
+    from calib_pin.estimators import problem as problem_module
 
     data, _ = session
     problem = prepare("irb120", data).problem_on(np.arange(96))
@@ -93,7 +93,7 @@ def test_batched_costs_are_each_sensors_own_cost(example):
 def test_pose_rows_batched_costs_are_the_weighted_pose_cost():
     """A 6-D pose set's residual is its weighted pose error, not predicted minus the 7
     numbers read: BAS/QIBAS/PSO's batched costs are that residual's."""
-    from calib_pin.simulation import simulate_sessions
+    from calib_pin.simulation.simulate import simulate_sessions
 
     chain = cp.load_chain("irb120")
     (data,), _ = simulate_sessions(chain, cp.parameter_model(chain), [20], seed=3, kinds=("pose",))

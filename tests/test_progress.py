@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from calib_pin.estimators import run_estimator
-from calib_pin.progress import progress, progress_bar, quiet_progress
+from calib_pin.util.progress import progress, progress_bar, quiet_progress
 
 
 class _Tty(io.StringIO):

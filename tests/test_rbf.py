@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.studies.comparison import fresh_scorer
 from calib_pin.estimators import run_estimator
 from calib_pin.estimators.rbf import RBF
 from calib_pin.exceptions import CalibPinError
 from calib_pin.robot.deflection import ComplianceSpec
-from calib_pin.simulation import simulate, simulate_positions
+from calib_pin.simulation.simulate import simulate, simulate_positions
+from calib_pin.studies.comparison import fresh_scorer
 
 #: True compliances of joints 2 and 3 [rad/Nm] (as in test_deflection.py).
 TRUE_C = np.array([2.5e-5, 4e-5])

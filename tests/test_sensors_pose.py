@@ -11,8 +11,7 @@ from scipy.optimize import least_squares
 
 import calib_pin as cp
 from calib_pin.robot.poses import random_poses
-from calib_pin.sensors.pose import (PoseModel, PoseRig, fit_rig, matrix_quaternions, quaternion_matrices,
-                                    simulate_poses)
+from calib_pin.sensors.pose import PoseModel, PoseRig, fit_rig, matrix_quaternions, quaternion_matrices, simulate_poses
 
 
 @pytest.fixture(scope="module")
@@ -165,7 +164,7 @@ def test_a_cable_set_and_a_pose_set_together_beat_each_alone(robot):
 
 def test_the_simulate_seam_draws_a_pose_set_its_truth_predicts(robot):
     """simulate_set / simulate --kinds pose: PoseModel.simulate_rows on the shared draws."""
-    from calib_pin.simulation import simulate_set
+    from calib_pin.simulation.simulate import simulate_set
 
     chain, params = robot
     data, truth = simulate_set(PoseModel, chain, params, 30, seed=8)

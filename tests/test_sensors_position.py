@@ -10,8 +10,8 @@ import pytest
 import calib_pin as cp
 from calib_pin.cli.calibrate import calibrate_main
 from calib_pin.report.build import build_report
-from calib_pin.sensors import fit_device
 from calib_pin.robot.poses import random_poses
+from calib_pin.sensors import fit_device
 
 ROOT = Path(__file__).resolve().parents[1]
 WU2015 = ROOT / "robots" / "irb120_wu2015.csv"

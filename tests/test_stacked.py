@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.calibration.multiset import FitSet
+from calib_pin.calibration.problem import StackedProblem
 from calib_pin.cli.calibrate import calibrate_main
-from calib_pin.multiset import FitSet
-from calib_pin.problem import CalibrationProblem
-from calib_pin.sensors import CableModel, Drawstring
+from calib_pin.estimators.problem import CalibrationProblem
+from calib_pin.estimators.subspace import Subspace
 from calib_pin.robot.poses import random_poses
-from calib_pin.stacked import StackedProblem
-from calib_pin.analysis.subspace import Subspace
+from calib_pin.sensors import CableModel, Drawstring
 
 #: Three anchors of one drawstring, re-anchored between sessions, base frame [mm].
 ANCHORS_MM = ((600.0, 200.0, -100.0), (-300.0, 550.0, -50.0), (100.0, -600.0, 150.0))
@@ -226,8 +226,8 @@ def test_three_set_ups_in_one_file_are_named_in_a_warning(three, tmp_path):
 
 def test_html_report_has_a_table_per_set(three):
     pytest.importorskip("matplotlib")
-    from calib_pin.report.html import render_html
     from calib_pin.report.build import build_report
+    from calib_pin.report.html import render_html
 
     _, sets = three
     result = cp.calibrate("irb120", [FitSet(sets[0], "left"), FitSet(sets[1], "right")], method="lm",

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from calib_pin.analysis.subspace import RCOND, Subspace
+from calib_pin.estimators.subspace import RCOND, Subspace
 
 
 def test_blind_directions_are_cut_and_whitened_steps_are_unit():

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.calibration.pipeline import prepare
 from calib_pin.estimators import run_estimator, ukf
-from calib_pin.pipeline import prepare
 
 ROBOTS = Path(__file__).parent.parent / "robots"
 

@@ -25,10 +25,10 @@ from typing import Any
 import numpy as np
 from scipy.linalg import qr
 
-from ..arguments import as_array, as_float, as_instance
-from ..problem import CalibrationProblem, data_rows, row_offsets
-from ..stacked import StackedProblem
-from .subspace import RCOND, Subspace
+from ..calibration.problem import StackedProblem
+from ..estimators.problem import CalibrationProblem, data_rows, row_offsets
+from ..estimators.subspace import RCOND, Subspace
+from ..util.arguments import as_array, as_float, as_instance
 
 
 @dataclass(frozen=True)
@@ -230,7 +230,7 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
         fixed: Unknowns held at their start (``calibrate --fix``): their columns are left
             out, so the directions shown are those of the unknowns estimated.
         rcond: Singular values below ``rcond`` times the largest count as zero (the
-            same cut the estimators' search space uses, :data:`calib_pin.analysis.subspace.RCOND`).
+            same cut the estimators' search space uses, :data:`calib_pin.estimators.subspace.RCOND`).
 
     Raises:
         ArgumentError: not a problem, x not of shape (n_params,) or not finite, rcond

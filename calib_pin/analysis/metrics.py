@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import as_float
+from ..util.arguments import as_float
 
 
 @dataclass(frozen=True)

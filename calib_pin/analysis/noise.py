@@ -7,7 +7,7 @@ estimated from the residual of a first LM fit on the training rows,
     sigma^2 = RSS / (m - r),
 
 with m the training values and r the rank of the scaled Jacobian on the identifiable
-subspace (the directions the estimators move, :mod:`calib_pin.analysis.subspace`), not
+subspace (the directions the estimators move, :mod:`calib_pin.estimators.subspace`), not
 the number of unknowns: a blind direction fits nothing, so it takes no degree of freedom.
 On the shipped drawstring set (true noise 0.05 mm) this gives 0.046 mm on the training rows
 of split 0; on the real IRB120 laser-tracker set 0.146 mm (geometry) per coordinate.
@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..estimators import run_estimator
-from ..problem import LeastSquares
-from .subspace import RCOND, Subspace
+from ..estimators.problem import LeastSquares
+from ..estimators.subspace import RCOND, Subspace
 
 #: The smallest noise [m] an estimate may give (a noise-free simulation fits to rounding;
 #: a Kalman filter needs R > 0): 1 nm.

@@ -21,13 +21,13 @@ from typing import Any
 
 import numpy as np
 
+from ..estimators.problem import CalibrationProblem
+from ..estimators.subspace import Subspace
 from ..exceptions import ArgumentError, CalibPinError
-from ..problem import CalibrationProblem
-from ..progress import progress
 from ..robot.poses import random_poses
 from ..sensors.base import MeasurementModel
+from ..util.progress import progress
 from .identifiability import Identifiability, analyze
-from .subspace import Subspace
 
 #: Regularisation of the starting information matrix (relative to the largest row norm^2).
 RIDGE = 1e-6

@@ -18,11 +18,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..problem import CalibrationProblem
+from ..calibration.problem import StackedProblem
+from ..estimators.problem import CalibrationProblem
+from ..estimators.subspace import RCOND, Subspace
 from ..robot.poses import random_poses
-from ..stacked import StackedProblem
-from ..units import human_unit
-from .subspace import RCOND, Subspace
+from ..util.units import human_unit
 
 #: z of the two-sided 95 % normal interval.
 Z95 = 1.959964

@@ -21,9 +21,9 @@ from typing import Any
 
 from ..analysis.metrics import Metrics
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
-from ..export.bundle import EXPORTS, write_outputs
-from ..export.outputs import robot_inputs
 from ..report.build import noise_parts_line
+from ..report.bundle import EXPORTS, write_outputs
+from ..util.outputs import robot_inputs
 from . import parse_args
 from .common import (
     add_compliance_arguments,
@@ -171,7 +171,7 @@ def data_keys() -> dict[str, tuple[Any, str]]:
     but ``estimate``, a choice for every set), then :data:`SET_KEYS`. The one table both
     the parse and the help read.
     """
-    from ..multiset import ROLES
+    from ..calibration.multiset import ROLES
     from ..sensors import setup_types
 
     types = setup_types()
@@ -228,8 +228,8 @@ def data_argument(text: str) -> tuple[str, dict[str, Any]]:
     Raises:
         CalibPinError: naming the argument and the key (unknown, twice, bad value).
     """
+    from ..calibration.multiset import ROLES
     from ..exceptions import CalibPinError
-    from ..multiset import ROLES
 
     path, items = _file_options(text, "--data", "per-set options follow an existing file: FILE:key=value:key=value",
                                 "key=value (FILE:key=value:key=value)")
@@ -251,14 +251,14 @@ def data_argument(text: str) -> tuple[str, dict[str, Any]]:
 
 def validation_argument(text: str | None) -> Any:
     """A ``--test-data`` argument ``FILE[:register=K|role][:same=LABEL]`` as the library's
-    test_data: the file, or a :class:`~calib_pin.validation.TestSet` with its choice
+    test_data: the file, or a :class:`~calib_pin.calibration.validation.TestSet` with its choice
     (:func:`_file_options`).
 
     Raises:
         CalibPinError: naming the argument and the key (unknown, twice, bad value).
     """
+    from ..calibration.validation import TestSet
     from ..exceptions import CalibPinError
-    from ..validation import TestSet
 
     if text is None:
         return None
@@ -283,7 +283,7 @@ def validation_argument(text: str | None) -> Any:
 
 
 def _fit_set(path: str, options: dict[str, Any]) -> Any:
-    from ..multiset import FitSet
+    from ..calibration.multiset import FitSet
     from ..sensors import setup_record
 
     fields = {k: v for k, v in options.items() if k not in SET_KEYS}
@@ -330,7 +330,7 @@ def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
 
 def _analyze(args: argparse.Namespace) -> int:
     from ..analysis.identifiability import analyze
-    from ..pipeline import prepare
+    from ..calibration.pipeline import prepare
 
     setup = prepare(args.robot, _data(args), **_setup_options(args))
     print(f"{setup.chain.name}: {setup.data.describe_rows()} from {setup.data.source}, "
@@ -346,7 +346,7 @@ def _analyze(args: argparse.Namespace) -> int:
 def analysis_point(setup: Any) -> tuple[Any, str]:
     """Where ``--analyze`` analyses the data's poses, SI units (n_params,), and its words:
     zero deviations (the catalogue URDF), or with ``--nominal`` the start a calibration
-    would take (:meth:`~calib_pin.parameters.start.Start.x0`, the sensor's geometry fitted
+    would take (:meth:`~calib_pin.calibration.start.Start.x0`, the sensor's geometry fitted
     to every row with the robot held there)."""
     import numpy as np
 
@@ -380,7 +380,7 @@ def _check_dh_export(args: argparse.Namespace) -> None:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from ..pipeline import calibrate
+    from ..calibration.pipeline import calibrate
 
     _check_dh_export(args)
     result = calibrate(args.robot, _data(args), method=args.method, seed=args.seed,
@@ -414,8 +414,8 @@ def _cross_validated(args: argparse.Namespace, result: Any) -> Any:
     """``result`` with the K-fold cross-validation of its model on its training poses."""
     import dataclasses
 
+    from ..calibration.pipeline import CalibrationSetup, prepare
     from ..exceptions import CalibPinError
-    from ..pipeline import CalibrationSetup, prepare
     from ..studies.cross_validation import cross_validate
 
     setup = prepare(args.robot, _data(args), **_setup_options(args))

@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..export.outputs import Outputs, refuse_input, robot_inputs
-from ..progress import quiet_progress
+from ..util.outputs import Outputs, refuse_input, robot_inputs
+from ..util.progress import quiet_progress
 from . import parse_args
 from .common import (
     SENSOR_FAULT_EXIT,

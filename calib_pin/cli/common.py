@@ -112,7 +112,7 @@ NOTHING_WRITTEN = "stopped by Ctrl-C: nothing was written"
 def run(action: Callable[[], int], interrupted: str = NOTHING_WRITTEN) -> int:
     """Run a command's work: a user's mistake becomes one line on stderr and exit 2,
     Ctrl-C one line and exit 130 (naming the outputs already written in full, if any)."""
-    from ..export.outputs import WRITTEN
+    from ..util.outputs import WRITTEN
 
     mark = len(WRITTEN)
     try:
@@ -216,7 +216,7 @@ def methods(text: str) -> list[str]:
 
 def joint_names(text: str) -> tuple[str, ...]:
     """Comma-separated joint names (or ``all``), each once."""
-    from ..arguments import as_names
+    from ..util.arguments import as_names
 
     try:
         names = as_names(text, "compliance")

@@ -1,7 +1,7 @@
 """``compare``: the estimators side by side (the paper's Table I, Fig. 2 and Fig. 3).
 
 Writes table1.csv, table1.md, fig2_residuals.png and fig3_convergence.png all together
-or none (:class:`~calib_pin.export.outputs.Outputs`); the figures are optional: without a
+or none (:class:`~calib_pin.util.outputs.Outputs`); the figures are optional: without a
 working matplotlib one warning line, and the tables. Each finished trial is kept in
 ``OUT/.calib-pin-checkpoint`` as it finishes: after Ctrl-C (exit 130, one line) or a
 worker fault the same command runs only the trials not yet done, and says so.
@@ -16,9 +16,9 @@ from pathlib import Path
 from typing import Any
 
 from ..estimators import PAPER_METHODS
-from ..export.outputs import Outputs, robot_inputs
-from ..progress import quiet_progress
-from ..simulation import NOISE_KINDS
+from ..simulation.simulate import NOISE_KINDS
+from ..util.outputs import Outputs, robot_inputs
+from ..util.progress import quiet_progress
 from . import parse_args
 from .common import (
     INTERRUPTED_EXIT,
@@ -187,10 +187,10 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
 
 def _write(result: Any, out: Path, command: str) -> list[Path]:
     """Write the tables and the figures together, or none. The figures are optional
-    (:func:`calib_pin.optional.figures_or_warn`): without a working matplotlib, or when
+    (:func:`calib_pin.util.optional.figures_or_warn`): without a working matplotlib, or when
     drawing fails, one warning line and the tables alone."""
     from ..exceptions import CalibPinError
-    from ..optional import figures_or_warn
+    from ..util.optional import figures_or_warn
 
     tables = [(out / "table1.csv", lambda tmp: result.write_csv(tmp)),
               (out / "table1.md", lambda tmp: result.write_markdown(tmp, command))]
@@ -221,7 +221,7 @@ FIGURES_HINT = "the tables are written"
 
 def _figure_functions() -> tuple[Any, Any]:
     """Fig. 2 and Fig. 3's drawing functions (importing matplotlib)."""
-    from ..report.comparison_figures import convergence_figure, residual_figure
+    from ..studies.comparison_figures import convergence_figure, residual_figure
 
     return residual_figure, convergence_figure
 

@@ -2,7 +2,7 @@
 
 The targets were computed with the nominal model; each corrected target puts the
 calibrated arm's end frame (geometry and joint deflection) where the nominal model puts
-it, to 1 um and 1 urad (:meth:`calib_pin.compensation.CalibratedRobot.solve`). Each target
+it, to 1 um and 1 urad (:meth:`calib_pin.export.compensation.CalibratedRobot.solve`). Each target
 gets a status: ``ok``, ``position-only`` (near a singularity or a joint limit: the position
 met, the orientation residual reported) or ``refused`` (with the reason; left out of the
 program, named in it). ``--format`` writes the program as calib-pin's CSV or in a
@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..compensation import OK, POSITION_ONLY, REFUSED, CalibratedRobot, Compensation
 from ..exceptions import CalibPinError, DataError
-from ..export.outputs import Outputs, robot_inputs
+from ..export.compensation import OK, POSITION_ONLY, REFUSED, CalibratedRobot, Compensation
 from ..export.programs import FORMATS, Program, identifier, program_files, program_paths
+from ..util.outputs import Outputs, robot_inputs
 from . import parse_args
 from .common import positive_float, run
 from .outputs import add_force_argument
@@ -98,7 +98,7 @@ def _compensate(args: argparse.Namespace) -> int:
     chain = robot.chain
     reference = None
     if args.nominal is not None:
-        from ..parameters.start import load_start
+        from ..calibration.start import load_start
 
         reference = load_start(Path(args.nominal), chain, robot.params)
         robot.set_reference(reference.robot_x)
@@ -160,7 +160,7 @@ def _compensate(args: argparse.Namespace) -> int:
 
 def _writer(text: str) -> Callable[[Path], object]:
     """What the output writer calls to write ``text`` to its temporary file."""
-    from ..atomic import write_text
+    from ..util.atomic import write_text
 
     return lambda tmp: write_text(tmp, text)
 

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import CalibPinError
-from ..export.outputs import Outputs, robot_inputs
-from ..progress import quiet_progress
 from ..sensors import SENSORS, add_sensor_arguments, default_kind
+from ..util.outputs import Outputs, robot_inputs
+from ..util.progress import quiet_progress
 from . import parse_args
 from .common import (
     add_end_frame_argument,

@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..exceptions import CalibPinError
-from ..export.outputs import Outputs, robot_inputs
-from ..simulation import NOISE_KINDS
+from ..simulation.simulate import NOISE_KINDS
+from ..util.outputs import Outputs, robot_inputs
 from . import parse_args
 from .common import (
     add_compliance_arguments,
@@ -125,7 +125,7 @@ def _simulate(args: argparse.Namespace) -> int:
     from ..parameters import parameter_model
     from ..robot import load_chain
     from ..sensors import default_kind, sensor_for
-    from ..simulation import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate, simulate_sessions
+    from ..simulation.simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate, simulate_sessions
 
     out = Path(args.out)
     if not out.name or out.is_dir():

@@ -17,12 +17,12 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import as_array, as_bool, as_float, as_instance, as_int
 from ..exceptions import ArgumentError, EstimatorError
-from ..problem import LeastSquares
-from ..progress import progress_bar
+from ..util.arguments import as_array, as_bool, as_float, as_instance, as_int
+from ..util.progress import progress_bar
 from .active_set import Fixed, estimate_nonnegative, expanded
 from .base import EstimateResult, History
+from .problem import LeastSquares
 
 #: Robust losses (scipy.optimize.least_squares names); "linear" is plain least squares.
 LOSSES = ("linear", "huber", "soft_l1", "cauchy")
@@ -151,7 +151,7 @@ def run_estimator(
 ) -> EstimateResult:
     """Run the estimator ``name`` (with ``loss``), recording its convergence history
     (unless ``history`` is False) and its wall time ``time_s``. PSO and DE show a bar
-    over their generations on a terminal (:mod:`calib_pin.progress`).
+    over their generations on a terminal (:mod:`calib_pin.util.progress`).
 
     Unknowns the problem names in ``nonnegative`` (the joint compliances) come out >= 0
     for every method: one fitted negative is fixed at zero and the method runs again

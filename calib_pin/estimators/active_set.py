@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from ..problem import LeastSquares, RowProblem, row_offsets
 from .base import EstimateResult
+from .problem import LeastSquares, RowProblem, row_offsets
 
 #: A bounded unknown below -TOLERANCE x its scale counts as negative (1e-3 of a typical
 #: compliance: -0.02 urad/Nm, a stiffness of 5e7 Nm/rad); one between that and zero is the

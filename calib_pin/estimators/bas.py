@@ -1,6 +1,6 @@
 """Beetle antennae search (BAS, paper M2, eq. 9-13), the loop QIBAS builds on.
 
-The beetle sits at z (search coordinates, see :mod:`calib_pin.analysis.subspace`) and, each iteration:
+The beetle sits at z (search coordinates, see :mod:`calib_pin.estimators.subspace`) and, each iteration:
 
 1. draws a random unit direction b (eq. 10) and smells the cost at its antennae
    z_r = z + m b and z_l = z - m b (eq. 11);
@@ -41,8 +41,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..problem import LeastSquares
 from .base import Callback, EstimateResult, Tracker
+from .problem import LeastSquares
 
 #: Proposes an extra candidate from (z, m, b, f, f_l, f_r, z_bas); None for plain BAS.
 Interpolation = Callable[[np.ndarray, float, np.ndarray, float, float, float, np.ndarray], np.ndarray]

@@ -5,7 +5,7 @@ defaults) and whose call is::
 
     estimator(problem, x0, *, seed=0, noise=5e-5, callback=None) -> EstimateResult
 
-``problem`` is any :class:`calib_pin.problem.LeastSquares` (residual, Jacobian, scale and
+``problem`` is any :class:`calib_pin.estimators.problem.LeastSquares` (residual, Jacobian, scale and
 row blocks; a calibration problem is one), ``x0`` the start (SI units), ``seed`` seeds any
 randomness, ``noise`` is the measurement noise (1 sigma, [m]) for methods that weigh
 values by it. ``callback(rmse, evaluations)``, when given, is called with the training
@@ -17,7 +17,7 @@ filters) computes the training RMSE over every row for each entry: it records at
 has no more), so the record costs O(rows), not O(rows^2); the result's
 ``history_iterations`` then says which update each entry follows. Those entries are
 computed in batches (one batched residual pass over at most
-:data:`calib_pin.problem.BATCH_ROWS` point-rows, :meth:`Tracker.flush`) and handed to the
+:data:`calib_pin.estimators.problem.BATCH_ROWS` point-rows, :meth:`Tracker.flush`) and handed to the
 callback when a batch is full, at the last update and before any other entry: the
 callback gets the same calls with the same values in the same order, only later; a
 callback that raises to stop a filter stops it at the end of that batch, not at its entry.
@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from ..analysis.subspace import Subspace
-from ..problem import BATCH_ROWS, LeastSquares
+from .problem import BATCH_ROWS, LeastSquares
+from .subspace import Subspace
 
 #: ``callback(rmse, evaluations)``: training RMSE [m] reached with that many evaluations.
 Callback = Callable[[float, float], None]
@@ -198,7 +198,7 @@ class Tracker:
         return self.callback is not None
 
     def whitened(self, x0: np.ndarray) -> Subspace:
-        """The identifiable subspace at x0 (:mod:`calib_pin.analysis.subspace`); its Jacobian
+        """The identifiable subspace at x0 (:mod:`calib_pin.estimators.subspace`); its Jacobian
         counts as one evaluation."""
         self.nfev += 1
         x0 = np.asarray(x0, dtype=float)

@@ -9,8 +9,8 @@ import numpy as np
 from scipy.optimize import differential_evolution
 
 from ..exceptions import ArgumentError
-from ..problem import LeastSquares
 from .base import Callback, EstimateResult, Tracker
+from .problem import LeastSquares
 
 #: scipy's ``updating`` modes (see :class:`DE`).
 UPDATING = ("immediate", "deferred")
@@ -18,7 +18,7 @@ UPDATING = ("immediate", "deferred")
 
 @dataclass(frozen=True)
 class DE:
-    """scipy's differential evolution in the whitened search coordinates of :mod:`calib_pin.analysis.subspace`.
+    """scipy's differential evolution in the whitened search coordinates of :mod:`calib_pin.estimators.subspace`.
 
     Strategy ``best1bin`` with dithered mutation (0.5, 1) and recombination 0.7 (scipy's
     defaults), a population of ``popsize`` x dimension members, Latin-hypercube start in

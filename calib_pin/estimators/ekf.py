@@ -6,10 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..analysis.subspace import Subspace
-from ..problem import LeastSquares, data_rows, row_offsets
 from .base import Callback, EstimateResult, Tracker
 from .filterpy_import import kalman
+from .problem import LeastSquares, data_rows, row_offsets
+from .subspace import Subspace
 
 # Imported with this module (only when the method is asked for), without scipy.stats.
 ExtendedKalmanFilter = kalman().ExtendedKalmanFilter
@@ -52,7 +52,7 @@ class EKF:
     """Recursive estimate of the deviations, one measurement update per pose.
 
     State: the deviations (eq. 17), constant between poses (F = I), in the whitened
-    coordinates of :mod:`calib_pin.analysis.subspace` like every estimator: directions the data
+    coordinates of :mod:`calib_pin.estimators.subspace` like every estimator: directions the data
     cannot see are not estimated and stay at x0. P0 = (prior * scale)^2: the model's
     typical deviation sizes (1 mm, 2 mrad for DH) times ``prior``. Q = (process *
     scale)^2 per pose (eq. 18), zero by default since the robot's geometry does not

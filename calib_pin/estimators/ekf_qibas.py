@@ -6,9 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..problem import LeastSquares
 from .base import Callback, EstimateResult, offset
 from .ekf import EKF
+from .problem import LeastSquares
 from .qibas import QIBAS
 from .robust import Robust
 

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..problem import LeastSquares
 from .base import Callback, EstimateResult, Tracker, rmse
+from .problem import LeastSquares
 from .robust import outlier_rows, refit_scales
 
 
@@ -27,7 +27,7 @@ class LevenbergMarquardt:
     """MINPACK's Levenberg-Marquardt through ``scipy.optimize.least_squares(method="lm")``.
 
     It solves for the identifiable directions only (the whitened coordinates of
-    :mod:`calib_pin.analysis.subspace`, with the analytic Jacobian mapped onto them); the others stay
+    :mod:`calib_pin.estimators.subspace`, with the analytic Jacobian mapped onto them); the others stay
     at x0. Stops on scipy's ``ftol``/``xtol``/``gtol`` or ``max_nfev`` evaluations.
     ``loss`` other than ``linear`` adds the robust stage of the module docstring.
 

@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..problem import LeastSquares
 from .base import Callback, EstimateResult, offset
 from .lm import LevenbergMarquardt
+from .problem import LeastSquares
 from .rbf import RBF
 
 

@@ -7,13 +7,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..problem import LeastSquares
 from .base import Callback, EstimateResult, Tracker
+from .problem import LeastSquares
 
 
 @dataclass(frozen=True)
 class PSO:
-    """Global-best particle swarm in the whitened search coordinates of :mod:`calib_pin.analysis.subspace`.
+    """Global-best particle swarm in the whitened search coordinates of :mod:`calib_pin.estimators.subspace`.
 
     Every iteration each particle's velocity becomes
     ``inertia * v + c1 * r1 * (own best - z) + c2 * r2 * (swarm best - z)``

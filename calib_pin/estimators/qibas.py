@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..problem import LeastSquares
 from .bas import BAS
 from .base import Callback, EstimateResult
+from .problem import LeastSquares
 
 #: upsilon_0 of eq. 16: guards the parabola's denominator, in coordinates normalised by
 #: the antenna length and the best cost.

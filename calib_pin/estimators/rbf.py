@@ -38,8 +38,8 @@ import numpy as np
 from scipy.interpolate import RBFInterpolator
 
 from ..exceptions import EstimatorError
-from ..problem import LeastSquares
 from .base import Callback, EstimateResult, Tracker, rmse
+from .problem import LeastSquares
 
 #: Most training rows that become the network's centres (see the module docstring).
 MAX_CENTRES = 800

@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from ..problem import LeastSquares
 from .base import Callback, EstimateResult, rmse
+from .problem import LeastSquares
 
 #: A residual beyond this many noise scales marks an outlier.
 OUTLIER_SCALES = 3.0

@@ -6,11 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..analysis.subspace import Subspace
-from ..problem import LeastSquares, row_offsets
 from .base import Callback, EstimateResult, Tracker
 from .ekf import filter_moments
 from .filterpy_import import kalman
+from .problem import LeastSquares, row_offsets
+from .subspace import Subspace
 
 # Imported with this module (only when the method is asked for), without scipy.stats.
 MerweScaledSigmaPoints = kalman().MerweScaledSigmaPoints

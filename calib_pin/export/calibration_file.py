@@ -12,7 +12,7 @@ the URDF by :func:`write_calibration`, holds
   the data source, the metrics;
 - the versions of calib-pin, Pinocchio and NumPy.
 
-:func:`load_calibration` reads it back as a :class:`~calib_pin.compensation.CalibratedRobot`
+:func:`load_calibration` reads it back as a :class:`~calib_pin.export.compensation.CalibratedRobot`
 (``.model``, ``.forward(q)``, ``.compensate(q)``).
 """
 
@@ -27,20 +27,20 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from ..arguments import MAX_MM, as_bool, as_optional, as_path, as_robot
-from ..atomic import write_text
-from ..compensation import CalibratedRobot
 from ..exceptions import CalibPinError, DataError, RobotError
-from ..input_files import check_regular
 from ..parameters import parameter_model
+from ..parameters.sanity import beyond_sanity
 from ..robot.chain import Chain, load_chain
 from ..robot.deflection import ComplianceSpec, stiffness
 from ..robot.description import resolve_robot
-from ..sanity import beyond_sanity
-from ..units import for_humans
+from ..util.arguments import MAX_MM, as_bool, as_optional, as_path, as_robot
+from ..util.atomic import write_text
+from ..util.input_files import check_regular
+from ..util.units import for_humans
+from .compensation import CalibratedRobot
 
 if TYPE_CHECKING:
-    from ..result import CalibrationResult
+    from ..calibration.result import CalibrationResult
 
 #: What the file says it is, and its layout's version.
 FORMAT = "calib-pin calibration"
@@ -402,7 +402,7 @@ def load_calibration(path: str | Path, robot: str | None = None, *, cable: bool 
             not the one calibrated; a file whose content is not what calibrate writes:
             its format version, a value that is not a finite number (anywhere), other
             joints or parameter names than the robot's, a deviation beyond calibrate's
-            sanity bound (:mod:`calib_pin.sanity`), a negative compliance. The message
+            sanity bound (:mod:`calib_pin.parameters.sanity`), a negative compliance. The message
             names the file and the key (``deviations_si.a_1``).
     """
     source = find_calibration(as_path(path, "path"))

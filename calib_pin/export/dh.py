@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..atomic import write_text
 from ..exceptions import CalibPinError
 from ..parameters.base import ParameterModel
 from ..parameters.dh import DHModel
+from ..util.atomic import write_text
 
 
 def corrected_dh(params: ParameterModel, x: np.ndarray) -> tuple[dict[str, np.ndarray], tuple[int, ...]]:

@@ -17,9 +17,9 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from ..atomic import write_bytes
 from ..exceptions import RobotError
 from ..robot.chain import Chain
+from ..util.atomic import write_bytes
 
 
 def origin_of(joint: etree._Element) -> pin.SE3:

@@ -23,9 +23,9 @@ import pinocchio as pin
 import yaml
 from lxml import etree
 
-from ..atomic import write_text
 from ..exceptions import DataError, RobotError
 from ..robot.chain import Chain
+from ..util.atomic import write_text
 from .urdf import corrected_origins, top_level_joints
 
 #: ur_description's kinematics keys for the six UR joints, base to wrist.

@@ -27,10 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import write_text
 from ..exceptions import CalibPinError
-from ..input_files import check_regular
-from ..optional import require
+from ..util.atomic import write_text
+from ..util.input_files import check_regular
+from ..util.optional import require
 
 serial = require("serial")
 

@@ -32,13 +32,13 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic import fsync_path, write_all
 from ..exceptions import CalibPinError, DataError
-from ..input_files import check_regular
 from ..measurements import MeasurementSet, read_measurements
 from ..measurements.csv_writer import header, row
-from ..progress import progress_bar
 from ..robot.chain import Chain
+from ..util.atomic import fsync_path, write_all
+from ..util.input_files import check_regular
+from ..util.progress import progress_bar
 from .reader import Reader, SensorProfile, StableReading, read_stable
 
 #: Joint angles of a resumed row must match the pose list to this many degrees.

@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import LIMIT_TOLERANCE, as_instance, outside_limits
 from ..exceptions import DataError
 from ..robot.chain import Chain
+from ..util.arguments import LIMIT_TOLERANCE, as_instance, outside_limits
 from .dataset import MeasurementSet
 
 #: What a pose list's ``kind`` is (a set without values).

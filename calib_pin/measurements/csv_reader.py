@@ -45,10 +45,10 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import as_bool, as_chain, as_optional, as_path
 from ..exceptions import DataError
-from ..input_files import check_regular
 from ..robot.chain import Chain
+from ..util.arguments import as_bool, as_chain, as_optional, as_path
+from ..util.input_files import check_regular
 from . import dialect
 from .columns import (
     ANNOTATIONS,

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..arguments import as_instance, as_path
-from ..atomic import write_text
+from ..util.arguments import as_instance, as_path
+from ..util.atomic import write_text
 from .dataset import MeasurementSet, PointLabel, point_label
 
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..arguments import as_path
 from ..exceptions import CalibPinError, DataError
 from ..robot import Chain, load_chain
+from ..util.arguments import as_path
 from .checks import check_measurements
 from .csv_reader import read_measurements
 from .dataset import MeasurementSet

@@ -8,10 +8,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..analysis.subspace import RCOND
+from ..estimators.subspace import RCOND
 
 if TYPE_CHECKING:
-    from ..result import CalibrationResult
+    from ..calibration.result import CalibrationResult
 
 
 def _metrics(result: CalibrationResult) -> dict[str, Any]:

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..atomic import write_text
-from ..optional import require
+from ..util.atomic import write_text
+from ..util.optional import require
 from .build import noise_parts_line
 
 
@@ -304,7 +304,7 @@ def render_html(r: dict) -> str:
     Raises:
         CalibPinError: matplotlib is not installed.
     """
-    from ..progress import status
+    from ..util.progress import status
 
     status(f"drawing report.html ({len(r['residuals']['rows'])} rows; the first run in a new environment "
            "also builds matplotlib's font cache)")

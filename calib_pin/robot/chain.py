@@ -204,7 +204,7 @@ def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> C
             with more than one degree of freedom.
         ArgumentError: robot not a name, path or description; end_frame not text.
     """
-    from ..arguments import as_instance, as_optional, as_robot
+    from ..util.arguments import as_instance, as_optional, as_robot
 
     robot = as_robot(robot, "robot")
     end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")

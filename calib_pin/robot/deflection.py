@@ -55,8 +55,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..arguments import _shown, as_float, as_names, as_xyz_mm
 from ..exceptions import ArgumentError, CalibPinError, RobotError
+from ..util.arguments import _shown, as_float, as_names, as_xyz_mm
 from .chain import Chain
 from .gravity_basis import BASIS_SCALE, GravityBasis
 

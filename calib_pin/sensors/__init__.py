@@ -71,7 +71,7 @@ def check_estimate(estimate: Any) -> tuple[str, ...]:
     Raises:
         ArgumentError: not names, or a name no sensor can estimate.
     """
-    from ..arguments import as_names
+    from ..util.arguments import as_names
 
     valid = tuple(dict.fromkeys(e for s in SENSORS.values() for e in s.estimable))
     names = as_names(estimate, "estimate")

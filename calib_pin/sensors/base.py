@@ -28,10 +28,10 @@ from ..robot.kinematics import Kinematics
 DEFAULT_NOISE_MM = 0.05
 
 if TYPE_CHECKING:
+    from ..estimators.problem import CalibrationProblem
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
-    from ..problem import CalibrationProblem
-    from ..simulation import SimulationDraw
+    from ..simulation.simulate import SimulationDraw
     from .setup import SensorSetup
 
 
@@ -62,7 +62,7 @@ class NoisePart:
 #: A sensor set-up given by the caller or the file (a drawstring's anchor, tool point and
 #: offset; a contact set's tool point) whose values at the nominal robot miss the readings
 #: by more than this (median over the rows) [m] is refused: no kinematic deviation within
-#: the sanity bounds (:mod:`calib_pin.sanity`) moves the tool point that far (1.4 mm on
+#: the sanity bounds (:mod:`calib_pin.parameters.sanity`) moves the tool point that far (1.4 mm on
 #: the shipped drawstring set, 0.6 mm on the contact example).
 SETUP_MISFIT_M = 0.5
 #: At most this many rows, evenly spread over a set, check its set-up (:func:`check_rows`):
@@ -89,8 +89,8 @@ def chosen(estimate: Any, valid: tuple[str, ...], sensor: str) -> tuple[str, ...
     Raises:
         ArgumentError: not names, or a name this sensor has no such unknown for.
     """
-    from ..arguments import as_names
     from ..exceptions import ArgumentError
+    from ..util.arguments import as_names
 
     names = as_names(estimate, "estimate")
     unknown = set(names) - set(valid)
@@ -151,7 +151,7 @@ class MeasurementModel(ABC):
     def __init__(self, chain: Chain, params: ParameterModel, extra: list[tuple[str, str, float]],
                  compliance: ComplianceSpec | None = None,
                  cable: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        from ..arguments import as_chain, as_parameter_model
+        from ..util.arguments import as_chain, as_parameter_model
 
         self.chain = as_chain(chain, "chain")
         self.params = as_parameter_model(params, "params", chain)
@@ -208,7 +208,7 @@ class MeasurementModel(ABC):
                              calibrated: MeasurementModel, x: np.ndarray,
                              options: Mapping[str, Any]) -> CalibrationProblem:
         """The problem of a validation ``session`` on a new set-up of this sensor
-        (:mod:`calib_pin.validation`): every row, the unknowns a new placement changes after
+        (:mod:`calib_pin.calibration.validation`): every row, the unknowns a new placement changes after
         the robot's, started from their fit on ``rows``. ``calibrated`` and ``x``: the
         calibration's model and estimate (a sensor may take from them what the session does
         not say). Default: :meth:`problem_for` with the caller's compliance only (a sensor
@@ -305,14 +305,14 @@ class MeasurementModel(ABC):
         row is one part, its error the row error in mm."""
         return {}
 
-    # --- simulation (the one seam calib_pin.simulation asks a sensor for) ----------------
+    # --- simulation (the one seam calib_pin.simulation.simulate asks a sensor for) ----------------
 
     @classmethod
     def simulate_rows(cls, draw: SimulationDraw, geometry: Any | None) -> tuple[MeasurementSet, Any]:
         """A simulated set of this sensor read on the true robot: its rows, their values
         with noise and the set-up metadata its file will carry.
 
-        ``draw`` (:class:`calib_pin.simulation.SimulationDraw`) holds what every simulation
+        ``draw`` (:class:`calib_pin.simulation.simulate.SimulationDraw`) holds what every simulation
         shares; call it in this order, as the sensor needs:
 
         1. ``draw.poses(keep, why)``: the joint angles (n, n_joints) [rad], random within
@@ -324,7 +324,7 @@ class MeasurementModel(ABC):
 
         Predict the true values with ``cls(chain, params, geometry, estimate=(),
         compliance=draw.compliance)`` at ``draw.x_model`` (deviations, then the true
-        compliances): the truth file's model is built so (:meth:`calib_pin.simulation.Truth.model`),
+        compliances): the truth file's model is built so (:meth:`calib_pin.simulation.simulate.Truth.model`),
         so the sensor's model takes ``estimate=()`` for "nothing of the sensor unknown".
         ``draw.chain``, ``draw.params``, ``draw.seed``, ``draw.noise_mm`` and
         ``draw.noise_kind`` describe the run.

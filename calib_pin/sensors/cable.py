@@ -14,11 +14,11 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from ..arguments import MAX_MM, as_array, as_float, as_optional, as_xyz_mm
+from ..estimators.problem import CalibrationProblem
 from ..exceptions import ArgumentError, CalibPinError, DataError
-from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
+from ..util.arguments import MAX_MM, as_array, as_float, as_optional, as_xyz_mm
 from .base import SETUP_MISFIT_M, MeasurementModel, check_rows, chosen
 from .setup import SensorSetup, estimate_names, finite, option, xyz_mm
 

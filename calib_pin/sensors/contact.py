@@ -40,11 +40,11 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 import pinocchio as pin
 
-from ..arguments import as_optional, as_xyz_mm
+from ..estimators.problem import CalibrationProblem
 from ..exceptions import ArgumentError, CalibPinError, DataError
-from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
+from ..util.arguments import as_optional, as_xyz_mm
 from .base import DEFAULT_NOISE_MM, SETUP_MISFIT_M, MeasurementModel, check_rows
 from .setup import SensorSetup, option, xyz_mm
 
@@ -387,7 +387,7 @@ class ContactModel(MeasurementModel):
     def __init__(self, chain: Chain, params: ParameterModel, fixtures: Fixtures,
                  compliance: ComplianceSpec | None = None, estimate: tuple[str, ...] | None = None) -> None:
         """``estimate=()``: nothing of the set-up unknown (the true fixtures and tool point,
-        as :meth:`calib_pin.simulation.Truth.model` builds a truth's model): x holds the
+        as :meth:`calib_pin.simulation.simulate.Truth.model` builds a truth's model): x holds the
         robot's unknowns only. None (the default): the points and planes are estimated,
         and the tool point unless ``fixtures.tool_known``."""
         if not isinstance(fixtures, Fixtures):
@@ -929,11 +929,11 @@ def simulate_contacts(chain: Chain, params: ParameterModel, per_fixture: int, se
     sizes, scaled so the nominal tool point's error has RMSE ``nominal_rmse_mm``.
 
     Returns:
-        The set and its :class:`~calib_pin.simulation.Truth` (``sensor``: the true Fixtures).
+        The set and its :class:`~calib_pin.simulation.simulate.Truth` (``sensor``: the true Fixtures).
     """
     from ..measurements import MeasurementSet
     from ..robot.poses import random_poses
-    from ..simulation import Truth
+    from ..simulation.simulate import Truth
 
     rng = np.random.default_rng(seed)
     sockets = {str(k): np.asarray(v, dtype=float) * 1e-3 for k, v in (sockets_mm or DEFAULT_SOCKETS_MM).items()}

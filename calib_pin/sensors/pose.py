@@ -19,7 +19,7 @@ per axis), so that every entry of a row has the position noise and the rows are
 whitened consistently. The two noises come from ``# noise_mm`` and ``# noise_deg`` (or
 the caller's ``noise_mm`` / ``--noise-deg``); a part stated nowhere has its sigma
 estimated from its own residual when the set is calibrated alone
-(:meth:`PoseModel.noise_parts`, :func:`calib_pin.multiset.fit_noise_parts`, the
+(:meth:`PoseModel.noise_parts`, :func:`calib_pin.calibration.multiset.fit_noise_parts`, the
 variance-component loop of several sets). :meth:`PoseModel.part_errors` gives each part
 in its own unit (mm, deg).
 
@@ -39,12 +39,12 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 import pinocchio as pin
 
-from ..arguments import as_optional
+from ..estimators.problem import CalibrationProblem
 from ..exceptions import ArgumentError, CalibPinError, DataError
-from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
+from ..util.arguments import as_optional
 from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart, chosen, frame_unknowns
 from .setup import SensorSetup, option
 
@@ -151,7 +151,7 @@ class PoseSetup(SensorSetup):
                             parser=_positive_deg)
 
     def __post_init__(self) -> None:
-        from ..arguments import as_float
+        from ..util.arguments import as_float
 
         object.__setattr__(self, "noise_deg", as_optional(as_float, self.noise_deg, "noise_deg", 0.0, 180.0,
                                                           low_open=True, unit="deg"))
@@ -183,7 +183,7 @@ def noise_of(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[float, f
 def noise_origins(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[str, str]:
     """Where :func:`noise_of`'s two noises come from: ``caller``, ``file`` or ``default``
     (not stated: each such part's sigma is estimated from the residual when the set is
-    calibrated, :func:`calib_pin.multiset.fit_noise_parts`)."""
+    calibrated, :func:`calib_pin.calibration.multiset.fit_noise_parts`)."""
     position = "caller" if options.get("noise_mm") is not None else "file" if data.noise else "default"
     orientation = "caller" if options.get("noise_deg") is not None else "file" if "noise_deg" in data.notes \
         else "default"
@@ -620,11 +620,11 @@ def simulate_poses(chain: Chain, params: ParameterModel, n_poses: int, seed: int
 
     Returns:
         The set (``# noise_mm`` and ``# noise_deg`` stated) and its
-        :class:`~calib_pin.simulation.Truth`.
+        :class:`~calib_pin.simulation.simulate.Truth`.
     """
     from ..measurements import MeasurementSet
     from ..robot.poses import random_poses
-    from ..simulation import Truth
+    from ..simulation.simulate import Truth
 
     if not (noise_mm > 0 and noise_deg > 0):
         raise ArgumentError("noise_mm", f"a pose set needs positive noise (its weighting), got {noise_mm} mm, "

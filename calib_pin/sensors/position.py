@@ -14,7 +14,7 @@ correction of each marker (``marker<id>_x/y/z`` [m]), all around the starting va
 
 Some of these directions overlap: the device frame with the first joint's deviations,
 the markers with the last joint's. The estimators work on the identifiable directions
-only (:mod:`calib_pin.analysis.subspace`), so the overlap is harmless, and ``--analyze`` lists it.
+only (:mod:`calib_pin.estimators.subspace`), so the overlap is harmless, and ``--analyze`` lists it.
 """
 
 from __future__ import annotations
@@ -27,9 +27,9 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 import pinocchio as pin
 
+from ..estimators.problem import CalibrationProblem
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements.dataset import PointLabel, point_label
-from ..problem import CalibrationProblem
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
@@ -127,7 +127,7 @@ class PositionSetup(SensorSetup):
     estimate: Any = ()
 
     def __post_init__(self) -> None:
-        from ..arguments import as_names
+        from ..util.arguments import as_names
 
         object.__setattr__(self, "estimate", as_names(self.estimate, "estimate"))
 

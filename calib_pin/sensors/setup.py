@@ -21,7 +21,7 @@ from ..exceptions import ArgumentError
 
 # --- the flags' parsers (argparse types; the CLI's other flags use them too) ---
 
-#: The largest magnitude a flag's length takes, [mm] (:data:`calib_pin.arguments.MAX_MM`: 1 km,
+#: The largest magnitude a flag's length takes, [mm] (:data:`calib_pin.util.arguments.MAX_MM`: 1 km,
 #: beyond it a unit mistake).
 FLAG_MAX_MM = 1e6
 

@@ -3,7 +3,7 @@
 A :class:`BatchTask` is one calibration of one measurement set. :func:`run_batch` runs
 many of them with :func:`parallel_map` and writes, per set, ``<out>/<set stem>/``: the
 corrected URDF, the calibration file and ``report.json``, as ``calibrate`` does
-(:mod:`calib_pin.export.bundle`: a fit beyond the sanity bound gets report.json only),
+(:mod:`calib_pin.report.bundle`: a fit beyond the sanity bound gets report.json only),
 plus one ``summary.csv`` row per set. A set that fails (a bad
 file, a runaway estimate) gets ``status=failed`` and its one-line error in the summary;
 the other sets go on.
@@ -19,7 +19,7 @@ filesystem, as for any Dask file input); the outputs are written by the calling 
 Nothing finished is lost: each set's outcome is kept in ``<out>/.calib-pin-checkpoint``
 as soon as it is done (:mod:`calib_pin.studies.checkpoint`), so after Ctrl-C, a killed worker or
 a lost scheduler the same command runs only the sets not yet done. The outputs are
-written at the end, all together (:class:`calib_pin.export.outputs.Outputs`), and no file
+written at the end, all together (:class:`calib_pin.util.outputs.Outputs`), and no file
 of an earlier run is left beside a set that now fails.
 """
 
@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from ..exceptions import CalibPinError
-from ..export.outputs import Outputs
+from ..util.outputs import Outputs
 from .checkpoint import Checkpoint, Interrupted, file_digest, fingerprint
 from .parallel import ParallelFault, error_line, limited, parallel_completed, parallel_map
 
@@ -60,10 +60,10 @@ class BatchTask:
             ``# robot:`` line.
         data: Measurement CSV, readable at this path where the task runs; or several
             (a tuple of paths): one calibration of those sets together, one robot and
-            each set its own sensor set-up (:func:`calib_pin.pipeline.calibrate` of a list).
+            each set its own sensor set-up (:func:`calib_pin.calibration.pipeline.calibrate` of a list).
         method: Estimator name.
         seed: Seed of the split and the estimator: the task's result depends on it only.
-        options: Further keyword arguments of :func:`calib_pin.pipeline.calibrate`
+        options: Further keyword arguments of :func:`calib_pin.calibration.pipeline.calibrate`
             (``test_fraction``, ``loss``, ``parameters``, ``noise_mm``, ...).
     """
 
@@ -125,8 +125,8 @@ def run_task(task: BatchTask) -> TaskOutcome:
 
     Never raises for a bad set: the error becomes ``status=failed`` and one line.
     """
-    from ..export.bundle import render_outputs
-    from ..pipeline import calibrate
+    from ..calibration.pipeline import calibrate
+    from ..report.bundle import render_outputs
 
     start = time.perf_counter()
     row: dict[str, Any] = {"set": task.name, "method": task.method, "seed": task.seed}
@@ -177,7 +177,7 @@ def _add_outcome(files: Outputs, outcome: TaskOutcome) -> None:
     """Queue a set's files and report.json in ``files`` (an Outputs of the batch folder)."""
     if outcome.report is None:
         return
-    from ..export.bundle import RenderedOutputs, add_outputs
+    from ..report.bundle import RenderedOutputs, add_outputs
 
     report = dict(outcome.report)
     rendered = RenderedOutputs(str(report.get("robot", "")), dict(outcome.files), dict(outcome.exports), report,
@@ -188,7 +188,7 @@ def _add_outcome(files: Outputs, outcome: TaskOutcome) -> None:
 def _earlier_files(out: Path, outcome: TaskOutcome) -> list[Path]:
     """The files an earlier batch run wrote for the set: its report.json, the files that
     report names, and what a calibration of its robot (or this run's) writes."""
-    from ..export.bundle import stale_files
+    from ..report.bundle import stale_files
 
     folder = out / outcome.name
     robots = [str(outcome.report["robot"])] if outcome.report and outcome.report.get("robot") else []
@@ -212,7 +212,7 @@ def _earlier_files(out: Path, outcome: TaskOutcome) -> list[Path]:
 def _remove_stale(stale: Sequence[Path], written: Sequence[Path], inputs: Any = None) -> None:
     """Remove the earlier run's files this run did not write (never an input), and a set
     folder left empty."""
-    from ..export.bundle import remove_stale
+    from ..report.bundle import remove_stale
 
     for path in remove_stale(stale, written, inputs):
         try:

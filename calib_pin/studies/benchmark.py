@@ -16,11 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..analysis.metrics import split_rows
+from ..calibration.pipeline import prepare
 from ..estimators import run_estimator
 from ..parameters import parameter_model
-from ..pipeline import prepare
 from ..robot import load_chain
-from ..simulation import simulate
+from ..simulation.simulate import simulate
 from .comparison import fresh_scorer
 
 

@@ -194,14 +194,14 @@ PHASES_SCRIPT = r"""
 import gc, json, sys, time
 gc.disable()
 t0 = time.perf_counter()
-import calib_pin.cli.calibrate, calib_pin.pipeline, calib_pin.export.bundle, calib_pin.estimators.ekf
+import calib_pin.cli.calibrate, calib_pin.calibration.pipeline, calib_pin.report.bundle, calib_pin.estimators.ekf
 t1 = time.perf_counter()
-from calib_pin.pipeline import prepare, calibrate
+from calib_pin.calibration.pipeline import prepare, calibrate
 setup = prepare("irb120", None)
 t2 = time.perf_counter()
 result = calibrate("irb120", None)
 t3 = time.perf_counter()
-from calib_pin.export.bundle import render_outputs
+from calib_pin.report.bundle import render_outputs
 rendered = render_outputs(result, html=False)
 t4 = time.perf_counter()
 from calib_pin.report.html import render_html

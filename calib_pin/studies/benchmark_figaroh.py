@@ -52,12 +52,12 @@ from typing import Any
 
 import numpy as np
 
+from ..calibration.pipeline import CalibrationSetup, prepare
 from ..estimators import run_estimator
 from ..parameters import parameter_model
-from ..pipeline import CalibrationSetup, prepare
 from ..robot import load_chain
 from ..robot.poses import random_poses
-from ..simulation import simulate_positions
+from ..simulation.simulate import simulate_positions
 
 #: Samples (poses, one marker each) of the comparison.
 SIZES = (100, 1000)
@@ -167,7 +167,7 @@ class _Figaroh:
 def _calib_pin(setup: CalibrationSetup, method: str, seed: int) -> tuple[Any, Any, float]:
     """(model, estimate, seconds) of calib-pin on every row of the session: the sensor's
     start fitted anew in every timed run (``prepare`` made and kept one on every row,
-    which :meth:`~calib_pin.pipeline.CalibrationSetup.problem_on` would otherwise reuse)."""
+    which :meth:`~calib_pin.calibration.pipeline.CalibrationSetup.problem_on` would otherwise reuse)."""
     rows = np.arange(len(setup.data))
     start = time.perf_counter()
     problem = setup.problem_on(rows, reuse=False)

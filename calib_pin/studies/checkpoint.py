@@ -27,8 +27,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
-from ..atomic import write_text
 from ..exceptions import CalibPinError
+from ..util.atomic import write_text
 from .parallel import ParallelFault, parallel_completed
 
 T = TypeVar("T")

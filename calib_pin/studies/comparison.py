@@ -28,19 +28,19 @@ from typing import Any
 import numpy as np
 
 from ..analysis.metrics import Metrics
-from ..arguments import as_path
+from ..calibration.multiset import StackedSetup
+from ..calibration.pipeline import CalibrationSetup, prepare
 from ..estimators import PAPER_LABELS, PAPER_METHODS, get_method, run_estimator
+from ..estimators.problem import CalibrationProblem, data_row_errors
 from ..exceptions import ArgumentError, CalibPinError
-from ..multiset import StackedSetup
 from ..parameters import ParameterModel, parameter_model
-from ..pipeline import CalibrationSetup, prepare
-from ..problem import CalibrationProblem, data_row_errors
-from ..progress import progress_bar
 from ..robot import Chain, load_chain
 from ..robot.deflection import Compliance, as_compliance
 from ..robot.poses import random_poses
 from ..sensors import sensor_for
-from ..simulation import Truth, simulate
+from ..simulation.simulate import Truth, simulate
+from ..util.arguments import as_path
+from ..util.progress import progress_bar
 from .checkpoint import Checkpoint, file_digest, fingerprint
 from .parallel import parallel_map
 
@@ -290,7 +290,7 @@ def fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Cal
 
 def start_x(start: Any, problem: Any, training: Any) -> np.ndarray:
     """Where every method starts: zero deviations, or ``start``'s (``nominal``,
-    :class:`~calib_pin.parameters.start.Start`) with the sensor's geometry refitted on the
+    :class:`~calib_pin.calibration.start.Start`) with the sensor's geometry refitted on the
     ``training`` rows to it, as :func:`calib_pin.calibrate` starts."""
     x0 = np.zeros(problem.n_params)
     if start is None:
@@ -373,10 +373,10 @@ def session_truths(setup: StackedSetup) -> list[Truth] | None:
 
 def stacked_fresh_scorer(setup: StackedSetup, truths: list[Truth] | None, seed: int) -> Callable:
     """score(model, x) -> RMSE [mm] over every set's sensor at the same fresh poses (each at
-    its own points) of ``model`` (a :class:`~calib_pin.stacked.StackedModel`) at the stacked
+    its own points) of ``model`` (a :class:`~calib_pin.calibration.problem.StackedModel`) at the stacked
     ``x`` against each set's noise-free truth, the sets' values pooled as one set's are;
     None without every set's truth, or when the sets' errors are in different units."""
-    from ..multiset import value_unit
+    from ..calibration.multiset import value_unit
 
     if truths is None:
         return lambda model, x: None
@@ -402,7 +402,7 @@ def stacked_fresh_scorer(setup: StackedSetup, truths: list[Truth] | None, seed: 
 def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_fraction: float,
                    tick: Callable[[], Any] | None = None, truths: list[Truth] | None = None) -> Trial:
     """One trial on several measurement sets fitted together: every set split by pose with
-    the trial's seed (:meth:`~calib_pin.multiset.StackedSetup.split`), each method fitted as
+    the trial's seed (:meth:`~calib_pin.calibration.multiset.StackedSetup.split`), each method fitted as
     :func:`calib_pin.calibrate` of the sets fits it (each set weighted by its noise), and
     scored on the held-out rows of every set, each row's error in its own set's unit [mm],
     and with ``truths`` (:func:`session_truths`) on fresh poses against them

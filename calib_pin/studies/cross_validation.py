@@ -17,8 +17,8 @@ import numpy as np
 
 from ..analysis.metrics import Metrics
 from ..estimators import run_estimator
+from ..estimators.problem import data_row_errors
 from ..exceptions import CalibPinError
-from ..problem import data_row_errors
 
 
 @dataclass(frozen=True)
@@ -53,7 +53,7 @@ def cross_validate(setup: Any, method: str, rows: np.ndarray, folds: int, *, see
     """K-fold cross-validation by pose of ``setup``'s model on ``rows``.
 
     Args:
-        setup: A :class:`~calib_pin.pipeline.CalibrationSetup`.
+        setup: A :class:`~calib_pin.calibration.pipeline.CalibrationSetup`.
         method, loss: The estimator and loss of the calibration.
         rows: The data rows to cross-validate on (the calibration's training rows).
         folds: K, at least 2 and at most the number of poses in ``rows``.

@@ -26,10 +26,10 @@ from typing import Any
 import numpy as np
 
 from ..analysis.metrics import Metrics
+from ..calibration.pipeline import prepare
 from ..estimators import get_method
 from ..exceptions import ArgumentError, CalibPinError
 from ..parameters import MODELS as PARAMETER_MODELS
-from ..pipeline import prepare
 from ..robot.deflection import MODELS as DEFLECTION_MODELS
 from ..robot.deflection import Compliance
 from ..sensors import check_estimate

@@ -24,7 +24,7 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any, TypeVar
 
 from ..exceptions import CalibPinError
-from ..optional import require
+from ..util.optional import require
 
 T = TypeVar("T")
 R = TypeVar("R")

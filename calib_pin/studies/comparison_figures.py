@@ -11,14 +11,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..optional import require
+from ..util.optional import require
 
 require("matplotlib")
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 if TYPE_CHECKING:
-    from ..studies.comparison import Comparison
+    from .comparison import Comparison
 
 
 def _save(fig: Figure, path: str | Path) -> Path:

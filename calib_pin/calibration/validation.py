@@ -13,7 +13,7 @@ drawstring re-anchored. :class:`TestSet` says which, per session:
   fitted on those rows with the calibrated robot fixed (:func:`register_session`); the
   other rows are scored. A registration row is never scored.
 
-With several training sets (:mod:`calib_pin.multiset`) every row of every set trains;
+With several training sets (:mod:`calib_pin.calibration.multiset`) every row of every set trains;
 ``same`` names the set whose set-up the session shares (:func:`choose_training_set`), and
 a re-registered session takes its sensor's model from the first set of its kind.
 
@@ -30,13 +30,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .analysis.metrics import Metrics
-from .exceptions import ArgumentError, DataError
-from .measurements import MeasurementSet
-from .problem import data_row_errors
+from ..analysis.metrics import Metrics
+from ..estimators.problem import data_row_errors
+from ..exceptions import ArgumentError, DataError
+from ..measurements import MeasurementSet
 
 if TYPE_CHECKING:
-    from .problem import CalibrationProblem
+    from ..estimators.problem import CalibrationProblem
     from .result import CalibrationResult
 
 #: The ``role`` column value of a validation session's registration rows.
@@ -182,7 +182,7 @@ def register_session(result: CalibrationResult, test: TestSet, session: Measurem
         DataError: too few registration values for the session's sensor unknowns, or a
             sensor with none (nothing to re-register).
     """
-    from .sensors import sensor_for
+    from ..sensors import sensor_for
 
     assert test.register is not None
     source = session.source or "test_data"
@@ -249,7 +249,7 @@ def score_session(result: CalibrationResult, session: MeasurementSet) -> Calibra
 
 def score_registered(result: CalibrationResult, test: TestSet, options: dict[str, Any]) -> CalibrationResult:
     """``result`` with its ``test`` metrics from a validation session on a new set-up,
-    re-registered on its stated rows (:func:`calib_pin.validation.register_session`)."""
+    re-registered on its stated rows (:func:`calib_pin.calibration.validation.register_session`)."""
     session = test.data
     assert isinstance(session, MeasurementSet)
     scored, info = register_session(result, test, session, options)

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from types import ModuleType
 from typing import TypeVar
 
-from .exceptions import CalibPinError
+from ..exceptions import CalibPinError
 
 #: Module -> the extra of calib-pin that installs it.
 EXTRAS = {"matplotlib": "plots", "serial": "hardware", "minimalmodbus": "hardware", "dask": "cluster",

@@ -23,7 +23,19 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from .arguments import (
+from ..exceptions import ArgumentError, CalibPinError, DataError
+from ..measurements import MeasurementSet
+from ..parameters import ParameterModel
+from ..robot import Chain
+from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
+from ..robot.poses import random_poses
+from ..sensors import SENSORS, CableModel, Drawstring, MeasurementModel, PositionDevice, PositionModel, default_kind, sensor_for
+from ..sensors.cable import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
+from ..sensors.cable import SESSION_ANCHOR_SPREAD_MM as SESSION_ANCHOR_SPREAD_MM  # re-exported
+from ..sensors.position import DEFAULT_MARKERS_MM, default_device_frame
+from ..sensors.position import SESSION_DEVICE_SHIFT_MM as SESSION_DEVICE_SHIFT_MM  # re-exported
+from ..sensors.position import SESSION_DEVICE_TURN_DEG as SESSION_DEVICE_TURN_DEG  # re-exported
+from ..util.arguments import (
     MAX_MM,
     as_angles_rad,
     as_array,
@@ -36,21 +48,9 @@ from .arguments import (
     as_parameter_model,
     as_xyz_mm,
 )
-from .atomic import write_text
-from .exceptions import ArgumentError, CalibPinError, DataError
-from .input_files import check_regular
-from .measurements import MeasurementSet
-from .parameters import ParameterModel
-from .robot import Chain
-from .robot.deflection import Compliance, ComplianceSpec, as_compliance
-from .robot.poses import random_poses
-from .sensors import SENSORS, CableModel, Drawstring, MeasurementModel, PositionDevice, PositionModel, default_kind, sensor_for
-from .sensors.cable import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
-from .sensors.cable import SESSION_ANCHOR_SPREAD_MM as SESSION_ANCHOR_SPREAD_MM  # re-exported
-from .sensors.position import DEFAULT_MARKERS_MM, default_device_frame
-from .sensors.position import SESSION_DEVICE_SHIFT_MM as SESSION_DEVICE_SHIFT_MM  # re-exported
-from .sensors.position import SESSION_DEVICE_TURN_DEG as SESSION_DEVICE_TURN_DEG  # re-exported
-from .units import for_humans, from_humans
+from ..util.atomic import write_text
+from ..util.input_files import check_regular
+from ..util.units import for_humans, from_humans
 
 #: Kinds of reading noise the simulator draws (see :func:`reading_noise`).
 NOISE_KINDS = ("gauss", "student", "outliers", "student-outliers")

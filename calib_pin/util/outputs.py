@@ -1,6 +1,6 @@
 """Output files: checked first, written under temporary names, renamed together.
 
-Every command and the library's :func:`calib_pin.export.bundle.write_outputs` write
+Every command and the library's :func:`calib_pin.report.bundle.write_outputs` write
 through :class:`Outputs`, so one rule holds for all of them:
 
 * an output that is one of the command's inputs is always refused (``--force`` too):
@@ -26,8 +26,8 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-from ..atomic import fsync_path
 from ..exceptions import CalibPinError
+from .atomic import fsync_path
 
 #: What a caller names inputs as: ``{label: path}`` (label = the option, e.g. ``--targets``).
 Inputs = Mapping[str, "str | os.PathLike[str] | None"]

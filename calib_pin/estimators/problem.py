@@ -103,7 +103,7 @@ def data_row_errors(problem: Any, residual: np.ndarray) -> np.ndarray:
 class RowProblem:
     """What every least-squares problem derives from its residual and row size: the
     cost and the rows of residual entries (shared by :class:`CalibrationProblem`,
-    :class:`calib_pin.stacked.StackedProblem` and the active set's reduced problem)."""
+    :class:`calib_pin.calibration.problem.StackedProblem` and the active set's reduced problem)."""
 
     values_per_row: Any
     n_rows: Any

@@ -34,7 +34,12 @@ import numpy as np
 import pinocchio as pin
 from scipy.optimize import least_squares, lsq_linear
 
-from .arguments import (
+from ..exceptions import ArgumentError, CalibPinError
+from ..parameters import ParameterModel
+from ..robot.chain import Chain
+from ..robot.deflection import ComplianceSpec, Deflection
+from ..robot.kinematics import Kinematics
+from ..util.arguments import (
     as_angles_rad,
     as_array,
     as_bool,
@@ -44,11 +49,6 @@ from .arguments import (
     as_optional,
     as_parameter_model,
 )
-from .exceptions import ArgumentError, CalibPinError
-from .parameters import ParameterModel
-from .robot.chain import Chain
-from .robot.deflection import ComplianceSpec, Deflection
-from .robot.kinematics import Kinematics
 
 #: What compensation must reach: end-frame position [m] and orientation [rad] error.
 TOLERANCE_M = 1e-6

@@ -2,7 +2,7 @@
 
 Each set keeps its own sensor set-up (its file's anchor, tool point and cable offset, or
 a device frame and markers fitted on that set's own training rows), its own split and its
-own noise sigma_k. The fit is one :class:`~calib_pin.stacked.StackedProblem` of the
+own noise sigma_k. The fit is one :class:`~calib_pin.calibration.problem.StackedProblem` of the
 training rows of every set, set k's rows weighted by sigma_0 / sigma_k.
 
 sigma_k comes from the caller (:class:`FitSet`'s ``noise_mm``, or ``noise_mm`` for all
@@ -34,22 +34,22 @@ from typing import Any
 
 import numpy as np
 
-from .analysis.identifiability import support_error
-from .analysis.metrics import Metrics, check_fraction, pooled_unit, split_rows, units_words
-from .analysis.subspace import Subspace
-from .arguments import MAX_MM, as_choice, as_float, as_instance
-from .estimators import get_method, run_estimator
-from .exceptions import ArgumentError, CalibPinError, DataError
-from .measurements import MeasurementSet
-from .measurements.checks import check_measurements
-from .parameters import ParameterModel
-from .problem import CalibrationProblem, data_row_errors
-from .report.build import part_report
+from ..analysis.identifiability import support_error
+from ..analysis.metrics import Metrics, check_fraction, pooled_unit, split_rows, units_words
+from ..estimators import get_method, run_estimator
+from ..estimators.problem import CalibrationProblem, data_row_errors
+from ..estimators.subspace import Subspace
+from ..exceptions import ArgumentError, CalibPinError, DataError
+from ..measurements import MeasurementSet
+from ..measurements.checks import check_measurements
+from ..parameters import ParameterModel
+from ..report.build import part_report
+from ..robot import Chain
+from ..sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for
+from ..sensors.setup import given as given_value
+from ..util.arguments import MAX_MM, as_choice, as_float, as_instance
+from .problem import StackedProblem
 from .result import CalibrationResult
-from .robot import Chain
-from .sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for
-from .sensors.setup import given as given_value
-from .stacked import StackedProblem
 
 #: A set's role: split by pose (default), all training rows, or all test rows.
 ROLES = ("split", "train", "test")
@@ -170,10 +170,10 @@ class StackedSetup:
     origins: tuple[str, ...]
     options: dict[str, Any] = field(default_factory=dict)
     setups: tuple[dict[str, Any], ...] = ()
-    #: Unknowns held at their start (``fix``/``free`` of :func:`~calib_pin.pipeline.prepare`),
+    #: Unknowns held at their start (``fix``/``free`` of :func:`~calib_pin.calibration.pipeline.prepare`),
     #: by stacked name: the robot's shared ones, a set's sensor ones prefixed ``<label>:``.
     fixed: tuple[str, ...] = ()
-    #: Where the estimate starts (``nominal``, :mod:`calib_pin.parameters.start`); None: zero deviations.
+    #: Where the estimate starts (``nominal``, :mod:`calib_pin.calibration.start`); None: zero deviations.
     start: Any = None
 
     @property
@@ -253,7 +253,7 @@ class StackedSetup:
 
         With ``test_data`` (a separate validation session, :meth:`validation`) every row of
         every set trains and the ``test`` metrics are the session's: scored with the named
-        set's set-up, or re-registered (:class:`~calib_pin.validation.TestSet`).
+        set's set-up, or re-registered (:class:`~calib_pin.calibration.validation.TestSet`).
 
         Raises:
             CalibPinError: a method that learns no kinematics, a bad validation session,
@@ -337,15 +337,15 @@ class StackedSetup:
 
     def validation(self, test_data: Any) -> Any:
         """The validation session of ``test_data`` (a path, a set or a
-        :class:`~calib_pin.validation.TestSet`) with its data loaded and the training set
-        whose set-up it shares chosen (:func:`~calib_pin.validation.choose_training_set`).
+        :class:`~calib_pin.calibration.validation.TestSet`) with its data loaded and the training set
+        whose set-up it shares chosen (:func:`~calib_pin.calibration.validation.choose_training_set`).
 
         Raises:
             CalibPinError: a set with role ``test`` beside it, a session of a kind no set
                 has, no or a wrong ``same``, a set-up that disagrees with the named set's.
         """
-        from .measurements.checks import check_same_setup
-        from .measurements.load import load_data
+        from ..measurements.checks import check_same_setup
+        from ..measurements.load import load_data
         from .validation import as_test_set, choose_training_set, same_rows
 
         test = as_test_set(test_data)
@@ -368,7 +368,7 @@ class StackedSetup:
         """``result`` with its ``test`` metrics from the validation session ``test``: scored
         with the named set's set-up (its sensor geometry as calibrated), or re-registered on
         its stated rows with the calibrated robot fixed (the first set of its kind lends the
-        sensor's model, :func:`~calib_pin.validation.register_session`)."""
+        sensor's model, :func:`~calib_pin.calibration.validation.register_session`)."""
         from .validation import score_registered, score_session
 
         kinds = [d.kind for d in self.sets]

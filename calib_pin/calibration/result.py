@@ -10,22 +10,22 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .analysis.metrics import Metrics
-from .arguments import as_angles_rad
-from .estimators.base import EstimateResult
-from .exceptions import CalibPinError
-from .export.urdf import write_calibrated_urdf
-from .measurements import MeasurementSet
-from .parameters import ParameterModel
-from .problem import CalibrationProblem
-from .robot import Chain
-from .sanity import beyond_sanity
-from .stacked import StackedProblem
-from .units import for_humans
+from ..analysis.metrics import Metrics
+from ..estimators.base import EstimateResult
+from ..estimators.problem import CalibrationProblem
+from ..exceptions import CalibPinError
+from ..export.urdf import write_calibrated_urdf
+from ..measurements import MeasurementSet
+from ..parameters import ParameterModel
+from ..parameters.sanity import beyond_sanity
+from ..robot import Chain
+from ..util.arguments import as_angles_rad
+from ..util.units import for_humans
+from .problem import StackedProblem
 
 if TYPE_CHECKING:
-    from .analysis.identifiability import Identifiability
-    from .analysis.uncertainty import Uncertainty
+    from ..analysis.identifiability import Identifiability
+    from ..analysis.uncertainty import Uncertainty
 
 
 
@@ -53,12 +53,12 @@ class CalibrationResult:
         warnings: What a person must know about this result (one line each).
         test_source: The separate validation session scored as ``test``, if any.
         test_registration: A validation session on a new set-up: which of its rows
-            re-registered it and which were scored (:func:`calib_pin.validation.register_session`);
+            re-registered it and which were scored (:func:`calib_pin.calibration.validation.register_session`);
             None when it shares the training set-up, or without one.
         sets: With several measurement sets, each set's
-            :class:`~calib_pin.multiset.SetResult` (its sigma and where it came from, its
+            :class:`~calib_pin.calibration.multiset.SetResult` (its sigma and where it came from, its
             rows, its metrics before/after per split, its sensor geometry); ``problem`` is
-            then the :class:`~calib_pin.stacked.StackedProblem`, ``data`` every set's rows
+            then the :class:`~calib_pin.calibration.problem.StackedProblem`, ``data`` every set's rows
             in turn, ``train``/``test`` index its rows, and ``metrics`` pools every set's
             row errors, each in its own set's units [mm]. Empty for one set.
         noise_from: Where ``noise`` came from: ``stated`` (the caller's or the file's),
@@ -90,7 +90,7 @@ class CalibrationResult:
     cross_validation: dict[str, Any] | None = None
     noise_from: str = "stated"
     #: Where the estimate started (``calibrate --nominal``, a
-    #: :class:`~calib_pin.parameters.start.Start`); None: the catalogue URDF (zero).
+    #: :class:`~calib_pin.calibration.start.Start`); None: the catalogue URDF (zero).
     start: Any = None
 
     @property
@@ -107,7 +107,7 @@ class CalibrationResult:
     def outlier_rows(self) -> list[int]:
         """Data rows (0-based) the robust estimate judged outliers (a contact set's
         known-distance rows, no data row, are never named)."""
-        from .problem import data_rows
+        from ..estimators.problem import data_rows
 
         if not self.estimate.outliers:
             return []
@@ -195,7 +195,7 @@ class CalibrationResult:
 
     def sanity_error(self) -> str | None:
         """Why the estimate may not be exported (a negative compliance, or a deviation,
-        robot or sensor, beyond SANITY_M / SANITY_RAD of :mod:`calib_pin.sanity`, naming
+        robot or sensor, beyond SANITY_M / SANITY_RAD of :mod:`calib_pin.parameters.sanity`, naming
         the first), or None."""
         model = self.problem.model
         for i in model.nonnegative:
@@ -234,14 +234,14 @@ class CalibrationResult:
         """Standard errors and end-frame position uncertainty (:mod:`calib_pin.analysis.uncertainty`); None for rbf."""
         if not self.kinematic:
             return None
-        from .analysis.uncertainty import estimate_uncertainty
+        from ..analysis.uncertainty import estimate_uncertainty
 
         return estimate_uncertainty(self.problem.subset(self.train), self.x, seed=self.seed)
 
     @cached_property
     def identifiability(self) -> Identifiability:
         """What the training poses can identify (:func:`calib_pin.analysis.identifiability.analyze` at zero)."""
-        from .analysis.identifiability import analyze
+        from ..analysis.identifiability import analyze
 
         return analyze(self.problem.subset(self.train), fixed=self.fixed)
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import stat
 
-from .exceptions import DataError
+from ..exceptions import DataError
 
 
 def check_regular(path: str | os.PathLike[str]) -> None:

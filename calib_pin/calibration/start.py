@@ -30,8 +30,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import CalibPinError, DataError
+from ..parameters.base import ParameterModel
 from ..robot.chain import Chain
-from .base import ParameterModel
 
 #: A start whose corrections the parameter model holds worse than this is refused, [m, rad].
 FIT_TOLERANCE = 1e-6
@@ -93,7 +93,7 @@ class Start:
 
     def as_dict(self, params: ParameterModel, x: np.ndarray) -> dict:
         """JSON-ready: the file, its kind and the deviations relative to it (x the run's robot part)."""
-        from ..units import for_humans
+        from ..util.units import for_humans
 
         return {"source": self.source, "kind": self.kind, "fit": self.fit_m,
                 "deviations_from_start": for_humans(np.asarray(x) - self.robot_x, params.names, params.units)}

@@ -12,8 +12,8 @@ noise says and the whole residual is in units of sigma_0 (the noise the Kalman f
 are given). The sets may be of different sensors, their rows of different sizes (a
 cable's one length, a tracker's three coordinates): a row's entries are found from
 ``row_offsets``, each set's errors are sized by its own problem, in its own units.
-:class:`StackedProblem` implements :class:`calib_pin.problem.LeastSquares`
-exactly as :class:`~calib_pin.problem.CalibrationProblem` does, so every estimator, the
+:class:`StackedProblem` implements :class:`calib_pin.estimators.problem.LeastSquares`
+exactly as :class:`~calib_pin.estimators.problem.CalibrationProblem` does, so every estimator, the
 identifiability analysis, the uncertainty and the active set see it unchanged. One set is
 never stacked: the pipeline uses its own problem, bit for bit as before.
 """
@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from .exceptions import CalibPinError
-from .problem import CalibrationProblem, RowProblem
+from ..estimators.problem import CalibrationProblem, RowProblem
+from ..exceptions import CalibPinError
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ class StackedModel:
         if self.mixed:
             raise CalibPinError("the sets' rows differ in size (" + ", ".join(
                 f"{label}: {part.values_per_row}" for label, part in zip(self.labels, self.parts, strict=True))
-                + "): find a row's values with calib_pin.problem.row_offsets")
+                + "): find a row's values with calib_pin.estimators.problem.row_offsets")
         return int(self.first.values_per_row)
 
     @property
@@ -320,7 +320,7 @@ class StackedProblem(RowProblem):
     def subset(self, rows: np.ndarray | slice) -> StackedProblem:
         """The stack restricted to some data rows (rows of :attr:`q`, the sets' data rows in
         turn, kept in that order within each set; each contact set's known-distance rows
-        stay with its part, :func:`calib_pin.problem.data_rows`); sets left without rows
+        stay with its part, :func:`calib_pin.estimators.problem.data_rows`); sets left without rows
         are left out."""
         n_data = [len(p.q) for p in self.parts]
         index = np.arange(sum(n_data))[rows] if isinstance(rows, slice) else np.asarray(rows, dtype=int).reshape(-1)

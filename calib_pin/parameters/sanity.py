@@ -1,6 +1,6 @@
 """The sanity bounds of a robot's deviations: what no real arm's calibration exceeds.
 
-One place for the bounds :meth:`calib_pin.result.CalibrationResult.sanity_error` refuses
+One place for the bounds :meth:`calib_pin.calibration.result.CalibrationResult.sanity_error` refuses
 an export with, and :func:`calib_pin.export.calibration_file.load_calibration` refuses a file with.
 """
 

@@ -19,8 +19,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from ..arguments import as_names
 from ..exceptions import ArgumentError
+from ..util.arguments import as_names
 
 
 def held_names(names: Sequence[str], n_robot_side: int, fix: Any = None, free: Any = None) -> tuple[str, ...]:

@@ -18,9 +18,19 @@ from typing import Any, cast, overload
 
 import numpy as np
 
-from .analysis.identifiability import support_error
-from .analysis.metrics import Metrics, check_fraction, split_rows
-from .arguments import (
+from ..analysis.identifiability import support_error
+from ..analysis.metrics import Metrics, check_fraction, split_rows
+from ..estimators import DEFAULT_METHOD, get_method, run_estimator
+from ..estimators.problem import CalibrationProblem, data_row_errors
+from ..exceptions import ArgumentError, CalibPinError, DataError
+from ..measurements import MeasurementSet, read_measurements
+from ..measurements.checks import check_measurements, check_same_setup
+from ..measurements.load import load_data
+from ..parameters import MODELS, ParameterModel, parameter_model
+from ..robot import Chain, RobotDescription, load_chain, resolve_robot
+from ..robot.deflection import Compliance, as_compliance
+from ..sensors import DEFAULT_NOISE_MM, SensorSetup, check_estimate, sensor_for, setup_record
+from ..util.arguments import (
     MAX_MM,
     as_choice,
     as_float,
@@ -30,11 +40,6 @@ from .arguments import (
     as_path,
     as_robot,
 )
-from .estimators import DEFAULT_METHOD, get_method, run_estimator
-from .exceptions import ArgumentError, CalibPinError, DataError
-from .measurements import MeasurementSet, read_measurements
-from .measurements.checks import check_measurements, check_same_setup
-from .measurements.load import load_data
 from .multiset import (
     MAX_FILTER_NOISE_M,
     FitSet,
@@ -47,12 +52,7 @@ from .multiset import (
     set_overrides,
     set_sigma,
 )
-from .parameters import MODELS, ParameterModel, parameter_model
-from .problem import CalibrationProblem, data_row_errors
 from .result import CalibrationResult
-from .robot import Chain, RobotDescription, load_chain, resolve_robot
-from .robot.deflection import Compliance, as_compliance
-from .sensors import DEFAULT_NOISE_MM, SensorSetup, check_estimate, sensor_for, setup_record
 from .validation import TestSet, as_test_set, same_rows, score_registered, score_session
 
 
@@ -84,7 +84,7 @@ class CalibrationSetup:
         :mod:`calib_pin.analysis.noise`)."""
         if self.noise_stated or not get_method(method).weighs_noise:
             return self.noise, "stated" if self.noise_stated else "default"
-        from .analysis.noise import noise_from_data
+        from ..analysis.noise import noise_from_data
 
         found = noise_from_data(training)
         if found.sigma > MAX_FILTER_NOISE_M:  # a misfit, not a noise: run_estimator would name its argument
@@ -150,7 +150,7 @@ class CalibrationSetup:
 
         With ``test_data`` (a separate session, a set or its CSV) every row of ``data``
         trains and the test metrics come from ``test_data``; a
-        :class:`~calib_pin.validation.TestSet` says whether the session shares the
+        :class:`~calib_pin.calibration.validation.TestSet` says whether the session shares the
         training set's sensor set-up or is re-registered first. Both sets are checked against
         the chain first (:func:`~calib_pin.measurements.checks.check_measurements`).
 
@@ -270,12 +270,12 @@ def prepare(
     """Load a robot and a measurement set for calibration (arguments as :func:`calibrate`).
 
     With several sets (``data`` a list or tuple of paths, MeasurementSets or
-    :class:`~calib_pin.multiset.FitSet`), a :class:`~calib_pin.multiset.StackedSetup`;
+    :class:`~calib_pin.calibration.multiset.FitSet`), a :class:`~calib_pin.calibration.multiset.StackedSetup`;
     a list of one set is that set. ``setup`` (a sensor's set-up record,
     :class:`~calib_pin.sensors.CableSetup`) overrides the file's set-up; the loose
     ``anchor_mm``, ``tool_mm``, ``length_offset_mm`` and ``estimate`` are its shorthand.
-    ``fix``/``free``: unknowns held at their start (:mod:`calib_pin.parameters.held`);
-    ``nominal``: the start, a robot's own kinematics (:mod:`calib_pin.parameters.start`).
+    ``fix``/``free``: unknowns held at their start (:mod:`calib_pin.calibration.held`);
+    ``nominal``: the start, a robot's own kinematics (:mod:`calib_pin.calibration.start`).
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message.
@@ -311,12 +311,12 @@ def prepare(
                                 noise_stated=noise_mm is not None or data.noise is not None)
     prepared.problem  # noqa: B018 (refuse options the sensor does not take now; the problem is kept for --analyze)
     if fix is not None or free is not None:
-        from .parameters.held import held_names
+        from .held import held_names
 
         model = prepared.problem.model
         prepared.fixed = held_names(model.names, model.sensor_start, fix, free)
     if nominal is not None:
-        from .parameters.start import load_start
+        from .start import load_start
 
         prepared.start = load_start(as_path(nominal, "nominal"), chain, prepared.params, soft.joints if soft else ())
     return prepared
@@ -328,11 +328,11 @@ def _hold(stacked: StackedSetup, fix: Any, free: Any, nominal: Any, record: Comp
     problem names it (``s2:anchor_x``)."""
     model = stacked.problem.model
     if fix is not None or free is not None:
-        from .parameters.held import held_names
+        from .held import held_names
 
         stacked.fixed = held_names(model.names, model.sensor_start, fix, free)
     if nominal is not None:
-        from .parameters.start import load_start
+        from .start import load_start
 
         soft = record.spec(stacked.chain) if record is not None else None
         stacked.start = load_start(as_path(nominal, "nominal"), stacked.chain, stacked.params,
@@ -349,7 +349,7 @@ def _single(given: FitSet, noise_mm: Any) -> tuple[Any, Any]:
 def _prepare_sets(robot: str | RobotDescription, sets: list[FitSet], *, end_frame: str | None,
                   sensor_options: dict[str, Any], noise_mm: Any, parameters: str | None,
                   compliance: Compliance | None) -> StackedSetup:
-    """:func:`prepare` of several sets (:mod:`calib_pin.multiset`); of the sensor options
+    """:func:`prepare` of several sets (:mod:`calib_pin.calibration.multiset`); of the sensor options
     only ``estimate`` applies to every set (a set-up override would be one for all)."""
     estimate = sensor_options.get("estimate", ())
     check_sets(sets, {k: v for k, v in sensor_options.items() if k != "estimate"})
@@ -410,14 +410,14 @@ def calibrate(
         robot: Robot name or URDF path (``irb120``).
         data: Measurement CSV or set (cable readings or marker positions); None uses
             the robot's shipped default set. Several sets (a list of paths, sets or
-            :class:`~calib_pin.multiset.FitSet`) are fitted together, one robot and each
+            :class:`~calib_pin.calibration.multiset.FitSet`) are fitted together, one robot and each
             set's own sensor set-up (its file's), split by pose each, weighted by their
-            noise (:mod:`calib_pin.multiset`); ``result.sets`` scores each.
+            noise (:mod:`calib_pin.calibration.multiset`); ``result.sets`` scores each.
         method: Estimator name (see ``calib_pin.ESTIMATORS``; default ``ekf-qibas``).
         seed: Seed of the train/test split and of the estimator.
         test_fraction: Share of poses held out for the test metrics.
         test_data: A separate validation session: train on all of ``data``, test on it. A
-            :class:`~calib_pin.validation.TestSet` says its set-up: the training set's
+            :class:`~calib_pin.calibration.validation.TestSet` says its set-up: the training set's
             (checked), or a new one re-registered on its first k poses or its rows with
             ``role`` ``register`` (``result.test_registration`` lists the rows). With
             several sets, ``same`` names the training set whose set-up it shares.
@@ -450,7 +450,7 @@ def calibrate(
         free: The robot's deviations and compliances to estimate; the others are held.
         nominal: Start from a robot's own kinematics instead of the catalogue URDF: a
             calib-pin calibration file or a UR ``default_kinematics.yaml``
-            (:mod:`calib_pin.parameters.start`); ``result.x`` stays relative to the URDF.
+            (:mod:`calib_pin.calibration.start`); ``result.x`` stays relative to the URDF.
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message; a

@@ -19,10 +19,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .exceptions import ArgumentError
+from ..exceptions import ArgumentError
 
 if TYPE_CHECKING:
-    from .robot.chain import Chain
+    from ..robot.chain import Chain
 
 #: Largest coordinate accepted in [mm] (a kilometre: a bigger one is a unit mistake).
 MAX_MM = 1e6
@@ -222,14 +222,14 @@ def as_parameter_model(value: Any, arg: str, chain: Chain | None = None) -> Any:
 
 def as_chain(value: Any, arg: str = "chain") -> Chain:
     """A robot chain (:func:`calib_pin.load_chain`)."""
-    from .robot.chain import Chain
+    from ..robot.chain import Chain
 
     return as_instance(value, arg, Chain, "a robot chain (calib_pin.load_chain('irb120'))")
 
 
 def as_robot(value: Any, arg: str = "robot") -> Any:
     """A robot: its name or URDF path (str or os.PathLike), or a resolved description."""
-    from .robot.description import RobotDescription
+    from ..robot.description import RobotDescription
 
     if isinstance(value, RobotDescription):
         return value

@@ -7,7 +7,7 @@ a buffer, a short write continued, no progress a full disk) and :func:`fsync_pat
 (:func:`calib_pin.measurements.write_measurements`, ``write_poses``, the calibration
 file, the corrected URDF, ...) write through, so a library caller on a full disk keeps
 the file that was there before instead of a cut one. The commands add their own rules
-on top (:mod:`calib_pin.export.outputs`: ``--force``, inputs, all outputs or none).
+on top (:mod:`calib_pin.util.outputs`: ``--force``, inputs, all outputs or none).
 """
 
 from __future__ import annotations

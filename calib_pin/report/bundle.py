@@ -7,7 +7,7 @@ rules hold for each:
 * a fit beyond the sanity bound (:meth:`CalibrationResult.sanity_error`) writes no
   corrected robot and no calibration file; report.json is still written and gives the
   reason (``urdf_refused``); so does a method that learns no kinematics (``rbf``);
-* every file goes through :class:`~calib_pin.export.outputs.Outputs`: written under
+* every file goes through :class:`~calib_pin.util.outputs.Outputs`: written under
   temporary names and renamed together, and never one of the caller's inputs;
 * a file an earlier run wrote in the folder that this run does not write (a stale URDF
   beside a now refused fit) is removed, unless it is an input;
@@ -30,13 +30,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..arguments import as_bool, as_instance, as_names, as_path
 from ..exceptions import ArgumentError, CalibPinError
+from ..util.arguments import as_bool, as_instance, as_names, as_path
+from ..util.outputs import Inputs, OutputError, Outputs, input_role
 from .json_text import dumps_readable
-from .outputs import Inputs, OutputError, Outputs, input_role
 
 if TYPE_CHECKING:
-    from ..result import CalibrationResult
+    from ..calibration.result import CalibrationResult
 
 #: Export format -> what it writes.
 EXPORTS = {"urdf": "corrected URDF", "yaml": "corrected joint origins for xacro (and ur_description's layout)",
@@ -125,7 +125,7 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
     import pinocchio as pin
 
     from .. import export  # each writer's module is imported when its format is written
-    from .urdf import calibrated_urdf
+    from ..export.urdf import calibrated_urdf
 
     name = result.chain.name
     writers = {"urdf": lambda tmp: result.to_urdf(tmp),
@@ -179,10 +179,10 @@ def planned_files(result: CalibrationResult, formats: str | Sequence[str] = ("ur
 
 def _html(report: dict[str, Any], silence: str) -> str | None:
     """report.html's text, or None (one warning line on stderr) without a working matplotlib."""
-    from ..optional import figures_or_warn
+    from ..util.optional import figures_or_warn
 
     def draw() -> str:
-        from ..report.html import render_html
+        from .html import render_html
 
         return render_html(report)
 
@@ -194,7 +194,7 @@ def render_outputs(result: CalibrationResult, formats: str | Sequence[str] = ("u
     """Every file of ``result``'s outputs, in memory (nothing is written).
 
     Args:
-        result: A calibration (:func:`calib_pin.pipeline.calibrate`).
+        result: A calibration (:func:`calib_pin.calibration.pipeline.calibrate`).
         formats: Formats of the corrected robot: ``urdf``, ``yaml`` (and ur_description's
             layout for ``ur*`` robots), ``dh`` (dh and hayati models).
         html: Make report.html (needs matplotlib; without it one warning line on stderr).
@@ -213,8 +213,8 @@ def render_outputs(result: CalibrationResult, formats: str | Sequence[str] = ("u
 
 
 def _render(result: CalibrationResult, formats: tuple[str, ...], html: bool, silence: str) -> RenderedOutputs:
-    from ..report.build import build_report
-    from .calibration_file import calibration_path, calibration_text
+    from ..export.calibration_file import calibration_path, calibration_text
+    from .build import build_report
 
     report = build_report(result)
     refused = result.sanity_error() if result.kinematic else None
@@ -298,7 +298,7 @@ def write_outputs(result: CalibrationResult, folder: str | os.PathLike[str], for
     Existing outputs are replaced; an input is never an output.
 
     Args:
-        result: A calibration (:func:`calib_pin.pipeline.calibrate`).
+        result: A calibration (:func:`calib_pin.calibration.pipeline.calibrate`).
         folder: The output folder (made if missing).
         formats: ``urdf``, ``yaml``, ``dh`` (see :func:`render_outputs`): a sequence or ``"urdf,yaml"``.
         html: Write report.html (needs matplotlib: without it one warning line on
@@ -317,7 +317,7 @@ def write_outputs(result: CalibrationResult, folder: str | os.PathLike[str], for
         OutputError: an output is an input or a folder, or could not be written
             (nothing was then changed).
     """
-    from ..result import CalibrationResult
+    from ..calibration.result import CalibrationResult
 
     as_instance(result, "result", CalibrationResult, "a CalibrationResult (calib_pin.calibrate)")
     folder = as_path(folder, "folder")

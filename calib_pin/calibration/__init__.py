@@ -1,0 +1,1 @@
+"""The calibration: one robot and a list of measurement sets, prepared, solved and scored."""

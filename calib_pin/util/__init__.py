@@ -1,0 +1,1 @@
+"""Small utilities every layer uses: argument checks, units, progress, files written whole."""
