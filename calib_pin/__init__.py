@@ -1,21 +1,23 @@
-"""calib-pin: kinematic calibration of robot arms from drawstring readings or marker
-positions, on Pinocchio.
+"""calib-pin: kinematic calibration of robot arms on Pinocchio, from cables, trackers, 6-D poses or contacts.
 
-The public API is below; each name is imported from its module on first use, so
-``import calib_pin`` is quick and pulls in no optional dependency. Figures
-(matplotlib) are in :mod:`calib_pin.studies.comparison_figures`, the sensor hardware in
-:mod:`calib_pin.hardware`.
+A calibration is one robot and a list of measurement sets (one set is a list of one):
+:func:`prepare` checks them once, :func:`solve` fits any method and scores the rows held
+out, :func:`calibrate` is the two together. Each public name below is imported from its
+module on first use, so ``import calib_pin`` is quick and pulls in no optional dependency.
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.abc
+import importlib.util
+import sys
+import warnings
 from typing import TYPE_CHECKING, Any
 
 
 def _version() -> str:
-    """The installed distribution's version; read on first use of ``__version__``
-    (importlib.metadata costs a command ~25 ms at start-up)."""
+    """The installed distribution's version, read on first use of ``__version__``."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:
@@ -23,15 +25,19 @@ def _version() -> str:
     except PackageNotFoundError:  # a source tree that was not installed
         return "0+unknown"
 
+
 #: Public name -> the module that defines it.
 _API = {
-    "calibrate": "calibration.pipeline", "prepare": "calibration.pipeline", "CalibrationSetup": "calibration.pipeline",
-    "CalibrationResult": "calibration.result",
+    "calibrate": "calibration.solve", "solve": "calibration.solve",
+    "prepare": "calibration.prepare", "Calibration": "calibration.prepare",
+    "FitSet": "calibration.sets", "Fraction": "calibration.holdout", "Folds": "calibration.holdout",
+    "TestSet": "calibration.holdout",
+    "Problem": "calibration.problem", "SetProblem": "sensors.problem",
+    "CalibrationResult": "calibration.result", "SetResult": "calibration.result",
     "load_calibration": "export.calibration_file", "CalibratedRobot": "export.compensation",
     "write_outputs": "report.bundle", "WrittenOutputs": "report.bundle", "OutputError": "util.outputs",
     "compare": "studies.comparison", "Comparison": "studies.comparison",
     "analyze": "analysis.identifiability",
-    "CalibrationProblem": "estimators.problem", "StackedProblem": "calibration.problem", "FitSet": "calibration.multiset", "SetResult": "calibration.multiset",
     "Chain": "robot", "Kinematics": "robot", "load_chain": "robot", "Compliance": "robot.deflection",
     "DHModel": "parameters", "HayatiModel": "parameters", "PlacementModel": "parameters",
     "parameter_model": "parameters",
@@ -41,11 +47,31 @@ _API = {
     "ContactModel": "sensors", "ContactSetup": "sensors", "Fixtures": "sensors",
     "MeasurementSet": "measurements", "read_measurements": "measurements", "write_measurements": "measurements",
     "check_measurements": "measurements.checks",
-    "simulate": "simulation.simulate", "simulate_positions": "simulation.simulate", "simulate_sessions": "simulation.simulate",
-    "Truth": "simulation.simulate",
+    "simulate": "simulation", "simulate_positions": "simulation", "simulate_sessions": "simulation",
+    "Truth": "simulation",
     "ESTIMATORS": "estimators", "EstimateResult": "estimators", "run_estimator": "estimators",
-    "ArgumentError": "exceptions", "CalibPinError": "exceptions", "DataError": "exceptions", "EstimatorError": "exceptions",
-    "RobotError": "exceptions",
+    "ArgumentError": "exceptions", "CalibPinError": "exceptions", "DataError": "exceptions",
+    "EstimatorError": "exceptions", "RobotError": "exceptions",
+}
+
+#: Public names of the previous version -> (their new name, its module); each warns once.
+_RENAMED = {
+    "CalibrationSetup": ("Calibration", "calibration.prepare"),
+    "CalibrationProblem": ("SetProblem", "sensors.problem"),
+    "StackedProblem": ("Problem", "calibration.problem"),
+}
+
+#: Modules of the previous version -> where their contents went (imports of them warn).
+_MOVED_MODULES = {
+    "arguments": "util.arguments", "units": "util.units", "progress": "util.progress", "atomic": "util.atomic",
+    "input_files": "util.input_files", "optional": "util.optional", "sanity": "parameters.sanity",
+    "compensation": "export.compensation", "problem": "estimators.problem", "stacked": "calibration.problem",
+    "result": "calibration.result", "validation": "calibration.validation", "multiset": "calibration.sets",
+    "pipeline": "calibration.solve", "export.bundle": "report.bundle", "export.outputs": "util.outputs",
+    "export.json_text": "report.json_text", "report.comparison_figures": "studies.comparison_figures",
+    "parameters.start": "calibration.start", "parameters.held": "calibration.held",
+    "analysis.subspace": "estimators.subspace", "analysis.noise": "calibration.noise",
+    "studies.cross_validation": "calibration.solve",
 }
 
 __all__ = [
@@ -53,10 +79,9 @@ __all__ = [
     "CableModel",
     "CableSetup",
     "CalibPinError",
-    "CalibrationProblem",
-    "CalibrationResult",
-    "CalibrationSetup",
     "CalibratedRobot",
+    "Calibration",
+    "CalibrationResult",
     "Chain",
     "Comparison",
     "Compliance",
@@ -70,6 +95,8 @@ __all__ = [
     "EstimatorError",
     "FitSet",
     "Fixtures",
+    "Folds",
+    "Fraction",
     "HayatiModel",
     "Kinematics",
     "MeasurementSet",
@@ -81,11 +108,14 @@ __all__ = [
     "PositionDevice",
     "PositionModel",
     "PositionSetup",
+    "Problem",
     "RobotError",
+    "SetProblem",
     "SetResult",
-    "StackedProblem",
+    "TestSet",
     "Truth",
     "WrittenOutputs",
+    "__version__",
     "analyze",
     "calibrate",
     "check_measurements",
@@ -99,9 +129,9 @@ __all__ = [
     "simulate",
     "simulate_positions",
     "simulate_sessions",
+    "solve",
     "write_measurements",
     "write_outputs",
-    "__version__",
 ]
 
 
@@ -113,6 +143,10 @@ def __getattr__(name: str) -> Any:
         value = getattr(importlib.import_module(f".{_API[name]}", __name__), name)
         globals()[name] = value
         return value
+    if name in _RENAMED:
+        new, module = _RENAMED[name]
+        warnings.warn(f"calib_pin.{name} is deprecated: use calib_pin.{new}", DeprecationWarning, stacklevel=2)
+        return getattr(importlib.import_module(f".{module}", __name__), new)
     raise AttributeError(f"module 'calib_pin' has no attribute {name!r}")
 
 
@@ -120,15 +154,38 @@ def __dir__() -> list[str]:
     return __all__
 
 
+class _MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Imports of a module of the previous version's layout give the module that holds
+    its contents now, with a DeprecationWarning (kept for one release)."""
+
+    def find_spec(self, fullname: str, path: Any = None, target: Any = None) -> Any:
+        old = fullname.removeprefix(f"{__name__}.")
+        if old == fullname or old not in _MOVED_MODULES:
+            return None
+        return importlib.util.spec_from_loader(fullname, self)
+
+    def create_module(self, spec: Any) -> Any:
+        new = f"{__name__}.{_MOVED_MODULES[spec.name.removeprefix(f'{__name__}.')]}"
+        warnings.warn(f"{spec.name} is deprecated: its contents are in {new}", DeprecationWarning, stacklevel=2)
+        return importlib.import_module(new)
+
+    def exec_module(self, module: Any) -> None:
+        return None
+
+
+sys.meta_path.append(_MovedModules())
+
+
 if TYPE_CHECKING:
     __version__: str
     from .analysis.identifiability import analyze
-    from .calibration.multiset import FitSet, SetResult
-    from .calibration.pipeline import CalibrationSetup, calibrate, prepare
-    from .calibration.problem import StackedProblem
-    from .calibration.result import CalibrationResult
+    from .calibration.holdout import Folds, Fraction, TestSet
+    from .calibration.prepare import Calibration, prepare
+    from .calibration.problem import Problem
+    from .calibration.result import CalibrationResult, SetResult
+    from .calibration.sets import FitSet
+    from .calibration.solve import calibrate, solve
     from .estimators import ESTIMATORS, EstimateResult, run_estimator
-    from .estimators.problem import CalibrationProblem
     from .exceptions import ArgumentError, CalibPinError, DataError, EstimatorError, RobotError
     from .export.calibration_file import load_calibration
     from .export.compensation import CalibratedRobot
@@ -141,6 +198,7 @@ if TYPE_CHECKING:
     from .sensors import CableModel, CableSetup, Drawstring, PositionDevice, PositionModel, PositionSetup
     from .sensors.contact import ContactModel, ContactSetup, Fixtures
     from .sensors.pose import PoseModel, PoseRig, PoseSetup
-    from .simulation.simulate import Truth, simulate, simulate_positions, simulate_sessions
+    from .sensors.problem import SetProblem
+    from .simulation import Truth, simulate, simulate_positions, simulate_sessions
     from .studies.comparison import Comparison, compare
     from .util.outputs import OutputError

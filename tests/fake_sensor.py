@@ -11,7 +11,7 @@ or ``SENSORS[DistanceModel.kind] = DistanceModel`` in ``calib_pin/sensors/__init
 its set-up record (CLI flags from its fields), its CSV value column (``distance_mm``)
 and metadata keys (``# target_mm``, ``# zero_mm``), its geometry, its predictions and
 their Jacobian, its report section, and its simulated rows (``simulate_rows``: then
-``calib_pin.simulation.simulate.simulate_set`` and ``simulate_sessions(kinds=[..., "distance"])``
+``calib_pin.simulation.simulator.simulate_set`` and ``simulate_sessions(kinds=[..., "distance"])``
 simulate it with truth). No other module of calib-pin is touched.
 """
 
@@ -23,10 +23,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from calib_pin.estimators.problem import CalibrationProblem
 from calib_pin.exceptions import DataError
 from calib_pin.sensors import SENSORS
 from calib_pin.sensors.base import MeasurementModel
+from calib_pin.sensors.problem import SetProblem
 from calib_pin.sensors.setup import SensorSetup, option, xyz_mm
 from calib_pin.util.arguments import as_optional, as_xyz_mm
 
@@ -111,7 +111,7 @@ class DistanceModel(MeasurementModel):
 
     @classmethod
     def problem_for(cls, chain: Any, params: Any, data: Any, fit_rows: np.ndarray,
-                    options: Mapping[str, Any]) -> CalibrationProblem:
+                    options: Mapping[str, Any]) -> SetProblem:
         cls.refuse_foreign(options, data)
         target = options.get("target_mm")
         target = target * 1e-3 if target is not None else data.sensor_meta.get("target")
@@ -121,7 +121,7 @@ class DistanceModel(MeasurementModel):
         beam = options.get("beam")
         beam = np.array([1.0, 0.0, 0.0]) if beam is None else beam
         model = cls(chain, params, Beam(beam, target, data.sensor_meta.get("zero", 0.0)), options.get("compliance"))
-        return CalibrationProblem(model, data.q, data.values)
+        return SetProblem(model, data.q, data.values)
 
     def geometry_at(self, x: np.ndarray | None) -> Beam:
         if x is None or not self.estimate:

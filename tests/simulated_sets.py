@@ -21,7 +21,7 @@ import numpy as np
 from calib_pin.measurements import write_measurements
 from calib_pin.parameters import parameter_model
 from calib_pin.robot import load_chain
-from calib_pin.simulation.simulate import simulate, simulate_positions
+from calib_pin.simulation import simulate, simulate_positions
 
 #: Sensor noise of both sets, 1 sigma, [mm].
 NOISE_MM = 0.02

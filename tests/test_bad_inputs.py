@@ -602,7 +602,7 @@ R3_WRONG: list[Case] = [
     (CAL, ["irb120", "--data", "w.csv:anchor_mm=1,2,3", "--data", "v.csv", "--analyze"],
      {"w.csv": (ROOT / "robots" / "irb120_wu2015.csv").read_text(),
       "v.csv": (ROOT / "robots" / "irb120_wu2015.csv").read_text()},
-     2, "--data 'w.csv:anchor_mm=1,2,3': anchor_mm: not a set-up option of positions (set w; they take none)"),
+     2, "--data 'w.csv:anchor_mm=1,2,3': anchor_mm: is for drawstring data; w.csv holds positions"),
     (CAL, ["irb120", "--data", "a.csv:noise_deg=2", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:noise_deg=2': noise_deg: is for 6-D data; a.csv holds drawstring readings"),
     (CAL, ["irb120", "--data", "a.csv:noise_deg=200", "--data", "b.csv", "--analyze"],

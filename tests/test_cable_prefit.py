@@ -30,7 +30,7 @@ def test_anchor_free_set_calibrates_as_well_as_with_the_anchor(session, chain, p
     data, truth = session
     given = cp.calibrate("irb120", data, method="lm", test_fraction=0)
     free = cp.calibrate("irb120", dataclasses.replace(data, anchor=None), method="lm", test_fraction=0)
-    model = free.problem.model
+    model = free.sets[0].model
     assert model.prefit is not None and model.prefit.starts == 27
     assert np.linalg.norm(model.prefit.sensor.anchor - truth.sensor.anchor) < 10e-3  # nominal robot: mm off
     anchor = model.geometry_at(free.x).anchor
@@ -65,7 +65,7 @@ def test_estimate_tool_without_anchor_or_tool(chain, params):
     given = cp.calibrate("irb120", data, method="lm", test_fraction=0)
     free = cp.calibrate("irb120", dataclasses.replace(data, anchor=None, tool=None), method="lm", test_fraction=0,
                         estimate=("tool",))
-    prefit = free.problem.model.prefit
+    prefit = free.sets[0].model.prefit
     assert prefit.tool_fitted
     np.testing.assert_allclose(prefit.sensor.tool, truth.sensor.tool, atol=3e-3)
     assert fresh(free) < 1.1 * fresh(given)
@@ -96,8 +96,8 @@ def test_estimate_tool_with_the_anchor_known(chain, params, method):
     given = cp.calibrate("irb120", data, method=method, test_fraction=0)
     free = cp.calibrate("irb120", dataclasses.replace(data, tool=None), method=method, test_fraction=0,
                         estimate=("tool",))
-    assert free.problem.model.prefit is None  # the anchor stays the file's
-    np.testing.assert_array_equal(free.problem.model.sensor.anchor, truth.sensor.anchor)
+    assert free.sets[0].model.prefit is None  # the anchor stays the file's
+    np.testing.assert_array_equal(free.sets[0].model.sensor.anchor, truth.sensor.anchor)
     assert fresh(free) < 1.1 * fresh(given)
     with pytest.raises(cp.CalibPinError, match="tool point"):
         fit_tool_point(chain, params, data.q[:3], data.values[:3], truth.sensor.anchor, 0.0, "s.csv")
@@ -107,7 +107,7 @@ def test_tool_columns_match_finite_differences(chain, params, session):
     data, truth = session
     model = cp.CableModel(chain, params, truth.sensor, estimate=("anchor", "offset", "tool"))
     assert model.names[-7:] == ("anchor_x", "anchor_y", "anchor_z", "offset", "tool_x", "tool_y", "tool_z")
-    problem = cp.CalibrationProblem(model, data.q[:20], data.lengths[:20])
+    problem = cp.SetProblem(model, data.q[:20], data.lengths[:20])
     x = np.random.default_rng(4).normal(size=model.n_params) * model.scale
     fd = np.stack([(problem.residual(x + 1e-7 * e) - problem.residual(x - 1e-7 * e)) / 2e-7
                    for e in np.eye(model.n_params)], axis=1)
@@ -130,7 +130,7 @@ def test_validation_of_an_anchor_free_calibration(session, chain, params):
     """A calibration whose anchor was pre-fitted: a validation session without an anchor
     is scored with the calibrated one; a session that states one cannot be checked against
     it and is refused (never scored with the other anchor silently), unless re-registered."""
-    from calib_pin.calibration.validation import TestSet
+    from calib_pin import TestSet
 
     data, _ = session
     free = dataclasses.replace(data.subset(np.arange(80)), anchor=None)

@@ -38,7 +38,7 @@ def test_round_trip_positions(chain, params, tmp_path):
     q = random_poses(chain, 20, np.random.default_rng(0))
     frames = robot.forward(q)
     for point in POINTS:
-        expected = result.problem.model.points_at(result.x, q, point)
+        expected = result.sets[0].model.points_at(result.x, q, point)
         assert np.abs(np.array([f.act(point) for f in frames]) - expected).max() < 1e-12
     assert isinstance(robot.forward(q[0]), pin.SE3)
     a, b = robot.model, result.model
@@ -58,8 +58,8 @@ def test_round_trip_cable_pull(cable_result, chain, tmp_path):
     result = cable_result
     path = write_calibration(result, tmp_path / "irb120_calibration.json")
     q = random_poses(chain, 15, np.random.default_rng(1))
-    tool = result.problem.model.sensor.tool
-    expected = result.problem.model.points_at(result.x, q, tool)
+    tool = result.sets[0].model.sensor.tool
+    expected = result.sets[0].model.points_at(result.x, q, tool)
     measured_arm = cp.load_calibration(path, cable=True)
     in_use = cp.load_calibration(path, "irb120")
     assert np.abs(np.array([f.act(tool) for f in measured_arm.forward(q)]) - expected).max() < 1e-12

@@ -65,7 +65,7 @@ def test_calibrate_with_the_record_equals_the_old_keywords(chain, params):
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the record itself warns of nothing
         setup = cp.prepare("irb120", data, compliance=Compliance(JOINTS_23, cable_tension_n=5.0))
-    assert np.array_equal(setup.run("lm").x, new.x)
+    assert np.array_equal(cp.solve(setup, "lm").x, new.x)
 
 
 def test_simulate_takes_the_record_or_the_shorthand(chain, params):

@@ -19,7 +19,7 @@ from calib_pin.cli import main
 from calib_pin.measurements import read_measurements
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors.contact import ContactModel, Fixtures, rigid_aligned
-from calib_pin.simulation.simulate import Truth, simulate_sessions
+from calib_pin.simulation import Truth, simulate_sessions
 
 SOCKETS = {"points_mm": {"A": [380, 120, 250], "B": [300, -250, 150], "C": [420, -40, 480]},
            "distances_mm": [["A", "B"]], "data_kind": "contact"}
@@ -68,7 +68,7 @@ def test_simulate_writes_touches_of_the_true_arm_that_calibrate_to_the_oracle(ro
     ident = analyze(result.problem)
     seen = {name.split(" (")[0]: s for name, s, _ in ident.directions}
     assert seen["scale"] is True and seen["base translation along z"] is False
-    problem, model = result.problem, result.problem.model
+    problem, model = result.sets[0].problem, result.sets[0].model
     fx = model.fixtures
     start = np.concatenate([truth.x, truth.sensor.tool - fx.tool, (truth.sensor.points - fx.points).ravel()])
     oracle = least_squares(problem.residual, start, jac=problem.jacobian, x_scale=problem.scale, method="lm").x
@@ -132,7 +132,7 @@ def test_a_cable_set_and_a_contact_set_of_one_robot_beat_the_contact_set_alone(r
         both = cp.calibrate("irb120", [cp.FitSet(cable, label="cable"), cp.FitSet(contact, label="touch")],
                             method="lm", test_fraction=0.0)
         tool, stacked = truth.sessions[1].tool, both.problem.model
-        e_alone = _fresh(alone.problem.model, alone.x, truth, tool, fresh)
+        e_alone = _fresh(alone.sets[0].model, alone.x, truth, tool, fresh)
         e_both = _fresh(stacked.parts[1], stacked.part_x(both.x, 1), truth, tool, fresh)
         assert e_both < 0.9 * e_alone and e_both < 0.1, (seed, e_alone, e_both)
     assert any(name.startswith("touch:contactA_") for name in both.problem.model.names)
@@ -162,7 +162,7 @@ def test_planned_touches_calibrate_better_than_random_ones_of_the_same_count(rob
             data = read_measurements(out, chain)
             truth = Truth.from_json(out.with_name(f"{name}{seed}.truth.json"), params)
             result = cp.calibrate("irb120", data, method="lm", test_fraction=0.0)
-            errors.append((_fresh(result.problem.model, result.x, truth, truth.sensor.tool, fresh), truth.x))
+            errors.append((_fresh(result.sets[0].model, result.x, truth, truth.sensor.tool, fresh), truth.x))
         (planned, x_planned), (random, x_random) = errors
         assert np.array_equal(x_planned, x_random)  # one true robot
         assert planned < 0.8 * random, (seed, planned, random)

@@ -19,7 +19,7 @@ from calib_pin.cli import main
 from calib_pin.estimators.problem import data_row_errors, data_rows
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors.contact import rigid_aligned
-from calib_pin.simulation.simulate import Truth
+from calib_pin.simulation import Truth
 from calib_pin.studies.comparison import _methods_for_data, compare
 
 
@@ -82,8 +82,8 @@ def test_compare_scores_a_contact_set_on_fresh_poses_after_the_best_rigid_motion
     assert fresh == pytest.approx(float(np.sqrt(np.mean(error**2))) * 1e3, rel=1e-6)
     # the default methods leave out those the sensor refuses, saying so
     said: list[str] = []
-    assert _methods_for_data("irb120", str(sets / "touch.csv"), {}, ["ekf", "ukf", "rbf", "lm"], said.append) \
-        == ["ekf", "lm"]
+    assert _methods_for_data(cp.prepare("irb120", str(sets / "touch.csv")), ["ekf", "ukf", "rbf", "lm"], True,
+                             said.append) == ["ekf", "lm"]
     assert said and "ukf, rbf" in said[0]
 
 
@@ -92,7 +92,7 @@ def test_distance_rows_are_training_rows_never_test_rows(sets):
     setup = cp.prepare("irb120", data)
     train, test = setup.split(0.25, 0)
     problem = setup.problem_on(train)
-    n_distances = len(problem.model.fixtures.distances)
+    n_distances = len(problem.parts[0].model.fixtures.distances)
     assert n_distances == 1
     assert len(problem.q) == len(problem.points) == len(data)  # q: touches only
     assert problem.n_rows == len(data) + n_distances and len(problem.row_offsets) == problem.n_rows + 1
@@ -102,13 +102,13 @@ def test_distance_rows_are_training_rows_never_test_rows(sets):
         assert part.n_rows == len(rows) + n_distances  # the distance row stays with every subset
         assert np.array_equal(part.q, data.q[rows])
         assert len(data_row_errors(part, part.residual(None))) == len(rows)  # ... and is never scored
-    result = setup.run("lm", test_fraction=0.25)
+    result = cp.solve(setup, "lm", holdout=0.25)
     test_problem = result.problem.subset(result.test)
     errors = data_row_errors(test_problem, result.estimate.residual(test_problem))
     assert result.metrics["test"]["after"].rmse_mm == pytest.approx(float(np.sqrt(np.mean(errors**2))) * 1e3)
     ident = result.identifiability  # --analyze of the training rows: every touch's values and the distance's
     training = result.problem.subset(result.train)
-    assert ident.n_poses == training.n_values == int(training.row_sizes[: len(result.train)].sum()) + n_distances
+    assert ident.n_poses == training.n_values == int(training.parts[0].row_sizes[: len(result.train)].sum()) + n_distances
     assert any(name.startswith("scale") and seen for name, seen, _ in ident.directions)  # the distance sees it
     assert distinct_values(training) == training.n_values  # distinct touches, and the distance's value
 

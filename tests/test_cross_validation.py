@@ -7,11 +7,12 @@ import json
 
 import numpy as np
 
-from calib_pin.calibration.pipeline import prepare
+import calib_pin as cp
+from calib_pin import prepare
+from calib_pin.calibration.solve import cross_validate
 from calib_pin.parameters import parameter_model
 from calib_pin.robot import load_chain
-from calib_pin.simulation.simulate import simulate
-from calib_pin.studies.cross_validation import cross_validate
+from calib_pin.simulation import simulate
 
 
 def test_folds_reach_the_noise_floor():
@@ -51,5 +52,5 @@ def test_folds_hold_what_the_calibration_holds():
     held = prepare("irb120", data, fix="theta_2,d_1,a_1")
     cv = cross_validate(held, "lm", rows, 4, seed=1)
     assert cv.stat("rmse_mm")[0] > 1.5 * free.stat("rmse_mm")[0]
-    result = held.run("lm", seed=1)
+    result = cp.solve(held, "lm", seed=1)
     assert abs(cv.stat("rmse_mm")[0] - result.metrics["test"]["after"].rmse_mm) < 0.5 * result.metrics["test"]["after"].rmse_mm

@@ -5,7 +5,7 @@ one at a time."""
 import numpy as np
 import pytest
 
-from calib_pin.calibration.pipeline import prepare
+from calib_pin import prepare
 from calib_pin.estimators.base import Tracker
 from calib_pin.estimators.de import DE
 from calib_pin.exceptions import ArgumentError

@@ -10,8 +10,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+import calib_pin as cp
 from calib_pin.estimators import run_estimator
-from calib_pin.estimators.problem import CalibrationProblem
 from calib_pin.exceptions import CalibPinError, RobotError
 from calib_pin.report.build import build_report
 from calib_pin.robot import Kinematics, load_chain
@@ -28,7 +28,8 @@ from calib_pin.robot.deflection import (
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors.cable import CableModel, Drawstring
 from calib_pin.sensors.position import PositionModel, fit_device
-from calib_pin.simulation.simulate import simulate, simulate_positions
+from calib_pin.sensors.problem import SetProblem
+from calib_pin.simulation import simulate, simulate_positions
 
 JOINTS_23 = ("joint_2", "joint_3")
 #: True compliances of joints 2 and 3 [rad/Nm]: up to 0.5 mrad, 0.4 mm at the tool.
@@ -170,13 +171,13 @@ def test_positions_recover_true_compliance(chain, params):
     for name, compliance in (("geometric", None), ("compliant", spec)):
         start = fit_device(chain, params, data.q, positions, markers, device.labels)
         model = PositionModel(chain, params, start, compliance=compliance)
-        problem = CalibrationProblem(model, data.q, positions, markers)
+        problem = SetProblem(model, data.q, positions, markers)
         x = run_estimator("lm", problem, np.zeros(model.n_params)).x
         errors[name] = _fresh_error_mm(model, x, q_fresh, m_fresh, truth, x_true)
         if compliance is not None:
             assert np.allclose(model.compliance(x), TRUE_C, rtol=0.1)
     reference = PositionModel(chain, params, device, compliance=spec)
-    problem = CalibrationProblem(reference, data.q, positions, markers)
+    problem = SetProblem(reference, data.q, positions, markers)
     x0 = np.concatenate([x_true, np.zeros(reference.n_params - len(x_true))])
     floor = _fresh_error_mm(reference, run_estimator("lm", problem, x0).x, q_fresh, m_fresh, truth, x_true)
     assert errors["compliant"] < 1.1 * floor
@@ -198,7 +199,7 @@ def test_cable_recovers_true_compliance(chain, params):
                                  ("compliant", spec, np.zeros(len(x_true))),
                                  ("from truth", spec, x_true)):
         model = CableModel(chain, params, truth.sensor, compliance=compliance)
-        x = run_estimator("lm", CalibrationProblem(model, data.q, readings), x0).x
+        x = run_estimator("lm", SetProblem(model, data.q, readings), x0).x
         errors[name] = float(np.sqrt(np.mean((model.predict(x, q_fresh) - true_fresh) ** 2)) * 1e3)
         if name == "compliant":
             assert np.allclose(model.compliance(x), TRUE_C, rtol=0.25)
@@ -238,8 +239,8 @@ def test_calibrate_reports_compliance_and_refuses_bad_options():
 def test_simulated_truth_with_compliance_through_the_pipeline(chain, params, tmp_path):
     """simulate(compliance=...) carries the true compliances; calibrating with them brings
     the fresh-pose error to the floor, without them it stays several times higher."""
-    from calib_pin.calibration.pipeline import prepare
-    from calib_pin.simulation.simulate import Truth
+    from calib_pin import prepare
+    from calib_pin.simulation import Truth
     from calib_pin.studies.comparison import fresh_scorer
 
     spec = ComplianceSpec(JOINTS_23, cable_tension_n=5.0)
@@ -249,7 +250,6 @@ def test_simulated_truth_with_compliance_through_the_pipeline(chain, params, tmp
     fresh = {}
     for name, joints in (("geometric", None), ("compliant", JOINTS_23)):
         setup = prepare("irb120", data, compliance=Compliance(joints, cable_tension_n=5.0) if joints else None)
-        result = setup.run("lm")
-        score = fresh_scorer(setup, truth, 0)
-        fresh[name] = score(lambda q, points, r=result: r.problem.model.predict(r.x, q, points))
+        result = cp.solve(setup, "lm")
+        fresh[name] = fresh_scorer(setup, [truth], 0)(result, False)
     assert fresh["compliant"] < 0.05 and fresh["geometric"] > 3 * fresh["compliant"]

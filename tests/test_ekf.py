@@ -3,7 +3,7 @@ together, against the row-by-row relinearisation (blocks of one row) and the tru
 
 import numpy as np
 
-from calib_pin.calibration.pipeline import prepare
+from calib_pin import prepare
 from calib_pin.estimators import ekf as ekf_module
 from calib_pin.estimators.ekf import EKF, row_blocks
 from calib_pin.estimators.problem import RowProblem

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.calibration.pipeline import prepare
+from calib_pin import prepare
 from calib_pin.estimators import PAPER_LABELS, PAPER_METHODS, get_estimator
 from calib_pin.estimators.ekf import EKF
 from calib_pin.estimators.qibas import parabola_vertex
@@ -125,7 +125,7 @@ def test_one_cable_sees_20_of_24_directions(chain, params):
     joint-6 axis), d_2 - d_3 (parallel joints 2 and 3) and two wrist combinations are not."""
     data = cp.read_measurements(chain.description.default_data, chain)
     sensor = cp.Drawstring(data.anchor, data.tool, data.length_offset)
-    problem = cp.CalibrationProblem(cp.CableModel(chain, params, sensor), data.q, data.lengths)
+    problem = cp.SetProblem(cp.CableModel(chain, params, sensor), data.q, data.lengths)
     assert Subspace.of_problem(problem, np.zeros(params.n_params)).dim == 20
     jac = problem.jacobian(np.zeros(params.n_params))
     names = list(params.names)
@@ -287,7 +287,7 @@ def test_held_back_history_is_the_one_by_one_history(session, monkeypatch, metho
         setup = prepare("irb120", data)
     else:
         chain = cp.load_chain("irb120")
-        from calib_pin.sensors.pose import simulate_poses
+        from calib_pin.simulation import simulate_poses
 
         simulate = cp.simulate_positions if kind == "position" else simulate_poses
         data = simulate(chain, cp.parameter_model(chain), 40, 3)[0]

@@ -78,7 +78,7 @@ def test_fixed_compliance_and_analyze(chain, params):
     of the unknowns left."""
     setup = cp.prepare("irb120", WU, compliance="joint_2,joint_3", fix="compliance_joint_2,theta_1")
     assert setup.fixed == ("theta_1", "compliance_joint_2")
-    result = setup.run("lm")
+    result = cp.solve(setup, "lm")
     assert result.x[setup.problem.model.names.index("compliance_joint_2")] == 0.0
     assert result.x[setup.problem.model.names.index("compliance_joint_3")] > 0.0
     full, left = analyze(setup.problem), analyze(setup.problem, fixed=setup.fixed)

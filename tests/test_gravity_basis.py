@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 
 from calib_pin.estimators import run_estimator
-from calib_pin.estimators.problem import CalibrationProblem
 from calib_pin.parameters import parameter_model
 from calib_pin.robot import load_chain
 from calib_pin.robot.deflection import ComplianceSpec, Payload, compliance_spec, has_inertial_data
 from calib_pin.robot.gravity_basis import GravityBasis
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors.position import PositionModel, fit_device
-from calib_pin.simulation.simulate import simulate_positions
+from calib_pin.sensors.problem import SetProblem
+from calib_pin.simulation import simulate_positions
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -82,7 +82,7 @@ def test_basis_jacobian_matches_finite_differences(ur5_pair):
     data, geo = simulate_positions(bare, params, 12, seed=2)
     model = PositionModel(bare, params, geo.sensor, compliance=spec)
     markers = np.searchsorted(geo.sensor.labels, data.point_ids)
-    problem = CalibrationProblem(model, data.q, data.values, markers)
+    problem = SetProblem(model, data.q, data.values, markers)
     x = np.random.default_rng(0).normal(size=model.n_params) * model.scale * 0.5
     jac = problem.jacobian(x)
     cols = range(model.n_robot, model.sensor_start)
@@ -121,7 +121,7 @@ def test_basis_recovers_a_cad_deflection_with_payload(ur5_pair):
     for name, compliance in (("geometric", None), ("basis", compliance_spec(bare, joints))):
         start = fit_device(bare, bare_params, data.q, positions, markers, geo.sensor.labels)
         model = PositionModel(bare, bare_params, start, compliance=compliance)
-        problem = CalibrationProblem(model, data.q, positions, markers)
+        problem = SetProblem(model, data.q, positions, markers)
         x = run_estimator("lm", problem, np.zeros(model.n_params)).x
         diff = model.predict(x, q_fresh, m_fresh) - true_fresh
         errors[name] = np.sqrt(np.mean(np.sum(diff**2, axis=1)))

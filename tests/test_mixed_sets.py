@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin import FitSet
 from calib_pin.analysis.identifiability import distinct_values, support_error
-from calib_pin.calibration.multiset import FitSet
-from calib_pin.calibration.problem import StackedProblem
+from calib_pin.calibration.problem import Problem
 from calib_pin.cli.calibrate import calibrate_main
 from calib_pin.estimators.problem import row_offsets
 from calib_pin.robot.poses import random_poses
-from calib_pin.simulation.simulate import simulate_set
+from calib_pin.simulation import simulate_set
 
 #: The two sets' noise (1 sigma) [mm]: a drawstring's and a tracker's (per axis).
 CABLE_MM, TRACKER_MM = 0.05, 0.02
@@ -48,7 +48,7 @@ def test_mixed_stack_rows_of_two_sizes_and_its_jacobian_matches_finite_differenc
     sets, _ = mixed
     prepared = cp.prepare("irb120", [FitSet(sets[0], "c"), FitSet(sets[1], "t")], noise_mm=[CABLE_MM, TRACKER_MM])
     stacked = prepared.problem.subset(np.r_[0:8, 60:66])  # 8 lengths, 6 positions
-    assert isinstance(stacked, StackedProblem) and stacked.model.mixed
+    assert isinstance(stacked, Problem) and len({int(p.values_per_row) for p in stacked.parts}) == 2
     assert np.array_equal(np.diff(row_offsets(stacked)), [1] * 8 + [3] * 6) and stacked.n_values == 26
     with pytest.raises(cp.CalibPinError, match="rows differ in size"):
         _ = stacked.values_per_row
@@ -81,7 +81,7 @@ def test_cable_and_tracker_fit_together_beat_each_alone_and_recover_each_noise(c
         assert s.sigma_origin == "estimate" and abs(s.sigma * 1e3 / sigma_mm - 1) < 0.3, (s.label, s.sigma)
         alone = cp.calibrate("irb120", sets[k], method=method)
         together = _fresh_rmse_mm(chain, params, truth, s.model, s.x, k)
-        single = _fresh_rmse_mm(chain, params, truth, alone.problem.model, alone.x, k)
+        single = _fresh_rmse_mm(chain, params, truth, alone.sets[0].model, alone.x, k)
         print(f"{method} {s.label}: alone {single:.4f} mm, joint {together:.4f} mm, sigma {s.sigma * 1e3:.4f} mm "
               f"(true {sigma_mm})")
         assert together <= single, (s.label, together, single)

@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.calibration.multiset import FitSet, units_words
-from calib_pin.calibration.validation import TestSet
+from calib_pin import FitSet, TestSet
+from calib_pin.analysis.metrics import units_words
 from calib_pin.export.calibration_file import calibration_path, write_calibration
 from calib_pin.measurements import write_measurements
 from calib_pin.report.build import build_report
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors import SENSORS
-from calib_pin.simulation.simulate import simulate_sessions
+from calib_pin.simulation import simulate_sessions
 
 NOISE_MM = 0.02
 #: Session 1 and 3 share the anchor (a validation on set a's set-up); session 2 is re-anchored.

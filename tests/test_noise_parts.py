@@ -14,7 +14,8 @@ import pytest
 import calib_pin as cp
 from calib_pin.report.build import build_report
 from calib_pin.robot.poses import random_poses
-from calib_pin.sensors.pose import PoseModel, simulate_poses
+from calib_pin.sensors.pose import PoseModel
+from calib_pin.simulation import simulate_poses
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +32,7 @@ def _unstated(data: cp.MeasurementSet) -> cp.MeasurementSet:
 def _fresh_rms(chain, params, truth, result) -> tuple[float, float]:
     """RMS position [mm] and orientation [deg] error of the calibrated model on 1 000
     fresh poses against the noise-free truth."""
-    model = result.problem.model
+    model = result.sets[0].model
     fresh = random_poses(chain, 1000, np.random.default_rng(99))
     true_poses = PoseModel(chain, params, truth.sensor, estimate=()).predict(truth.x, fresh)
     mm, deg = model.part_errors(result.x, fresh, true_poses)
@@ -44,12 +45,12 @@ def test_a_pose_set_stating_no_noise_recovers_both_and_calibrates_as_well(robot,
     data, truth = simulate_poses(chain, params, 60, seed=seed, noise_mm=0.05, noise_deg=0.01)
     stated = cp.calibrate("irb120", data, method="lm", test_fraction=0.0)
     found = cp.calibrate("irb120", _unstated(data), method="lm", test_fraction=0.0)
-    position, orientation = found.problem.model.noise_parts()
+    position, orientation = found.sets[0].model.noise_parts()
     assert (position.origin, orientation.origin) == ("estimate", "estimate")
     assert position.sigma * 1e3 == pytest.approx(0.05, rel=0.3)
     assert np.rad2deg(orientation.sigma) == pytest.approx(0.01, rel=0.3)
     assert found.noise == position.sigma and found.noise_from.startswith("estimated per part")
-    assert [p.origin for p in stated.problem.model.noise_parts()] == ["file", "file"]
+    assert [p.origin for p in stated.sets[0].model.noise_parts()] == ["file", "file"]
     ours, theirs = _fresh_rms(chain, params, truth, found), _fresh_rms(chain, params, truth, stated)
     assert ours[0] <= 1.1 * theirs[0] and ours[1] <= 1.1 * theirs[1], (ours, theirs)
     assert ours[0] < 0.06 and ours[1] < 0.01  # near the noise floor, as stated
@@ -62,7 +63,7 @@ def test_a_wrong_default_ratio_is_what_the_estimate_repairs(robot):
     data, truth = simulate_poses(chain, params, 60, seed=3, noise_mm=0.05, noise_deg=0.1)
     bare = replace(data, notes={k: v for k, v in data.notes.items() if k != "noise_deg"})  # noise_mm stays
     found = cp.calibrate("irb120", bare, method="lm", test_fraction=0.0)
-    position, orientation = found.problem.model.noise_parts()
+    position, orientation = found.sets[0].model.noise_parts()
     assert position.origin == "file" and position.sigma == pytest.approx(0.05e-3)
     assert orientation.origin == "estimate" and np.rad2deg(orientation.sigma) == pytest.approx(0.1, rel=0.3)
     stated = cp.calibrate("irb120", data, method="lm", test_fraction=0.0)
@@ -89,7 +90,7 @@ def test_report_json_gives_each_part_in_its_unit_and_the_noise_used(robot, tmp_p
     assert report["noise_by_part"]["position"]["noise_from"] == "estimate"
     assert set(report["noise_by_part"]["orientation"]) == {"noise_deg", "noise_from"}
     for split, rows in (("train", result.train), ("test", result.test)):
-        part = result.problem.subset(rows)
+        part = result.sets[0].problem.subset(rows)
         mm, deg = part.part_errors(result.x)
         after = report["errors_by_part"][split]["after"]
         assert after["position_mm"]["rmse_mm"] == pytest.approx(np.sqrt(np.mean(mm**2)))
@@ -133,6 +134,6 @@ def test_the_callers_position_noise_is_kept_and_only_the_orientation_estimated(r
     chain, params = robot
     data, _ = simulate_poses(chain, params, 40, seed=4, noise_mm=0.05, noise_deg=0.01)
     result = cp.calibrate("irb120", _unstated(data), method="lm", noise_mm=0.08)
-    position, orientation = result.problem.model.noise_parts()
+    position, orientation = result.sets[0].model.noise_parts()
     assert (position.origin, position.sigma) == ("caller", pytest.approx(0.08e-3))
     assert orientation.origin == "estimate" and result.noise_from == "stated"

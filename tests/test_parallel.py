@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: Set names whose calibration the hook slows down (30 s) or whose worker it kills.
 HOOK_BATCH = """
     import glob, os, time
-    import calib_pin.calibration.pipeline as _pipeline
+    import calib_pin.calibration.solve as _pipeline
     _calibrate = _pipeline.calibrate
     def calibrate(robot, data, *args, **kwargs):
         name = os.path.basename(str(data))
@@ -53,12 +53,12 @@ HOOK_BATCH = """
 HOOK_COMPARE = """
     import time
     import calib_pin.studies.comparison as _comparison
-    _trial = _comparison._trial
+    _trial = _comparison.run_trial
     def slow_trial(setup, truth, methods, seed, *args, **kwargs):
         if seed > 0:
             time.sleep(30)
         return _trial(setup, truth, methods, seed, *args, **kwargs)
-    _comparison._trial = slow_trial
+    _comparison.run_trial = slow_trial
 """
 
 

@@ -84,5 +84,5 @@ def test_hayati_beta_is_well_conditioned_where_d_is_not(chain, session):
     ranks = {}
     for name in ("dh", "hayati"):
         model = cp.CableModel(chain, cp.parameter_model(chain, name), truth.sensor)
-        ranks[name] = cp.analyze(cp.CalibrationProblem(model, data.q, data.lengths)).rank
+        ranks[name] = cp.analyze(cp.SetProblem(model, data.q, data.lengths)).rank
     assert ranks["hayati"] == ranks["dh"] + 1

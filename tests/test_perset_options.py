@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.calibration.multiset import FitSet
+from calib_pin import FitSet
 from calib_pin.cli.calibrate import calibrate_main, data_argument
 from calib_pin.exceptions import CalibPinError
 from calib_pin.sensors import CableModel, CableSetup, Drawstring
@@ -113,7 +113,7 @@ def test_a_cable_key_on_a_position_set_is_refused(tmp_path):
     (tmp_path / "a.csv").write_text(text)
     (tmp_path / "b.csv").write_text(text)
     data = [FitSet(tmp_path / "a.csv", setup=CableSetup(anchor_mm=(1, 2, 3))), FitSet(tmp_path / "b.csv")]
-    with pytest.raises(CalibPinError, match="anchor_mm: not a set-up option of positions"):
+    with pytest.raises(CalibPinError, match="--anchor-mm is for drawstring data; .*a.csv holds positions"):
         cp.prepare("irb120", data)
 
 
@@ -123,8 +123,7 @@ def test_a_cable_key_on_a_position_set_is_refused(tmp_path):
     (["irb120_wu2015"], "tool_mm=1,2,3", "tool_mm: is for drawstring and contact data; {} holds positions"),
     (["irb120_wu2015"], "anchor_mm=1,2,3", "anchor_mm: is for drawstring data; {} holds positions"),
     (["irb120_default"], "noise_deg=200", "noise_deg: expected a number in (0, 180] deg, got '200'"),
-    (["irb120_default"], "role=train", "role: 'train' for the only set"),
-    (["irb120_default", "irb120_wu2015"], "noise_deg=2", "noise_deg: not a set-up option of drawstring readings"),
+    (["irb120_default", "irb120_wu2015"], "noise_deg=2", "noise_deg: is for 6-D data; {} holds drawstring readings"),
     (["irb120_default", "irb120_wu2015"], "noise_deg=200", "noise_deg: expected a number in (0, 180] deg"),
 ])
 def test_a_refused_per_set_option_names_the_data_argument(files, typed, says, capsys):

@@ -32,8 +32,8 @@ def test_no_estimate_depends_on_a_test_row(source):
                                 cp.load_chain("irb120"))
     setup = cp.prepare("irb120", data)
     _, test = setup.split(0.2, 3)
-    first = setup.run("lm", seed=3)
-    moved = cp.prepare("irb120", _with_test_rows_moved(data, test)).run("lm", seed=3)
+    first = cp.solve(setup, "lm", seed=3)
+    moved = cp.solve(cp.prepare("irb120", _with_test_rows_moved(data, test)), "lm", seed=3)
     np.testing.assert_array_equal(first.x, moved.x)
     assert first.metrics["train"] == moved.metrics["train"]
     assert first.metrics["test"]["before"] != moved.metrics["test"]["before"]
@@ -103,24 +103,20 @@ def test_import_pulls_in_no_optional_dependency():
 
 
 def test_the_sensor_frame_is_fitted_once_when_every_row_trains(device_fits):
-    """With test_fraction 0 the run's problem is the setup's (one device-frame fit, issue 24),
+    """With test_fraction 0 the run's problem is the calibration's (one device-frame fit),
     and the calibration is the one made with two fits; with a test fraction the training
-    rows get their own fit; data replaced after prepare gets a new one."""
+    rows get their own fit, made once for every method of that split."""
     calls = device_fits
     setup = cp.prepare("irb120", WU2015)
     assert calls == [len(setup.data)]
-    once = setup.run("lm", test_fraction=0)
+    once = cp.solve(setup, "lm", holdout=0)
     assert calls == [len(setup.data)] and once.problem is setup.problem
-    twice = cp.prepare("irb120", WU2015)
-    twice.__dict__.pop("_problem_inputs")  # made as before: no record of what the problem was made from
-    again = twice.run("lm", test_fraction=0)
-    assert len(calls) == 3 and again.problem is not twice.problem
-    assert again.x.tobytes() == once.x.tobytes() and again.metrics == once.metrics
-    setup.run("lm", test_fraction=0.2)
-    assert len(calls) == 4 and calls[-1] < len(setup.data)
-    setup.data = dataclasses.replace(setup.data)  # another data object: made again
-    setup.run("lm", test_fraction=0)
-    assert len(calls) == 5 and calls[-1] == len(setup.data)
+    cp.solve(setup, "lm", holdout=0.2)
+    assert len(calls) == 2 and calls[-1] < len(setup.data)
+    cp.solve(setup, "ekf", holdout=0.2)  # the same training rows: the same problem
+    assert len(calls) == 2
+    fresh = cp.solve(setup, "lm", holdout=0)
+    assert fresh.x.tobytes() == once.x.tobytes() and fresh.metrics == once.metrics and len(calls) == 2
 
 
 def test_problem_on_without_reuse_fits_anew(device_fits):
@@ -133,16 +129,3 @@ def test_problem_on_without_reuse_fits_anew(device_fits):
     fresh = setup.problem_on(rows, reuse=False)
     assert len(calls) == 2 and fresh is not setup.problem
     assert fresh.residual(None).tobytes() == setup.problem.residual(None).tobytes()
-
-
-def test_an_option_changed_in_place_after_prepare_makes_a_new_problem():
-    """The reused problem (every row trains) is the setup's only while its options keep their
-    values: an anchor changed in place after prepare is seen (review of issue 24), as it was
-    when every run made its own problem."""
-    setup = cp.prepare("irb120", DEFAULT_CSV, anchor_mm=[600.0, 200.0, -100.0])
-    first = setup.run("lm", test_fraction=0)
-    assert first.problem is setup.problem
-    setup.options["anchor_mm"][0] = 900.0
-    moved = setup.run("lm", test_fraction=0)
-    assert moved.problem is not setup.problem
-    assert moved.metrics["train"]["before"].rmse_mm > 50 * first.metrics["train"]["before"].rmse_mm

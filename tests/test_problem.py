@@ -118,7 +118,8 @@ def test_method_records_state_their_capabilities():
     assert not get_method("lm+rbf").kinematic and not get_method("lm+rbf").paper
     with pytest.raises(EstimatorError, match="has no robust loss"):
         get_method("ekf").check("cauchy")
-    with pytest.raises(EstimatorError, match="takes cable data, not position data"):
-        dataclasses.replace(get_method("rbf"), kinds=("cable",)).check(kind="position")
+    assert "takes cable data, not position data" in dataclasses.replace(get_method("rbf"), kinds=("cable",)).takes(
+        "position")
+    assert "rows differ in size" in get_method("ukf").takes("contact", ("ukf",)) and get_method("lm").takes("contact") is None
     with pytest.raises(EstimatorError, match="unknown method 'nope'"):
         get_method("nope")

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.calibration.pipeline import prepare
+from calib_pin import prepare
 from calib_pin.estimators import run_estimator
 from calib_pin.estimators.base import Tracker
 from calib_pin.estimators.robust import RobustProblem
@@ -67,7 +67,7 @@ def test_qibas_reaches_the_truth_with_batched_antennae(session, fresh):
 
 
 def test_costs_in_bounded_passes_are_the_same(session, monkeypatch):
-    from calib_pin.estimators import problem as problem_module
+    from calib_pin.sensors import problem as problem_module
 
     data, _ = session
     problem = prepare("irb120", data).problem_on(np.arange(96))
@@ -93,21 +93,21 @@ def test_batched_costs_are_each_sensors_own_cost(example):
 def test_pose_rows_batched_costs_are_the_weighted_pose_cost():
     """A 6-D pose set's residual is its weighted pose error, not predicted minus the 7
     numbers read: BAS/QIBAS/PSO's batched costs are that residual's."""
-    from calib_pin.simulation.simulate import simulate_sessions
+    from calib_pin.simulation import simulate_sessions
 
     chain = cp.load_chain("irb120")
     (data,), _ = simulate_sessions(chain, cp.parameter_model(chain), [20], seed=3, kinds=("pose",))
-    problem = prepare("irb120", data).problem_on(np.arange(len(data)))
+    problem = prepare("irb120", data).problem_on(np.arange(len(data))).parts[0]
     assert type(problem).__name__ == "PoseProblem"
     _check(problem)
 
 
 def test_contact_rows_batched_costs_keep_the_distance_rows():
-    from calib_pin.sensors.contact import simulate_contacts
+    from calib_pin.simulation import simulate_contacts
 
     chain = cp.load_chain("irb120")
     data, _ = simulate_contacts(chain, cp.parameter_model(chain), 6, seed=11, noise_mm=0.05)
-    problem = prepare("irb120", data).problem_on(np.arange(len(data)))
+    problem = prepare("irb120", data).problem_on(np.arange(len(data))).parts[0]
     assert type(problem).__name__ == "ContactProblem"
     _check(problem)
 
@@ -185,7 +185,7 @@ def _position_problem(markers_mm=((60.0, 0.0, 40.0), (0.0, 50.0, 30.0)), n=20, s
     chain = cp.load_chain("ur5")
     data, _ = cp.simulate_positions(chain, cp.parameter_model(chain), n, seed=seed, noise_mm=0.05,
                                     markers_mm=markers_mm)
-    return prepare("ur5", data).problem_on(np.arange(len(data)))
+    return prepare("ur5", data).problem_on(np.arange(len(data))).parts[0]
 
 
 def _same(a, b):
@@ -257,7 +257,7 @@ def test_position_problem_starts_from_the_fit_to_the_bit():
     model = problem.model
     device = fit_device(model.chain, model.params, problem.q, problem.readings, problem.points, model.device.labels)
     assert _same(model.device.frame.homogeneous, device.frame.homogeneous) and _same(model.device.markers, device.markers)
-    fresh = cp.CalibrationProblem(PositionModel(model.chain, model.params, device), problem.q, problem.readings,
+    fresh = cp.SetProblem(PositionModel(model.chain, model.params, device), problem.q, problem.readings,
                                   problem.points)
     assert fresh.model.names == model.names and _same(fresh.scale, model.scale)
     for x in [np.zeros(problem.n_params), *_points(problem, k=2)]:

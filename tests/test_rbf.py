@@ -14,13 +14,25 @@ from calib_pin.estimators import run_estimator
 from calib_pin.estimators.rbf import RBF
 from calib_pin.exceptions import CalibPinError
 from calib_pin.robot.deflection import ComplianceSpec
-from calib_pin.simulation.simulate import simulate, simulate_positions
-from calib_pin.studies.comparison import fresh_scorer
+from calib_pin.robot.poses import random_poses
+from calib_pin.simulation import simulate, simulate_positions
+from calib_pin.studies.comparison import FRESH_POSES
 
 #: True compliances of joints 2 and 3 [rad/Nm] (as in test_deflection.py).
 TRUE_C = np.array([2.5e-5, 4e-5])
 #: The first M5: raw joint angles [rad], thin-plate spline, smoothing by cross-validation.
 FIRST_M5 = RBF(features="angles", kernels=("thin_plate_spline",), smoothing=(0.0, 1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0))
+
+
+def fresh_scorer(setup, truth, seed):
+    """score(predict) -> RMSE [mm] of ``predict(q, points)`` [m] at compare's fresh poses
+    (every point the sensor measures, at each) against the noise-free truth."""
+    poses = random_poses(setup.chain, FRESH_POSES, np.random.default_rng(seed + 10_000))
+    model = truth.model(setup.chain, setup.params)
+    rows, points = model.grid_points(len(poses))
+    q = poses[rows]
+    true_values = model.predict(truth.x_model, q, points)
+    return lambda predict: float(np.sqrt(np.mean(model.fresh_difference(predict(q, points), true_values) ** 2)) * 1e3)
 
 
 def _fresh_mm(setup, truth, estimate, problem) -> float:
@@ -59,7 +71,7 @@ def test_lm_rbf_learns_an_unmodelled_smooth_error(compliant_cable):
     lowers the fresh-pose error by at least 8 %; x is LM's estimate and there is no URDF."""
     data, truth = compliant_cable
     setup = cp.prepare("irb120", data)
-    lm, both = setup.run("lm"), setup.run("lm+rbf")
+    lm, both = cp.solve(setup, "lm"), cp.solve(setup, "lm+rbf")
     fresh = {r.method: _fresh_mm(setup, truth, r.estimate, r.problem) for r in (lm, both)}
     assert fresh["lm+rbf"] < 0.92 * fresh["lm"]
     assert np.allclose(both.x, lm.x) and not both.kinematic
@@ -71,7 +83,7 @@ def test_lm_rbf_changes_little_on_geometric_data(session):
     """No unmodelled error: LM + RBF stays within 5 % (+ 1 um) of LM on fresh poses."""
     data, truth = session
     setup = cp.prepare("irb120", data)
-    fresh = {m: _fresh_mm(setup, truth, (r := setup.run(m)).estimate, r.problem) for m in ("lm", "lm+rbf")}
+    fresh = {m: _fresh_mm(setup, truth, (r := cp.solve(setup, m)).estimate, r.problem) for m in ("lm", "lm+rbf")}
     assert fresh["lm+rbf"] <= 1.05 * fresh["lm"] + 1e-3
 
 
@@ -95,19 +107,19 @@ def test_positions_of_several_markers(chain, params):
     spec = ComplianceSpec(("joint_2", "joint_3"))
     data, truth = simulate_positions(chain, params, 100, seed=3, compliance=spec, true_compliance=TRUE_C)
     setup = cp.prepare("irb120", data)
-    rbf = setup.run("rbf")
+    rbf = cp.solve(setup, "rbf")
     problem, x0 = rbf.problem, np.zeros(rbf.problem.n_params)
     nominal = fresh_scorer(setup, truth, 0)(lambda q, points: problem.model.predict(x0, q, points))
     assert _fresh_mm(setup, truth, rbf.estimate, problem) < 0.85 * nominal
     q = data.q[:1].repeat(3, axis=0)
     shifts = rbf.estimate.correction(q, np.arange(3))
     assert shifts.shape == (3, 3) and np.ptp(shifts, axis=0).max() > 1e-5  # one shift per marker
-    both = setup.run("lm+rbf")
+    both = cp.solve(setup, "lm+rbf")
     assert both.metrics["test"]["after"].rmse_mm < 0.2 * rbf.metrics["test"]["before"].rmse_mm
     session = data.subset(np.arange(6))
     session.point_ids[:] = 7
     with pytest.raises(CalibPinError, match="point_id 7 is not a marker of this calibration"):
-        problem.model.session_errors(rbf.x, session, rbf.estimate.correction)
+        rbf.sets[0].model.session_errors(rbf.x, session, rbf.estimate.correction)
 
 
 def test_centres_bounded_to_whole_poses(session, monkeypatch):

@@ -10,10 +10,11 @@ import pinocchio as pin
 import pytest
 
 import calib_pin as cp
-from calib_pin.calibration.validation import TestSet, registration_rows
+from calib_pin import TestSet
+from calib_pin.calibration.validation import registration_rows
 from calib_pin.cli.calibrate import calibrate_main, validation_argument
 from calib_pin.measurements import write_measurements
-from calib_pin.simulation.simulate import simulate_sessions
+from calib_pin.simulation import simulate_sessions
 
 #: The training placement of the tracker (the simulator's default) and a moved one (1.3 m away, turned 50 deg).
 HOME = pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4]))

@@ -51,7 +51,7 @@ def _check_geometry_shown(text: str, geometry: dict) -> None:
 def test_each_sensors_geometry_is_a_table_in_report_html(chain, kind):
     params = cp.parameter_model(chain)
     if kind == "contact":
-        from calib_pin.sensors.contact import simulate_contacts
+        from calib_pin.simulation import simulate_contacts
 
         data = simulate_contacts(chain, params, 10, seed=3)[0]
     else:
@@ -98,7 +98,7 @@ def test_a_contact_sets_tool_point_and_its_origin_have_distinct_rows(chain):
     """A contact set's geometry has the tool point (``tool_mm``) and whether it was given
     (``tool``): two rows that both read "tool" before; now named apart, the point in mm."""
     from calib_pin.report.html import fmt
-    from calib_pin.sensors.contact import simulate_contacts
+    from calib_pin.simulation import simulate_contacts
 
     params = cp.parameter_model(chain)
     data = simulate_contacts(chain, params, 10, seed=3)[0]

@@ -26,7 +26,7 @@ def test_identification_jacobian_matches_finite_differences(chain, params, sessi
     """d reading / d deviation from the regressor equals central differences."""
     data, truth = session
     sensor = cp.Drawstring(truth.sensor.anchor, np.array([0.02, -0.01, 0.05]))
-    problem = cp.CalibrationProblem(cp.CableModel(chain, params, sensor), data.q[:30], data.lengths[:30])
+    problem = cp.SetProblem(cp.CableModel(chain, params, sensor), data.q[:30], data.lengths[:30])
     x = truth.x
     jac = problem.jacobian(x)
     fd = np.empty_like(jac)
@@ -42,7 +42,7 @@ def test_identification_jacobian_matches_finite_differences(chain, params, sessi
 def test_residual_and_cost(chain, params, session):
     """Residual = predicted - measured; cost is its mean square (eq. 6)."""
     data, truth = session
-    problem = cp.CalibrationProblem(cp.CableModel(chain, params, truth.sensor), data.q, data.lengths)
+    problem = cp.SetProblem(cp.CableModel(chain, params, truth.sensor), data.q, data.lengths)
     r = problem.residual(truth.x)
     assert np.sqrt(np.mean(r**2)) < 0.07e-3  # the true model leaves only the 0.05 mm noise
     assert np.isclose(problem.cost(truth.x), np.mean(r**2))
@@ -56,7 +56,7 @@ def test_sensor_unknowns_jacobian_matches_finite_differences(chain, session):
     for name in ("dh", "hayati"):
         model = cp.CableModel(chain, cp.parameter_model(chain, name), truth.sensor, estimate=("anchor", "offset"))
         assert model.names[-4:] == ("anchor_x", "anchor_y", "anchor_z", "offset")
-        problem = cp.CalibrationProblem(model, data.q[:20], data.lengths[:20])
+        problem = cp.SetProblem(model, data.q[:20], data.lengths[:20])
         x = np.random.default_rng(3).normal(size=model.n_params) * model.scale
         fd = np.stack([(problem.residual(x + 1e-7 * e) - problem.residual(x - 1e-7 * e)) / 2e-7
                        for e in np.eye(model.n_params)], axis=1)

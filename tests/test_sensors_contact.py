@@ -14,7 +14,8 @@ from scipy.optimize import least_squares
 import calib_pin as cp
 from calib_pin.analysis.identifiability import analyze
 from calib_pin.robot.poses import random_poses
-from calib_pin.sensors.contact import ContactModel, fit_fixtures, fixture_rows, rigid_aligned, simulate_contacts
+from calib_pin.sensors.contact import ContactModel, fit_fixtures, fixture_rows, rigid_aligned
+from calib_pin.simulation import simulate_contacts
 
 PLANE = {"W": ((1.0, 0.0, 1.0), 450.0)}  # a slanted wall, 450 mm from the base origin
 
@@ -146,7 +147,7 @@ def _fresh_errors(chain, params, data, truth) -> tuple[float, float, float, obje
     """Fresh-pose errors [mm] (modulo the base placement) of the nominal robot, of lm from
     the nominal start and of the oracle (scipy's LM started from the truth, same data)."""
     result = cp.calibrate("irb120", data, method="lm", test_fraction=0.0)
-    problem, model = result.problem, result.problem.model
+    problem, model = result.sets[0].problem, result.sets[0].model
     fixtures = model.fixtures
     start = np.concatenate([truth.x, truth.sensor.tool - fixtures.tool, (truth.sensor.points - fixtures.points).ravel()])
     oracle = least_squares(problem.residual, start, jac=problem.jacobian, x_scale=problem.scale, method="lm").x

@@ -11,7 +11,8 @@ from scipy.optimize import least_squares
 
 import calib_pin as cp
 from calib_pin.robot.poses import random_poses
-from calib_pin.sensors.pose import PoseModel, PoseRig, fit_rig, matrix_quaternions, quaternion_matrices, simulate_poses
+from calib_pin.sensors.pose import PoseModel, PoseRig, fit_rig, matrix_quaternions, quaternion_matrices
+from calib_pin.simulation import simulate_poses
 
 
 @pytest.fixture(scope="module")
@@ -101,7 +102,7 @@ def test_a_60_pose_set_calibrates_within_1_1_times_the_oracle(robot):
     chain, params = robot
     data, truth = simulate_poses(chain, params, 60, seed=7, noise_mm=0.05, noise_deg=0.01)
     result = cp.calibrate("irb120", data, method="lm", test_fraction=0.0)
-    problem, model = result.problem, result.problem.model
+    problem, model = result.sets[0].problem, result.sets[0].model
     assert model.weight == pytest.approx(0.05e-3 / np.deg2rad(0.01))
     start = _truth_x(model, truth.sensor, truth.x)
     oracle = least_squares(problem.residual, start, jac=problem.jacobian, x_scale=problem.scale, method="lm").x
@@ -156,15 +157,15 @@ def test_a_cable_set_and_a_pose_set_together_beat_each_alone(robot):
                             test_fraction=0.0)
         c, p = both.sets
         assert (c.kind, p.kind) == ("cable", "pose")
-        ratios.append((fresh(c.model, c.x, fresh_cable) / fresh(alone_cable.problem.model, alone_cable.x, fresh_cable),
-                       fresh(p.model, p.x, fresh_poses) / fresh(alone_poses.problem.model, alone_poses.x, fresh_poses)))
+        ratios.append((fresh(c.model, c.x, fresh_cable) / fresh(alone_cable.sets[0].model, alone_cable.x, fresh_cable),
+                       fresh(p.model, p.x, fresh_poses) / fresh(alone_poses.sets[0].model, alone_poses.x, fresh_poses)))
     mean = np.mean(ratios, axis=0)
     assert mean[0] < 0.95 and mean[1] < 0.95, ratios
 
 
 def test_the_simulate_seam_draws_a_pose_set_its_truth_predicts(robot):
     """simulate_set / simulate --kinds pose: PoseModel.simulate_rows on the shared draws."""
-    from calib_pin.simulation.simulate import simulate_set
+    from calib_pin.simulation import simulate_set
 
     chain, params = robot
     data, truth = simulate_set(PoseModel, chain, params, 30, seed=8)

@@ -64,7 +64,7 @@ def test_simulated_positions_calibrate_to_the_noise_floor(chain, params, positio
     setup = cp.prepare("irb120", data)
     assert setup.problem.n_params == 24 + 6 + 9
     for method in ("lm", "ekf-qibas", "ekf"):
-        result = setup.run(method)
+        result = cp.solve(setup, method)
         fresh = np.sqrt(np.mean(np.sum((result.predict(q, markers + 1) - truth) ** 2, axis=1))) * 1e3
         assert fresh < 0.06, method
         assert result.metrics["test"]["after"].rmse_mm < 0.15 < 1.0 < result.metrics["test"]["before"].rmse_mm

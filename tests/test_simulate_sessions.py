@@ -13,7 +13,7 @@ import calib_pin as cp
 from calib_pin.cli.simulate import simulate_main
 from calib_pin.exceptions import ArgumentError
 from calib_pin.robot.poses import random_poses
-from calib_pin.simulation.simulate import Truth
+from calib_pin.simulation import Truth
 
 
 def _fresh_rmse_mm(chain, params, truth, s, k) -> float:

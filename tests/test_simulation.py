@@ -7,7 +7,7 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.sensors import CableModel
-from calib_pin.simulation.simulate import NOISE_KINDS
+from calib_pin.simulation import NOISE_KINDS
 
 
 def test_nominal_error_and_noise(chain, params, session):
@@ -97,7 +97,7 @@ def test_noise_free_sets_read_back(tmp_path, chain, params):
     set reads back (no '# noise_mm: 0', which a reader refuses as a sensor sigma)."""
     from calib_pin.measurements import read_measurements, write_measurements
     from calib_pin.sensors import PositionModel
-    from calib_pin.simulation.simulate import simulate_positions
+    from calib_pin.simulation import simulate_positions
 
     data, truth = cp.simulate(chain, params, 20, seed=1, noise_mm=0)
     np.testing.assert_allclose(data.values, CableModel(chain, params, truth.sensor).predict(truth.x, data.q), atol=1e-15)

@@ -9,10 +9,9 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.calibration.multiset import FitSet
-from calib_pin.calibration.problem import StackedProblem
+from calib_pin import FitSet
+from calib_pin.calibration.problem import Problem
 from calib_pin.cli.calibrate import calibrate_main
-from calib_pin.estimators.problem import CalibrationProblem
 from calib_pin.estimators.subspace import Subspace
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors import CableModel, Drawstring
@@ -112,15 +111,16 @@ def test_one_set_in_a_list_is_the_plain_path(session):
     data, _ = session
     plain = cp.calibrate("irb120", data, method="ekf-qibas", seed=2)
     listed = cp.calibrate("irb120", [data], method="ekf-qibas", seed=2)
-    assert isinstance(listed.problem, CalibrationProblem) and listed.sets == ()
+    assert isinstance(listed.problem, Problem) and len(listed.sets) == 1 and len(plain.sets) == 1
     assert np.array_equal(plain.x, listed.x)
+    assert listed.problem.model.names == plain.sets[0].model.names  # no set label on one set's unknowns
 
 
 def test_stacked_jacobian_is_the_finite_difference(chain, params, three):
     truth, sets = three
     problems = [CableModel.problem_for(chain, params, s, np.arange(len(s)), {"estimate": ("anchor", "offset")})
                 for s in sets]
-    stacked = StackedProblem.of(problems, ["a", "b", "c"], [5e-5, 1e-4, 2e-5]).subset(np.arange(20, 150, 3))
+    stacked = Problem.of(problems, ["a", "b", "c"], [5e-5, 1e-4, 2e-5]).subset(np.arange(20, 150, 3))
     assert set(stacked.sets) == {0, 1, 2} and stacked.n_params == 24 + 3 * 4
     x = np.random.default_rng(0).normal(size=stacked.n_params) * stacked.scale
     jac = stacked.jacobian(x)
@@ -138,7 +138,7 @@ def test_stacked_jacobian_is_the_finite_difference(chain, params, three):
 def test_a_stack_of_one_problem_is_that_problem(chain, params, three):
     _, sets = three
     problem = CableModel.problem_for(chain, params, sets[0], np.arange(60), {"estimate": ("anchor",)})
-    stacked = StackedProblem.of([problem], ["a"], [3e-5])
+    stacked = Problem.of([problem], ["a"], [3e-5])
     x = np.random.default_rng(1).normal(size=problem.n_params) * problem.scale
     assert np.array_equal(stacked.residual(x), problem.residual(x))
     assert np.array_equal(stacked.jacobian(x), problem.jacobian(x))
@@ -245,8 +245,9 @@ def test_kalman_filters_update_row_by_row_over_stacked_sets(chain, params, three
     for s, ref, anchor_mm in zip(result.sets, reference.sets, ANCHORS_MM, strict=True):
         error = _fresh_rmse_mm(chain, params, truth, s.model, s.x, anchor_mm)
         assert error < 1.3 * _fresh_rmse_mm(chain, params, truth, ref.model, ref.x, anchor_mm) + 0.005
-    with pytest.raises(cp.CalibPinError, match=r"result.sets\[k\].predict"):
+    with pytest.raises(cp.CalibPinError, match="predicts per set"):
         result.predict(np.zeros(6))
+    assert np.array_equal(result.predict(np.zeros(6), set="s2"), result.sets[1].predict(np.zeros(6)))
 
 
 @pytest.mark.parametrize("method", ["lm", "ekf"])

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.calibration.pipeline import prepare
+from calib_pin import prepare
 from calib_pin.estimators import run_estimator, ukf
 
 ROBOTS = Path(__file__).parent.parent / "robots"

@@ -28,8 +28,8 @@ def test_intervals_cover_the_truth(session):
 def test_more_poses_shrink_the_uncertainty(chain, params):
     data, _ = cp.simulate(chain, params, 240, seed=3)
     few = cp.prepare("irb120", data)
-    small = few.run("lm", test_fraction=0.75).uncertainty.flange_rms
-    large = few.run("lm", test_fraction=0.0).uncertainty.flange_rms
+    small = cp.solve(few, "lm", holdout=0.75).uncertainty.flange_rms
+    large = cp.solve(few, "lm", holdout=0.0).uncertainty.flange_rms
     assert large < 0.75 * small
 
 

@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 from scipy.linalg import qr
 
-from ..calibration.problem import StackedProblem
-from ..estimators.problem import CalibrationProblem, data_rows, row_offsets
+from ..estimators.problem import RowProblem, data_rows, row_offsets
 from ..estimators.subspace import RCOND, Subspace
+from ..sensors.problem import SetProblem
 from ..util.arguments import as_array, as_float, as_instance
 
 
@@ -166,9 +166,16 @@ _LAST_SVD: list[Any] = []
 
 def _key(problem: Any, x: np.ndarray) -> tuple[Any, ...] | None:
     """What ``problem``'s Jacobian at ``x`` is made from: its class, its measurement model
-    (the object) and every array field's bytes; None for a problem of other fields (a
-    stacked problem's parts), which is not kept."""
-    if not isinstance(problem, CalibrationProblem):
+    (the object) and every array field's bytes, of each part and its weight for a
+    calibration problem of several parts; None for a problem of other fields (not kept)."""
+    parts = getattr(problem, "parts", None)
+    if parts is not None:  # a calibration problem: its parts' keys, weights and columns
+        keys = [_key(part, problem.model.part_x(x, k)) for part, k in zip(parts, problem.sets, strict=True)]
+        if any(k is None for k in keys):
+            return None
+        return (type(problem), problem.model, x.tobytes(), np.asarray(problem.weights).tobytes(), tuple(problem.sets),
+                *keys)
+    if not isinstance(problem, SetProblem):
         return None
     key: list[Any] = [type(problem), x.tobytes()]
     for f in fields(problem):
@@ -182,13 +189,16 @@ def _key(problem: Any, x: np.ndarray) -> tuple[Any, ...] | None:
     return tuple(key)
 
 
-def _same(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
-    """Keys of :func:`_key` equal: the same class and model objects, equal bytes."""
-    return len(a) == len(b) and all(u == v if isinstance(u, bytes | tuple) else u is v
-                                    for u, v in zip(a, b, strict=True))
+def _same(a: Any, b: Any) -> bool:
+    """Keys of :func:`_key` equal: the same classes and model objects, equal bytes."""
+    if isinstance(a, tuple) and isinstance(b, tuple) and a and isinstance(a[0], type):
+        return len(a) == len(b) and all(_same(u, v) for u, v in zip(a, b, strict=True))
+    if isinstance(a, bytes | tuple):
+        return bool(a == b)
+    return a is b
 
 
-def _jacobian(problem: CalibrationProblem | StackedProblem, x: np.ndarray) -> np.ndarray:
+def _jacobian(problem: Any, x: np.ndarray) -> np.ndarray:
     """``problem.jacobian(x)``; when the last call here was of the same rows, model and x,
     a copy of that call's array (kept read-only here; the caller's copy is its own): a
     Jacobian is a pure function of them."""
@@ -222,7 +232,7 @@ def _svd(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, vt
 
 
-def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None = None, rcond: float = RCOND,
+def analyze(problem: Any, x: np.ndarray | None = None, rcond: float = RCOND,
             fixed: tuple[str, ...] = ()) -> Identifiability:
     """Identifiability of ``problem``'s unknowns at x (default zero).
 
@@ -236,7 +246,7 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
         ArgumentError: not a problem, x not of shape (n_params,) or not finite, rcond
             not in (0, 1).
     """
-    as_instance(problem, "problem", (CalibrationProblem, StackedProblem), "a CalibrationProblem (setup.problem)")
+    as_instance(problem, "problem", RowProblem, "a calibration problem (calib_pin.prepare(...).problem)")
     model = problem.model
     names = list(model.names)
     x = np.zeros(len(names)) if x is None else as_array(x, "x", (len(names),))
@@ -288,7 +298,7 @@ def analyze(problem: CalibrationProblem | StackedProblem, x: np.ndarray | None =
     )
 
 
-def distinct_values(problem: CalibrationProblem | StackedProblem) -> int:
+def distinct_values(problem: Any) -> int:
     """How many values the distinct rows of ``problem`` hold: a row repeated (the same pose
     and point) counts once, each row its own size (``row_offsets``); a stacked problem's
     sets in turn (a cable's length and a tracker's position at one pose are both counted)."""
@@ -302,7 +312,7 @@ def distinct_values(problem: CalibrationProblem | StackedProblem) -> int:
     return int(sizes[data[first]].sum() + sizes[np.setdiff1d(np.arange(problem.n_rows), data)].sum())
 
 
-def support_error(problem: CalibrationProblem | StackedProblem, rcond: float = RCOND) -> str | None:
+def support_error(problem: Any, rcond: float = RCOND) -> str | None:
     """Why the rows of ``problem`` (the training rows) cannot calibrate anything, or None.
 
     Rank deficiency alone is normal (the blind directions stay at zero); refused are only

@@ -21,11 +21,11 @@ from typing import Any
 
 import numpy as np
 
-from ..estimators.problem import CalibrationProblem
 from ..estimators.subspace import Subspace
 from ..exceptions import ArgumentError, CalibPinError
 from ..robot.poses import random_poses
 from ..sensors.base import MeasurementModel
+from ..sensors.problem import SetProblem
 from ..util.progress import progress
 from .identifiability import Identifiability, analyze
 
@@ -118,7 +118,7 @@ class SensorMix(MeasurementModel):
         self.values_per_pose = sum(p.values_per_row * len(p.grid_points(1)[0]) for p in parts)
 
     @classmethod
-    def problem_for(cls, chain: Any, params: Any, data: Any, fit_rows: np.ndarray, options: Any) -> CalibrationProblem:
+    def problem_for(cls, chain: Any, params: Any, data: Any, fit_rows: np.ndarray, options: Any) -> SetProblem:
         raise CalibPinError("a sensor mix plans poses; its sets are calibrated together with several --data")
 
     def _part_x(self, x: np.ndarray | None, k: int) -> np.ndarray | None:
@@ -236,7 +236,7 @@ def plan_poses(
             return analyze(model.planning_problem(qs, at))  # type: ignore[attr-defined]
         rows, points = model.grid_points(len(qs))
         predicted = model.predict(None, qs[rows], points)  # the readings do not matter here, only the Jacobian
-        return analyze(CalibrationProblem(model, qs[rows], predicted, points))
+        return analyze(SetProblem(model, qs[rows], predicted, points))
 
     def indices(qs: np.ndarray, at: np.ndarray | None = None) -> tuple[float, float, float]:
         result = analysis(qs, at)

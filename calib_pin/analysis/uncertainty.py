@@ -15,11 +15,10 @@ P the derivative of the end frame's origin with respect to x.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from ..calibration.problem import StackedProblem
-from ..estimators.problem import CalibrationProblem
 from ..estimators.subspace import RCOND, Subspace
 from ..robot.poses import random_poses
 from ..util.units import human_unit
@@ -73,7 +72,7 @@ class Uncertainty:
 
 
 def estimate_uncertainty(
-    problem: CalibrationProblem | StackedProblem, x: np.ndarray, *, rcond: float = RCOND, poses: int = 500, seed: int = 0
+    problem: Any, x: np.ndarray, *, rcond: float = RCOND, poses: int = 500, seed: int = 0
 ) -> Uncertainty:
     """Uncertainty of the estimate x fitted to ``problem`` (the training rows)."""
     model = problem.model

@@ -1,21 +1,22 @@
-"""Several measurement sets of one robot as one least-squares problem.
+"""The calibration problem: one robot and a list of measurement sets, as one least-squares problem.
 
-All sets share the robot: its deviations and its compliances, the first ``sensor_start``
+Every set shares the robot: its deviations and its compliances, the first ``sensor_start``
 entries of every set's unknown vector. Each set keeps its own sensor and set-up (an
-anchor, a device frame and markers) and its own noise. The stacked unknown vector is
+anchor, a device frame and markers) and its own noise. The unknown vector is
 
     x = [robot deviations, compliances, set 1's sensor unknowns, set 2's, ...],
 
-and the stacked residual is every set's residual in turn, set k's multiplied by
+and the residual is every set's residual in turn, set k's multiplied by
 w_k = sigma_0 / sigma_k (sigma_0: the first set's noise), so that every row weighs as its
-noise says and the whole residual is in units of sigma_0 (the noise the Kalman filters
-are given). The sets may be of different sensors, their rows of different sizes (a
-cable's one length, a tracker's three coordinates): a row's entries are found from
+noise says and the whole residual is in units of sigma_0 (the noise the Kalman filters are
+given). The sets may be of different sensors, their rows of different sizes (a cable's
+one length, a tracker's three coordinates): a row's entries are found from
 ``row_offsets``, each set's errors are sized by its own problem, in its own units.
-:class:`StackedProblem` implements :class:`calib_pin.estimators.problem.LeastSquares`
-exactly as :class:`~calib_pin.estimators.problem.CalibrationProblem` does, so every estimator, the
-identifiability analysis, the uncertainty and the active set see it unchanged. One set is
-never stacked: the pipeline uses its own problem, bit for bit as before.
+
+One set is a list of one: its unknowns keep their own names, its weight is 1 and every
+call is handed to the set's problem, so that a calibration of one set is that set's
+problem to the bit (and as fast). With several sets a set's sensor unknowns are prefixed
+with its label (``s2:anchor_x``).
 """
 
 from __future__ import annotations
@@ -27,32 +28,41 @@ from typing import Any
 
 import numpy as np
 
-from ..estimators.problem import CalibrationProblem, RowProblem
+from ..estimators.problem import RowProblem
 from ..exceptions import CalibPinError
+from ..sensors.problem import SetProblem
 
 
 @dataclass(frozen=True)
-class StackedModel:
+class ProblemModel:
     """The shared robot of several sets' measurement models, and their sensors in turn.
 
-    It answers what the pipeline, the reports and the uncertainty ask of a calibration's
-    model about the robot (names, units, scale, ``robot``, ``compliance``, the end-frame
-    points), and maps the stacked x onto each set's own (:meth:`part_x`).
+    It answers what a calibration asks of its model about the robot (names, units, scale,
+    ``chain``, ``compliance``, the end-frame points) and maps the whole x onto each set's own
+    (:meth:`part_x`). Of one set it is that set's model: its names, its description, its
+    geometry and its predictions.
 
     Attributes:
         parts: Each set's measurement model (one robot, one compliance spec).
-        labels: Each set's label, used as the prefix of its sensor unknowns (``s2:anchor_x``).
+        labels: Each set's label, the prefix of its sensor unknowns with several sets.
     """
 
     parts: tuple[Any, ...]
     labels: tuple[str, ...]
 
     def __post_init__(self) -> None:
+        if not self.parts:
+            raise CalibPinError("a calibration problem needs at least one measurement set")
         first = self.parts[0]
         for label, part in zip(self.labels[1:], self.parts[1:], strict=True):
             if tuple(part.names[: part.sensor_start]) != tuple(first.names[: first.sensor_start]):
                 raise CalibPinError(f"set {label}: its robot unknowns differ from set {self.labels[0]}'s "
                                     "(one robot, one parameter model, one compliance spec for every set)")
+
+    @property
+    def one(self) -> Any | None:
+        """The only set's model, or None with several sets."""
+        return self.parts[0] if len(self.parts) == 1 else None
 
     @property
     def first(self) -> Any:
@@ -83,25 +93,6 @@ class StackedModel:
         return self.first.deflection
 
     @property
-    def mixed(self) -> bool:
-        """The sets' rows differ in size (sensors of different kinds, say a cable and a tracker)."""
-        return len({int(part.values_per_row) for part in self.parts}) > 1 or \
-            any(getattr(part, "rows_differ", False) for part in self.parts)
-
-    @property
-    def values_per_row(self) -> int:
-        """Values of each row, when every set's rows hold the same number.
-
-        Raises:
-            CalibPinError: sets whose rows differ in size (use ``row_offsets``).
-        """
-        if self.mixed:
-            raise CalibPinError("the sets' rows differ in size (" + ", ".join(
-                f"{label}: {part.values_per_row}" for label, part in zip(self.labels, self.parts, strict=True))
-                + "): find a row's values with calib_pin.estimators.problem.row_offsets")
-        return int(self.first.values_per_row)
-
-    @property
     def error_name(self) -> str:
         """What a row's error is: the sets' one name, or each kind's with its sets
         (``reading error (cable); position error (tracker)``)."""
@@ -112,9 +103,15 @@ class StackedModel:
             return next(iter(names))
         return "; ".join(f"{name} ({', '.join(labels)})" for name, labels in names.items())
 
+    @property
+    def value_unit(self) -> str:
+        """The unit of the sets' row errors when they share one, else ``mixed``."""
+        units = {str(getattr(part, "value_unit", "mm")) for part in self.parts}
+        return units.pop() if len(units) == 1 else "mixed"
+
     @cached_property
     def columns(self) -> tuple[np.ndarray, ...]:
-        """Each set's unknowns as indices into the stacked x: the shared robot part, then its own."""
+        """Each set's unknowns as indices into x: the shared robot part, then its own."""
         robot = np.arange(self.sensor_start)
         out, start = [], self.sensor_start
         for part in self.parts:
@@ -125,7 +122,9 @@ class StackedModel:
 
     @cached_property
     def names(self) -> tuple[str, ...]:
-        """The robot's names, then each set's sensor unknowns prefixed ``<label>:``."""
+        """The robot's names, then each set's sensor unknowns (prefixed ``<label>:`` with several sets)."""
+        if self.one is not None:
+            return tuple(self.one.names)
         own = [f"{label}:{name}" for label, part in zip(self.labels, self.parts, strict=True)
                for name in part.names[part.sensor_start:]]
         return tuple(self.first.names[: self.sensor_start]) + tuple(own)
@@ -137,6 +136,8 @@ class StackedModel:
 
     @cached_property
     def scale(self) -> np.ndarray:
+        if self.one is not None:
+            return np.asarray(self.one.scale)
         return np.concatenate([self.first.scale[: self.sensor_start]]
                               + [part.scale[part.sensor_start:] for part in self.parts])
 
@@ -150,8 +151,12 @@ class StackedModel:
         return tuple(self.first.nonnegative)
 
     def part_x(self, x: np.ndarray | None, k: int) -> np.ndarray | None:
-        """Set k's own unknown vector within the stacked x (None stays None)."""
-        return None if x is None else np.asarray(x, dtype=float)[self.columns[k]]
+        """Set k's own unknown vector within x (None stays None)."""
+        if x is None:
+            return None
+        if self.one is not None:
+            return np.asarray(x, dtype=float)
+        return np.asarray(x, dtype=float)[self.columns[k]]
 
     def robot(self, x: np.ndarray) -> np.ndarray:
         """The robot's deviations within x, shape (n_robot,)."""
@@ -173,66 +178,101 @@ class StackedModel:
         """A point fixed in the end frame [m] and its derivative (n_rows, 3, n_params):
         the robot's part only (zero in every set's sensor columns)."""
         points, jac = self.first.point_jacobian(self.part_x(x, 0), q, point)
+        if self.one is not None:
+            return points, jac
         full = np.zeros(jac.shape[:2] + (self.n_params,))
         full[:, :, : self.sensor_start] = jac[:, :, : self.sensor_start]
         return points, full
 
-    def geometry_at(self, x: np.ndarray | None) -> tuple[Any, ...]:
-        """Each set's sensor geometry at x."""
+    def end_frames(self, x: np.ndarray | None, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The end frame's rotations (n, 3, 3) and origins (n, 3) [m] in the base frame at q."""
+        return self.first.end_frames(self.part_x(x, 0), q)
+
+    def geometry_at(self, x: np.ndarray | None) -> Any:
+        """The sensor's geometry at x; with several sets, each set's in turn."""
+        if self.one is not None:
+            return self.one.geometry_at(x)
         return tuple(part.geometry_at(self.part_x(x, k)) for k, part in enumerate(self.parts))
 
     def geometry_report(self, x: np.ndarray | None) -> dict:
-        """Each set's geometry at x for report.json, by label."""
+        """The sensor's geometry at x for report.json; with several sets, each set's by label."""
+        if self.one is not None:
+            return self.one.geometry_report(x)
         pairs = list(enumerate(zip(self.labels, self.parts, strict=True)))
         return {"set_geometry": {label: part.geometry_report(self.part_x(x, k)) for k, (label, part) in pairs},
                 "set_kinds": {label: part.kind for _, (label, part) in pairs}}
 
+    def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """What the only set's sensor reads at q for x, [m] (several sets: name the set,
+        ``result.predict(q, set=...)``).
+
+        Raises:
+            CalibPinError: several sets.
+        """
+        if self.one is None:
+            raise CalibPinError(f"a calibration of {len(self.parts)} sets predicts per set: "
+                                f"result.predict(q, set=LABEL) with a label of {', '.join(self.labels)}")
+        return self.one.predict(x, q, points)  # type: ignore[no-any-return]
+
     def describe(self) -> str:
+        if self.one is not None:
+            return str(self.one.describe())
         return f"{len(self.parts)} sets: " + "; ".join(
             f"{label} ({part.describe()})" for label, part in zip(self.labels, self.parts, strict=True))
 
-    def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-        raise CalibPinError(f"a calibration of {len(self.parts)} sets predicts per set: use result.sets[k].predict(q)")
-
-    def point_index(self, labels: Any, n_rows: int, source: str = "") -> np.ndarray | None:
-        raise CalibPinError(f"a calibration of {len(self.parts)} sets predicts per set: use result.sets[k].predict(q)")
-
 
 @dataclass(frozen=True)
-class StackedProblem(RowProblem):
-    """Several sets' calibration problems with one robot (module docstring).
+class Problem(RowProblem):
+    """A calibration problem of one or more sets with one robot (module docstring); it
+    implements :class:`calib_pin.estimators.problem.LeastSquares`.
 
     Attributes:
-        model: The stacked model (every set's measurement model, the labels).
-        parts: Each set's problem over its rows, in the stacked order; an empty set is
-            left out (``sets`` says which set each part is).
+        model: The model (every set's measurement model, the labels).
+        parts: Each set's problem over its rows, in order; a set without rows here is left
+            out (``sets`` says which set each part is).
         weights: w_k = sigma_0 / sigma_k of each part, shape (n_parts,).
         sets: Each part's index into ``model.parts``.
     """
 
-    model: StackedModel
-    parts: tuple[CalibrationProblem, ...]
+    model: ProblemModel
+    parts: tuple[SetProblem, ...]
     weights: np.ndarray
     sets: tuple[int, ...] = ()
     _offsets: np.ndarray = field(init=False, repr=False, compare=False)
+    _only: SetProblem | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not self.sets:
             object.__setattr__(self, "sets", tuple(range(len(self.parts))))
         object.__setattr__(self, "weights", np.asarray(self.weights, dtype=float))
         object.__setattr__(self, "_offsets", np.cumsum([0] + [p.n_rows for p in self.parts]))
+        # One set, weight 1, every unknown its own: every call is the set's own problem's.
+        only = self.parts[0] if (len(self.parts) == 1 and self.model.one is not None
+                                 and float(self.weights[0]) == 1.0) else None
+        object.__setattr__(self, "_only", only)
 
     @classmethod
-    def of(cls, problems: Sequence[CalibrationProblem], labels: Sequence[str], sigmas: Sequence[float]) -> StackedProblem:
-        """The stack of every row of each set's problem, set k weighted by sigmas[0] / sigmas[k] [m]."""
-        model = StackedModel(tuple(p.model for p in problems), tuple(labels))
+    def of(cls, problems: Sequence[SetProblem], labels: Sequence[str], sigmas: Sequence[float]) -> Problem:
+        """Every row of each set's problem, set k weighted by sigmas[0] / sigmas[k] [m]."""
+        model = ProblemModel(tuple(p.model for p in problems), tuple(labels))
         sigma = np.asarray(sigmas, dtype=float)
         return cls(model, tuple(problems), sigma[0] / sigma)
 
-    def with_weights(self, sigmas: Sequence[float]) -> StackedProblem:
+    def with_weights(self, sigmas: Sequence[float]) -> Problem:
         """The same rows with set k weighted by sigmas[0] / sigmas[k] (sigmas of every set of the model)."""
         sigma = np.asarray(sigmas, dtype=float)
-        return StackedProblem(self.model, self.parts, (sigma[0] / sigma)[list(self.sets)], self.sets)
+        weights = (sigma[0] / sigma)[list(self.sets)]
+        if np.array_equal(weights, self.weights):
+            return self
+        return Problem(self.model, self.parts, weights, self.sets)
+
+    def with_parts(self, parts: Sequence[SetProblem]) -> Problem:
+        """The same weights with each part's problem replaced (a set's model reweighted
+        within, :meth:`~calib_pin.sensors.base.MeasurementModel.with_part_noise`)."""
+        models = list(self.model.parts)
+        for k, part in zip(self.sets, parts, strict=True):
+            models[k] = part.model
+        return Problem(ProblemModel(tuple(models), self.model.labels), tuple(parts), self.weights, self.sets)
 
     # --- LeastSquares ------------------------------------------------------------------
 
@@ -242,9 +282,17 @@ class StackedProblem(RowProblem):
 
     @property
     def values_per_row(self) -> int:
-        """Values of each row when every set's rows hold the same number (else refused:
-        rows of mixed sets are found with :attr:`row_offsets`)."""
-        return self.model.values_per_row
+        """Values of each row, when every part's rows hold the same number.
+
+        Raises:
+            CalibPinError: parts whose rows differ in size (use ``row_offsets``).
+        """
+        sizes = {int(p.values_per_row) for p in self.parts} if self.parts else {int(self.model.first.values_per_row)}
+        if len(sizes) > 1 or any(getattr(p.model, "rows_differ", False) for p in self.parts):
+            raise CalibPinError("the sets' rows differ in size (" + ", ".join(
+                f"{self.model.labels[k]}: {p.values_per_row}" for k, p in zip(self.sets, self.parts, strict=True))
+                + "): find a row's values with calib_pin.estimators.problem.row_offsets")
+        return sizes.pop()
 
     @property
     def n_params(self) -> int:
@@ -260,8 +308,10 @@ class StackedProblem(RowProblem):
 
     @property
     def row_offsets(self) -> np.ndarray:
-        """Where each stacked row's entries start, shape (n_rows + 1,): each set's own
-        offsets in turn (its rows may hold another number of values than the others')."""
+        """Where each row's entries start, shape (n_rows + 1,): each part's own offsets in
+        turn (its rows may hold another number of values than the others')."""
+        if self._only is not None:
+            return self._only.row_offsets
         starts = np.cumsum([0] + [p.n_values for p in self.parts])
         inner = [p.row_offsets[:-1] + s for p, s in zip(self.parts, starts[:-1], strict=True)]
         return np.concatenate([*inner, [starts[-1]]]).astype(int)
@@ -274,16 +324,27 @@ class StackedProblem(RowProblem):
 
     @property
     def q(self) -> np.ndarray:
-        """Every data row's joint angles, shape (n_data, n_joints), [rad]: row k is stacked
-        row ``data_rows[k]`` (a contact set's known-distance rows carry no pose)."""
+        """Every data row's joint angles, shape (n_data, n_joints), [rad]: row k is row
+        ``data_rows[k]`` (a contact set's known-distance rows carry no pose)."""
+        if self._only is not None:
+            return self._only.q
         return np.concatenate([p.q for p in self.parts])
 
     @property
     def points(self) -> np.ndarray | None:
         """Every data row's point index, shape (n_data,), or None for one-point sensors."""
+        if self._only is not None:
+            return self._only.points
         if any(p.points is None for p in self.parts):
             return None
         return np.concatenate([p.points for p in self.parts])  # type: ignore[misc]
+
+    @property
+    def data_rows(self) -> np.ndarray:
+        """The rows that are data rows: every part's (a contact set's known distances are
+        rows of its own, no data row), shape (n_data,)."""
+        return np.concatenate([getattr(p, "data_rows", np.arange(p.n_rows)) + int(self._offsets[k])
+                               for k, p in enumerate(self.parts)] or [np.zeros(0)]).astype(int)
 
     def _x(self, x: np.ndarray | None, part: int) -> Any:
         return self.model.part_x(x, self.sets[part])
@@ -292,13 +353,34 @@ class StackedProblem(RowProblem):
         return self.model.columns[self.sets[part]]
 
     def residual(self, x: np.ndarray | None) -> np.ndarray:
-        """Each set's residual times its weight, in turn, shape (n_values,), [m of sigma_0]."""
+        """Each part's residual times its weight, in turn, shape (n_values,), [m of sigma_0]."""
+        if self._only is not None:
+            return self._only.residual(x)
         return np.concatenate([w * p.residual(self._x(x, k))
                                for k, (p, w) in enumerate(zip(self.parts, self.weights, strict=True))])
+
+    def residuals(self, xs: np.ndarray | list[np.ndarray]) -> np.ndarray:
+        """:meth:`residual` at k points xs, shape (k, n_values): each part's own batched
+        evaluation (:meth:`~calib_pin.sensors.problem.SetProblem.residuals`), weighted, side by side."""
+        if self._only is not None:
+            return self._only.residuals(xs)
+        blocks = [w * p.residuals([self._x(x, k) for x in xs])
+                  for k, (p, w) in enumerate(zip(self.parts, self.weights, strict=True))]
+        return np.concatenate(blocks, axis=1)
+
+    def costs(self, xs: list[np.ndarray]) -> list[float]:
+        """:meth:`cost` at several points, each part's rows evaluated in one batched pass."""
+        if self._only is not None:
+            return self._only.costs(xs)
+        if not len(xs):
+            return []
+        return [float(r @ r) / len(r) for r in self.residuals(xs)]
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """Derivative of :meth:`residual`, shape (n_values, n_params); a set's rows are
         zero in the other sets' sensor columns."""
+        if self._only is not None:
+            return self._only.jacobian(x)
         jac = np.zeros((self.n_values, self.n_params))
         start = 0
         for k, (p, w) in enumerate(zip(self.parts, self.weights, strict=True)):
@@ -310,6 +392,8 @@ class StackedProblem(RowProblem):
     def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:
         """Row ``row``'s weighted residual (its set's values per row,) and Jacobian
         (its set's values per row, n_params)."""
+        if self._only is not None:
+            return self._only.row_residual_with_jacobian(x, row)
         k = int(np.searchsorted(self._offsets, row, side="right")) - 1
         r, j = self.parts[k].row_residual_with_jacobian(self._x(x, k), row - int(self._offsets[k]))
         w = self.weights[k]
@@ -317,11 +401,10 @@ class StackedProblem(RowProblem):
         full[:, self._columns(k)] = w * j
         return w * r, full
 
-    def subset(self, rows: np.ndarray | slice) -> StackedProblem:
-        """The stack restricted to some data rows (rows of :attr:`q`, the sets' data rows in
-        turn, kept in that order within each set; each contact set's known-distance rows
-        stay with its part, :func:`calib_pin.estimators.problem.data_rows`); sets left without rows
-        are left out."""
+    def subset(self, rows: np.ndarray | slice) -> Problem:
+        """The problem restricted to some data rows (rows of :attr:`q`, the parts' data rows
+        in turn, kept in that order within each part; each contact set's known-distance
+        rows stay with its part); parts left without rows are left out."""
         n_data = [len(p.q) for p in self.parts]
         index = np.arange(sum(n_data))[rows] if isinstance(rows, slice) else np.asarray(rows, dtype=int).reshape(-1)
         starts = np.cumsum([0] + n_data)
@@ -333,26 +416,45 @@ class StackedProblem(RowProblem):
                 parts.append(p.subset(mine))
                 weights.append(self.weights[k])
                 sets.append(self.sets[k])
-        return StackedProblem(self.model, tuple(parts), np.asarray(weights), tuple(sets))
+        if not parts:
+            raise CalibPinError("no rows: a calibration problem needs at least one row")
+        return Problem(self.model, tuple(parts), np.asarray(weights), tuple(sets))
 
     def row_errors(self, residual: np.ndarray) -> np.ndarray:
-        """Size of each row's error in its own set's units (the weight divided out),
-        shape (n_rows,), [m]: each set's rows as its own problem sizes them (a reading's
-        |error|, a position's Euclidean error), so sets of rows of different sizes mix."""
+        """Size of each row's error in its own set's unit (the weight divided out), shape
+        (n_rows,), [m]: each set's rows as its own problem sizes them (a reading's |error|,
+        a position's Euclidean error), so sets of rows of different sizes mix."""
+        if self._only is not None:
+            return self._only.row_errors(residual)
         residual = np.asarray(residual)
-        if not self.parts:
-            return np.zeros(0)
         starts = np.cumsum([0] + [p.n_values for p in self.parts])
         return np.concatenate([p.row_errors(residual[lo:hi]) / w for p, w, lo, hi
                                in zip(self.parts, self.weights, starts[:-1], starts[1:], strict=True)])
 
-    @property
-    def data_rows(self) -> np.ndarray:
-        """The stacked rows that are data rows: every part's (a contact set's known
-        distances are rows of its own, no data row), shape (n_data,)."""
-        return np.concatenate([getattr(p, "data_rows", np.arange(p.n_rows)) + int(self._offsets[k])
-                               for k, p in enumerate(self.parts)] or [np.zeros(0)]).astype(int)
-
     def part_rows(self, part: int) -> np.ndarray:
-        """The stacked rows of part ``part``."""
+        """The rows of part ``part``."""
         return np.arange(self._offsets[part], self._offsets[part + 1])
+
+    def part_data(self, k: int) -> tuple[int, np.ndarray] | None:
+        """Where set k's data rows stand among :attr:`q`'s: (its part, the data rows), or None
+        when set k has no rows here."""
+        if k not in self.sets:
+            return None
+        part = self.sets.index(k)
+        start = sum(len(p.q) for p in self.parts[:part])
+        return part, np.arange(start, start + len(self.parts[part].q))
+
+    def named_directions(self, x: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, str]]:
+        """Directions of the unknowns each part's sensor names (a turn of the base with the
+        fixtures), as vectors of x, by name (prefixed with the set's label with several sets)."""
+        out: dict[str, tuple[np.ndarray, str]] = {}
+        for k, p in enumerate(self.parts):
+            named = getattr(p, "named_directions", None)
+            if named is None:
+                continue
+            for name, (v, hint) in named(self._x(x, k)).items():
+                full = np.zeros(self.n_params)
+                full[self._columns(k)] = v
+                label = name if self.model.one is not None else f"{self.model.labels[self.sets[k]]}: {name}"
+                out[label] = (full, hint)
+        return out

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -12,7 +12,6 @@ import pinocchio as pin
 
 from ..analysis.metrics import Metrics
 from ..estimators.base import EstimateResult
-from ..estimators.problem import CalibrationProblem
 from ..exceptions import CalibPinError
 from ..export.urdf import write_calibrated_urdf
 from ..measurements import MeasurementSet
@@ -21,7 +20,7 @@ from ..parameters.sanity import beyond_sanity
 from ..robot import Chain
 from ..util.arguments import as_angles_rad
 from ..util.units import for_humans
-from .problem import StackedProblem
+from .problem import Problem
 
 if TYPE_CHECKING:
     from ..analysis.identifiability import Identifiability
@@ -40,12 +39,14 @@ class CalibrationResult:
         x: Estimated unknowns, shape (n_params,), SI units ([m], [rad]): the robot's
             deviations, then any sensor unknowns (``problem.model.names``).
         estimate: The estimator's own result (history, iterations, time).
-        problem: All rows of the data with the measurement model, its starting sensor
-            geometry fitted on the training rows only.
-        data: The measurement set.
+        problem: All rows of every set with their measurement models, each set's starting
+            sensor geometry fitted on its training rows only (:class:`~calib_pin.calibration.problem.Problem`).
+        data: The measurement set; with several sets, every set's rows in turn (pose
+            labels ``<label>:<pose>``).
         train, test: Data-row indices (0-based) of the two splits.
         metrics: ``metrics[split][stage]`` for split in (train, test) and stage in
-            (before, after): per-row errors in [mm] (``problem.model.error_name``).
+            (before, after): per-row errors in [mm] (``problem.model.error_name``), every
+            set's rows together (none when the sets' errors are in different units).
             ``test`` is absent when no rows were held out.
         seed: Seed of the split and the estimator.
         noise: Sensor noise (1 sigma) the Kalman filters assumed, [m].
@@ -55,15 +56,12 @@ class CalibrationResult:
         test_registration: A validation session on a new set-up: which of its rows
             re-registered it and which were scored (:func:`calib_pin.calibration.validation.register_session`);
             None when it shares the training set-up, or without one.
-        sets: With several measurement sets, each set's
-            :class:`~calib_pin.calibration.multiset.SetResult` (its sigma and where it came from, its
-            rows, its metrics before/after per split, its sensor geometry); ``problem`` is
-            then the :class:`~calib_pin.calibration.problem.StackedProblem`, ``data`` every set's rows
-            in turn, ``train``/``test`` index its rows, and ``metrics`` pools every set's
-            row errors, each in its own set's units [mm]. Empty for one set.
+        sets: Each set's :class:`SetResult` (its sigma and where it came from, its rows, its
+            metrics before/after per split in its own unit, its sensor geometry and model):
+            one for one set.
         noise_from: Where ``noise`` came from: ``stated`` (the caller's or the file's),
             ``default`` (none stated, a method that does not weigh rows by it), or
-            ``estimated: ...`` (none stated: the residual of a first LM fit).
+            ``estimated: ...`` (none stated: from the residual, :mod:`calib_pin.calibration.noise`).
         cross_validation: K-fold held-out metrics of this model on the training poses
             (:meth:`calib_pin.studies.cross_validation.CrossValidation.as_dict`), when asked.
         start: The start of ``--nominal`` (None: the catalogue geometry); ``x`` stays the
@@ -75,7 +73,7 @@ class CalibrationResult:
     method: str
     x: np.ndarray
     estimate: EstimateResult
-    problem: CalibrationProblem | StackedProblem
+    problem: Problem
     data: MeasurementSet
     train: np.ndarray
     test: np.ndarray
@@ -92,6 +90,9 @@ class CalibrationResult:
     #: Where the estimate started (``calibrate --nominal``, a
     #: :class:`~calib_pin.calibration.start.Start`); None: the catalogue URDF (zero).
     start: Any = None
+    #: The unknowns the estimate started from, shape (n_params,), SI (zero deviations, or
+    #: the start's with each sensor's geometry fitted to it): the "before" of the metrics.
+    x0: np.ndarray | None = None
 
     @property
     def model_name(self) -> str:
@@ -159,15 +160,16 @@ class CalibrationResult:
         """True when the method estimated kinematic parameters (all but ``rbf``)."""
         return self.estimate.kinematic
 
-    def predict(self, q: Any, point_ids: Any = None) -> np.ndarray:
-        """What the calibration predicts at joint angles q, for any number of poses.
+    def predict(self, q: Any, point_ids: Any = None, set: int | str | None = None) -> np.ndarray:
+        """What the calibration predicts a set's sensor reads at joint angles q, for any number of poses.
 
         Args:
             q: Joint angles [rad], shape (n_poses, n_joints), or (n_joints,) for one pose.
             point_ids: Positions only: which marker each pose measures, as the data's
                 ``point_id`` labels (numbers or text; ``2`` and ``"2"`` are the same): one
-                label for every pose, or one per pose. May be left out when the calibration
-                has one marker (every pose predicts it); with several it is required.
+                label for every pose, or one per pose. May be left out when the set has
+                one marker (every pose predicts it); with several it is required.
+            set: Which set's sensor (its label or index); may be left out with one set.
 
         Returns:
             Readings, shape (n_poses,), [m]; or positions, shape (n_poses, 3), [m], in the
@@ -176,22 +178,30 @@ class CalibrationResult:
         Raises:
             CalibPinError: q is not finite numbers of shape (n_poses, n_joints), or is
                 outside the joint limits (degrees given as radians); point_ids
-                is left out with several markers, or is not one label or one per pose.
+                is left out with several markers, or is not one label or one per pose;
+                ``set`` left out with several sets, or naming none.
             DataError: a label that is not a marker of this calibration.
         """
-        q = as_angles_rad(_joint_angles(q, self.chain.n_joints), "q", self.chain)  # within limits: not degrees
-        labels = None
-        if point_ids is not None:
-            labels = np.asarray(point_ids, dtype=object).reshape(-1)
-            if labels.shape == (1,):
-                labels = np.repeat(labels, len(q))
-            if labels.shape != (len(q),):
-                raise CalibPinError(f"point_ids: {labels.size} labels for {len(q)} poses (give one label, or one per pose)")
-        points = self.problem.model.point_index(labels, len(q))
-        if labels is not None and points is None:  # a sensor of one point has no labels: they would be ignored
-            raise CalibPinError(f"point_ids: this calibration's sensor ({self.problem.model.describe()}) measures one "
-                                "point, which has no label: leave point_ids out")
-        return self.estimate.predict(self.problem.model, q, points)
+        return self.set_result(set).predict(q, point_ids)
+
+    def set_result(self, set: int | str | None = None) -> SetResult:
+        """The :class:`SetResult` of a set named by its label or index (None: the only set).
+
+        Raises:
+            CalibPinError: None with several sets, or a label or index of no set.
+        """
+        labels = [s.label for s in self.sets]
+        if set is None:
+            if len(self.sets) == 1:
+                return self.sets[0]
+            raise CalibPinError(f"a calibration of {len(self.sets)} sets predicts per set: name it, set= one of "
+                                f"{', '.join(labels)}")
+        if isinstance(set, str) and set in labels:
+            return self.sets[labels.index(set)]
+        if isinstance(set, int | np.integer) and not isinstance(set, bool) and 0 <= set < len(self.sets):
+            return self.sets[int(set)]
+        raise CalibPinError(f"set: {set!r} is no set of this calibration (labels: {', '.join(labels)}, or an index "
+                            f"from 0 to {len(self.sets) - 1})")
 
     def sanity_error(self) -> str | None:
         """Why the estimate may not be exported (a negative compliance, or a deviation,
@@ -270,3 +280,82 @@ def _joint_angles(q: Any, n_joints: int) -> np.ndarray:
     if not np.all(np.isfinite(angles)):
         raise CalibPinError("q: not finite (NaN or inf)")
     return angles
+
+
+@dataclass(frozen=True)
+class SetResult:
+    """One set of a calibration: its noise, rows, scores and calibrated sensor.
+
+    Attributes:
+        label, source, kind, role: The set's label, file ("" in memory), data kind and role.
+        sigma: The noise (1 sigma) its rows were weighted by, [m]; ``sigma_origin``:
+            ``caller``, ``file``, ``estimate`` (from the residual) or ``default``.
+        rows: Its rows in the calibration's data (``result.train``/``result.test`` index those).
+        train, test: Its own row indices (0-based, into its data) of the two splits.
+        metrics: ``metrics[split][stage]`` as ``CalibrationResult.metrics``, in its own unit.
+        geometry: Its sensor geometry after calibration, for report.json (mm, degrees).
+        model: Its measurement model; ``x``: its own unknown vector (robot, then its sensor's).
+        estimate: The calibration's estimate (a learnt correction of the values, with ``rbf``).
+        overrides: The set-up fields the caller gave for this set (its FitSet's ``setup``),
+            each winning over its file's; ``overridden``: those of them the file also had.
+        unit: The unit of its row errors and metrics (its sensor's ``value_unit``).
+        chain: The robot chain (for the joint angles' limits).
+        problem: Its problem: every row of the set, its sensor's start as fitted.
+    """
+
+    label: str
+    source: str
+    kind: str
+    role: str
+    sigma: float
+    sigma_origin: str
+    rows: np.ndarray
+    train: np.ndarray
+    test: np.ndarray
+    metrics: dict[str, dict[str, Metrics]]
+    geometry: dict
+    model: Any = field(repr=False)
+    x: np.ndarray = field(repr=False)
+    estimate: EstimateResult | None = field(default=None, repr=False)
+    overrides: tuple[str, ...] = ()
+    overridden: tuple[str, ...] = ()
+    unit: str = "mm"
+    chain: Chain | None = field(default=None, repr=False)
+    problem: Any = field(default=None, repr=False)
+
+    def predict(self, q: Any, point_ids: Any = None) -> np.ndarray:
+        """What this set's sensor reads at joint angles q, as :meth:`CalibrationResult.predict`.
+
+        Raises:
+            CalibPinError: as :meth:`CalibrationResult.predict`.
+            DataError: a label that is not a marker of this set.
+        """
+        chain = self.chain if self.chain is not None else self.model.chain
+        q = as_angles_rad(_joint_angles(q, chain.n_joints), "q", chain)  # within limits: not degrees
+        labels = None
+        if point_ids is not None:
+            labels = np.asarray(point_ids, dtype=object).reshape(-1)
+            if labels.shape == (1,):
+                labels = np.repeat(labels, len(q))
+            if labels.shape != (len(q),):
+                raise CalibPinError(f"point_ids: {labels.size} labels for {len(q)} poses (give one label, or one per pose)")
+        points = self.model.point_index(labels, len(q))
+        if labels is not None and points is None:  # a sensor of one point has no labels: they would be ignored
+            raise CalibPinError(f"point_ids: this calibration's sensor ({self.model.describe()}) measures one "
+                                "point, which has no label: leave point_ids out")
+        values = self.model.predict(self.x, q, points)
+        correction = None if self.estimate is None else self.estimate.correction
+        if correction is not None:
+            values = values + correction(q, points).reshape(values.shape)
+        return values
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready: the set's table and set-up."""
+        return {
+            "label": self.label, "data": self.source, "data_kind": self.kind, "role": self.role,
+            "noise_mm": self.sigma * 1e3, "noise_from": self.sigma_origin,
+            "train_rows": len(self.train), "test_rows": len(self.test),
+            **{split: {stage: m.as_dict() for stage, m in stages.items()} for split, stages in self.metrics.items()},
+            "error": self.model.error_name, "error_unit": self.unit, "sensor": self.model.describe(), **self.geometry,
+            "setup_from_caller": list(self.overrides), "setup_over_file": list(self.overridden),
+        }

@@ -13,9 +13,9 @@ drawstring re-anchored. :class:`TestSet` says which, per session:
   fitted on those rows with the calibrated robot fixed (:func:`register_session`); the
   other rows are scored. A registration row is never scored.
 
-With several training sets (:mod:`calib_pin.calibration.multiset`) every row of every set trains;
-``same`` names the set whose set-up the session shares (:func:`choose_training_set`), and
-a re-registered session takes its sensor's model from the first set of its kind.
+Every row of every training set trains; ``same`` names the set whose set-up the session
+shares (:func:`choose_training_set`; with one set of its kind it may be left out), and a
+re-registered session takes its sensor's model from the first set of its kind.
 
 The "before" error of a re-registered session is the same protocol with the nominal robot:
 its sensor unknowns fitted on the same rows with the nominal robot, the rest scored.
@@ -23,10 +23,8 @@ its sensor unknowns fitted on the same rows with the nominal robot, the rest sco
 
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -34,60 +32,9 @@ from ..analysis.metrics import Metrics
 from ..estimators.problem import data_row_errors
 from ..exceptions import ArgumentError, DataError
 from ..measurements import MeasurementSet
-
-if TYPE_CHECKING:
-    from ..estimators.problem import CalibrationProblem
-    from .result import CalibrationResult
-
-#: The ``role`` column value of a validation session's registration rows.
-REGISTER_ROLE = "register"
-
-
-@dataclass(frozen=True)
-class TestSet:
-    """A separate validation session and how its sensor set-up relates to the calibration.
-
-    Attributes:
-        data: The session: a measurement CSV or a :class:`~calib_pin.measurements.MeasurementSet`.
-        register: None: the training set's set-up (checked, never fitted); an int k >= 1:
-            a new set-up, re-registered on the session's first k poses (in file order);
-            ``"role"``: re-registered on its rows whose ``role`` column is ``register``.
-        same: With ``register`` None, the label of the training set whose set-up the session
-            shares (its file's stem, or file name); "" the training set (with several
-            sets: the only one of the session's kind). Checked.
-    """
-
-    __test__ = False  # not a pytest class
-
-    data: str | Path | MeasurementSet
-    register: int | str | None = None
-    same: str = ""
-
-    def __post_init__(self) -> None:
-        """Raises: ArgumentError naming ``register`` or ``same``."""
-        r = self.register
-        if r is not None and not (r == "role" or (isinstance(r, int | np.integer) and not isinstance(r, bool) and r >= 1)):
-            raise ArgumentError("register", f"expected a number of poses >= 1 or 'role' (rows with role={REGISTER_ROLE}), "
-                                f"got {r!r}")
-        if not isinstance(self.same, str):
-            raise ArgumentError("same", f"expected a training set's label (text), got {type(self.same).__name__}")
-        if r is not None and self.same:
-            raise ArgumentError("same", "a re-registered session has its own set-up: give register or same, not both")
-
-    def describe(self) -> str:
-        """How its rows are used, for people."""
-        if self.register is None:
-            return "the training set's set-up"
-        if self.register == "role":
-            return f"a new set-up, re-registered on its rows with role={REGISTER_ROLE}"
-        return f"a new set-up, re-registered on its first {self.register} poses"
-
-
-def as_test_set(test_data: Any) -> TestSet | None:
-    """``test_data`` (None, a path, a set, or a TestSet) as a TestSet."""
-    if test_data is None or isinstance(test_data, TestSet):
-        return test_data
-    return TestSet(test_data)
+from ..sensors import sensor_for
+from ..sensors.problem import SetProblem
+from .holdout import REGISTER_ROLE, TestSet
 
 
 def choose_training_set(test: TestSet, session: MeasurementSet, labels: tuple[str, ...] | list[str],
@@ -109,6 +56,8 @@ def choose_training_set(test: TestSet, session: MeasurementSet, labels: tuple[st
     if test.same:
         files = [Path(source).name if source else "" for source in (sources or [""] * len(labels))]
         k = next((k for k, label in enumerate(labels) if test.same in (label, files[k])), None)
+        if k is None and len(labels) == 1:
+            raise ArgumentError("same", f"'{test.same}' is not the training set (its label: {labels[0]})")
         if k is None:
             raise ArgumentError("same", f"'{test.same}' is not a training set's label (labels: {', '.join(labels)})")
         if kinds[k] != session.kind:
@@ -151,10 +100,10 @@ def registration_rows(session: MeasurementSet, register: int | str) -> tuple[np.
     return np.flatnonzero(marked), np.flatnonzero(~marked)
 
 
-def _fit_sensor(problem: CalibrationProblem, fixed: np.ndarray) -> np.ndarray:
+def _fit_sensor(problem: SetProblem, fixed: np.ndarray) -> np.ndarray:
     """x with the problem's robot part (deviations, compliances) held at ``fixed`` and its
     sensor unknowns fitted by scipy's least squares (Levenberg-Marquardt) from zero."""
-    from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
+    from scipy.optimize import least_squares  # imported when a session is re-registered
 
     def full(e: np.ndarray) -> np.ndarray:
         return np.concatenate([fixed, e])
@@ -165,14 +114,20 @@ def _fit_sensor(problem: CalibrationProblem, fixed: np.ndarray) -> np.ndarray:
     return full(fit.x)
 
 
-def register_session(result: CalibrationResult, test: TestSet, session: MeasurementSet,
-                     options: dict[str, Any]) -> tuple[dict[str, Metrics], dict[str, Any]]:
+def register_session(test: TestSet, calibrated: Any, x: np.ndarray, options: dict[str, Any]
+                     ) -> tuple[dict[str, Metrics], dict[str, Any]]:
     """Re-register a validation session on a new set-up and score its other rows.
 
     The session's problem (its sensor's :meth:`~calib_pin.sensors.base.MeasurementModel.registration_problem`)
     starts from its set-up fitted on the registration rows with the nominal robot; its
     sensor unknowns are then fitted on those rows with the calibrated robot fixed ("after"),
     and with the nominal robot ("before").
+
+    Args:
+        test: The session (its data loaded) and its registration rows.
+        calibrated, x: The measurement model of the training set of the session's kind,
+            and its unknowns as calibrated (SI).
+        options: That set's sensor options (the compliance).
 
     Returns:
         The ``test`` metrics (before, after) of the scored rows, and what report.json
@@ -182,14 +137,12 @@ def register_session(result: CalibrationResult, test: TestSet, session: Measurem
         DataError: too few registration values for the session's sensor unknowns, or a
             sensor with none (nothing to re-register).
     """
-    from ..sensors import sensor_for
-
-    assert test.register is not None
+    session = test.data
+    assert isinstance(session, MeasurementSet) and test.register is not None
     source = session.source or "test_data"
     register, scored = registration_rows(session, test.register)
-    calibrated: Any = result.problem.model
-    problem = sensor_for(session.kind).registration_problem(result.chain, result.params, session, register,
-                                                            calibrated, result.x, options)
+    problem = sensor_for(session.kind).registration_problem(calibrated.chain, calibrated.params, session, register,
+                                                            calibrated, x, options)
     model = problem.model
     start = model.sensor_start
     n_sensor = model.n_params - start
@@ -200,9 +153,8 @@ def register_session(result: CalibrationResult, test: TestSet, session: Measurem
     if fitted.n_values < n_sensor:
         raise DataError(source, f"{len(register)} registration rows give {fitted.n_values} values, fewer than the "
                         f"{n_sensor} set-up unknowns ({model.describe()}): register on more poses", None, "register")
-    assert start == calibrated.sensor_start, "the session's model has the calibration's robot unknowns"
     before = _fit_sensor(fitted, np.zeros(start))
-    after = _fit_sensor(fitted, np.asarray(result.x, dtype=float)[:start])
+    after = _fit_sensor(fitted, np.asarray(x, dtype=float)[:start])
     part = problem.subset(scored)
     metrics = {"before": Metrics.of(data_row_errors(part, part.residual(before))),
                "after": Metrics.of(data_row_errors(part, part.residual(after)))}
@@ -226,38 +178,38 @@ def register_session(result: CalibrationResult, test: TestSet, session: Measurem
 DEVICE_SHIFT_M = 5e-3
 
 
-def score_session(result: CalibrationResult, session: MeasurementSet) -> CalibrationResult:
-    """``result`` with its ``test`` metrics taken from a separate validation session.
+def score_session(model: Any, x: np.ndarray, correction: Any, session: MeasurementSet) -> dict[str, Metrics]:
+    """The ``test`` metrics (before, after) of a separate validation session measured with
+    a training set's set-up: ``model`` that set's measurement model, ``x`` its unknowns as
+    calibrated, ``correction`` a learnt correction of the values (or None).
 
     Nothing is fitted on the session: a point the calibration never saw (a new marker) is
     located from its first row with the model being scored, and the session's other rows
     are predicted (see :meth:`calib_pin.sensors.base.MeasurementModel.session_errors`).
+
+    Raises:
+        DataError: the session's own device frame is far from the calibration's (moved).
     """
-    model: Any = result.problem.model
-    shift = getattr(model, "session_frame_shift", lambda x, data: None)(result.x, session)
+    shift = getattr(model, "session_frame_shift", lambda x, data: None)(x, session)
     if shift is not None and shift > DEVICE_SHIFT_M:  # scored with the calibration's frame, every row would be off
         raise DataError(session.source or "test_data", f"the session's own is {shift * 1e3:.3g} mm (RMS over its "
                         "points) from the calibration's: the device was moved between the sessions? Measure both "
                         "from the same placement, or re-register the session on its own first poses "
                         "(--test-data FILE:register=K)", None, "device frame")
     before = model.session_errors(None, session)
-    after = model.session_errors(result.x, session, result.estimate.correction)
-    metrics = {**result.metrics, "test": {"before": Metrics.of(before), "after": Metrics.of(after)}}
-    notes = tuple(note for note in (session.ignored_note(),) if note)  # its extra columns, read past
-    return dataclasses.replace(result, metrics=metrics, test_source=session.source, warnings=result.warnings + notes)
+    after = model.session_errors(x, session, correction)
+    return {"before": Metrics.of(before), "after": Metrics.of(after)}
 
 
-def score_registered(result: CalibrationResult, test: TestSet, options: dict[str, Any]) -> CalibrationResult:
-    """``result`` with its ``test`` metrics from a validation session on a new set-up,
-    re-registered on its stated rows (:func:`calib_pin.calibration.validation.register_session`)."""
+def session_notes(test: TestSet) -> tuple[str, ...]:
+    """The session's extra columns, read past (its ``role`` column is used by ``register=role``)."""
     session = test.data
     assert isinstance(session, MeasurementSet)
-    scored, info = register_session(result, test, session, options)
     extra = [c for c in session.extra if not (c == "role" and test.register == "role")]
-    notes = (f"ignored columns: {', '.join(extra)} (in {Path(session.source).name or 'test_data'}; read and kept, "
-             "not used)",) if extra else ()
-    return dataclasses.replace(result, metrics={**result.metrics, "test": scored}, test_source=session.source,
-                               test_registration=info, warnings=result.warnings + notes)
+    if not extra:
+        return ()
+    return (f"ignored columns: {', '.join(extra)} (in {Path(session.source).name or 'test_data'}; read and kept, "
+            "not used)",)
 
 
 def same_rows(a: MeasurementSet, b: MeasurementSet) -> bool:

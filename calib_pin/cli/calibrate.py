@@ -171,7 +171,7 @@ def data_keys() -> dict[str, tuple[Any, str]]:
     but ``estimate``, a choice for every set), then :data:`SET_KEYS`. The one table both
     the parse and the help read.
     """
-    from ..calibration.multiset import ROLES
+    from ..calibration.sets import ROLES
     from ..sensors import setup_types
 
     types = setup_types()
@@ -228,7 +228,7 @@ def data_argument(text: str) -> tuple[str, dict[str, Any]]:
     Raises:
         CalibPinError: naming the argument and the key (unknown, twice, bad value).
     """
-    from ..calibration.multiset import ROLES
+    from ..calibration.sets import ROLES
     from ..exceptions import CalibPinError
 
     path, items = _file_options(text, "--data", "per-set options follow an existing file: FILE:key=value:key=value",
@@ -257,7 +257,7 @@ def validation_argument(text: str | None) -> Any:
     Raises:
         CalibPinError: naming the argument and the key (unknown, twice, bad value).
     """
-    from ..calibration.validation import TestSet
+    from ..calibration.holdout import TestSet
     from ..exceptions import CalibPinError
 
     if text is None:
@@ -283,7 +283,7 @@ def validation_argument(text: str | None) -> Any:
 
 
 def _fit_set(path: str, options: dict[str, Any]) -> Any:
-    from ..calibration.multiset import FitSet
+    from ..calibration.sets import FitSet
     from ..sensors import setup_record
 
     fields = {k: v for k, v in options.items() if k not in SET_KEYS}
@@ -330,27 +330,28 @@ def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
 
 def _analyze(args: argparse.Namespace) -> int:
     from ..analysis.identifiability import analyze
-    from ..calibration.pipeline import prepare
+    from ..calibration.prepare import prepare
 
-    setup = prepare(args.robot, _data(args), **_setup_options(args))
-    print(f"{setup.chain.name}: {setup.data.describe_rows()} from {setup.data.source}, "
-          f"{setup.params.name} model, {setup.problem.model.describe()}")
-    x, where = analysis_point(setup)
+    calibration = prepare(args.robot, _data(args), **_setup_options(args))
+    data = calibration.data
+    print(f"{calibration.chain.name}: {data.describe_rows()} from {data.source}, "
+          f"{calibration.params.name} model, {calibration.problem.model.describe()}")
+    x, where = analysis_point(calibration)
     print(f"analysed at {where}")
-    print(analyze(setup.problem, x, fixed=getattr(setup, "fixed", ())).report())
+    print(analyze(calibration.problem, x, fixed=calibration.fixed).report())
     print("the estimators move only the identifiable directions: the deviations along the blind "
-          f"ones above stay at {'the start' if setup.start is not None else 'zero'} in the export")
+          f"ones above stay at {'the start' if calibration.start is not None else 'zero'} in the export")
     return 0
 
 
-def analysis_point(setup: Any) -> tuple[Any, str]:
+def analysis_point(calibration: Any) -> tuple[Any, str]:
     """Where ``--analyze`` analyses the data's poses, SI units (n_params,), and its words:
     zero deviations (the catalogue URDF), or with ``--nominal`` the start a calibration
     would take (:meth:`~calib_pin.calibration.start.Start.x0`, the sensor's geometry fitted
     to every row with the robot held there)."""
     import numpy as np
 
-    problem, start = setup.problem, setup.start
+    problem, start = calibration.problem, calibration.start
     if start is None:
         return np.zeros(problem.n_params), "zero deviations (the catalogue URDF; --nominal analyses at a start)"
     return start.x0(problem, problem), (f"the start {start.describe()}: its robot deviations, the sensor geometry "
@@ -380,14 +381,21 @@ def _check_dh_export(args: argparse.Namespace) -> None:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from ..calibration.pipeline import calibrate
+    from ..calibration.holdout import Folds, Fraction, as_holdout
+    from ..calibration.prepare import prepare
+    from ..calibration.solve import method_record, solve
+    from ..exceptions import CalibPinError
 
     _check_dh_export(args)
-    result = calibrate(args.robot, _data(args), method=args.method, seed=args.seed,
-                       test_fraction=args.test_fraction, test_data=validation_argument(args.test_data), loss=args.loss,
-                       progress=_announce, **_setup_options(args))
+    method_record(args.method, args.loss)  # a bad method or loss before the data is read
+    holdout = as_holdout(args.test_fraction, validation_argument(args.test_data))
+    calibration = prepare(args.robot, _data(args), **_setup_options(args))
     if args.cv:
-        result = _cross_validated(args, result)
+        if not isinstance(holdout, Fraction):
+            raise CalibPinError("--cv cross-validates the training poses of a split: leave --test-data out")
+        holdout = Folds(args.cv, holdout.test_fraction)
+    _announce(calibration)
+    result = solve(calibration, args.method, holdout=holdout, seed=args.seed, loss=args.loss)
     data = _data_files(args)  # --data may be given once per set
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
     test_file = validation_argument(args.test_data)
@@ -410,28 +418,14 @@ def _calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cross_validated(args: argparse.Namespace, result: Any) -> Any:
-    """``result`` with the K-fold cross-validation of its model on its training poses."""
-    import dataclasses
-
-    from ..calibration.pipeline import CalibrationSetup, prepare
-    from ..exceptions import CalibPinError
-    from ..studies.cross_validation import cross_validate
-
-    setup = prepare(args.robot, _data(args), **_setup_options(args))
-    if not isinstance(setup, CalibrationSetup) or result.sets:
-        raise CalibPinError("--cv cross-validates one measurement set: give one --data")
-    cv = cross_validate(setup, args.method, result.train, args.cv, seed=args.seed, loss=args.loss)
-    return dataclasses.replace(result, cross_validation=cv.as_dict())
-
-
 #: Rows from which a calibration is announced on stderr before it starts (it may take minutes).
 LONG_ROWS = 5000
 
 
-def _announce(setup: Any) -> None:
-    if len(setup.data) >= LONG_ROWS:
-        print(f"calibrating {len(setup.data)} rows with {setup.problem.n_params} unknowns; "
+def _announce(calibration: Any) -> None:
+    rows = len(calibration.data)
+    if rows >= LONG_ROWS:
+        print(f"calibrating {rows} rows with {calibration.problem.n_params} unknowns; "
               "this can take minutes (Ctrl-C stops, writing nothing)", file=sys.stderr, flush=True)
 
 
@@ -471,38 +465,61 @@ def basis_cells(soft: dict[str, Any]) -> str:
     return "gravity basis model (no inertias): " + ", ".join(cells)
 
 
-def _sets_summary(result: Any) -> None:
-    """The header and a table per set, then the all-sets table (several sets)."""
-    split = (f"{len(result.train)} train rows (every row of every set), test rows from {result.test_source}"
-             if result.test_source else f"{len(result.train)} train and {len(result.test)} test rows "
-             f"(split per set by pose, seed {result.seed})")
-    print(f"{result.chain.name}: {len(result.sets)} sets, {split}, {result.model_name} model, method {result.method}")
+def _header(result: Any) -> None:
+    """The run in one line, what a row's error is, and the tables: each set's with several
+    sets, then every set's rows together (of one set: its own)."""
+    from ..analysis.metrics import pooled_unit, units_words
+
+    several = len(result.sets) > 1
+    if several:
+        split = (f"{len(result.train)} train rows (every row of every set), test rows from {result.test_source}"
+                 if result.test_source else f"{len(result.train)} train and {len(result.test)} test rows "
+                 f"(split per set by pose, seed {result.seed})")
+        print(f"{result.chain.name}: {len(result.sets)} sets, {split}, {result.model_name} model, "
+              f"method {result.method}")
+    else:
+        test = f"test rows from {result.test_source}" if result.test_source else f"{len(result.test)} test rows"
+        print(f"{result.chain.name}: {result.data.describe_rows()} from {result.data.source} "
+              f"({len(result.train)} train, {test}, seed {result.seed}), {result.model_name} model, "
+              f"method {result.method}")
     print(f"error per row: {result.problem.model.error_name}")
-    for s in result.sets:
+    for s in result.sets if several else ():
         rows = len(s.train) + len(s.test)
         print(f"set {s.label}: {rows} rows from {s.source or 'memory'} ({len(s.train)} train, {len(s.test)} test, "
               f"role {s.role}), noise {s.sigma * 1e3:.4f} mm ({s.sigma_origin}){_override_note(s)}")
         print(table(s.metrics, s.unit))
-    from ..analysis.metrics import pooled_unit, units_words
-
+    info = result.test_registration or {}
+    if not several:
+        if info.get("setup") == "new":
+            print(_registration_line(info, several))
+        print(table(result.metrics, result.sets[0].unit))
+        return
     unit = pooled_unit(result.sets)
-    pooled = {split: stages for split, stages in result.metrics.items()
-              if split != "test" or not result.test_source}
+    pooled = {split: stages for split, stages in result.metrics.items() if split != "test" or not result.test_source}
     if unit is None:
         print(f"all sets: no table, {units_words(result.sets)}")
     elif pooled:
         print(f"all sets ({units_words(result.sets)}):")
         print(table(pooled, unit))
-    info = result.test_registration or {}
     if result.test_source:  # a separate validation session, scored apart from the sets
-        if info.get("setup") == "same":
-            how = f"the set-up of set {info['same_as']} (as calibrated; nothing fitted on it)"
-        else:
-            how = (f"a new set-up, {len(info['registered_rows'])} rows re-registered it ({info['registered_on']}; "
-                   f"fitted {', '.join(info['fitted'])} with the calibrated robot fixed, RMS "
-                   f"{info['registration_rmse_mm']:.4f} mm); the other {len(info['scored_rows'])} rows scored")
+        how = (f"the set-up of set {info['same_as']} (as calibrated; nothing fitted on it)"
+               if info.get("setup") == "same" else _registration_line(info, several))
         print(f"validation session {result.test_source}: {how}")
         print(table({"test": result.metrics["test"]}, value_unit_of(result, info)))
+
+
+def _registration_line(info: dict[str, Any], several: bool) -> str:
+    """How a validation session on a new set-up was re-registered and scored."""
+    if several:
+        return (f"a new set-up, {len(info['registered_rows'])} rows re-registered it ({info['registered_on']}; "
+                f"fitted {', '.join(info['fitted'])} with the calibrated robot fixed, RMS "
+                f"{info['registration_rmse_mm']:.4f} mm); the other {len(info['scored_rows'])} rows scored")
+    lines = info["registered_lines"]
+    where = f" (file lines {lines[0]}-{lines[-1]})" if lines and info["registered_on"][0] == "f" else ""
+    return (f"validation on a new set-up: {len(info['registered_rows'])} rows{where} re-registered it "
+            f"({info['registered_on']}; fitted {', '.join(info['fitted'])} with the calibrated robot "
+            f"fixed, RMS {info['registration_rmse_mm']:.4f} mm); the other "
+            f"{len(info['scored_rows'])} rows are the test rows (rows in report.json)")
 
 
 def value_unit_of(result: Any, info: dict[str, Any]) -> str:
@@ -520,39 +537,26 @@ def _override_note(s: Any) -> str:
 
 
 def _summary(result: Any, report: dict[str, Any]) -> None:
-    if result.sets:
-        _sets_summary(result)
-    else:
-        n_train, n_test = len(result.train), len(result.test)
-        test = f"test rows from {result.test_source}" if result.test_source else f"{n_test} test rows"
-        registered = result.test_registration
-        print(f"{result.chain.name}: {result.data.describe_rows()} from {result.data.source} "
-              f"({n_train} train, {test}, seed {result.seed}), {result.model_name} model, method {result.method}")
-        print(f"error per row: {result.problem.model.error_name}")
-        if registered:
-            lines = registered["registered_lines"]
-            where = f" (file lines {lines[0]}-{lines[-1]})" if lines and registered["registered_on"][0] == "f" else ""
-            print(f"validation on a new set-up: {len(registered['registered_rows'])} rows{where} re-registered it "
-                  f"({registered['registered_on']}; fitted {', '.join(registered['fitted'])} with the calibrated robot "
-                  f"fixed, RMS {registered['registration_rmse_mm']:.4f} mm); the other "
-                  f"{len(registered['scored_rows'])} rows are the test rows (rows in report.json)")
-        print(table(result.metrics))
-        if hasattr(result.problem, "part_summary") and result.estimate.correction is None:  # rows of mixed units
-            print(result.problem.part_summary(result.x, {"train": result.train, "test": result.test}))
-        if "noise_by_part" in report:  # each part's own sigma (stated, or estimated from the residual)
-            print(noise_parts_line(report["noise_by_part"]))
+    _header(result)
+    if len(result.sets) == 1 and result.estimate.correction is None:  # rows of parts in units of their own
+        summary = getattr(result.sets[0].problem, "part_summary", None)
+        if summary is not None:
+            print(summary(result.x, {"train": result.train, "test": result.test}))
+    if "noise_by_part" in report:  # each part's own sigma (stated, or estimated from the residual)
+        print(noise_parts_line(report["noise_by_part"]))
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
-    prefits = [(f"set {s['label']}: ", s["setup_prefit"]) for s in report.get("sets", ()) if "setup_prefit" in s]
-    for where, prefit in prefits or ([("", report["setup_prefit"])] if "setup_prefit" in report else []):
+    named = len(result.sets) > 1
+    prefits = [(f"set {s['label']}: " if named else "", s["setup_prefit"]) for s in report["sets"] if "setup_prefit" in s]
+    for where, prefit in prefits:
         print(f"sensor set-up: {where}{prefit['summary']} ({prefit['how']}); then estimated with the "
               "robot (report.json)")
     soft = report.get("compliance")
     if soft:
         print(f"joint compliance ({soft.get('compliance_model', 'cad')} model): {compliance_cells(soft)}; "
               "deflection is not in the URDF")
-    if result.noise_from.startswith("estimated"):  # the set states no noise: the Kalman filters got the data's
+    if result.noise_from.startswith("estimated") and len(result.sets) == 1:  # the Kalman filters got the data's
         print(f"noise for {result.method}: {result.noise * 1e3:.4f} mm per value, {result.noise_from}")
     cv = report.get("cross_validation")
     if cv:

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..estimators import PAPER_METHODS
-from ..simulation.simulate import NOISE_KINDS
+from ..simulation import NOISE_KINDS
 from ..util.outputs import Outputs, robot_inputs
 from ..util.progress import quiet_progress
 from . import parse_args

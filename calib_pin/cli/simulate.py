@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..exceptions import CalibPinError
-from ..simulation.simulate import NOISE_KINDS
+from ..simulation import NOISE_KINDS
 from ..util.outputs import Outputs, robot_inputs
 from . import parse_args
 from .common import (
@@ -125,7 +125,8 @@ def _simulate(args: argparse.Namespace) -> int:
     from ..parameters import parameter_model
     from ..robot import load_chain
     from ..sensors import default_kind, sensor_for
-    from ..simulation.simulate import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM, simulate, simulate_sessions
+    from ..sensors.cable import DEFAULT_ANCHOR_MM, DEFAULT_TOOL_MM
+    from ..simulation import simulate, simulate_sessions
 
     out = Path(args.out)
     if not out.name or out.is_dir():

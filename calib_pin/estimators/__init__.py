@@ -45,7 +45,7 @@ class Method:
         paper: One of the paper's nine methods (a default of ``compare`` and ``benchmark``).
         weighs_noise: Its estimate depends on the sensor noise it is given (R of the
             Kalman filters); a set that states none gets it estimated
-            (:mod:`calib_pin.analysis.noise`).
+            (:mod:`calib_pin.calibration.noise`).
     """
 
     name: str
@@ -59,12 +59,7 @@ class Method:
     weighs_noise: bool = False
 
     def estimator(self, loss: str = "linear") -> Any:
-        """The estimator with default settings and ``loss``.
-
-        Raises:
-            EstimatorError: a loss it cannot take.
-        """
-        self.check(loss)
+        """The estimator with default settings and ``loss`` (one :meth:`check` accepts)."""
         module, _, cls = self.target.partition(":")
         estimator = getattr(importlib.import_module(f"{__name__}.{module}"), cls)()
         if loss == "linear":
@@ -75,12 +70,11 @@ class Method:
 
         return Robust(estimator, loss)
 
-    def check(self, loss: str = "linear", kind: str | None = None) -> None:
-        """Refuse a loss or a data kind this method does not take, in one line.
+    def check(self, loss: str = "linear") -> None:
+        """Refuse a loss this method does not take, in one line.
 
         Raises:
-            EstimatorError: unknown loss, a loss it has no robust variant for, or data
-                of a kind it does not take.
+            EstimatorError: unknown loss, or a loss it has no robust variant for.
         """
         if loss not in LOSSES:
             raise EstimatorError(f"unknown loss '{loss}' (valid: {', '.join(LOSSES)})")
@@ -88,16 +82,16 @@ class Method:
             robust = [m.name for m in METHODS.values() if m.robust]
             raise EstimatorError(f"method '{self.name}' has no robust loss; --loss {loss} works with: "
                                  f"{', '.join(robust)}")
-        if kind is not None and self.kinds and kind not in self.kinds:
-            raise EstimatorError(f"method '{self.name}' takes {' or '.join(self.kinds)} data, not {kind} data; "
-                                 "use a parameter method")
-        from ..sensors import SENSORS
 
-        model = SENSORS.get(kind) if kind is not None else None
-        if model is not None and self.name in getattr(model, "unsupported_methods", ()):  # rows of several sizes
-            usable = [m for m in METHODS if m not in getattr(model, "unsupported_methods", ())]
-            raise EstimatorError(f"method '{self.name}' needs rows of one size, and {model.data_name} rows differ "
-                                 f"in size: use {', '.join(usable)}")
+    def takes(self, kind: str, unsupported: tuple[str, ...] = ()) -> str | None:
+        """Why this method cannot fit data of ``kind`` (whose sensor names the methods it
+        cannot serve in ``unsupported``, rows of several sizes), or None."""
+        if self.kinds and kind not in self.kinds:
+            return f"method '{self.name}' takes {' or '.join(self.kinds)} data, not {kind} data; use a parameter method"
+        if self.name in unsupported:
+            usable = [m for m in METHODS if m not in unsupported]
+            return f"method '{self.name}' needs rows of one size, and {kind} rows differ in size: use {', '.join(usable)}"
+        return None
 
 
 #: The registry: the paper's M1..M9 in its order, then combinations of them.
@@ -142,41 +136,60 @@ def get_method(name: str) -> Method:
 
 def get_estimator(name: str, loss: str = "linear") -> Any:
     """The estimator registered as ``name``, with ``loss`` (see :meth:`Method.estimator`)."""
-    return get_method(name).estimator(loss)
+    method = get_method(name)
+    method.check(loss)
+    return method.estimator(loss)
 
 
 def run_estimator(
     name: str, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
     loss: str = "linear", history: bool = True, fixed: tuple[int, ...] = (),
 ) -> EstimateResult:
-    """Run the estimator ``name`` (with ``loss``), recording its convergence history
-    (unless ``history`` is False) and its wall time ``time_s``. PSO and DE show a bar
-    over their generations on a terminal (:mod:`calib_pin.util.progress`).
+    """Run the estimator ``name`` (with ``loss``) on any least-squares problem, recording its
+    convergence history (unless ``history`` is False) and its wall time ``time_s``.
+
+    Args:
+        name: A method of :data:`METHODS` (``lm``, ``ekf-qibas``, ...).
+        problem: A :class:`~calib_pin.estimators.problem.LeastSquares` problem.
+        x0: The start, shape (n_params,), SI units.
+        seed: Seeds any randomness.
+        noise: The measurement noise (1 sigma) [m] of the methods that weigh values by it.
+        loss: ``linear`` or a robust loss the method takes.
+        history: Record the training RMSE after every iteration.
+        fixed: Unknowns (indices into x) held at their x0 value.
+
+    Raises:
+        CalibPinError: an unknown method or loss; an ArgumentError naming a bad argument
+            (x0 not of shape (n_params,) or not finite, noise not > 0 [m], ...).
+    """
+    method = get_method(as_instance(name, "name", str, "a method name (calib_pin.ESTIMATORS)"))
+    method.check(as_instance(loss, "loss", str, f"a loss name ({', '.join(LOSSES)})"))
+    for attribute in ("n_params", "residual"):
+        if not hasattr(problem, attribute):
+            raise ArgumentError("problem", f"expected a least-squares problem (calib_pin.Problem), got "
+                                f"{type(problem).__name__}")
+    x0 = as_array(x0, "x0", (problem.n_params,))
+    held = tuple(sorted({as_int(i, "fixed", 0, problem.n_params - 1) for i in fixed}))
+    return run_method(method, problem, x0, seed=as_int(seed, "seed", 0),
+                      noise=as_float(noise, "noise", 0.0, 1.0, low_open=True, unit="m"), loss=loss,
+                      history=as_bool(history, "history"), fixed=held)
+
+
+def run_method(method: Method, problem: LeastSquares, x0: np.ndarray, *, seed: int, noise: float, loss: str,
+               history: bool = True, fixed: tuple[int, ...] = ()) -> EstimateResult:
+    """:func:`run_estimator` of a method record and arguments already checked (the
+    calibration's own path, which checks each once where it enters).
 
     Unknowns the problem names in ``nonnegative`` (the joint compliances) come out >= 0
     for every method: one fitted negative is fixed at zero and the method runs again
     without it (:mod:`.active_set`; ``result.bounded`` lists them, ``time_s`` covers
-    every run, ``history`` is the last run's).
-
-    Unknowns ``fixed`` (indices into x) are held at their x0 value: the estimator sees the
-    others only (the active set's :class:`~.active_set.Fixed` problem); ``result.extras
-    ["fixed"]`` lists them and the covariance has zero rows and columns for them.
-
-    Raises:
-        CalibPinError: an unknown method or loss; an ArgumentError naming a bad
-            argument (x0 not of shape (n_params,) or not finite, noise not > 0 [m], ...).
+    every run, ``history`` is the last run's). Unknowns ``fixed`` are held at their x0
+    value: the estimator sees the others only (the active set's :class:`~.active_set.Fixed`
+    problem); ``result.extras["fixed"]`` lists them and the covariance has zero rows and
+    columns for them. PSO and DE show a bar over their generations on a terminal.
     """
-    get_method(as_instance(name, "name", str, "a method name (calib_pin.ESTIMATORS)"))
-    as_instance(loss, "loss", str, f"a loss name ({', '.join(LOSSES)})")
-    for attribute in ("n_params", "residual"):
-        if not hasattr(problem, attribute):
-            raise ArgumentError("problem", f"expected a least-squares problem (a CalibrationProblem), got "
-                                f"{type(problem).__name__}")
-    x0 = as_array(x0, "x0", (problem.n_params,))
-    seed = as_int(seed, "seed", 0)
-    noise = as_float(noise, "noise", 0.0, 1.0, low_open=True, unit="m")
-    history = as_bool(history, "history")
-    estimator = get_estimator(name, loss)
+    estimator = method.estimator(loss)
+    name = method.name
     recorders: list[History] = []
     generations = getattr(estimator, "max_iter", 0) if getattr(estimator, "reports_generations", False) else 0
 
@@ -192,7 +205,7 @@ def run_estimator(
             return estimator(part, start, seed=seed, noise=noise, callback=recorder if bar is None else callback)
 
     nonnegative = tuple(getattr(problem, "nonnegative", ()))
-    held = sorted({as_int(i, "fixed", 0, problem.n_params - 1) for i in fixed})
+    held = list(fixed)
     start = time.perf_counter()
     if held:
         reduced = Fixed(problem, np.setdiff1d(np.arange(problem.n_params), held), x0)
@@ -211,4 +224,4 @@ def run_estimator(
 
 
 __all__ = ["DEFAULT_METHOD", "ESTIMATORS", "LOSSES", "METHODS", "PAPER_LABELS", "PAPER_METHODS", "EstimateResult",
-           "Method", "get_estimator", "get_method", "run_estimator"]
+           "Method", "get_estimator", "get_method", "run_estimator", "run_method"]

@@ -2,7 +2,7 @@
 row by row, for any :class:`MeasurementSet` (read, simulated or made by hand).
 
 :func:`check_measurements` is what the library's entry points (``prepare``,
-``calibrate``, ``CalibrationSetup.run``, a ``test_data`` session) call, and so the
+``calibrate``, a ``test_data`` session) call, and so the
 command line through them. :func:`check_same_setup` refuses a validation session whose
 own drawstring set-up contradicts the one the calibration used.
 """

@@ -41,7 +41,7 @@ def _outliers(result: CalibrationResult) -> dict[str, Any]:
     rows = result.outlier_rows
     out: dict[str, Any] = {"outlier_rows": rows,
                            "outlier_lines": [int(lines[r]) for r in rows] if lines is not None else []}
-    if result.sets:  # several files: a line number alone does not say whose
+    if len(result.sets) > 1:  # several files: a line number alone does not say whose
         owner = {int(r): part.label for part in result.sets for r in part.rows}
         out["outlier_sets"] = [owner[int(r)] for r in rows]
     return out
@@ -94,15 +94,13 @@ def _in_unit(values: np.ndarray, unit: str) -> dict[str, float]:
             f"max_{unit}": float(np.max(v))}
 
 
-def part_report(problem: Any, x: np.ndarray | None, splits: dict[str, np.ndarray], noise: bool = True) -> dict[str, Any]:
+def part_report(problem: Any, x: np.ndarray | None, splits: dict[str, np.ndarray]) -> dict[str, Any]:
     """A set whose rows have parts in units of their own (a 6-D pose's position and
     orientation; :meth:`~calib_pin.sensors.base.MeasurementModel.errors_by_part`):
     ``errors_by_part`` (split -> stage -> part -> RMS/mean/max in the part's unit, nominal
-    before, ``x`` after) and, with ``noise``, ``noise_by_part`` (part -> the sigma its
-    entries were weighted by, in its unit, and where it came from); {} for any other set."""
+    before, ``x`` after) and ``noise_by_part`` (part -> the sigma its entries were weighted
+    by, in its unit, and where it came from); {} for any other set. ``problem``: the set's."""
     model = problem.model
-    if not hasattr(model, "errors_by_part"):  # several sets: each set's own report has it
-        return {}
     out: dict[str, Any] = {}
     errors: dict[str, Any] = {}
     for split, rows in splits.items():
@@ -115,7 +113,7 @@ def part_report(problem: Any, x: np.ndarray | None, splits: dict[str, np.ndarray
                                  for stage, by in stages.items()}
     if errors:
         out["errors_by_part"] = errors
-    if noise and model.noise_parts():
+    if model.noise_parts():
         out["noise_by_part"] = {p.name: p.as_dict() for p in model.noise_parts()}
     return out
 
@@ -130,22 +128,39 @@ def noise_parts_line(noise_by_part: dict[str, dict[str, Any]]) -> str:
     return "noise per part (1 sigma): " + ", ".join(cells)
 
 
+def _set_reports(result: CalibrationResult) -> list[dict[str, Any]]:
+    """Each set's table and set-up (:meth:`~calib_pin.calibration.result.SetResult.as_dict`),
+    with its errors and noise per part when its rows have parts (scored on its own rows:
+    not with a learnt correction, nor beside a separate validation session)."""
+    own = result.estimate.correction is None and not result.test_source
+    return [{**s.as_dict(), **(part_report(s.problem, s.x, {"train": s.train, "test": s.test}) if own else {})}
+            for s in result.sets]
+
+
 def build_report(result: CalibrationResult) -> dict[str, Any]:
     """JSON-ready summary of a calibration: what was calibrated with what, the metrics
     before and after [mm], the estimate's run, the deviations with their uncertainty, the
-    identifiability, the sensor geometry, the split and any warnings; and the arrays the
-    HTML report draws: ``residuals`` (per data row), ``identifiability_spectrum`` and
-    ``workspace_uncertainty`` (per random workspace pose)."""
+    identifiability, the sensor geometry, the split, each set's table and any warnings;
+    and the arrays the HTML report draws: ``residuals`` (per data row),
+    ``identifiability_spectrum`` and ``workspace_uncertainty`` (per random workspace pose).
+    The keys of a calibration of one set are those of that set (its geometry, its errors
+    per part)."""
+    from ..analysis.metrics import units_words
+
     kinematic = result.kinematic
     uncertainty = result.uncertainty
+    model = result.problem.model
+    geometry = model.geometry_report(result.x)
+    sets = _set_reports(result)
+    one = {k: v for k, v in sets[0].items() if k in ("errors_by_part", "noise_by_part")} if len(sets) == 1 else {}
     report: dict[str, Any] = {
         "robot": result.chain.name,
         "end_frame": result.chain.end_frame,
         "data": result.data.source,
         "test_data": result.test_source or None,
         "data_kind": result.data.kind,
-        "error": result.problem.model.error_name,
-        "sensor": result.problem.model.describe(),
+        "error": model.error_name,
+        "sensor": model.describe(),
         "model": result.model_name,
         "method": result.method,
         "seed": result.seed,
@@ -156,13 +171,11 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "sensor_corrections": result.sensor_corrections if kinematic else {},
         "uncertainty": uncertainty.as_dict() if uncertainty is not None else None,
         "identifiability": result.identifiability.as_dict(),
-        **result.problem.model.geometry_report(result.x),
-        **({} if result.sets else {"sensor_geometry": result.problem.model.geometry_report(result.x)}),
+        **geometry,
+        "sensor_geometry": geometry,
         "noise_mm": result.noise * 1e3,
         "noise_from": result.noise_from,
-        **(part_report(result.problem, result.x, {"train": result.train, "test": result.test})
-           if result.estimate.correction is None and result.test_registration is None and not result.test_source
-           else {}),
+        **one,
         "loss": result.loss,
         **_outliers(result),
         "split": {"train": result.train.tolist(), "test": result.test.tolist()},
@@ -171,6 +184,8 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "residuals": _residuals(result),
         "identifiability_spectrum": _spectrum(result),
         "workspace_uncertainty": _workspace(result),
+        "sets": sets,
+        "metrics_pooled": units_words(result.sets),
     }
     if result.test_registration is not None:  # a validation session on a new set-up: which rows did what
         report["test_registration"] = result.test_registration
@@ -178,22 +193,15 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         report["fixed"] = list(result.fixed)
     if result.start is not None:  # --nominal: where the estimate started
         report["start"] = result.start.as_dict(result.params, result.problem.model.robot(result.x))
-    if result.sets:  # several measurement sets: a table each; the metrics above pool them
-        report["sets"] = [s.as_dict() for s in result.sets]
-        from ..analysis.metrics import units_words
-
-        report["metrics_pooled"] = units_words(result.sets)
     if result.cross_validation is not None:
         report["cross_validation"] = result.cross_validation
-    spec = result.problem.model.compliance_spec
+    spec = model.compliance_spec
     if spec is not None:
         from ..robot.deflection import against_gravity_warning, compliance_report, deflection_effects
 
-        model = result.problem.model
-        part: Any = getattr(model, "first", model)  # several sets: the first set's sensor (the robot is shared)
-        rigid = np.array(model.part_x(result.x, 0) if part is not model else result.x, dtype=float)
+        rigid = np.array(result.x, dtype=float)
         rigid[model.n_robot:model.sensor_start] = 0.0  # the calibrated geometry without deflection
-        effects = deflection_effects(model.deflection, lambda q: part.end_frames(rigid, q)[1], result.data.q,
+        effects = deflection_effects(model.deflection, lambda q: model.end_frames(rigid, q)[1], result.data.q,
                                      model.compliance(result.x))
         report["compliance"] = compliance_report(spec, model.compliance(result.x), result.bounded_compliance,
                                                  effects)

@@ -194,7 +194,7 @@ def render_outputs(result: CalibrationResult, formats: str | Sequence[str] = ("u
     """Every file of ``result``'s outputs, in memory (nothing is written).
 
     Args:
-        result: A calibration (:func:`calib_pin.calibration.pipeline.calibrate`).
+        result: A calibration (:func:`calib_pin.calibrate`).
         formats: Formats of the corrected robot: ``urdf``, ``yaml`` (and ur_description's
             layout for ``ur*`` robots), ``dh`` (dh and hayati models).
         html: Make report.html (needs matplotlib; without it one warning line on stderr).
@@ -298,7 +298,7 @@ def write_outputs(result: CalibrationResult, folder: str | os.PathLike[str], for
     Existing outputs are replaced; an input is never an output.
 
     Args:
-        result: A calibration (:func:`calib_pin.calibration.pipeline.calibrate`).
+        result: A calibration (:func:`calib_pin.calibrate`).
         folder: The output folder (made if missing).
         formats: ``urdf``, ``yaml``, ``dh`` (see :func:`render_outputs`): a sequence or ``"urdf,yaml"``.
         html: Write report.html (needs matplotlib: without it one warning line on

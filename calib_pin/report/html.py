@@ -329,7 +329,7 @@ def render_html(r: dict) -> str:
         sections.append(("workspace", "Accuracy over the workspace", _img(_fig().workspace(r), "workspace uncertainty")
                          + f"<p>Predicted 1-sigma position uncertainty of the end frame at {f['poses']} random "
                          f"poses: RMS {fmt(f['rms'])} mm, max {fmt(f['max'])} mm.</p>"))
-    if r.get("sets"):
+    if len(r.get("sets", ())) > 1:  # one set's table is the summary's
         sections.insert(1, ("sets", "Measurement sets", _sets_section(r)))
     sections.append(("sensor", "Sensor", sensor_html(r)))
     nav = "".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)

@@ -16,7 +16,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
@@ -28,10 +28,9 @@ from ..robot.kinematics import Kinematics
 DEFAULT_NOISE_MM = 0.05
 
 if TYPE_CHECKING:
-    from ..estimators.problem import CalibrationProblem
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
-    from ..simulation.simulate import SimulationDraw
+    from .problem import SetProblem
     from .setup import SensorSetup
 
 
@@ -97,6 +96,28 @@ def chosen(estimate: Any, valid: tuple[str, ...], sensor: str) -> tuple[str, ...
     if unknown:
         raise ArgumentError("estimate", f"{sensor} cannot estimate {sorted(unknown)[0]!r} (valid: {', '.join(valid)})")
     return tuple(e for e in valid if e in names)
+
+
+class Draw(Protocol):
+    """What a sensor's :meth:`MeasurementModel.simulate_rows` asks of a simulation (the
+    seeded draws every simulated set shares; :class:`calib_pin.simulation.SimulationDraw`)."""
+
+    chain: Chain
+    params: ParameterModel
+    seed: int
+    noise_mm: float
+    noise_kind: str
+    compliance: ComplianceSpec | None
+    setup: dict[str, Any]
+
+    def poses(self, keep: Callable[[np.ndarray], np.ndarray] | None = None, why: str = "") -> np.ndarray: ...
+
+    def deviations(self, gap: Callable[[np.ndarray], np.ndarray]) -> np.ndarray: ...
+
+    def noise(self, shape: int | tuple[int, ...]) -> np.ndarray: ...
+
+    @property
+    def x_model(self) -> np.ndarray: ...
 
 
 class MeasurementModel(ABC):
@@ -206,7 +227,7 @@ class MeasurementModel(ABC):
     @classmethod
     def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
                              calibrated: MeasurementModel, x: np.ndarray,
-                             options: Mapping[str, Any]) -> CalibrationProblem:
+                             options: Mapping[str, Any]) -> SetProblem:
         """The problem of a validation ``session`` on a new set-up of this sensor
         (:mod:`calib_pin.calibration.validation`): every row, the unknowns a new placement changes after
         the robot's, started from their fit on ``rows``. ``calibrated`` and ``x``: the
@@ -237,7 +258,7 @@ class MeasurementModel(ABC):
     @classmethod
     @abstractmethod
     def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
-                    fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
+                    fit_rows: np.ndarray, options: Mapping[str, Any]) -> SetProblem:
         """The calibration problem of every row of ``data`` with this sensor.
 
         Args:
@@ -305,14 +326,14 @@ class MeasurementModel(ABC):
         row is one part, its error the row error in mm."""
         return {}
 
-    # --- simulation (the one seam calib_pin.simulation.simulate asks a sensor for) ----------------
+    # --- simulation (the one seam calib_pin.simulation asks a sensor for) ----------------------
 
     @classmethod
-    def simulate_rows(cls, draw: SimulationDraw, geometry: Any | None) -> tuple[MeasurementSet, Any]:
+    def simulate_rows(cls, draw: Draw, geometry: Any | None) -> tuple[MeasurementSet, Any]:
         """A simulated set of this sensor read on the true robot: its rows, their values
         with noise and the set-up metadata its file will carry.
 
-        ``draw`` (:class:`calib_pin.simulation.simulate.SimulationDraw`) holds what every simulation
+        ``draw`` (a :class:`Draw`: :class:`calib_pin.simulation.SimulationDraw`) holds what every simulation
         shares; call it in this order, as the sensor needs:
 
         1. ``draw.poses(keep, why)``: the joint angles (n, n_joints) [rad], random within
@@ -324,7 +345,7 @@ class MeasurementModel(ABC):
 
         Predict the true values with ``cls(chain, params, geometry, estimate=(),
         compliance=draw.compliance)`` at ``draw.x_model`` (deviations, then the true
-        compliances): the truth file's model is built so (:meth:`calib_pin.simulation.simulate.Truth.model`),
+        compliances): the truth file's model is built so (:meth:`calib_pin.simulation.simulator.Truth.model`),
         so the sensor's model takes ``estimate=()`` for "nothing of the sensor unknown".
         ``draw.chain``, ``draw.params``, ``draw.seed``, ``draw.noise_mm`` and
         ``draw.noise_kind`` describe the run.

@@ -14,12 +14,12 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from ..estimators.problem import CalibrationProblem
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..util.arguments import MAX_MM, as_array, as_float, as_optional, as_xyz_mm
 from .base import SETUP_MISFIT_M, MeasurementModel, check_rows, chosen
+from .problem import SetProblem
 from .setup import SensorSetup, estimate_names, finite, option, xyz_mm
 
 if TYPE_CHECKING:
@@ -238,7 +238,7 @@ class CableModel(MeasurementModel):
 
     @classmethod
     def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
-                    fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
+                    fit_rows: np.ndarray, options: Mapping[str, Any]) -> SetProblem:
         cls.refuse_foreign(options, data)
         get = options.get
         anchor = _vector_mm(get("anchor_mm"), "anchor_mm") if get("anchor_mm") is not None else data.anchor
@@ -261,7 +261,7 @@ class CableModel(MeasurementModel):
         model.prefit = prefit
         if prefit is None:
             _check_setup_fits(model, data, options)
-        return CalibrationProblem(model, data.q, data.values)
+        return SetProblem(model, data.q, data.values)
 
     @classmethod
     def simulate_rows(cls, draw: Any, geometry: Drawstring | None) -> tuple[MeasurementSet, Drawstring]:
@@ -297,7 +297,7 @@ class CableModel(MeasurementModel):
     @classmethod
     def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
                              calibrated: MeasurementModel, x: np.ndarray,
-                             options: Mapping[str, Any]) -> CalibrationProblem:
+                             options: Mapping[str, Any]) -> SetProblem:
         """A re-anchored session: its anchor estimated, from its file's anchor or, without
         one, pre-fitted on ``rows`` (:func:`fit_drawstring`, the offset held). The tool point
         and the zero offset belong to the tool and the instrument, not to where the sensor
@@ -313,7 +313,7 @@ class CableModel(MeasurementModel):
             anchor = prefit.sensor.anchor
         model = cls(chain, params, Drawstring(anchor, tool, offset), ("anchor",), options.get("compliance"))
         model.prefit = prefit
-        return CalibrationProblem(model, session.q, session.values)
+        return SetProblem(model, session.q, session.values)
 
     @classmethod
     def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:

@@ -19,7 +19,7 @@ per axis), so that every entry of a row has the position noise and the rows are
 whitened consistently. The two noises come from ``# noise_mm`` and ``# noise_deg`` (or
 the caller's ``noise_mm`` / ``--noise-deg``); a part stated nowhere has its sigma
 estimated from its own residual when the set is calibrated alone
-(:meth:`PoseModel.noise_parts`, :func:`calib_pin.calibration.multiset.fit_noise_parts`, the
+(:meth:`PoseModel.noise_parts`, :mod:`calib_pin.calibration.noise`, the
 variance-component loop of several sets). :meth:`PoseModel.part_errors` gives each part
 in its own unit (mm, deg).
 
@@ -39,13 +39,13 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 import pinocchio as pin
 
-from ..estimators.problem import CalibrationProblem
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
 from ..util.arguments import as_optional
 from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart, chosen, frame_unknowns
+from .problem import SetProblem
 from .setup import SensorSetup, option
 
 if TYPE_CHECKING:
@@ -183,7 +183,7 @@ def noise_of(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[float, f
 def noise_origins(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[str, str]:
     """Where :func:`noise_of`'s two noises come from: ``caller``, ``file`` or ``default``
     (not stated: each such part's sigma is estimated from the residual when the set is
-    calibrated, :func:`calib_pin.calibration.multiset.fit_noise_parts`)."""
+    calibrated, :mod:`calib_pin.calibration.noise`)."""
     position = "caller" if options.get("noise_mm") is not None else "file" if data.noise else "default"
     orientation = "caller" if options.get("noise_deg") is not None else "file" if "noise_deg" in data.notes \
         else "default"
@@ -191,7 +191,7 @@ def noise_origins(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[str
 
 
 @dataclass
-class PoseProblem(CalibrationProblem):
+class PoseProblem(SetProblem):
     """A calibration problem of 6-D pose rows: 6 residual entries a row (the position
     error [m], the weighted orientation error, see the module docstring), from
     ``readings`` of 7 numbers a row (position [m], quaternion)."""
@@ -604,49 +604,3 @@ def fit_rig(chain: Chain, params: ParameterModel, q: np.ndarray, poses: np.ndarr
 
     fit = least_squares(residual, np.zeros(12), jac=jacobian, method="lm")
     return model.geometry_at(np.concatenate([zero, fit.x]))
-
-
-def simulate_poses(chain: Chain, params: ParameterModel, n_poses: int, seed: int, noise_mm: float = 0.05,
-                   noise_deg: float = 0.01, nominal_rmse_mm: float = 2.0, rig: PoseRig | None = None,
-                   true_x: np.ndarray | None = None) -> tuple[MeasurementSet, Any]:
-    """Simulate a 6-D pose session of one true robot: ``n_poses`` random poses within the
-    joint limits, each read with Gaussian noise (``noise_mm`` per coordinate, ``noise_deg``
-    per axis of the orientation).
-
-    True deviations (unless ``true_x``, robot deviations in SI) are drawn normal with the
-    parameter model's typical sizes, scaled so the nominal model's position error has RMSE
-    ``nominal_rmse_mm``. ``rig``: the true device frame and body (default: the device 2 m
-    in front of the robot turned 150 deg about z, the body 80 mm out of the flange, tilted).
-
-    Returns:
-        The set (``# noise_mm`` and ``# noise_deg`` stated) and its
-        :class:`~calib_pin.simulation.simulate.Truth`.
-    """
-    from ..measurements import MeasurementSet
-    from ..robot.poses import random_poses
-    from ..simulation.simulate import Truth
-
-    if not (noise_mm > 0 and noise_deg > 0):
-        raise ArgumentError("noise_mm", f"a pose set needs positive noise (its weighting), got {noise_mm} mm, "
-                            f"{noise_deg} deg")
-    rng = np.random.default_rng(seed)
-    if rig is None:
-        rig = default_rig()
-    model = PoseModel(chain, params, rig, noise_mm * 1e-3, float(np.deg2rad(noise_deg)))
-    q = random_poses(chain, n_poses, rng)
-    if true_x is None:
-        x = rng.normal(size=len(params.names)) * params.scale
-        zeros = np.zeros(12)
-        nominal = model._poses(None, q)[0]
-        gap = np.linalg.norm(model._poses(np.concatenate([x, zeros]), q)[0] - nominal, axis=1)
-        x = x * (nominal_rmse_mm * 1e-3 / np.sqrt(np.mean(gap**2))) if nominal_rmse_mm > 0 else np.zeros_like(x)
-    else:
-        x = np.asarray(true_x, dtype=float)
-    values = model.noisy_readings(np.concatenate([x, np.zeros(12)]), q, rng)
-    data = MeasurementSet(q=q, values=values, kind=PoseModel.kind, robot=chain.name, end_frame=chain.end_frame,
-                          noise=noise_mm * 1e-3,
-                          notes={"noise_deg": f"{noise_deg:g}",
-                                 "source": f"calib-pin 6-D pose simulator, seed {seed}, noise {noise_mm:g} mm "
-                                           f"per axis, {noise_deg:g} deg per axis"})
-    truth = Truth(x, tuple(params.names), tuple(params.units), rig, PoseModel.kind, noise_mm * 1e-3, seed)
-    return data, truth

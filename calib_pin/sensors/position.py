@@ -27,13 +27,13 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 import pinocchio as pin
 
-from ..estimators.problem import CalibrationProblem
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements.dataset import PointLabel, point_label
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
 from .base import MeasurementModel, chosen, frame_unknowns
+from .problem import SetProblem
 from .setup import SensorSetup
 
 if TYPE_CHECKING:
@@ -162,7 +162,7 @@ class PositionModel(MeasurementModel):
 
     @classmethod
     def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
-                    fit_rows: np.ndarray, options: Mapping[str, Any]) -> CalibrationProblem:
+                    fit_rows: np.ndarray, options: Mapping[str, Any]) -> SetProblem:
         """The device frame and markers start from their best fit with the nominal robot
         on ``fit_rows`` only; every marker must appear there."""
         cls.refuse_foreign(options, data)
@@ -179,7 +179,7 @@ class PositionModel(MeasurementModel):
             raise DataError(data.source, f"point_id {missing[0]} is only in held-out rows: nothing locates it", None, "point_id")
         device = fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels)
         model = cls(chain, params, device, compliance=options.get("compliance"))
-        return CalibrationProblem(model, data.q, data.values, points)
+        return SetProblem(model, data.q, data.values, points)
 
     @classmethod
     def simulate_rows(cls, draw: Any, geometry: PositionDevice | None) -> tuple[MeasurementSet, PositionDevice]:
@@ -231,7 +231,7 @@ class PositionModel(MeasurementModel):
     @classmethod
     def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
                              calibrated: MeasurementModel, x: np.ndarray,
-                             options: Mapping[str, Any]) -> CalibrationProblem:
+                             options: Mapping[str, Any]) -> SetProblem:
         """A moved device: its frame estimated. The markers ride on the tool, not on the
         device: when the calibration knows every marker of the session they are its own (as
         calibrated) and stay fixed, and the frame starts from their rigid (Kabsch) fit on
@@ -259,7 +259,7 @@ class PositionModel(MeasurementModel):
         base = calibrated.points_at(x, session.q[rows], markers[points[rows]])
         device = PositionDevice(_kabsch(base, session.values[rows]), markers, labels)
         model = cls(chain, params, device, ("device",), options.get("compliance"))
-        return CalibrationProblem(model, session.q, session.values, points)
+        return SetProblem(model, session.q, session.values, points)
 
     def point_index(self, labels: Any, n_rows: int, source: str = "") -> np.ndarray:
         """Marker indices of ``n_rows`` rows labelled ``labels`` (the file's ``point_id``

@@ -60,10 +60,10 @@ class BatchTask:
             ``# robot:`` line.
         data: Measurement CSV, readable at this path where the task runs; or several
             (a tuple of paths): one calibration of those sets together, one robot and
-            each set its own sensor set-up (:func:`calib_pin.calibration.pipeline.calibrate` of a list).
+            each set its own sensor set-up (:func:`calib_pin.calibrate` of a list).
         method: Estimator name.
         seed: Seed of the split and the estimator: the task's result depends on it only.
-        options: Further keyword arguments of :func:`calib_pin.calibration.pipeline.calibrate`
+        options: Further keyword arguments of :func:`calib_pin.calibrate`
             (``test_fraction``, ``loss``, ``parameters``, ``noise_mm``, ...).
     """
 
@@ -125,7 +125,7 @@ def run_task(task: BatchTask) -> TaskOutcome:
 
     Never raises for a bad set: the error becomes ``status=failed`` and one line.
     """
-    from ..calibration.pipeline import calibrate
+    from ..calibration.solve import calibrate
     from ..report.bundle import render_outputs
 
     start = time.perf_counter()

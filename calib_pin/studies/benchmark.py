@@ -1,10 +1,12 @@
 """Timing calib-pin's estimators on a seeded simulated IRB120 session.
 
-For each method: median (and min/max) wall time of the estimate on the training poses
-over repeated runs (history recording off: the method, not its bookkeeping), iterations,
-evaluations of the training residual, peak Python memory of one run (tracemalloc, in a
-separate untimed run), and the error predicting 1000 fresh poses against the noise-free
-truth. The machine may be shared and noisy: compare medians and ratios, not single runs.
+For each method, fitted as :func:`calib_pin.solve` fits it (the session's noise stated, as
+the simulation knows it): median (and min/max) wall time of the estimate on the training
+poses over repeated runs (history recording off: the method, not its bookkeeping),
+iterations, evaluations of the training residual, peak Python memory of one fit
+(tracemalloc, in a separate untimed run), and the error predicting 1000 fresh poses
+against the noise-free truth. The machine may be shared and noisy: compare medians and
+ratios, not single runs.
 """
 
 from __future__ import annotations
@@ -12,16 +14,27 @@ from __future__ import annotations
 import statistics
 import tracemalloc
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from ..analysis.metrics import split_rows
-from ..calibration.pipeline import prepare
-from ..estimators import run_estimator
+from ..calibration.holdout import Fraction
+from ..calibration.prepare import Calibration, prepare
+from ..calibration.solve import fit, method_record, solve
 from ..parameters import parameter_model
 from ..robot import load_chain
-from ..simulation.simulate import simulate
+from ..simulation import simulate
 from .comparison import fresh_scorer
+
+#: The simulated sessions' noise, 1 sigma [mm], stated to the fit as the simulation knows it.
+NOISE_MM = 0.05
+
+
+def _session(poses: int, seed: int) -> tuple[Calibration, Any]:
+    """A seeded simulated IRB120 drawstring session, prepared, and its truth."""
+    chain = load_chain("irb120")
+    data, truth = simulate(chain, parameter_model(chain), poses, seed=seed, noise_mm=NOISE_MM)
+    return prepare("irb120", data, noise_mm=NOISE_MM), truth
 
 
 @dataclass(frozen=True)
@@ -44,29 +57,25 @@ def benchmark(methods: list[str], repeats: int = 5, seed: int = 0, poses: int = 
     Returns:
         A one-line description of the set, and one :class:`Timing` per method.
     """
-    chain = load_chain("irb120")
-    params = parameter_model(chain)
-    data, truth = simulate(chain, params, poses, seed=seed, noise_mm=0.05)
-    setup = prepare("irb120", data)
-    train, _ = split_rows(len(data), 0.2, seed)
-    problem = setup.problem_on(train)
-    training = problem.subset(train)
-    fresh = fresh_scorer(setup, truth, seed - 10_000 + 1)
-    x0 = np.zeros(problem.n_params)
+    calibration, truth = _session(poses, seed)
+    train, _ = calibration.split(0.2, seed)
+    fresh = fresh_scorer(calibration, [truth], seed - 10_000 + 1)
     rows = []
     for name in methods:
+        record = method_record(name, "linear")
         times, result = [], None
         for _ in range(repeats):
-            result = run_estimator(name, training, x0, seed=seed, history=False)
-            times.append(result.time_s)
+            result = solve(calibration, record, holdout=Fraction(0.2), seed=seed, history=False)
+            times.append(result.estimate.time_s)
         assert result is not None
         tracemalloc.start()
-        run_estimator(name, training, x0, seed=seed, history=False)
+        fit(calibration, record, train, seed=seed, loss="linear", history=False)
         peak = tracemalloc.get_traced_memory()[1] / 2**20
         tracemalloc.stop()
-        error = fresh(lambda q, points, est=result: est.predict(problem.model, q, points))
-        rows.append(Timing(name, statistics.median(times), min(times), max(times), result.iterations,
-                           result.nfev, peak, error))
+        error = fresh(result, False)
+        assert error is not None
+        rows.append(Timing(name, statistics.median(times), min(times), max(times), result.estimate.iterations,
+                           result.estimate.nfev, peak, error))
     return f"IRB120, {len(train)} training poses, sigma 0.05 mm, seed {seed}, {repeats} repeats", rows
 
 
@@ -90,25 +99,26 @@ SCALING_SIZES = (100, 1000, 10_000)
 SCALING_METHODS = ("lm", "ekf", "ekf-qibas", "qibas")
 
 
-def _training_problem(poses: int, seed: int):
-    chain = load_chain("irb120")
-    data, _ = simulate(chain, parameter_model(chain), poses, seed=seed, noise_mm=0.05)
-    train, _ = split_rows(len(data), 0.2, seed)
-    return prepare("irb120", data).problem_on(train).subset(train)
+def _training_problem(poses: int, seed: int) -> Any:
+    """The training rows (80 %) of a seeded session of ``poses`` poses, as the fit sees them."""
+    calibration, _ = _session(poses, seed)
+    train, _ = calibration.split(0.2, seed)
+    return calibration.problem_on(train).subset(train)
 
 
 def scaling(methods: tuple[str, ...] = SCALING_METHODS, sizes: tuple[int, ...] = SCALING_SIZES,
             seed: int = 0) -> list[tuple[int, str, float, float]]:
-    """(poses, method, time [s], peak Python memory [MiB]) of one run each; the time from
-    a plain run, the memory from a second run under tracemalloc."""
+    """(poses, method, time [s], peak Python memory [MiB]) of one fit each; the time from
+    a plain fit, the memory from a second fit under tracemalloc."""
     rows = []
     for poses in sizes:
-        problem = _training_problem(poses, seed)
-        x0 = np.zeros(problem.n_params)
+        calibration, _ = _session(poses, seed)
+        train, _ = calibration.split(0.2, seed)
         for name in methods:
-            time_s = run_estimator(name, problem, x0, seed=seed, history=False).time_s
+            record = method_record(name, "linear")
+            time_s = fit(calibration, record, train, seed=seed, loss="linear", history=False).estimate.time_s
             tracemalloc.start()
-            run_estimator(name, problem, x0, seed=seed, history=False)
+            fit(calibration, record, train, seed=seed, loss="linear", history=False)
             peak = tracemalloc.get_traced_memory()[1] / 2**20
             tracemalloc.stop()
             rows.append((poses, name, time_s, peak))

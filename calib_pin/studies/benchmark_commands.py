@@ -194,12 +194,12 @@ PHASES_SCRIPT = r"""
 import gc, json, sys, time
 gc.disable()
 t0 = time.perf_counter()
-import calib_pin.cli.calibrate, calib_pin.calibration.pipeline, calib_pin.report.bundle, calib_pin.estimators.ekf
+import calib_pin.cli.calibrate, calib_pin.calibration.solve, calib_pin.report.bundle, calib_pin.estimators.ekf
 t1 = time.perf_counter()
-from calib_pin.calibration.pipeline import prepare, calibrate
-setup = prepare("irb120", None)
+from calib_pin.calibration.solve import prepare, solve
+calibration = prepare("irb120", None)
 t2 = time.perf_counter()
-result = calibrate("irb120", None)
+result = solve(calibration, "ekf-qibas")
 t3 = time.perf_counter()
 from calib_pin.report.bundle import render_outputs
 rendered = render_outputs(result, html=False)
@@ -208,7 +208,7 @@ from calib_pin.report.html import render_html
 render_html(rendered.report)
 t5 = time.perf_counter()
 print(json.dumps({"import": t1 - t0, "load": t2 - t1, "fit": result.estimate.time_s,
-                  "load+split+metrics": t3 - t2 - result.estimate.time_s, "report": t4 - t3, "figures": t5 - t4}))
+                  "split+noise+metrics": t3 - t2 - result.estimate.time_s, "report": t4 - t3, "figures": t5 - t4}))
 """
 
 

@@ -52,12 +52,12 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.pipeline import CalibrationSetup, prepare
-from ..estimators import run_estimator
+from ..calibration.prepare import Calibration, prepare
+from ..calibration.solve import fit, method_record
 from ..parameters import parameter_model
 from ..robot import load_chain
 from ..robot.poses import random_poses
-from ..simulation.simulate import simulate_positions
+from ..simulation import simulate_positions
 
 #: Samples (poses, one marker each) of the comparison.
 SIZES = (100, 1000)
@@ -106,7 +106,7 @@ def _rmse_mm(predicted: np.ndarray, true: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((predicted - true) ** 2, axis=1))) * 1e3)
 
 
-def _write_figaroh_files(folder: Path, setup: CalibrationSetup) -> Path:
+def _write_figaroh_files(folder: Path, setup: Calibration) -> Path:
     """FIGAROH's unified YAML config and its CSV (x1, y1, z1 [m], joint angles [rad]); the config path."""
     import pandas as pd
     import yaml
@@ -129,7 +129,7 @@ def _write_figaroh_files(folder: Path, setup: CalibrationSetup) -> Path:
 class _Figaroh:
     """FIGAROH's BaseCalibration on one session's files, a fresh calibrator per run."""
 
-    def __init__(self, setup: CalibrationSetup, config: Path) -> None:
+    def __init__(self, setup: Calibration, config: Path) -> None:
         import pinocchio as pin
 
         self.robot = pin.RobotWrapper(setup.chain.model.copy())
@@ -164,16 +164,15 @@ class _Figaroh:
         return np.asarray(calc_updated_fkm(calibrator.model, calibrator.data, x, q, config)).reshape(3, len(q)).T
 
 
-def _calib_pin(setup: CalibrationSetup, method: str, seed: int) -> tuple[Any, Any, float]:
-    """(model, estimate, seconds) of calib-pin on every row of the session: the sensor's
-    start fitted anew in every timed run (``prepare`` made and kept one on every row,
-    which :meth:`~calib_pin.calibration.pipeline.CalibrationSetup.problem_on` would otherwise reuse)."""
-    rows = np.arange(len(setup.data))
+def _calib_pin(calibration: Calibration, method: str, seed: int) -> tuple[Any, Any, float]:
+    """(model, estimate, seconds) of calib-pin's fit (:func:`calib_pin.calibration.solve.fit`)
+    on every row of the session: the sensor's start fitted anew in every timed run (the one
+    ``prepare`` made and kept is not reused)."""
+    rows = np.arange(len(calibration.data))
+    record = method_record(method, "linear")
     start = time.perf_counter()
-    problem = setup.problem_on(rows, reuse=False)
-    estimate = run_estimator(method, problem, np.zeros(problem.n_params), seed=seed, noise=setup.noise,
-                             history=False)
-    return problem.model, estimate, time.perf_counter() - start
+    done = fit(calibration, record, rows, seed=seed, loss="linear", history=False, reuse=False)
+    return done.problem.model, done.estimate, time.perf_counter() - start
 
 
 def ekf_qibas_stages(samples: int = SIZES[0], repeats: int = 5, seed: int = 0) -> tuple[dict[str, float], int]:
@@ -181,19 +180,19 @@ def ekf_qibas_stages(samples: int = SIZES[0], repeats: int = 5, seed: int = 0) -
     problem (the device frame and marker fitted anew), of the registered ``ekf`` on it (the
     filter EKF-QIBAS starts with) and of the rest of the ``ekf-qibas`` run (its QIBAS stage),
     each timed as the race times it (collector off); and the QIBAS stage's iterations."""
-    setup, _, _ = _session(samples, seed)
-    rows = np.arange(len(setup.data))
+    calibration, _, _ = _session(samples, seed)
+    rows = np.arange(len(calibration.data))
     times: dict[str, list[float]] = {"problem": [], "ekf": [], "qibas": []}
     iterations = 0
+    ekf, ekf_qibas = method_record("ekf", "linear"), method_record("ekf-qibas", "linear")
     for _ in range(repeats):
         with _collected_then_off():
             start = time.perf_counter()
-            problem = setup.problem_on(rows, reuse=False)
+            calibration.problem_on(rows, reuse=False)
             fitted = time.perf_counter()
-            x0 = np.zeros(problem.n_params)
-            whole = run_estimator("ekf-qibas", problem, x0, seed=seed, noise=setup.noise, history=False)
+            whole = fit(calibration, ekf_qibas, rows, seed=seed, loss="linear", history=False).estimate
             done = time.perf_counter()
-            run_estimator("ekf", problem, x0, seed=seed, noise=setup.noise, history=False)
+            fit(calibration, ekf, rows, seed=seed, loss="linear", history=False)
             filtered = time.perf_counter()
         times["problem"].append(fitted - start)
         times["ekf"].append(filtered - done)
@@ -224,7 +223,7 @@ def _collected_then_off() -> Iterator[None]:
             gc.enable()
 
 
-def _session(samples: int, seed: int) -> tuple[CalibrationSetup, Any, np.ndarray]:
+def _session(samples: int, seed: int) -> tuple[Calibration, Any, np.ndarray]:
     """The seeded UR5 session ready to calibrate, its truth, and the fresh poses [rad]."""
     chain = load_chain("ur5")
     data, truth = simulate_positions(chain, parameter_model(chain), samples, seed=seed, noise_mm=NOISE_MM,

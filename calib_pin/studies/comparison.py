@@ -28,17 +28,19 @@ from typing import Any
 import numpy as np
 
 from ..analysis.metrics import Metrics
-from ..calibration.multiset import StackedSetup
-from ..calibration.pipeline import CalibrationSetup, prepare
-from ..estimators import PAPER_LABELS, PAPER_METHODS, get_method, run_estimator
-from ..estimators.problem import CalibrationProblem, data_row_errors
+from ..calibration.holdout import Fraction
+from ..calibration.prepare import Calibration, deprecated_records, prepare
+from ..calibration.result import CalibrationResult
+from ..calibration.solve import check_method, method_record, solve
+from ..estimators import PAPER_LABELS, PAPER_METHODS
+from ..estimators.problem import data_row_errors
 from ..exceptions import ArgumentError, CalibPinError
 from ..parameters import ParameterModel, parameter_model
 from ..robot import Chain, load_chain
-from ..robot.deflection import Compliance, as_compliance
+from ..robot.deflection import Compliance
 from ..robot.poses import random_poses
-from ..sensors import sensor_for
-from ..simulation.simulate import Truth, simulate
+from ..sensors import SensorSetup, sensor_for
+from ..simulation import Truth, simulate
 from ..util.arguments import as_path
 from ..util.progress import progress_bar
 from .checkpoint import Checkpoint, file_digest, fingerprint
@@ -274,90 +276,27 @@ def _fixed(cells: list[str]) -> str:
     return " ".join(f"{c:<{w}s}" if i < 2 else f"{c:>{w}s}" for i, (c, w) in enumerate(zip(cells, widths, strict=False)))
 
 
-def fresh_scorer(setup: CalibrationSetup, truth: Truth | None, seed: int) -> Callable:
-    """score(predict) -> RMSE [mm] of ``predict(q, points)`` [m] on fresh poses (every
-    point the sensor measures, at each) against the noise-free truth, or None when the
-    truth is unknown."""
-    if truth is None:
-        return lambda predict: None
-    poses = random_poses(setup.chain, FRESH_POSES, np.random.default_rng(seed + 10_000))
-    model = truth.model(setup.chain, setup.params)
-    rows, points = model.grid_points(len(poses))
-    q = poses[rows]
-    true_values = model.predict(truth.x_model, q, points)
-    return lambda predict: float(np.sqrt(np.mean(model.fresh_difference(predict(q, points), true_values) ** 2)) * 1e3)
-
-
-def start_x(start: Any, problem: Any, training: Any) -> np.ndarray:
-    """Where every method starts: zero deviations, or ``start``'s (``nominal``,
-    :class:`~calib_pin.calibration.start.Start`) with the sensor's geometry refitted on the
-    ``training`` rows to it, as :func:`calib_pin.calibrate` starts."""
-    x0 = np.zeros(problem.n_params)
-    if start is None:
-        return x0
-    model = problem.model
-    x0[:model.n_robot] = start.robot_x
-    if start.compliance is not None:
-        x0[model.n_robot:model.sensor_start] = start.compliance
-    return start.sensor_fit(training, x0)
-
-
-def _trial(setup: CalibrationSetup, truth: Truth | None, methods: list[str], seed: int,
-           test_fraction: float, tick: Callable[[], Any] | None = None) -> Trial:
-    train, test = setup.split(test_fraction, seed)
-    if not len(test):
-        raise CalibPinError(f"a comparison needs held-out rows: {len(setup.data)} rows at test fraction "
-                            f"{test_fraction:g} hold out none (use more poses or a larger test fraction)")
-    problem: CalibrationProblem = setup.problem_on(train)  # nothing fitted on test rows
-    train_problem, test_problem = problem.subset(train), problem.subset(test)
-    model = problem.model
-    x0 = start_x(setup.start, problem, train_problem)
-    fresh = fresh_scorer(setup, truth, seed)
-    runs = {}
-    for m in methods:
-        est = run_estimator(m, train_problem, x0, seed=seed, noise=setup.noise)
-        k, evals = est.converged(CONVERGED_TOLERANCE)
-        residual = data_row_errors(test_problem, est.residual(test_problem))
-        runs[m] = MethodRun(
-            method=m, label=PAPER_LABELS[m],
-            train=Metrics.of(data_row_errors(train_problem, est.residual(train_problem))), test=Metrics.of(residual),
-            fresh_rmse_mm=fresh(lambda q, points, est=est: est.predict(model, q, points)),
-            iterations=est.iterations, evaluations=est.nfev,
-            converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
-            history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
-            test_residual_mm=residual * 1e3,
-        )
-        if tick is not None:
-            tick()
-    before = data_row_errors(test_problem, test_problem.residual(x0))
-    return Trial(
-        seed=seed, source=setup.data.source or "simulated", before=Metrics.of(before),
-        before_fresh_rmse_mm=fresh(lambda q, points: model.predict(x0, q, points)),
-        before_residual_mm=before * 1e3, runs=runs,
-    )
-
-
-def session_truths(setup: StackedSetup) -> list[Truth] | None:
+def truths_of(calibration: Calibration) -> list[Truth] | None:
     """Each set's truth, when every set has one and they are of one true robot: a set's own
     ``FILE.truth.json``, or session k of ``BASE.truth.json`` for ``BASE_k.csv`` (the files
     ``simulate --sessions K`` writes); None otherwise, or for another parameter model than
     the robot's default (the truth's)."""
-    if setup.params.name != parameter_model(setup.chain).name:
+    if calibration.params.name != parameter_model(calibration.chain).name:
         return None
     out: list[Truth] = []
-    for data in setup.sets:
-        if not data.source:
+    for s in calibration.sets:
+        if not s.data.source:
             return None
-        path = Path(data.source)
+        path = Path(s.data.source)
         stem = path.name.removesuffix(".csv")
         base, _, k = stem.rpartition("_")
         own, shared = path.with_name(stem + ".truth.json"), path.with_name(base + ".truth.json")
         if own.is_file():
-            truth = Truth.from_json(own, setup.params)
+            truth = Truth.from_json(own, calibration.params)
             if truth.sessions:
                 return None
         elif base and k.isdigit() and shared.is_file():
-            truth = Truth.from_json(shared, setup.params)
+            truth = Truth.from_json(shared, calibration.params)
             if not 1 <= int(k) <= max(1, len(truth.sessions)):
                 return None
             truth = truth.session(int(k) - 1)
@@ -371,51 +310,56 @@ def session_truths(setup: StackedSetup) -> list[Truth] | None:
     return out
 
 
-def stacked_fresh_scorer(setup: StackedSetup, truths: list[Truth] | None, seed: int) -> Callable:
-    """score(model, x) -> RMSE [mm] over every set's sensor at the same fresh poses (each at
-    its own points) of ``model`` (a :class:`~calib_pin.calibration.problem.StackedModel`) at the stacked
-    ``x`` against each set's noise-free truth, the sets' values pooled as one set's are;
-    None without every set's truth, or when the sets' errors are in different units."""
-    from ..calibration.multiset import value_unit
-
+def fresh_scorer(calibration: Calibration, truths: list[Truth] | None,
+                 seed: int) -> Callable[[CalibrationResult, bool], float | None]:
+    """score(result, before) -> RMSE [mm] of what ``result`` predicts (at its start with
+    ``before``) at the same fresh poses for every set's sensor (each at its own points),
+    against each set's noise-free truth, the sets' values pooled; None without every
+    set's truth, or when the sets' errors are in different units."""
     if truths is None:
-        return lambda model, x: None
-    poses = random_poses(setup.chain, FRESH_POSES, np.random.default_rng(seed + 10_000))
+        def unknown(result: CalibrationResult, before: bool = False) -> float | None:
+            return None
+
+        return unknown
+    poses = random_poses(calibration.chain, FRESH_POSES, np.random.default_rng(seed + 10_000))
     cases = []
     for truth in truths:
-        model = truth.model(setup.chain, setup.params)
+        model = truth.model(calibration.chain, calibration.params)
         rows, points = model.grid_points(len(poses))
         q = poses[rows]
         cases.append((q, points, model.predict(truth.x_model, q, points)))
 
-    def score(model: Any, x: np.ndarray) -> float | None:
-        if len({value_unit(part) for part in model.parts}) > 1:
+    def score(result: CalibrationResult, before: bool = False) -> float | None:
+        if len({s.unit for s in result.sets}) > 1:
             return None
-        error = np.concatenate([model.parts[k].fresh_difference(model.parts[k].predict(model.part_x(x, k), q, points),
-                                                                true).ravel()
-                                for k, (q, points, true) in enumerate(cases)])
+        errors = []
+        for s, (q, points, true) in zip(result.sets, cases, strict=True):
+            x = result.problem.model.part_x(result.x0, result.sets.index(s)) if before else s.x
+            predicted = s.model.predict(x, q, points)
+            correction = None if before else result.estimate.correction
+            if correction is not None:
+                predicted = predicted + correction(q, points).reshape(predicted.shape)
+            errors.append(s.model.fresh_difference(predicted, true).ravel())
+        error = errors[0] if len(errors) == 1 else np.concatenate(errors)
         return float(np.sqrt(np.mean(error**2)) * 1e3)
 
     return score
 
 
-def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_fraction: float,
-                   tick: Callable[[], Any] | None = None, truths: list[Truth] | None = None) -> Trial:
-    """One trial on several measurement sets fitted together: every set split by pose with
-    the trial's seed (:meth:`~calib_pin.calibration.multiset.StackedSetup.split`), each method fitted as
-    :func:`calib_pin.calibrate` of the sets fits it (each set weighted by its noise), and
-    scored on the held-out rows of every set, each row's error in its own set's unit [mm],
-    and with ``truths`` (:func:`session_truths`) on fresh poses against them
-    (:func:`stacked_fresh_scorer`)."""
+def run_trial(calibration: Calibration, truths: list[Truth] | None, methods: list[str], seed: int,
+           test_fraction: float, tick: Callable[[], Any] | None = None) -> Trial:
+    """One trial: every method fitted as :func:`calib_pin.solve` fits it on the split of
+    seed ``seed`` (every set by pose), scored on the held-out rows of every set (each row's
+    error in its own set's unit) and, with ``truths``, on fresh poses against them."""
+    if not len(calibration.split(test_fraction, seed)[1]):
+        raise CalibPinError(f"a comparison needs held-out rows: {len(calibration.data)} rows at test fraction "
+                            f"{test_fraction:g} hold out none (use more poses or a larger test fraction)")
     runs = {}
     before: np.ndarray | None = None
-    fresh = stacked_fresh_scorer(setup, truths, seed)
+    fresh = fresh_scorer(calibration, truths, seed)
     before_fresh = None
     for m in methods:
-        result = setup.run(m, seed=seed, test_fraction=test_fraction)
-        if not len(result.test):
-            raise CalibPinError(f"a comparison needs held-out rows: {len(setup.data)} rows at test fraction "
-                                f"{test_fraction:g} hold out none (use more poses or a larger test fraction)")
+        result = solve(calibration, m, holdout=Fraction(test_fraction), seed=seed)
         est, problem = result.estimate, result.problem
         train_problem, test_problem = problem.subset(result.train), problem.subset(result.test)
         k, evals = est.converged(CONVERGED_TOLERANCE)
@@ -423,33 +367,32 @@ def _stacked_trial(setup: StackedSetup, methods: list[str], seed: int, test_frac
         runs[m] = MethodRun(
             method=m, label=PAPER_LABELS[m],
             train=Metrics.of(data_row_errors(train_problem, est.residual(train_problem))), test=Metrics.of(residual),
-            fresh_rmse_mm=fresh(problem.model, est.x), iterations=est.iterations, evaluations=est.nfev,
+            fresh_rmse_mm=fresh(result, False), iterations=est.iterations, evaluations=est.nfev,
             converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
             history_mm=[h * 1e3 for h in est.history], history_evaluations=list(est.evaluations),
             test_residual_mm=residual * 1e3,
         )
         if before is None:  # every method starts from the same sensor geometry, fitted on the same rows
-            x0 = start_x(setup.start, problem, train_problem)  # zero, or the start's (setup.run's)
-            before = data_row_errors(test_problem, test_problem.residual(x0))
-            before_fresh = fresh(problem.model, x0)
+            before = data_row_errors(test_problem, test_problem.residual(result.x0))
+            before_fresh = fresh(result, True)
         if tick is not None:
             tick()
     assert before is not None  # methods is not empty
-    return Trial(seed=seed, source=setup.data.source or "stacked", before=Metrics.of(before),
+    return Trial(seed=seed, source=calibration.data.source or "simulated", before=Metrics.of(before),
                  before_fresh_rmse_mm=before_fresh, before_residual_mm=before * 1e3, runs=runs)
 
 
 def _simulated_trial(robot: str, chain: Chain, params: ParameterModel, methods: list[str], test_fraction: float,
-                     poses: int, noise_mm: float, noise_kind: str, soft: dict[str, Any], seed: int,
+                     poses: int, noise_mm: float, noise_kind: str, options: dict[str, Any], seed: int,
                      tick: Callable[[], Any] | None = None) -> Trial:
     """One trial on a fresh simulated set of seed ``seed`` (a picklable unit of work)."""
     sim, truth = simulate(chain, params, poses, seed, noise_mm=noise_mm, noise_kind=noise_kind)
-    return _trial(prepare(robot, sim, **soft), truth, methods, seed, test_fraction, tick)
+    return run_trial(prepare(robot, sim, **options), [truth], methods, seed, test_fraction, tick)
 
 
 def compare(
     robot: str,
-    data: str | Path | list[str | Path] | tuple[str | Path, ...] | None = None,
+    data: Any = None,
     *,
     methods: list[str] | None = None,
     trials: int = 1,
@@ -459,41 +402,36 @@ def compare(
     noise_mm: float = 0.05,
     poses: int = 120,
     compliance: Compliance | str | tuple[str, ...] | None = None,
-    payload_kg: float | None = None,
-    payload_com_mm: Any = None,
-    cable_tension_n: float | None = None,
     parameters: str | None = None,
-    estimate: tuple[str, ...] | str = (),
+    setup: SensorSetup | None = None,
+    fix: Any = None,
+    free: Any = None,
+    nominal: str | Path | None = None,
     jobs: int = 1,
     scheduler: str | None = None,
     checkpoint: str | Path | None = None,
     notify: Callable[[str], Any] | None = None,
-    nominal: str | Path | None = None,
+    **deprecated: Any,
 ) -> Comparison:
-    """Run estimators side by side.
+    """Run estimators side by side, each fitted as :func:`calib_pin.calibrate` fits it.
 
     Args:
         robot: Robot name or URDF path.
-        data: Measurement CSV; None uses the robot's shipped set. Several CSVs (a list):
-            the comparison runs on those sets stacked, one robot and each set its own
-            sensor set-up (as :func:`calib_pin.calibrate` of a list); each trial splits
-            every set by pose with the trial's seed. Ignored when ``simulate_noise`` is given.
-        methods: Method names (default: the paper's nine, M1..M9).
-        trials: Number of trials. On a measurement set, trial i uses the split of seed
+        data: Measurement sets as :func:`calib_pin.calibrate` takes them (a CSV, a set, a
+            list of them or of FitSets: one robot, each set its own sensor set-up); None uses
+            the robot's shipped set. Each trial splits every set by pose with the trial's
+            seed. Ignored when ``simulate_noise`` is given.
+        methods: Method names (default: the paper's nine, M1..M9, less those the data's
+            sensors cannot take).
+        trials: Number of trials. On measured data, trial i uses the split of seed
             ``seed + i``; with ``simulate_noise``, trial i also simulates a new set of
             seed ``seed + i``.
         seed: First seed.
-        test_fraction: Share of rows held out (the paper's 0.2).
+        test_fraction: Share of each set's poses held out (the paper's 0.2).
         simulate_noise: ``gauss``, ``student`` or ``outliers``: run on simulated sets of
             ``poses`` poses with that noise of size ``noise_mm`` [mm] (1 sigma).
-        compliance: Joint compliances to estimate with the geometry, and their loads: a
-            :class:`~calib_pin.robot.deflection.Compliance` or joint names (as
-            :func:`calib_pin.calibrate`); payload_kg, payload_com_mm, cable_tension_n: its
-            deprecated loose aliases.
-        parameters: Parameter model (``dh``, ``hayati``, ``placement``; default as
-            :func:`calib_pin.calibrate`).
-        estimate: Sensor geometry to estimate (``anchor``, ``offset``; as
-            :func:`calib_pin.calibrate`).
+        compliance, parameters, setup, fix, free, nominal: As :func:`calib_pin.calibrate`'s
+            (``nominal``: measured data only).
         jobs, scheduler: Run the trials in ``jobs`` local processes, or on the Dask
             cluster at ``scheduler`` (see :func:`calib_pin.studies.parallel.parallel_map`); the
             results do not depend on it (each trial is seeded), only the time does.
@@ -502,9 +440,9 @@ def compare(
             same data and settings takes the trials already done; None keeps nothing.
             The caller removes it (:meth:`calib_pin.studies.checkpoint.Checkpoint.clear`) once
             the outputs are written.
-        notify: Called with one line when kept trials are reused.
-        nominal: Start every method from a robot's own kinematics instead of the catalogue
-            URDF (as :func:`calib_pin.calibrate`'s ``nominal``); measured data only.
+        notify: Called with one line when kept trials are reused, or default methods left out.
+        deprecated: ``estimate`` (give ``setup``) and ``payload_kg``, ``payload_com_mm``,
+            ``cable_tension_n`` (give ``compliance``), with a DeprecationWarning.
 
     Raises:
         CalibPinError: bad method, robot, data or settings.
@@ -515,109 +453,98 @@ def compare(
     default = methods is None
     methods = list(PAPER_METHODS) if methods is None else list(methods)
     for m in methods:
-        get_method(m)
+        method_record(m, "linear")
     if trials < 1:
         raise CalibPinError(f"trials must be at least 1, got {trials}")
-    record = as_compliance(compliance, payload_kg=payload_kg, payload_com_mm=payload_com_mm,
-                           cable_tension_n=cable_tension_n)
-    soft: dict[str, Any] = {"compliance": record}
-    if parameters is not None:  # only when given: the checkpoints of earlier runs stay valid
-        soft["parameters"] = parameters
-    if estimate:
-        soft["estimate"] = estimate
-    if nominal is not None:  # only when given, as parameters
+    setup, record = deprecated_records(deprecated, setup, compliance)
+    options: dict[str, Any] = {"compliance": record}
+    for key, value in (("parameters", parameters), ("setup", setup), ("fix", fix), ("free", free)):
+        if value is not None:  # only when given: the checkpoints of earlier runs stay valid
+            options[key] = value
+    if nominal is not None:
         if simulate_noise is not None:
             raise ArgumentError("nominal", "starts from a robot's own calibration: compare on its measured data "
                                 "(not simulated sets, whose true robot is drawn anew)")
-        soft["nominal"] = str(as_path(nominal, "nominal"))
-    if default and simulate_noise is None:
-        methods = _methods_for_data(robot, data, soft, methods, notify)
+        options["nominal"] = str(as_path(nominal, "nominal"))
+    calibration = None if simulate_noise is not None else prepare(robot, data, **options)
+    if calibration is not None:
+        methods = _methods_for_data(calibration, methods, default, notify)
     with progress_bar(trials * len(methods), "trials x methods") as bar:
         local = jobs == 1 and scheduler is None  # a bar follows only the trials run here
         tick = bar.update if bar is not None and local else None
-        out, what = _trials(robot, data, methods, trials, seed, test_fraction, simulate_noise, noise_mm, poses,
-                            soft, (jobs, scheduler), tick, (checkpoint, notify))
+        out, what = _trials(robot, calibration, methods, trials, seed, test_fraction, simulate_noise, noise_mm,
+                            poses, options, (jobs, scheduler), tick, (checkpoint, notify))
     start = f", started from {Path(nominal).name}" if nominal is not None else ""
     return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(record) + start)
 
 
-def _methods_for_data(robot: str, data: Any, soft: dict[str, Any], methods: list[str],
+def _methods_for_data(calibration: Calibration, methods: list[str], default: bool,
                       notify: Callable[[str], Any] | None) -> list[str]:
-    """The default ``methods`` less those the data's sensors refuse (rows of several sizes:
-    ``unsupported_methods``), said through ``notify``; asked-for methods are never dropped."""
-    sets = list(data) if isinstance(data, list | tuple) else [data]
-    setup = prepare(robot, [str(d) for d in sets] if len(sets) > 1 else sets[0], **soft)
-    kinds = {d.kind for d in setup.sets} if isinstance(setup, StackedSetup) else {setup.data.kind}
-    refused = [m for m in methods if any(m in getattr(sensor_for(k), "unsupported_methods", ()) for k in kinds)]
+    """``methods`` less, when they are the default, those the data's sensors refuse (rows of
+    several sizes: ``unsupported_methods``), said through ``notify``; asked-for methods are
+    never dropped, but refused as :func:`calib_pin.solve` refuses them."""
+    kinds = set(calibration.kinds)
+    unsupported = {m for k in kinds for m in getattr(sensor_for(k), "unsupported_methods", ())}
+    if len(calibration.sets) > 1:
+        unsupported |= {m for m in methods if not method_record(m, "linear").kinematic}
+    refused = [m for m in methods if m in unsupported] if default else []
     if refused and notify is not None:
         names = ", ".join(sorted({sensor_for(k).data_name for k in kinds
                                   if set(refused) & set(getattr(sensor_for(k), "unsupported_methods", ()))}))
-        notify(f"left out {', '.join(refused)}: they need rows of one size, and {names} rows differ in size "
-               "(--methods chooses)")
-    return [m for m in methods if m not in refused]
+        why = f"{names} rows differ in size" if names else "several sets are fitted as one robot"
+        notify(f"left out {', '.join(refused)}: {why} (--methods chooses)")
+    kept = [m for m in methods if m not in refused]
+    for m in kept:
+        check_method(method_record(m, "linear"), calibration)
+    return kept
 
 
-def _trials(robot: str, data: Any, methods: list[str], trials: int, seed: int, test_fraction: float,
-            simulate_noise: str | None, noise_mm: float, poses: int, soft: dict[str, Any],
+def _trials(robot: str, calibration: Calibration | None, methods: list[str], trials: int, seed: int,
+            test_fraction: float, simulate_noise: str | None, noise_mm: float, poses: int, options: dict[str, Any],
             where: tuple[int, str | None], tick: Callable[[], Any] | None,
             keep: tuple[str | Path | None, Callable[[str], Any] | None] = (None, None)) -> tuple[list[Trial], str]:
     """The trials of :func:`compare` (in ``where`` = (jobs, scheduler), kept in
     ``keep`` = (checkpoint folder, notify)) and what they ran on."""
     seeds = range(seed, seed + trials)
-    settings = [robot, file_digest(robot), methods, test_fraction, soft]
-    if "nominal" in soft:  # the start's content, not only its name
-        settings += ["nominal", file_digest(soft["nominal"])]
-    if simulate_noise is None and isinstance(data, list | tuple) and len(data) > 1:
-        return _stacked_trials(robot, list(data), methods, trials, seed, test_fraction, soft, settings, where, tick,
-                               keep)
-    if simulate_noise is None and isinstance(data, list | tuple):
-        data = data[0] if data else None
-    if simulate_noise is None:
-        setup = prepare(robot, data, **soft)
-        for m in methods:
-            get_method(m).check(kind=setup.data.kind)
-        truth_file = Path(setup.data.source).with_name(
-            Path(setup.data.source).name.removesuffix(".csv") + ".truth.json")
-        # a shipped truth is in the robot's default parameter model: another one has no fresh-pose score
-        default = setup.params.name == parameter_model(setup.chain).name
-        truth = Truth.from_json(truth_file, setup.params) if setup.data.source and truth_file.is_file() and default \
-            else None
-        one = partial(_trial, setup, truth, methods, test_fraction=test_fraction, tick=tick)
-        what = f"{setup.data.describe_rows()} from {Path(setup.data.source).name}"
-        what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
-        settings += ["data", setup.data.source, file_digest(setup.data.source), file_digest(truth_file)]
-        return _run_trials(one, seeds, settings, where, keep), what
+    settings: list[Any] = [robot, file_digest(robot), methods, test_fraction, _plain_options(options)]
+    if "nominal" in options:  # the start's content, not only its name
+        settings += ["nominal", file_digest(options["nominal"])]
+    split = f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
+    if calibration is not None:
+        truths = truths_of(calibration)
+        one = partial(run_trial, calibration, truths, methods, test_fraction=test_fraction, tick=tick)
+        sets = calibration.sets
+        if len(sets) == 1:
+            what = f"{sets[0].data.describe_rows()} from {Path(sets[0].data.source).name}"
+        else:
+            names = [Path(s.data.source).name if s.data.source else s.label for s in sets]
+            what = f"{len(calibration.data)} rows of {len(sets)} sets stacked ({', '.join(names)})"
+        settings += ["data", [[s.data.source, file_digest(s.data.source)] for s in sets],
+                     "truths", None if truths is None else [file_digest(_truth_file(s.data.source)) for s in sets]]
+        return _run_trials(one, seeds, settings, where, keep), what + split
     chain = load_chain(robot)
-    params = parameter_model(chain, soft.get("parameters"))
-    one = partial(_simulated_trial, robot, chain, params, methods, test_fraction, poses, noise_mm, simulate_noise,
-                  soft, tick=tick)
+    params = parameter_model(chain, options.get("parameters"))
+    one = partial(_simulated_trial, robot, chain, params, methods, test_fraction, poses, noise_mm, str(simulate_noise),
+                  options, tick=tick)
     what = f"simulated sets of {poses} poses, {simulate_noise} noise {noise_mm:g} mm, seed(s) {seed}..{seed + trials - 1}"
     settings += ["simulated", poses, noise_mm, simulate_noise]
     return _run_trials(one, seeds, settings, where, keep), what
 
 
-def _stacked_trials(robot: str, data: list[Any], methods: list[str], trials: int, seed: int, test_fraction: float,
-                    soft: dict[str, Any], settings: list, where: tuple[int, str | None], tick: Callable[[], Any] | None,
-                    keep: tuple[str | Path | None, Callable[[str], Any] | None]) -> tuple[list[Trial], str]:
-    """The trials of :func:`compare` on several sets stacked, and what they ran on."""
-    for d in data:
-        if not isinstance(d, str | Path):
-            raise ArgumentError("data", f"expected measurement CSV paths, got {type(d).__name__} in the list")
-    setup = prepare(robot, [str(d) for d in data], **soft)
-    assert isinstance(setup, StackedSetup)
-    for m in methods:
-        spec = get_method(m)
-        spec.check(kind=setup.sets[0].kind)
-        if not spec.kinematic:
-            raise CalibPinError(f"method '{m}' learns a correction of one sensor's values: with several sets "
-                                "compare parameter methods (lm, ekf-qibas, ...)")
-    truths = session_truths(setup)
-    one = partial(_stacked_trial, setup, methods, test_fraction=test_fraction, tick=tick, truths=truths)
-    names = [Path(s.source).name if s.source else label for s, label in zip(setup.sets, setup.labels, strict=True)]
-    what = f"{len(setup.data)} rows of {len(setup.sets)} sets stacked ({', '.join(names)})"
-    what += f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
-    settings += ["sets", [[s.source, file_digest(s.source)] for s in setup.sets], "truths", truths is not None]
-    return _run_trials(one, range(seed, seed + trials), settings, where, keep), what
+def _truth_file(source: str) -> str:
+    """The truth file a measured set's fresh-pose score reads (its own, or its sessions')."""
+    path = Path(source)
+    stem = path.name.removesuffix(".csv")
+    own = path.with_name(stem + ".truth.json")
+    return str(own if own.is_file() else path.with_name(stem.rpartition("_")[0] + ".truth.json"))
+
+
+def _plain_options(options: dict[str, Any]) -> dict[str, Any]:
+    """The options as a checkpoint's fingerprint reads them (records as their fields)."""
+    import dataclasses
+
+    return {k: dataclasses.asdict(v) if dataclasses.is_dataclass(v) and not isinstance(v, type) else v
+            for k, v in options.items()}
 
 
 def _run_trials(one: Callable[[int], Trial], seeds: range, settings: list, where: tuple[int, str | None],

@@ -26,14 +26,14 @@ from typing import Any
 import numpy as np
 
 from ..analysis.metrics import Metrics
-from ..calibration.pipeline import prepare
-from ..estimators import get_method
+from ..calibration.prepare import deprecated_records, prepare
+from ..calibration.solve import check_method, method_record
 from ..exceptions import ArgumentError, CalibPinError
 from ..parameters import MODELS as PARAMETER_MODELS
 from ..robot.deflection import MODELS as DEFLECTION_MODELS
 from ..robot.deflection import Compliance
-from ..sensors import check_estimate
-from .comparison import _trial
+from ..sensors import SensorSetup
+from .comparison import run_trial
 from .parallel import parallel_map
 
 
@@ -165,56 +165,60 @@ class ModelComparison:
         return Path(path)
 
 
-def _describe(setup: Any) -> str:
-    """What a prepared set-up fits, in words."""
-    spec = setup.problem.model.compliance_spec
+def _describe(calibration: Any) -> str:
+    """What a prepared calibration fits, in words."""
+    spec = calibration.compliance
     soft = "rigid" if spec is None else f"compliance of {', '.join(spec.joints)} ({spec.model} model)"
-    return f"{setup.params.name}, {soft}"
+    return f"{calibration.params.name}, {soft}"
 
 
-def compare_models(robot: str, data: str | Path | None = None, *, models: str | list[str], method: str = "lm",
+def compare_models(robot: str, data: Any = None, *, models: str | list[str], method: str = "lm",
                    trials: int = 10, seed: int = 0, test_fraction: float = 0.2, parameters: str | None = None,
-                   estimate: tuple[str, ...] | str = (), jobs: int = 1, scheduler: str | None = None,
-                   **loads: Any) -> ModelComparison:
+                   setup: SensorSetup | None = None, fix: Any = None, free: Any = None, nominal: Any = None,
+                   jobs: int = 1, scheduler: str | None = None, **loads: Any) -> ModelComparison:
     """Fit each model on the same splits by pose and score it on the held-out poses.
 
     Args:
         robot: Robot name or URDF path.
-        data: One measurement CSV (None: the robot's shipped set).
+        data: Measurement sets as :func:`calib_pin.calibrate` takes them (None: the robot's shipped set).
         models: Comma-separated models (see the module), the first the reference.
         method: The estimator every model is fitted with (default ``lm``).
         trials: Splits of seeds ``seed`` .. ``seed + trials - 1``.
-        test_fraction: Share of the poses held out.
+        test_fraction: Share of each set's poses held out.
         parameters: Parameter model of ``geometric`` and ``compliance:`` models.
-        estimate: Sensor geometry to estimate (``anchor``, ``offset``).
+        setup, fix, free, nominal: As :func:`calib_pin.calibrate`'s, for every model.
         jobs, scheduler: Where the trials run (:func:`calib_pin.studies.parallel.parallel_map`).
-        loads: ``payload_kg``, ``payload_com_mm``, ``cable_tension_n`` of the compliance models.
+        loads: ``payload_kg``, ``payload_com_mm``, ``cable_tension_n`` of the compliance models
+            (and the deprecated ``estimate``: give ``setup``).
 
     Raises:
         CalibPinError: a bad model, method, robot, data or setting.
     """
     choices = parse_models(models, parameters)
-    spec = get_method(method)
-    if not spec.kinematic:
+    record = method_record(method, "linear")
+    if not record.kinematic:
         raise CalibPinError(f"method '{method}' learns a correction of the values: compare models with a "
                             "parameter method (lm, ekf-qibas, ...)")
     if trials < 1:
         raise CalibPinError(f"trials must be at least 1, got {trials}")
+    estimate = loads.pop("estimate", None)
+    setup, _ = deprecated_records({"estimate": estimate} if estimate else {}, setup, None)
     loads = {k: v for k, v in loads.items() if v is not None}
     test: dict[str, list[Metrics]] = {}
     described: dict[str, str] = {}
     what = ""
     for choice in choices:
-        record = None if choice.compliance is None else Compliance(choice.compliance.joints, **loads,
-                                                                   model=choice.compliance.model)
-        setup = prepare(robot, data, parameters=choice.parameters, estimate=check_estimate(estimate),
-                        compliance=record)
-        spec.check(kind=setup.data.kind)
-        one = partial(_trial, setup, None, [method], test_fraction=test_fraction)
+        compliance = None if choice.compliance is None else Compliance(choice.compliance.joints, **loads,
+                                                                       model=choice.compliance.model)
+        calibration = prepare(robot, data, parameters=choice.parameters, setup=setup, compliance=compliance,
+                              fix=fix, free=free, nominal=nominal)
+        check_method(record, calibration)
+        one = partial(run_trial, calibration, None, [method], test_fraction=test_fraction)
         runs = parallel_map(one, range(seed, seed + trials), jobs, scheduler)
         test[choice.name] = [t.runs[method].test for t in runs]
-        described[choice.name] = _describe(setup)
-        what = (f"{setup.data.describe_rows()} from {Path(setup.data.source).name if setup.data.source else 'memory'}"
+        described[choice.name] = _describe(calibration)
+        rows = calibration.data
+        what = (f"{rows.describe_rows()} from {Path(rows.source).name if rows.source else 'memory'}"
                 f", {trials} split(s) by pose of seeds {seed}..{seed + trials - 1}, {test_fraction:.0%} held out")
     return ModelComparison(robot=str(robot), method=method, models=[c.name for c in choices], test=test,
                            described=described, data=what)

@@ -1,0 +1,199 @@
+"""The measurement sets of a calibration: what the caller says of each, and what is made of it.
+
+A calibration is one robot and a list of measurement sets; one set is a list of one. Each
+set keeps its own sensor set-up (its file's anchor, tool point and cable offset, or a
+device frame and markers fitted on that set's own training rows), its own split and its
+own noise sigma_k: the caller's (:class:`FitSet`'s ``noise_mm``, or ``noise_mm`` for all
+sets), else its file's (``# noise_mm``), else estimated from the data
+(:mod:`calib_pin.calibration.noise`).
+
+A set's role says how its rows are used: split by pose (``split``, the default), all
+training rows (``train``), or all test rows (``test``: scored, never fitted; only a sensor
+whose set-up is not fitted on the data, a drawstring with its anchor known).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import ArgumentError, CalibPinError, DataError
+from ..measurements import MeasurementSet
+from ..sensors import SensorSetup, sensor_for
+from ..sensors.setup import given as given_value
+from ..util.arguments import MAX_MM, as_choice, as_float, as_instance
+
+#: A set's role: split by pose (default), all training rows, or all test rows.
+ROLES = ("split", "train", "test")
+
+
+@dataclass(frozen=True)
+class FitSet:
+    """One measurement set of a calibration, with what the caller says of it.
+
+    Attributes:
+        data: A measurement CSV or a :class:`~calib_pin.measurements.MeasurementSet`.
+        label: Its name in reports and unknowns (``s2:anchor_x``); default the file's stem.
+        role: ``split`` (train/test by pose, the default), ``train`` or ``test``.
+        noise_mm: Its sensor noise (1 sigma) [mm]; default the file's ``noise_mm``, else
+            estimated from the residual.
+        setup: Its sensor set-up overrides, a record of its sensor kind
+            (:class:`~calib_pin.sensors.CableSetup`): each field given wins over the file's
+            metadata (``estimate`` is one for all sets: give it to ``calibrate``).
+    """
+
+    data: str | Path | MeasurementSet
+    label: str = ""
+    role: str = "split"
+    noise_mm: float | None = None
+    setup: SensorSetup | None = None
+
+    def __post_init__(self) -> None:
+        """Raises: ArgumentError naming ``role``, ``label`` or ``noise_mm``."""
+        as_choice(self.role, "role", ROLES)
+        as_instance(self.label, "label", str, "a set's label (text)")
+        if self.noise_mm is not None:
+            as_float(self.noise_mm, "noise_mm", 0.0, MAX_MM, low_open=True, unit="mm")
+        if self.setup is not None and not isinstance(self.setup, SensorSetup):
+            raise ArgumentError("setup", f"of set {self.label or self.data}: expected a sensor set-up record, got "
+                                f"{type(self.setup).__name__}")
+
+
+@dataclass(frozen=True)
+class PreparedSet:
+    """A measurement set loaded and checked against the robot, ready to be fitted.
+
+    Attributes:
+        data: The set's rows.
+        label: Its label (given, else its file's stem, else ``s<k>``).
+        role: ``split``, ``train`` or ``test``.
+        sigma: Its noise (1 sigma) [m] when known, else None (estimated when it matters).
+        origin: Where ``sigma`` came from: ``caller``, ``file``, or ``estimate`` (unknown).
+        options: Its sensor options: the shared ones (``estimate``, ``compliance``) with
+            its own set-up overrides laid over them.
+        overrides: The set-up fields the caller gave for this set (its FitSet's ``setup``),
+            each winning over its file's; ``overridden``: those of them the file also had.
+    """
+
+    data: MeasurementSet
+    label: str
+    role: str
+    sigma: float | None
+    origin: str
+    options: dict[str, Any]
+    overrides: tuple[str, ...] = ()
+    overridden: tuple[str, ...] = ()
+
+    @property
+    def kind(self) -> str:
+        return self.data.kind
+
+    def split(self, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+        """Its (train, test) rows: by pose with the seed and fraction, or all of one side by its role."""
+        from ..analysis.metrics import split_rows
+
+        every = np.arange(len(self.data))
+        if self.role == "train":
+            return every, every[:0]
+        if self.role == "test":
+            return every[:0], every
+        groups = self.data.groups
+        poses = np.unique(groups)
+        train_poses, _ = split_rows(len(poses), test_fraction, seed)
+        in_train = np.isin(groups, poses[train_poses])
+        return np.flatnonzero(in_train), np.flatnonzero(~in_train)
+
+
+def set_sigma(given: FitSet, noise_mm: float | None, data: MeasurementSet) -> tuple[float | None, str]:
+    """A set's sigma [m] and its origin: its FitSet's, the caller's for all, its file's, or None."""
+    if given.noise_mm is not None:
+        return float(given.noise_mm) * 1e-3, "caller"
+    if noise_mm is not None:
+        return float(noise_mm) * 1e-3, "caller"
+    if data.noise:
+        return float(data.noise), "file"
+    return None, "estimate"
+
+
+def set_overrides(given: FitSet, data: MeasurementSet, label: str) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """A set's own set-up overrides (its FitSet's ``setup``, the fields given), checked
+    against its sensor kind, and those of them its file also had.
+
+    Raises:
+        ArgumentError: a ``setup`` with ``estimate`` (one for every set).
+        DataError: a field the set's sensor has no use for, naming the set's file and the field.
+    """
+    if given.setup is None:
+        return {}, ()
+    chosen = given.setup.given()
+    if "estimate" in chosen:
+        raise ArgumentError("estimate", f"of set {label}: it applies to every set, give it to calibrate (--estimate)")
+    sensor = sensor_for(data.kind)
+    sensor.refuse_foreign(chosen, data)  # a field another sensor takes
+    own = set(sensor.setup_type.field_names()) - {"estimate"}
+    for name in chosen:
+        if name not in own:
+            theirs = f"theirs: {', '.join(sorted(own))}" if own else "they take none"
+            raise DataError(data.source or label, f"not a set-up option of {sensor.data_name} "
+                            f"(set {label}; {theirs})", None, name)
+    filed = sensor.setup_of(data)
+    had = {n for n, v in (filed.options() if filed is not None else {}).items() if given_value(v)}
+    return chosen, tuple(n for n in chosen if n in had)
+
+
+def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...]:
+    """Each set's label (given, else its file's stem, else ``s<k>``); the same label or the
+    same file twice is refused.
+
+    Raises:
+        CalibPinError: two sets of one label; a file given twice; a set of role ``test``
+            whose sensor fits its set-up on training rows.
+    """
+    labels: list[str] = []
+    files: dict[str, list[tuple[str, set[int] | None]]] = {}
+    for k, (s, data) in enumerate(zip(sets, loaded, strict=True)):
+        label = s.label or (Path(data.source).stem if data.source else f"s{k + 1}")
+        if data.source:  # rows of one file in two sets (the file twice; subsets of it may share no line)
+            lines = None if data.lines is None else {int(n) for n in data.lines}
+            seen = files.setdefault(str(Path(data.source).resolve()), [])
+            for other, other_lines in seen:
+                if lines is None or other_lines is None or lines & other_lines:
+                    raise DataError(data.source, f"given twice (sets {other} and {k + 1}): a row is fitted once")
+            seen.append((label, lines))
+        if label in labels:
+            raise CalibPinError(f"two sets are labelled '{label}': give each set its own label (or file name)")
+        labels.append(label)
+    for s, data, label in zip(sets, loaded, labels, strict=True):
+        if s.role == "test" and sensor_for(data.kind).fits_setup:
+            raise DataError(data.source or label, f"a {data.kind} set with role 'test' has no training rows to fit "
+                            f"its {sensor_for(data.kind).fitted_setup} on: give it role 'split'")
+    return tuple(labels)
+
+
+#: A set whose training RMSE after the fit exceeds this many noise sigmas, and whose rows a
+#: column of :data:`SETUP_COLUMNS` assigns to several set-ups, gets a warning naming them.
+SETUP_SIGMAS = 5.0
+
+#: Columns (a file's extra columns) that say which sensor set-up a row was measured with.
+SETUP_COLUMNS = ("session", "setup", "station")
+
+
+def mixed_setups_warning(data: MeasurementSet, train: np.ndarray, after_rmse_mm: float, sigma: float) -> str | None:
+    """The warning for a set fitted as one sensor set-up whose own column says its training
+    rows come from several (``session`` A, B, C: three anchors in one file), when the fit
+    leaves more than SETUP_SIGMAS x its noise ``sigma`` [m]; else None."""
+    for name in SETUP_COLUMNS:
+        column = data.extra.get(name)
+        if column is None or after_rmse_mm <= SETUP_SIGMAS * sigma * 1e3:
+            continue
+        setups = sorted({str(v) for v in np.asarray(column, dtype=object)[train]})
+        if len(setups) > 1:
+            shown = ", ".join(setups[:6]) + (", ..." if len(setups) > 6 else "")
+            return (f"{Path(data.source).name if data.source else 'the set'}: its '{name}' column names "
+                    f"{len(setups)} set-ups ({shown}) fitted here as one (train RMSE {after_rmse_mm:.3g} mm, "
+                    f"{after_rmse_mm / (sigma * 1e3):.0f} x the noise {sigma * 1e3:.3g} mm): give each set-up its "
+                    "own file with its own metadata and pass them together (--data a.csv --data b.csv)")
+    return None
