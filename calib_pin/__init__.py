@@ -15,17 +15,6 @@ import sys
 import warnings
 from typing import TYPE_CHECKING, Any
 
-
-def _version() -> str:
-    """The installed distribution's version, read on first use of ``__version__``."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("calib-pin")
-    except PackageNotFoundError:  # a source tree that was not installed
-        return "0+unknown"
-
-
 #: Public name -> the module that defines it.
 _API = {
     "calibrate": "calibration.solve", "solve": "calibration.solve",
@@ -137,7 +126,9 @@ __all__ = [
 
 def __getattr__(name: str) -> Any:
     if name == "__version__":
-        globals()[name] = value = _version()
+        from .util.version import package_version
+
+        globals()[name] = value = package_version()
         return value
     if name in _API:
         value = getattr(importlib.import_module(f".{_API[name]}", __name__), name)

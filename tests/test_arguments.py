@@ -15,11 +15,13 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.exceptions import ArgumentError
-from calib_pin.export.calibration_file import calibration_path, write_calibration
+from calib_pin.calibration.record import write_calibration
+from calib_pin.export.calibration_file import calibration_path
+from calib_pin.robot.chain import as_angles_rad
 from calib_pin.robot.deflection import ComplianceSpec
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors import Drawstring
-from calib_pin.util.arguments import as_angles_rad, as_array, as_names, as_xyz_mm
+from calib_pin.util.arguments import as_array, as_names, as_xyz_mm
 
 NAN3 = (float("nan"), 0.0, 0.0)
 

@@ -9,7 +9,8 @@ import pinocchio as pin
 import pytest
 
 import calib_pin as cp
-from calib_pin.export.calibration_file import calibration_path, write_calibration
+from calib_pin.calibration.record import write_calibration
+from calib_pin.export.calibration_file import calibration_path
 from calib_pin.robot.deflection import ComplianceSpec
 from calib_pin.robot.poses import random_poses
 

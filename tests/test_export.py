@@ -71,7 +71,7 @@ def test_exported_model_is_the_calibrated_one(exported, fresh):
 def test_the_files_made_in_memory_are_the_files_written(exported, tmp_path):
     """write_outputs makes the URDF and the calibration file in memory (issue 24): the same
     text as result.to_urdf and write_calibration write to disk."""
-    from calib_pin.export.calibration_file import calibration_text, write_calibration
+    from calib_pin.calibration.record import calibration_text, write_calibration
     from calib_pin.export.urdf import calibrated_urdf
     from calib_pin.report.bundle import render_outputs
 

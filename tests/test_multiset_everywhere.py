@@ -10,7 +10,8 @@ import pytest
 import calib_pin as cp
 from calib_pin import FitSet, TestSet
 from calib_pin.analysis.metrics import units_words
-from calib_pin.export.calibration_file import calibration_path, write_calibration
+from calib_pin.calibration.record import write_calibration
+from calib_pin.export.calibration_file import calibration_path
 from calib_pin.measurements import write_measurements
 from calib_pin.report.build import build_report
 from calib_pin.robot.poses import random_poses

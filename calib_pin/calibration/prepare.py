@@ -22,8 +22,9 @@ from ..measurements.load import load_data
 from ..parameters import MODELS, ParameterModel, parameter_model
 from ..robot import Chain, RobotDescription, load_chain, resolve_robot
 from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
+from ..robot.description import as_robot
 from ..sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for, setup_record
-from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path, as_robot
+from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path
 from .holdout import TestSet
 from .problem import Problem
 from .sets import FitSet, PreparedSet, labelled, set_overrides, set_sigma

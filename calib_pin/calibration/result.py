@@ -18,7 +18,7 @@ from ..measurements import MeasurementSet
 from ..parameters import ParameterModel
 from ..parameters.sanity import beyond_sanity
 from ..robot import Chain
-from ..util.arguments import as_angles_rad
+from ..robot.chain import as_angles_rad
 from ..util.units import for_humans
 from .problem import Problem
 

@@ -65,12 +65,12 @@ def benchmark_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _benchmark(args: argparse.Namespace) -> int:
-    from .. import __version__
     from ..studies.benchmark import benchmark, floor, format_scaling, format_timings, jacobian_profile, scaling
+    from ..util.version import package_version
     from . import BLAS_THREADS
 
     what, rows = benchmark(args.methods or list(PAPER_METHODS), args.repeats, args.seed, args.poses)
-    print(f"calib-pin {__version__} benchmark: {what}")
+    print(f"calib-pin {package_version()} benchmark: {what}")
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}; BLAS and OpenMP limited to {BLAS_THREADS} thread "
           "(threadpoolctl and the environment: calib_pin.cli.limit_blas_threads, every command)")

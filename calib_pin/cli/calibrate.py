@@ -23,7 +23,7 @@ from ..analysis.metrics import Metrics
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..report.build import noise_parts_line
 from ..report.bundle import EXPORTS, write_outputs
-from ..util.outputs import robot_inputs
+from ..robot.description import robot_inputs
 from . import parse_args
 from .common import (
     add_compliance_arguments,

@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..util.outputs import Outputs, refuse_input, robot_inputs
+from ..robot.description import robot_inputs
+from ..util.outputs import Outputs, refuse_input
 from ..util.progress import quiet_progress
 from . import parse_args
 from .common import (

@@ -16,8 +16,9 @@ from pathlib import Path
 from typing import Any
 
 from ..estimators import PAPER_METHODS
+from ..robot.description import robot_inputs
 from ..simulation import NOISE_KINDS
-from ..util.outputs import Outputs, robot_inputs
+from ..util.outputs import Outputs
 from ..util.progress import quiet_progress
 from . import parse_args
 from .common import (

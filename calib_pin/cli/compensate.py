@@ -23,7 +23,8 @@ import numpy as np
 from ..exceptions import CalibPinError, DataError
 from ..export.compensation import OK, POSITION_ONLY, REFUSED, CalibratedRobot, Compensation
 from ..export.programs import FORMATS, Program, identifier, program_files, program_paths
-from ..util.outputs import Outputs, robot_inputs
+from ..robot.description import robot_inputs
+from ..util.outputs import Outputs
 from . import parse_args
 from .common import positive_float, run
 from .outputs import add_force_argument
@@ -75,10 +76,10 @@ def compensate_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _compensate(args: argparse.Namespace) -> int:
-    from .. import __version__
     from ..export.calibration_file import find_calibration, load_calibration
     from ..measurements.csv_writer import write_compensated
     from ..measurements.pose_list import read_pose_list
+    from ..util.version import package_version
 
     if args.format != "urscript" and (args.speed_rad_s is not None or args.accel_rad_s2 is not None):
         raise CalibPinError("--speed-rad-s and --accel-rad-s2 are for --format urscript")
@@ -120,7 +121,7 @@ def _compensate(args: argparse.Namespace) -> int:
                for k in np.flatnonzero(~kept)}
     own = {k: v for k, v in targets.notes.items()  # the targets' own notes, kept
            if k != "compensated" and not k.startswith("refused_pose_")}
-    compensated = f"{source.name} (calib-pin {__version__}), targets {Path(targets.source).name}"
+    compensated = f"{source.name} (calib-pin {package_version()}), targets {Path(targets.source).name}"
     if reference is not None:
         compensated += f" of the model {reference.describe()}"
     notes = {**own, "robot": chain.name, "end_frame": chain.end_frame, "compensated": compensated, **refused}

@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import CalibPinError
+from ..robot.description import robot_inputs
 from ..sensors import SENSORS, add_sensor_arguments, default_kind
-from ..util.outputs import Outputs, robot_inputs
+from ..util.outputs import Outputs
 from ..util.progress import quiet_progress
 from . import parse_args
 from .common import (

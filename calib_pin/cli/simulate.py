@@ -11,8 +11,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..exceptions import CalibPinError
+from ..robot.description import robot_inputs
 from ..simulation import NOISE_KINDS
-from ..util.outputs import Outputs, robot_inputs
+from ..util.outputs import Outputs
 from . import parse_args
 from .common import (
     add_compliance_arguments,

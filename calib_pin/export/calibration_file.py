@@ -2,7 +2,7 @@
 
 A calibration is more than a URDF: the URDF holds the geometry only, not the joints'
 compliance nor what it was measured with. ``<robot>_calibration.json``, written beside
-the URDF by :func:`write_calibration`, holds
+the URDF (:func:`calib_pin.calibration.record.write_calibration`), holds
 
 - the robot (name, URDF path and its SHA-256) and the end frame;
 - the parameter model and the robot's deviations (SI, and in mm/deg for people);
@@ -18,136 +18,39 @@ the URDF by :func:`write_calibration`, holds
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from ..exceptions import CalibPinError, DataError, RobotError
 from ..parameters import parameter_model
 from ..parameters.sanity import beyond_sanity
 from ..robot.chain import Chain, load_chain
 from ..robot.deflection import ComplianceSpec, stiffness
-from ..robot.description import resolve_robot
-from ..util.arguments import MAX_MM, as_bool, as_optional, as_path, as_robot
-from ..util.atomic import write_text
+from ..robot.description import as_robot, resolve_robot
+from ..util.arguments import MAX_MM, as_bool, as_optional, as_path
 from ..util.input_files import check_regular
 from ..util.units import for_humans
 from .compensation import CalibratedRobot
-
-if TYPE_CHECKING:
-    from ..calibration.result import CalibrationResult
 
 #: What the file says it is, and its layout's version.
 FORMAT = "calib-pin calibration"
 FORMAT_VERSION = 1
 
 
-def calibration_path(folder: str | Path, robot: str) -> Path:
-    """``folder/<robot>_calibration.json``."""
-    return Path(folder) / f"{robot}_calibration.json"
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes, in hex (the calibrated URDF's, in the file)."""
+    import hashlib
 
-
-def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def _compliance(result: CalibrationResult) -> dict[str, Any] | None:
-    model = result.problem.model
-    spec, soft = model.compliance_spec, model.deflection
-    if spec is None or soft is None:
-        return None
-    c = model.compliance(result.x)
-    if soft.basis is not None:
-        return _basis_compliance(spec, soft.basis, c)
-    cable = soft.torque.cable
-    return {
-        **spec.to_dict(),
-        "compliance_rad_per_Nm": dict(zip(spec.joints, c.tolist(), strict=True)),
-        "stiffness_Nm_per_rad": {j: (k if np.isfinite(k) else None)
-                                 for j, k in zip(spec.joints, stiffness(c).tolist(), strict=True)},
-        "cable_pull": None if cable is None else {"hook_mm": (cable.hook_m * 1e3).tolist(),
-                                                  "anchor_mm": (cable.anchor_m * 1e3).tolist()},
-        "model": "q_link = q - c tau(q), tau the static joint torque at the commanded q",
-    }
-
-
-def _basis_compliance(spec: ComplianceSpec, basis: Any, beta: np.ndarray) -> dict[str, Any]:
-    """The gravity basis model: its coefficients [rad] and the directions each term stands
-    for (checked against the robot's own basis when the file is loaded)."""
-    owner = np.repeat(np.arange(len(spec.joints)), basis.terms)
-    return {
-        **spec.to_dict(),
-        "basis_coefficients_rad": {j: beta[owner == i].tolist() for i, j in enumerate(spec.joints)},
-        "basis_directions": {j: {"columns": cols.tolist(), "directions": v.tolist()}
-                             for j, (cols, v) in zip(spec.joints, basis.directions, strict=True)},
-        "model": "q_link = q + sum_k beta_jk b_jk(q), b the gravity basis of calib_pin.robot.gravity_basis",
-    }
-
-
-def calibration_document(result: CalibrationResult) -> dict[str, Any]:
-    """The calibration file's content (JSON-ready)."""
-    from .. import __version__
-
-    model, chain = result.problem.model, result.chain
-    robot_x = model.robot(result.x)
-    sensor_names = model.names[model.sensor_start:]
-    return {
-        "format": FORMAT, "format_version": FORMAT_VERSION,
-        "robot": chain.name,
-        "urdf": str(chain.description.urdf),
-        "urdf_sha256": _sha256(Path(chain.description.urdf)),
-        "end_frame": chain.end_frame,
-        "joints": list(chain.joint_names),
-        "parameter_model": result.model_name,
-        "deviations_si": dict(zip(result.params.names, robot_x.tolist(), strict=True)),
-        "deviation_units": dict(zip(result.params.names, result.params.units, strict=True)),
-        "deviations": for_humans(robot_x, result.params.names, result.params.units),
-        "compliance": _compliance(result),
-        "sensor": {"kind": result.data.kind, "description": model.describe(),
-                   "unknowns_si": dict(zip(sensor_names, model.sensor_part(result.x).tolist(), strict=True)),
-                   **model.geometry_report(result.x)},
-        "calibration": {"method": result.method, "loss": result.loss, "seed": result.seed,
-                        "data": result.data.source, "test_data": result.test_source or None,
-                        "train_rows": len(result.train), "test_rows": len(result.test),
-                        "metrics_mm": {split: {stage: m.as_dict() for stage, m in stages.items()}
-                                       for split, stages in result.metrics.items()}},
-        "versions": {"calib_pin": __version__, "pinocchio": pin.__version__, "numpy": np.__version__},
-        "note": "the URDF beside this file holds the geometry only; the joint compliances are here",
-    }
-
-
-def calibration_text(result: CalibrationResult) -> str:
-    """The text :func:`write_calibration` writes: the calibration file of ``result``.
-
-    Raises:
-        CalibPinError: the method estimates no kinematic parameters (``rbf``), or a
-            compliance is negative (or NaN).
-    """
-    if not result.kinematic:
-        raise CalibPinError(f"method '{result.method}' estimates no kinematic parameters: no calibration file")
-    model = result.problem.model
-    negative = [model.names[i] for i in model.nonnegative if not result.x[i] >= 0]
-    if negative:  # compensate would use it blindly
-        raise CalibPinError(f"{negative[0]} is negative (a compliance is >= 0): no calibration file written")
-    return json.dumps(calibration_document(result), indent=2, allow_nan=False) + "\n"
-
-
-def write_calibration(result: CalibrationResult, path: str | Path) -> Path:
-    """Write the calibration file of ``result`` to ``path``.
-
-    Raises:
-        CalibPinError: the method estimates no kinematic parameters (``rbf``), or a
-            compliance is negative (or NaN).
-    """
-    text = calibration_text(result)
-    path = Path(path)
-    write_text(path, text)
-    return path
+def calibration_path(folder: str | Path, robot: str) -> Path:
+    """``folder/<robot>_calibration.json``."""
+    return Path(folder) / f"{robot}_calibration.json"
 
 
 def find_calibration(path: Path) -> Path:
@@ -225,7 +128,7 @@ def _chain(doc: dict[str, Any], robot: str | None, source: Path) -> Chain:
             description = resolve_robot(candidate)
         except RobotError:
             continue
-        if _sha256(Path(description.urdf)) == doc["urdf_sha256"]:
+        if file_sha256(Path(description.urdf)) == doc["urdf_sha256"]:
             try:
                 chain = load_chain(description, doc["end_frame"])
             except RobotError as e:

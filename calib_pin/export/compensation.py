@@ -36,19 +36,11 @@ from scipy.optimize import least_squares, lsq_linear
 
 from ..exceptions import ArgumentError, CalibPinError
 from ..parameters import ParameterModel
-from ..robot.chain import Chain
+from ..parameters.base import as_parameter_model
+from ..robot.chain import Chain, as_angles_rad, as_chain
 from ..robot.deflection import ComplianceSpec, Deflection
 from ..robot.kinematics import Kinematics
-from ..util.arguments import (
-    as_angles_rad,
-    as_array,
-    as_bool,
-    as_chain,
-    as_instance,
-    as_int,
-    as_optional,
-    as_parameter_model,
-)
+from ..util.arguments import as_array, as_bool, as_instance, as_int, as_optional
 
 #: What compensation must reach: end-frame position [m] and orientation [rad] error.
 TOLERANCE_M = 1e-6

@@ -46,8 +46,8 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import DataError
-from ..robot.chain import Chain
-from ..util.arguments import as_bool, as_chain, as_optional, as_path
+from ..robot.chain import Chain, as_chain
+from ..util.arguments import as_bool, as_optional, as_path
 from ..util.input_files import check_regular
 from . import dialect
 from .columns import (

@@ -34,7 +34,8 @@ def parameter_model(chain: Chain, name: str | None = None) -> ParameterModel:
     Raises:
         RobotError: the robot has no DH table for a DH model, or the name is unknown.
     """
-    from ..util.arguments import as_chain, as_instance, as_optional
+    from ..robot.chain import as_chain
+    from ..util.arguments import as_instance, as_optional
 
     as_chain(chain, "chain")
     name = as_optional(as_instance, name, "name", str, f"a parameter model's name ({', '.join(MODELS)})")

@@ -9,10 +9,13 @@ the same forward kinematics and the same Pinocchio regressor.
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import pinocchio as pin
+
+from ..exceptions import ArgumentError
+from ..util.arguments import shown_value
 
 
 class ParameterModel(Protocol):
@@ -44,3 +47,19 @@ class ParameterModel(Protocol):
     def delta_jacobian(self, x: np.ndarray) -> np.ndarray:
         """Derivative of :meth:`deltas` as right twists, shape (6 (n_joints + 1), n_params)."""
         ...
+
+
+def as_parameter_model(value: Any, arg: str, chain: Any = None) -> Any:
+    """A parameter model (:func:`calib_pin.parameter_model`), of ``chain`` when given.
+
+    Raises:
+        ArgumentError: not a parameter model, or one of another chain, naming ``arg``.
+    """
+    if not all(hasattr(value, a) for a in ("names", "units", "delta_matrices")):
+        raise ArgumentError(arg, f"expected a parameter model (calib_pin.parameter_model(chain)), got {shown_value(value)}")
+    own = getattr(value, "chain", None)
+    if chain is not None and own is not None and own is not chain and (
+            own.name != chain.name or own.joint_names != chain.joint_names or own.end_frame != chain.end_frame):
+        raise ArgumentError(arg, f"is a model of '{own.name}' to '{own.end_frame}', not of '{chain.name}' "
+                            f"to '{chain.end_frame}'")
+    return value

@@ -213,7 +213,8 @@ def render_outputs(result: CalibrationResult, formats: str | Sequence[str] = ("u
 
 
 def _render(result: CalibrationResult, formats: tuple[str, ...], html: bool, silence: str) -> RenderedOutputs:
-    from ..export.calibration_file import calibration_path, calibration_text
+    from ..calibration.record import calibration_text
+    from ..export.calibration_file import calibration_path
     from .build import build_report
 
     report = build_report(result)

@@ -17,14 +17,22 @@ import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 from xml.etree import ElementTree
 
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import RobotError
-from .description import RobotDescription, resolve_robot
+from ..exceptions import ArgumentError, RobotError
+from ..util.arguments import (
+    CONTINUOUS_TURNS,
+    LIMIT_TOLERANCE,
+    as_array,
+    as_instance,
+    as_optional,
+    outside_limits,
+)
+from .description import RobotDescription, as_robot, resolve_robot
 
 
 @contextlib.contextmanager
@@ -204,8 +212,6 @@ def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> C
             with more than one degree of freedom.
         ArgumentError: robot not a name, path or description; end_frame not text.
     """
-    from ..util.arguments import as_instance, as_optional, as_robot
-
     robot = as_robot(robot, "robot")
     end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
     description = robot if isinstance(robot, RobotDescription) else resolve_robot(robot)
@@ -289,3 +295,44 @@ def _check_joints(full: pin.Model, chain_ids: list[int], description: RobotDescr
             if not lower < upper:
                 raise RobotError(f"{description.urdf}: joint '{name}' has limits lower {lower:g} >= upper {upper:g}: "
                                  "no range to move in")
+
+
+def as_chain(value: Any, arg: str = "chain") -> Chain:
+    """A robot chain (:func:`calib_pin.load_chain`).
+
+    Raises:
+        ArgumentError: anything else, naming ``arg``.
+    """
+    return as_instance(value, arg, Chain, "a robot chain (calib_pin.load_chain('irb120'))")  # type: ignore[no-any-return]
+
+
+def as_angles_rad(q: Any, arg: str, chain: Chain, *, tolerance: float = LIMIT_TOLERANCE) -> np.ndarray:
+    """Joint angles [rad] (prismatic joints [m]) of ``chain``: shape (n_joints,) or
+    (n, n_joints), finite, within the URDF limits (less ``tolerance``; a continuous joint
+    within CONTINUOUS_TURNS turns). The array keeps its shape.
+
+    A value outside the limits, when some |q| is beyond a turn (2 pi) and every value
+    read as degrees would fit, gets the hint "looks like degrees".
+
+    Raises:
+        ArgumentError: naming ``arg``: not numbers, another shape, not finite, outside the limits.
+    """
+    angles = as_array(q, arg, unit="rad")
+    if angles.ndim not in (1, 2) or angles.shape[-1] != chain.n_joints:
+        raise ArgumentError(arg, f"expected shape ({chain.n_joints},) or (n, {chain.n_joints}) (one angle per joint "
+                            f"of '{chain.name}' to '{chain.end_frame}'), got shape {angles.shape}")
+    turns = CONTINUOUS_TURNS * 2 * np.pi
+    lower = np.where(np.isfinite(chain.lower), chain.lower, -turns)
+    upper = np.where(np.isfinite(chain.upper), chain.upper, turns)
+    where = outside_limits(angles, lower, upper, tolerance)
+    if where is not None:
+        j = where[-1]
+        revolute = not chain.joint_kinds[j].startswith("JointModelP")
+        unit = "rad" if revolute else "m"
+        radians = np.deg2rad(angles)
+        hint = ("; looks like degrees: give radians (np.deg2rad)" if revolute and np.abs(angles).max() > 2 * np.pi
+                and outside_limits(radians, lower, upper, tolerance) is None else "")
+        index = f"[{', '.join(map(str, where))}]"
+        raise ArgumentError(arg, f"{arg}{index} = {angles[where]:.6g} {unit} is outside the limits of "
+                            f"{chain.joint_names[j]} [{chain.lower[j]:.6g}, {chain.upper[j]:.6g}] {unit}{hint}")
+    return angles

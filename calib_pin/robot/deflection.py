@@ -56,7 +56,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ArgumentError, CalibPinError, RobotError
-from ..util.arguments import _shown, as_float, as_names, as_xyz_mm
+from ..util.arguments import as_float, as_names, as_xyz_mm, shown_value
 from .chain import Chain
 from .gravity_basis import BASIS_SCALE, GravityBasis
 
@@ -150,7 +150,7 @@ class Compliance:
         object.__setattr__(self, "payload_com_mm", com)
         object.__setattr__(self, "cable_tension_n", tension)
         if self.model is not None and self.model not in MODELS:
-            raise ArgumentError("model", f"expected one of {', '.join(MODELS)}, got {_shown(self.model)}")
+            raise ArgumentError("model", f"expected one of {', '.join(MODELS)}, got {shown_value(self.model)}")
 
     def __bool__(self) -> bool:
         """True when some joint is compliant."""
@@ -199,7 +199,7 @@ def as_compliance(value: Any, arg: str = "compliance", *, payload_kg: Any = None
     if value is None or isinstance(value, (str, list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1):
         return Compliance(as_names(value, arg), **loose)
     raise ArgumentError(arg, "expected a calib_pin.Compliance, joint names ('joint_2,joint_3' or 'all') "
-                             f"or None, got {_shown(value)}")
+                             f"or None, got {shown_value(value)}")
 
 
 @dataclass(frozen=True)

@@ -8,13 +8,16 @@ the end frame and a default measurement set).
 
 from __future__ import annotations
 
+import os
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from ..exceptions import RobotError
+from ..exceptions import ArgumentError, RobotError
+from ..util.arguments import shown_value
 
 #: Folder of calib-pin's own robot descriptions (the repository's ``robots/``; in an
 #: installed wheel, the copy shipped as ``calib_pin/robot_files``).
@@ -158,3 +161,34 @@ def resolve_robot(robot: str | Path) -> RobotDescription:
         f"unknown robot '{text}': give a URDF path, one of calib-pin's robots "
         f"({', '.join(own_robot_names())}), or an example-robot-data name (ur5, panda, ...)"
     )
+
+
+def as_robot(value: Any, arg: str = "robot") -> Any:
+    """A robot: its name or URDF path (str or os.PathLike), or a resolved description.
+
+    Raises:
+        ArgumentError: anything else, naming ``arg``.
+    """
+    if isinstance(value, RobotDescription):
+        return value
+    if isinstance(value, os.PathLike):
+        return str(value)
+    if isinstance(value, str) and value.strip():
+        return value
+    raise ArgumentError(arg, f"expected a robot name or URDF path (str), got {shown_value(value)}")
+
+
+def robot_file(robot: str | None) -> str | None:
+    """A robot argument when it names a file (a URDF path: an input), else None (a name)."""
+    return robot if robot and os.path.isfile(robot) else None
+
+
+def robot_inputs(robot: str | None) -> dict[str, str | None]:
+    """The files a robot argument reads, by label: a URDF path; for one of calib-pin's own
+    robots by name (``irb120``), its URDF, its DH table and its default data set, which
+    an output given by path (``--out robots/irb120.urdf --force``) must never replace."""
+    if robot_file(robot) or not robot or robot not in own_robot_names():
+        return {"ROBOT": robot_file(robot)}
+    found = resolve_robot(robot)
+    return {f"ROBOT {robot}'s URDF": str(found.urdf), f"ROBOT {robot}'s DH table": str(ROBOTS_DIR / f"{robot}.toml"),
+            f"ROBOT {robot}'s default data": str(found.default_data) if found.default_data else None}

@@ -172,7 +172,8 @@ class MeasurementModel(ABC):
     def __init__(self, chain: Chain, params: ParameterModel, extra: list[tuple[str, str, float]],
                  compliance: ComplianceSpec | None = None,
                  cable: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        from ..util.arguments import as_chain, as_parameter_model
+        from ..parameters.base import as_parameter_model
+        from ..robot.chain import as_chain
 
         self.chain = as_chain(chain, "chain")
         self.params = as_parameter_model(params, "params", chain)

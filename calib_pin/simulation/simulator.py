@@ -26,7 +26,9 @@ import pinocchio as pin
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements import MeasurementSet
 from ..parameters import ParameterModel
+from ..parameters.base import as_parameter_model
 from ..robot import Chain
+from ..robot.chain import as_angles_rad, as_chain
 from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
 from ..robot.poses import random_poses
 from ..sensors import SENSORS, CableModel, Drawstring, MeasurementModel, PositionDevice, PositionModel, default_kind, sensor_for
@@ -35,19 +37,7 @@ from ..sensors.cable import SESSION_ANCHOR_SPREAD_MM as SESSION_ANCHOR_SPREAD_MM
 from ..sensors.position import DEFAULT_MARKERS_MM, default_device_frame
 from ..sensors.position import SESSION_DEVICE_SHIFT_MM as SESSION_DEVICE_SHIFT_MM  # re-exported
 from ..sensors.position import SESSION_DEVICE_TURN_DEG as SESSION_DEVICE_TURN_DEG  # re-exported
-from ..util.arguments import (
-    MAX_MM,
-    as_angles_rad,
-    as_array,
-    as_chain,
-    as_choice,
-    as_float,
-    as_instance,
-    as_int,
-    as_optional,
-    as_parameter_model,
-    as_xyz_mm,
-)
+from ..util.arguments import MAX_MM, as_array, as_choice, as_float, as_instance, as_int, as_optional, as_xyz_mm
 from ..util.atomic import write_text
 from ..util.input_files import check_regular
 from ..util.units import for_humans, from_humans

@@ -58,9 +58,9 @@ def file_digest(path: str | os.PathLike[str] | None) -> str | None:
 def fingerprint(*parts: Any) -> str:
     """A key of ``parts`` (JSON-able values: names, numbers, digests, option dicts) and the
     calib-pin version: equal parts give equal keys, any difference another."""
-    from .. import __version__
+    from ..util.version import package_version
 
-    text = json.dumps([FORMAT, __version__, *parts], sort_keys=True, default=repr)
+    text = json.dumps([FORMAT, package_version(), *parts], sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 

@@ -15,14 +15,11 @@ import numbers
 import os
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..exceptions import ArgumentError
-
-if TYPE_CHECKING:
-    from ..robot.chain import Chain
 
 #: Largest coordinate accepted in [mm] (a kilometre: a bigger one is a unit mistake).
 MAX_MM = 1e6
@@ -33,7 +30,7 @@ CONTINUOUS_TURNS = 2
 LIMIT_TOLERANCE = 1e-9
 
 
-def _shown(value: Any) -> str:
+def shown_value(value: Any) -> str:
     """A value for a message: its type for containers, a short repr otherwise."""
     if isinstance(value, (str, bytes)):
         text = repr(value)
@@ -48,20 +45,20 @@ def as_path(value: Any, arg: str) -> Path:
     """A file or folder path (str or os.PathLike)."""
     if isinstance(value, (str, os.PathLike)) and str(value).strip():
         return Path(value)
-    raise ArgumentError(arg, f"expected a file path (str or pathlib.Path), got {_shown(value)}")
+    raise ArgumentError(arg, f"expected a file path (str or pathlib.Path), got {shown_value(value)}")
 
 
 def as_bool(value: Any, arg: str) -> bool:
     """True or False (numpy's bool too; not 0/1 nor text)."""
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
-    raise ArgumentError(arg, f"expected True or False, got {_shown(value)}")
+    raise ArgumentError(arg, f"expected True or False, got {shown_value(value)}")
 
 
 def as_int(value: Any, arg: str, low: int | None = 0, high: int | None = None) -> int:
     """A whole number in [low, high] (an int or a numpy integer; not a bool, float or text)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise ArgumentError(arg, f"expected a whole number, got {_shown(value)}")
+        raise ArgumentError(arg, f"expected a whole number, got {shown_value(value)}")
     number = int(value)
     if (low is not None and number < low) or (high is not None and number > high):
         span = f"from {low}" if high is None else f"from {low} to {high}" if low is not None else f"up to {high}"
@@ -73,7 +70,7 @@ def as_float(value: Any, arg: str, low: float | None = None, high: float | None 
              low_open: bool = False, high_open: bool = False, unit: str = "") -> float:
     """A finite real number in the range given (``low_open``: ``low`` itself excluded)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise ArgumentError(arg, f"expected a number{' in ' + unit if unit else ''}, got {_shown(value)}")
+        raise ArgumentError(arg, f"expected a number{' in ' + unit if unit else ''}, got {shown_value(value)}")
     number = float(value)
     if not math.isfinite(number):
         raise ArgumentError(arg, f"expected a finite number, got {number}")
@@ -96,9 +93,9 @@ def as_choice(value: Any, arg: str, choices: Iterable[str]) -> str:
     """One of ``choices`` (text)."""
     valid = tuple(choices)
     if not isinstance(value, str):
-        raise ArgumentError(arg, f"expected one of {', '.join(valid)}, got {_shown(value)}")
+        raise ArgumentError(arg, f"expected one of {', '.join(valid)}, got {shown_value(value)}")
     if value not in valid:
-        raise ArgumentError(arg, f"unknown {arg.replace('_', ' ')} {_shown(value)} (valid: {', '.join(valid)})")
+        raise ArgumentError(arg, f"unknown {arg.replace('_', ' ')} {shown_value(value)} (valid: {', '.join(valid)})")
     return value
 
 
@@ -113,11 +110,11 @@ def as_names(value: Any, arg: str) -> tuple[str, ...]:
     elif isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1):
         items = list(value)
     else:
-        raise ArgumentError(arg, f"expected names (a comma-separated str or a sequence of str), got {_shown(value)}")
+        raise ArgumentError(arg, f"expected names (a comma-separated str or a sequence of str), got {shown_value(value)}")
     names = []
     for item in items:
         if not isinstance(item, str):
-            raise ArgumentError(arg, f"expected names as str, got {_shown(item)} in the sequence")
+            raise ArgumentError(arg, f"expected names as str, got {shown_value(item)} in the sequence")
         if item.strip():
             if item.strip() in names:
                 raise ArgumentError(arg, f"'{item.strip()}' is given twice: name each once")
@@ -133,7 +130,7 @@ def as_array(value: Any, arg: str, shape: Sequence[int | None] | None = None, *,
     and (with ``finite``) NaN or infinite entries, naming the first.
     """
     if value is None or isinstance(value, (str, bytes)):
-        raise ArgumentError(arg, f"expected numbers{' in ' + unit if unit else ''}, got {_shown(value)}")
+        raise ArgumentError(arg, f"expected numbers{' in ' + unit if unit else ''}, got {shown_value(value)}")
     try:
         raw = np.asarray(value)
     except ValueError:  # ragged nested sequences
@@ -172,74 +169,12 @@ def outside_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
     return tuple(int(i) for i in np.argwhere(outside)[0])
 
 
-def as_angles_rad(q: Any, arg: str, chain: Chain, *, tolerance: float = LIMIT_TOLERANCE) -> np.ndarray:
-    """Joint angles [rad] (prismatic joints [m]) of ``chain``: shape (n_joints,) or
-    (n, n_joints), finite, within the URDF limits (less ``tolerance``; a continuous joint
-    within CONTINUOUS_TURNS turns). The array keeps its shape.
-
-    A value outside the limits, when some |q| is beyond a turn (2 pi) and every value
-    read as degrees would fit, gets the hint "looks like degrees".
-    """
-    angles = as_array(q, arg, unit="rad")
-    if angles.ndim not in (1, 2) or angles.shape[-1] != chain.n_joints:
-        raise ArgumentError(arg, f"expected shape ({chain.n_joints},) or (n, {chain.n_joints}) (one angle per joint "
-                            f"of '{chain.name}' to '{chain.end_frame}'), got shape {angles.shape}")
-    turns = CONTINUOUS_TURNS * 2 * np.pi
-    lower = np.where(np.isfinite(chain.lower), chain.lower, -turns)
-    upper = np.where(np.isfinite(chain.upper), chain.upper, turns)
-    where = outside_limits(angles, lower, upper, tolerance)
-    if where is not None:
-        j = where[-1]
-        revolute = not chain.joint_kinds[j].startswith("JointModelP")
-        unit = "rad" if revolute else "m"
-        radians = np.deg2rad(angles)
-        hint = ("; looks like degrees: give radians (np.deg2rad)" if revolute and np.abs(angles).max() > 2 * np.pi
-                and outside_limits(radians, lower, upper, tolerance) is None else "")
-        index = f"[{', '.join(map(str, where))}]"
-        raise ArgumentError(arg, f"{arg}{index} = {angles[where]:.6g} {unit} is outside the limits of "
-                            f"{chain.joint_names[j]} [{chain.lower[j]:.6g}, {chain.upper[j]:.6g}] {unit}{hint}")
-    return angles
-
-
 def as_instance(value: Any, arg: str, kind: type | tuple[type, ...], what: str) -> Any:
     """``value`` when it is a ``kind``; ``what`` says what was expected (and how to make one)."""
     if not isinstance(value, kind):
-        raise ArgumentError(arg, f"expected {what}, got {_shown(value)}")
+        raise ArgumentError(arg, f"expected {what}, got {shown_value(value)}")
     return value
 
 
-def as_parameter_model(value: Any, arg: str, chain: Chain | None = None) -> Any:
-    """A parameter model (:func:`calib_pin.parameter_model`), of ``chain`` when given."""
-    if not all(hasattr(value, a) for a in ("names", "units", "delta_matrices")):
-        raise ArgumentError(arg, f"expected a parameter model (calib_pin.parameter_model(chain)), got {_shown(value)}")
-    own = getattr(value, "chain", None)
-    if chain is not None and own is not None and own is not chain and (
-            own.name != chain.name or own.joint_names != chain.joint_names or own.end_frame != chain.end_frame):
-        raise ArgumentError(arg, f"is a model of '{own.name}' to '{own.end_frame}', not of '{chain.name}' "
-                            f"to '{chain.end_frame}'")
-    return value
-
-
-def as_chain(value: Any, arg: str = "chain") -> Chain:
-    """A robot chain (:func:`calib_pin.load_chain`)."""
-    from ..robot.chain import Chain
-
-    return as_instance(value, arg, Chain, "a robot chain (calib_pin.load_chain('irb120'))")
-
-
-def as_robot(value: Any, arg: str = "robot") -> Any:
-    """A robot: its name or URDF path (str or os.PathLike), or a resolved description."""
-    from ..robot.description import RobotDescription
-
-    if isinstance(value, RobotDescription):
-        return value
-    if isinstance(value, os.PathLike):
-        return str(value)
-    if isinstance(value, str) and value.strip():
-        return value
-    raise ArgumentError(arg, f"expected a robot name or URDF path (str), got {_shown(value)}")
-
-
-__all__ = ["CONTINUOUS_TURNS", "LIMIT_TOLERANCE", "MAX_MM", "as_angles_rad", "as_array", "as_bool", "as_chain",
-           "as_choice", "as_float", "as_instance", "as_int", "as_names", "as_optional", "as_parameter_model",
-           "as_path", "as_robot", "as_xyz_mm", "outside_limits"]
+__all__ = ["CONTINUOUS_TURNS", "LIMIT_TOLERANCE", "MAX_MM", "as_array", "as_bool", "as_choice", "as_float",
+           "as_instance", "as_int", "as_names", "as_optional", "as_path", "as_xyz_mm", "outside_limits", "shown_value"]

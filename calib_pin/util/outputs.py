@@ -42,24 +42,6 @@ class OutputError(CalibPinError):
     without ``--force``; or one that could not be written (nothing was then changed)."""
 
 
-def robot_file(robot: str | None) -> str | None:
-    """A robot argument when it names a file (a URDF path: an input), else None (a name)."""
-    return robot if robot and os.path.isfile(robot) else None
-
-
-def robot_inputs(robot: str | None) -> dict[str, str | None]:
-    """The files a robot argument reads, by label: a URDF path; for one of calib-pin's own
-    robots by name (``irb120``), its URDF, its DH table and its default data set, which
-    an output given by path (``--out robots/irb120.urdf --force``) must never replace."""
-    from ..robot.description import ROBOTS_DIR, own_robot_names, resolve_robot
-
-    if robot_file(robot) or not robot or robot not in own_robot_names():
-        return {"ROBOT": robot_file(robot)}
-    found = resolve_robot(robot)
-    return {f"ROBOT {robot}'s URDF": str(found.urdf), f"ROBOT {robot}'s DH table": str(ROBOTS_DIR / f"{robot}.toml"),
-            f"ROBOT {robot}'s default data": str(found.default_data) if found.default_data else None}
-
-
 def _same_file(a: Path, b: Path) -> bool:
     """Whether ``a`` and ``b`` name one file (either may not exist yet)."""
     try:
@@ -268,5 +250,4 @@ def _remove(path: Path) -> None:
         path.unlink()
 
 
-__all__ = ["WRITTEN", "Inputs", "OutputError", "Outputs", "input_role", "refuse_input",
-           "robot_file", "robot_inputs"]
+__all__ = ["WRITTEN", "Inputs", "OutputError", "Outputs", "input_role", "refuse_input"]
