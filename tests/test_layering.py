@@ -59,3 +59,108 @@ def test_the_check_resolves_relative_and_absolute_imports():
     assert "calib_pin.cli" in nested and "calib_pin.cli.main" in nested and "calib_pin.cli.common" in nested
     assert "calib_pin.export.cli.outputs" in nested  # level 1 inside export/ is export's, not the CLI
     assert "calib_pin.client" in top and not any(m.startswith("calib_pin.cli.") for m in top if "client" in m)
+
+
+#: The package's folders from the ground up: a module imports only from its own folder and
+#: the folders below it (the public ``__init__`` names everything, lazily, from the top).
+LAYERS = ("exceptions", "util", "robot", "parameters", "export", "measurements", "estimators", "sensors",
+          "simulation", "analysis", "calibration", "report", "hardware", "studies", "cli")
+
+
+def _resolved(name: str) -> str | None:
+    """The module ``name`` is or is in (``calib_pin.a.b.c`` -> ``calib_pin.a.b`` when ``c``
+    is a name inside it), or None outside the package."""
+    if not name.startswith("calib_pin"):
+        return None
+    parts = name.split(".")
+    while len(parts) > 1:
+        path = PACKAGE.parent.joinpath(*parts)
+        if path.with_suffix(".py").is_file() or (path / "__init__.py").is_file():
+            return ".".join(parts)
+        parts = parts[:-1]
+    return "calib_pin"
+
+
+def _graph() -> dict[str, set[tuple[str, int]]]:
+    """Module -> the package's modules it imports (with the line), every import counted:
+    inside functions and under ``TYPE_CHECKING`` too."""
+    graph: dict[str, set[tuple[str, int]]] = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        module = _module(path)
+        found = set()
+        for line, name in _imports(path.read_text(encoding="utf-8"), module, path.name == "__init__.py"):
+            target = _resolved(name)
+            if target is not None and target != module:
+                found.add((target, line))
+        graph[module] = found
+    return graph
+
+
+def _layer(module: str) -> str:
+    parts = module.split(".")
+    return "__init__" if len(parts) == 1 else parts[1]
+
+
+def test_no_top_level_module_but_the_public_init_and_the_errors():
+    """The top level holds the public ``__init__``, the errors and the folders; every other
+    module lives in the folder named for what it holds."""
+    loose = sorted(p.name for p in PACKAGE.glob("*.py") if p.name not in ("__init__.py", "exceptions.py"))
+    assert loose == []
+    folders = sorted(p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file())
+    assert set(folders) <= set(LAYERS), set(folders) - set(LAYERS)
+
+
+def test_every_import_runs_down_the_layers():
+    """No import runs back up: each module imports its own folder's and the folders below."""
+    rank = {name: k for k, name in enumerate(LAYERS)}
+    bad = []
+    for module, targets in _graph().items():
+        mine = _layer(module)
+        if mine == "__init__":
+            continue
+        for target, line in sorted(targets):
+            theirs = _layer(target)
+            if theirs == "__init__" or rank[theirs] > rank[mine]:
+                bad.append(f"{module}:{line} -> {target}")
+    assert bad == []
+
+
+def test_no_import_cycle():
+    """No module imports one that imports it back, through any chain of imports."""
+    graph = {m: {t for t, _ in targets} for m, targets in _graph().items()}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    cycles = []
+
+    def visit(node: str) -> None:  # Tarjan's strongly connected components
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        for nxt in graph.get(node, ()):
+            if nxt not in index:
+                visit(nxt)
+                low[node] = min(low[node], low[nxt])
+            elif nxt in stack:
+                low[node] = min(low[node], index[nxt])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                top = stack.pop()
+                component.append(top)
+                if top == node:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    assert cycles == []
+
+
+def test_the_layer_check_sees_a_cycle_and_an_import_back_up():
+    """What the checks would catch: an import inside a function counts, and so does one under
+    TYPE_CHECKING."""
+    source = "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..cli import main\ndef f():\n    from ..sensors import x\n"
+    found = [m for _, m in _imports(source, "calib_pin.robot.chain")]
+    assert "calib_pin.cli" in found and "calib_pin.sensors" in found

@@ -164,16 +164,6 @@ class Calibration:
 
         return replace(test, data=session, same=self.labels[k] if test.register is None else ""), k
 
-    def run(self, method: str = "ekf-qibas", *, seed: int = 0, test_fraction: float = 0.2, loss: str = "linear",
-            test_data: Any = None) -> Any:
-        """Deprecated: :func:`calib_pin.solve` (``solve(calibration, method, ...)``)."""
-        from .holdout import as_holdout
-        from .solve import solve
-
-        warnings.warn("Calibration.run() is deprecated: use calib_pin.solve(calibration, method, ...)",
-                      DeprecationWarning, stacklevel=2)
-        return solve(self, method, holdout=as_holdout(test_fraction, test_data), seed=seed, loss=loss)
-
 
 def _joined(sets: Sequence[PreparedSet], kinds: tuple[str, ...]) -> MeasurementSet:
     """Several sets' rows in turn as one measurement set (:attr:`Calibration.data`)."""

@@ -124,13 +124,20 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
     import numpy as np
     import pinocchio as pin
 
-    from .. import export  # each writer's module is imported when its format is written
     from ..export.urdf import calibrated_urdf
 
+    def yaml(tmp: Path) -> Any:
+        from ..export.yaml import write_joint_origins_yaml  # PyYAML: imported when a YAML is written
+
+        return write_joint_origins_yaml(result.chain, result.deltas, tmp)
+
+    def dh(tmp: Path) -> Any:
+        from ..export.dh import write_dh_table
+
+        return write_dh_table(result.params, result.problem.model.robot(result.x), tmp)
+
     name = result.chain.name
-    writers = {"urdf": lambda tmp: result.to_urdf(tmp),
-               "yaml": lambda tmp: export.write_joint_origins_yaml(result.chain, result.deltas, tmp),
-               "dh": lambda tmp: export.write_dh_table(result.params, result.problem.model.robot(result.x), tmp)}
+    writers = {"urdf": lambda tmp: result.to_urdf(tmp), "yaml": yaml, "dh": dh}
     todo = [(fmt, _FILES[fmt].format(name=name)) for fmt in formats]
     if "yaml" in formats and name.startswith("ur"):
         todo.append(("ur_kinematics", _FILES["ur_kinematics"].format(name=name)))
@@ -144,7 +151,9 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
                 exports[fmt] = file
                 continue
             if fmt == "ur_kinematics":
-                rest = export.write_ur_kinematics_yaml(result.chain, result.deltas, path)
+                from ..export.yaml import write_ur_kinematics_yaml
+
+                rest = write_ur_kinematics_yaml(result.chain, result.deltas, path)
                 if np.linalg.norm(pin.log6(rest).vector) > 1e-9:
                     notes.append(f"{file}: part of the tool0 correction does not fit ur_description's layout; "
                                  "its header gives it as a tool offset")

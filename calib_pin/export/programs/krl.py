@@ -23,7 +23,7 @@ here for a KUKA URDF whose joints differ from the controller's.
 
 from __future__ import annotations
 
-from . import Convention, Program, comment_lines, convention_of, note, point_name, six_axes
+from .base import Convention, Program, comment_lines, convention_of, note, point_name, six_axes
 
 #: Robot name -> the controller's joint convention against the URDF's.
 CONVENTIONS: dict[str, Convention] = {}

@@ -26,7 +26,7 @@ file says so.
 
 from __future__ import annotations
 
-from . import Convention, Program, comment_lines, convention_of, note, point_name, same_convention, six_axes
+from .base import Convention, Program, comment_lines, convention_of, note, point_name, same_convention, six_axes
 
 #: Robot name -> the controller's joint convention against the URDF's.
 CONVENTIONS: dict[str, Convention] = {

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import Convention, Program, comment_lines, convention_of, note, same_convention, six_axes
+from .base import Convention, Program, comment_lines, convention_of, note, same_convention, six_axes
 
 #: UR's default joint acceleration [rad/s^2] and speed [rad/s] of movej.
 DEFAULT_ACCEL_RAD_S2, DEFAULT_SPEED_RAD_S = 1.4, 1.05
