@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.calibration.record import write_calibration
 from calib_pin.cli.calibrate import calibrate_main
 from calib_pin.estimators import run_estimator
 from calib_pin.estimators.active_set import Fixed
-from calib_pin.calibration.record import write_calibration
 from calib_pin.report.build import build_report
 
 ROOT = Path(__file__).resolve().parent.parent

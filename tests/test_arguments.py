@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.exceptions import ArgumentError
 from calib_pin.calibration.record import write_calibration
+from calib_pin.exceptions import ArgumentError
 from calib_pin.export.calibration_file import calibration_path
 from calib_pin.robot.chain import as_angles_rad
 from calib_pin.robot.deflection import ComplianceSpec
@@ -78,19 +78,19 @@ CASES = [
     ("calibrate", "test_fraction", lambda f: cp.calibrate("irb120", f.small, test_fraction="0.2")),
     ("calibrate", "loss", lambda f: cp.calibrate("irb120", f.small, loss=None)),
     ("calibrate", "end_frame", lambda f: cp.calibrate("irb120", f.small, end_frame=5)),
-    ("calibrate", "anchor_mm", lambda f: cp.calibrate("irb120", f.small, anchor_mm="600,200,-100")),
-    ("calibrate", "anchor_mm", lambda f: cp.calibrate("irb120", f.small, anchor_mm=(600, 200))),
-    ("calibrate", "anchor_mm", lambda f: cp.calibrate("irb120", f.small, anchor_mm=NAN3)),
-    ("calibrate", "tool_mm", lambda f: cp.calibrate("irb120", f.small, tool_mm=[0, 0, "x"])),
-    ("calibrate", "tool_mm", lambda f: cp.calibrate("irb120", f.small, tool_mm=(0, 0, 5e7))),
-    ("calibrate", "length_offset_mm", lambda f: cp.calibrate("irb120", f.small, length_offset_mm="3")),
-    ("calibrate", "length_offset_mm", lambda f: cp.calibrate("irb120", f.small, length_offset_mm=float("nan"))),
+    ("calibrate", "anchor_mm", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(anchor_mm="600,200,-100"))),
+    ("calibrate", "anchor_mm", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(anchor_mm=(600, 200)))),
+    ("calibrate", "anchor_mm", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(anchor_mm=NAN3))),
+    ("calibrate", "tool_mm", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(tool_mm=[0, 0, "x"]))),
+    ("calibrate", "tool_mm", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(tool_mm=(0, 0, 5e7)))),
+    ("calibrate", "length_offset_mm", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(length_offset_mm="3"))),
+    ("calibrate", "length_offset_mm", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(length_offset_mm=float("nan")))),
     ("calibrate", "noise_mm", lambda f: cp.calibrate("irb120", f.small, noise_mm=0)),
     ("calibrate", "noise_mm", lambda f: cp.calibrate("irb120", f.small, noise_mm="0.1")),
     ("calibrate", "parameters", lambda f: cp.calibrate("irb120", f.small, parameters="poe")),
-    ("calibrate", "estimate", lambda f: cp.calibrate("irb120", f.small, estimate="moon")),
-    ("calibrate", "estimate", lambda f: cp.calibrate("irb120", f.small, estimate=5)),
-    ("calibrate", "estimate", lambda f: cp.calibrate("irb120", f.small, estimate=("anchor", 3))),
+    ("calibrate", "estimate", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(estimate="moon"))),
+    ("calibrate", "estimate", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(estimate=5))),
+    ("calibrate", "estimate", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(estimate=("anchor", 3)))),
     ("calibrate", "compliance", lambda f: cp.calibrate("irb120", f.small, compliance=7)),
     ("calibrate", "compliance", lambda f: cp.calibrate("irb120", f.small, compliance={"joints": "joint_2"})),
     ("calibrate", "payload_kg", lambda f: cp.calibrate("irb120", f.small, compliance=cp.Compliance("joint_2"),
@@ -109,7 +109,8 @@ CASES = [
     ("Compliance", "cable_tension_n", lambda f: cp.Compliance((), cable_tension_n=2.0)),
     ("calibrate", "progress", lambda f: cp.calibrate("irb120", f.small, progress="yes")),
     ("prepare", "robot", lambda f: cp.prepare(None, f.small)),
-    ("prepare", "anchor_mm", lambda f: cp.prepare("irb120", f.small, anchor_mm=[[1, 2, 3]])),
+    ("prepare", "anchor_mm", lambda f: cp.prepare("irb120", f.small, setup=cp.CableSetup(anchor_mm=[[1, 2, 3]]))),
+    ("prepare", "anchor_mm", lambda f: cp.prepare("irb120", f.small, anchor_mm=(1, 2))),  # the deprecated shorthand
     ("prepare", "noise_mm", lambda f: cp.prepare("irb120", f.small, noise_mm=-1)),
     # solve, and how rows are held out
     ("solve", "calibration", lambda f: cp.solve("irb120", "lm")),
@@ -305,7 +306,8 @@ def test_valid_arguments_pass(chain, small):
     assert as_array(np.arange(6, dtype=np.int32), "x", (6,)).dtype == float
     q = random_poses(chain, 3, np.random.default_rng(1))
     assert as_angles_rad(q, "q", chain) is not q and as_angles_rad(q[0], "q", chain).shape == (6,)
-    result = cp.calibrate("irb120", small, method="lm", estimate="anchor", seed=np.int64(2), test_fraction=0)
+    result = cp.calibrate("irb120", small, method="lm", setup=cp.CableSetup(estimate="anchor"), seed=np.int64(2),
+                          test_fraction=0)
     assert "anchor_x_mm" in result.sensor_corrections
 
 

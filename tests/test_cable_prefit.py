@@ -10,6 +10,7 @@ import pytest
 import calib_pin as cp
 from calib_pin.cli.calibrate import calibrate_main
 from calib_pin.measurements import write_measurements
+from calib_pin.sensors import setup_record
 from calib_pin.sensors.cable import fit_drawstring
 
 
@@ -64,7 +65,7 @@ def test_estimate_tool_without_anchor_or_tool(chain, params):
 
     given = cp.calibrate("irb120", data, method="lm", test_fraction=0)
     free = cp.calibrate("irb120", dataclasses.replace(data, anchor=None, tool=None), method="lm", test_fraction=0,
-                        estimate=("tool",))
+                        setup=setup_record(estimate=("tool",)))
     prefit = free.sets[0].model.prefit
     assert prefit.tool_fitted
     np.testing.assert_allclose(prefit.sensor.tool, truth.sensor.tool, atol=3e-3)
@@ -95,7 +96,7 @@ def test_estimate_tool_with_the_anchor_known(chain, params, method):
     np.testing.assert_allclose(start, truth.sensor.tool, atol=5e-3)  # the nominal robot: mm off
     given = cp.calibrate("irb120", data, method=method, test_fraction=0)
     free = cp.calibrate("irb120", dataclasses.replace(data, tool=None), method=method, test_fraction=0,
-                        estimate=("tool",))
+                        setup=setup_record(estimate=("tool",)))
     assert free.sets[0].model.prefit is None  # the anchor stays the file's
     np.testing.assert_array_equal(free.sets[0].model.sensor.anchor, truth.sensor.anchor)
     assert fresh(free) < 1.1 * fresh(given)

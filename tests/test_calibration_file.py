@@ -13,6 +13,7 @@ from calib_pin.calibration.record import write_calibration
 from calib_pin.export.calibration_file import calibration_path
 from calib_pin.robot.deflection import ComplianceSpec
 from calib_pin.robot.poses import random_poses
+from calib_pin.sensors import setup_record
 
 JOINTS_23 = ("joint_2", "joint_3")
 TRUE_C = np.array([2.5e-5, 4e-5])
@@ -25,7 +26,7 @@ def cable_result(chain, params):
     spec = ComplianceSpec(JOINTS_23, cable_tension_n=5.0)
     data, _ = cp.simulate(chain, params, 80, seed=3, compliance=spec, true_compliance=TRUE_C)
     return cp.calibrate("irb120", data, method="lm", compliance=cp.Compliance(JOINTS_23, cable_tension_n=5.0),
-                        estimate=("anchor",))
+                        setup=setup_record(estimate=("anchor",)))
 
 
 def test_round_trip_positions(chain, params, tmp_path):

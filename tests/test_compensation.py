@@ -12,8 +12,8 @@ import pinocchio as pin
 import pytest
 
 import calib_pin as cp
-from calib_pin.cli import command
 from calib_pin.calibration.record import write_calibration
+from calib_pin.cli import command
 from calib_pin.export.calibration_file import calibration_path
 from calib_pin.export.compensation import CalibratedRobot
 from calib_pin.measurements import write_measurements

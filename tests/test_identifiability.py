@@ -8,6 +8,7 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.analysis.identifiability import analyze
+from calib_pin.sensors import setup_record
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -90,7 +91,7 @@ def test_support_error_refuses_only_what_cannot_calibrate():
     same = setup.problem.subset(np.zeros(50, dtype=int))
     assert "1 distinct pose" in support_error(same)
     assert support_error(setup.problem.subset(np.array([0, 1] * 20))) is None
-    sensor = cp.prepare("irb120", estimate=("anchor", "offset")).problem.subset(np.arange(3))
+    sensor = cp.prepare("irb120", setup=setup_record(estimate=("anchor", "offset"))).problem.subset(np.arange(3))
     assert "the sensor's own unknowns" in support_error(sensor)
 
 

@@ -15,7 +15,7 @@ from calib_pin.export.calibration_file import calibration_path
 from calib_pin.measurements import write_measurements
 from calib_pin.report.build import build_report
 from calib_pin.robot.poses import random_poses
-from calib_pin.sensors import SENSORS
+from calib_pin.sensors import SENSORS, setup_record
 from calib_pin.simulation import simulate_sessions
 
 NOISE_MM = 0.02
@@ -86,8 +86,8 @@ def test_validation_re_registered_beside_several_sets_scores_only_other_rows(cha
 
 def test_fix_and_free_hold_shared_robot_and_per_set_sensor_unknowns(chain, params, three):
     sets, truth = three
-    free = cp.calibrate("irb120", _training(sets), method="lm", estimate=("anchor",))
-    held = cp.calibrate("irb120", _training(sets), method="lm", estimate=("anchor",), fix="theta_1,b:anchor_x")
+    free = cp.calibrate("irb120", _training(sets), method="lm", setup=setup_record(estimate=("anchor",)))
+    held = cp.calibrate("irb120", _training(sets), method="lm", setup=setup_record(estimate=("anchor",)), fix="theta_1,b:anchor_x")
     names = held.problem.model.names
     assert held.fixed == ("theta_1", "b:anchor_x")
     assert held.x[names.index("theta_1")] == 0.0 and held.x[names.index("b:anchor_x")] == 0.0

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.cli import command
 from calib_pin.calibration.record import write_calibration
+from calib_pin.cli import command
 from calib_pin.export.calibration_file import calibration_path
 from calib_pin.export.programs import PROGRAMS, Convention, Program, program_files, rapid, urscript
 from calib_pin.measurements.pose_list import read_pose_list

@@ -7,6 +7,7 @@ import pytest
 import calib_pin as cp
 from calib_pin.report.build import build_report
 from calib_pin.robot.poses import random_poses
+from calib_pin.sensors import setup_record
 
 
 def test_reading_is_distance_plus_offset(chain, params):
@@ -72,7 +73,7 @@ def test_estimating_anchor_and_offset_recovers_a_wrong_sensor_geometry(session, 
     wrong = truth.sensor.anchor * 1e3 + np.array([3.0, -2.0, 2.0])
 
     def fresh_mm(estimate):
-        result = cp.calibrate("irb120", data, method="lm", anchor_mm=wrong, length_offset_mm=1.0, estimate=estimate)
+        result = cp.calibrate("irb120", data, method="lm", setup=setup_record(anchor_mm=wrong, length_offset_mm=1.0, estimate=estimate))
         return float(np.sqrt(np.mean((result.predict(q) - true_readings) ** 2)) * 1e3), result
 
     fixed, _ = fresh_mm(())
@@ -86,7 +87,7 @@ def test_estimating_anchor_and_offset_recovers_a_wrong_sensor_geometry(session, 
 def test_anchor_analysis_names_its_overlap_with_the_base(session):
     """The anchor's z moves like d_1 and its xy like theta_1: --analyze says so."""
     data, _ = session
-    report = cp.analyze(cp.prepare("irb120", data, estimate=("anchor", "offset")).problem)
+    report = cp.analyze(cp.prepare("irb120", data, setup=setup_record(estimate=("anchor", "offset"))).problem)
     assert "d_1 +1 mm with anchor_z +1 mm" in report.combinations
     assert any(c.startswith("theta_1") and "anchor_x" in c for c in report.combinations)
     assert "offset" in report.base

@@ -13,6 +13,7 @@ import calib_pin as cp
 from calib_pin.cli.simulate import simulate_main
 from calib_pin.exceptions import ArgumentError
 from calib_pin.robot.poses import random_poses
+from calib_pin.sensors import setup_record
 from calib_pin.simulation import Truth
 
 
@@ -66,7 +67,7 @@ def test_three_simulated_sessions_calibrate_to_the_truth(tmp_path, capsys):
     chain = cp.load_chain("irb120")
     params = cp.parameter_model(chain)
     truth = Truth.from_json(tmp_path / "s.truth.json", params)
-    result = cp.calibrate("irb120", [str(f) for f in files], estimate=("anchor",), method="lm")
+    result = cp.calibrate("irb120", [str(f) for f in files], setup=setup_record(estimate=("anchor",)), method="lm")
     for k, s in enumerate(result.sets):
         assert np.allclose(s.model.geometry_at(None).anchor, truth.sessions[k].anchor, atol=1e-6)
         assert _fresh_rmse_mm(chain, params, truth, s, k) < 0.035  # reading noise 0.05 mm

@@ -14,7 +14,7 @@ from calib_pin.calibration.problem import Problem
 from calib_pin.cli.calibrate import calibrate_main
 from calib_pin.estimators.subspace import Subspace
 from calib_pin.robot.poses import random_poses
-from calib_pin.sensors import CableModel, Drawstring
+from calib_pin.sensors import CableModel, Drawstring, setup_record
 
 #: Three anchors of one drawstring, re-anchored between sessions, base frame [mm].
 ANCHORS_MM = ((600.0, 200.0, -100.0), (-300.0, 550.0, -50.0), (100.0, -600.0, 150.0))
@@ -50,7 +50,7 @@ def _fresh_rmse_mm(chain, params, truth, model, x, anchor_mm) -> float:
 def test_three_anchors_joint_fit_beats_each_session_and_recovers_the_anchors(chain, params, three):
     truth, sets = three
     joint = cp.calibrate("irb120", [FitSet(s, label=f"s{k + 1}") for k, s in enumerate(sets)], method="lm",
-                         estimate=("anchor",))
+                         setup=setup_record(estimate=("anchor",)))
     assert [s.label for s in joint.sets] == ["s1", "s2", "s3"]
     assert "s2:anchor_x" in joint.problem.model.names
     names, std = joint.problem.model.names, joint.uncertainty.std
@@ -66,7 +66,7 @@ def test_three_anchors_joint_fit_beats_each_session_and_recovers_the_anchors(cha
     assert space.rank == joint.problem.n_params - 6
     errors = []
     for k, (s, anchor_mm) in enumerate(zip(joint.sets, ANCHORS_MM, strict=True)):
-        single = cp.calibrate("irb120", sets[k], method="lm", estimate=("anchor",), noise_mm=0.05)
+        single = cp.calibrate("irb120", sets[k], method="lm", setup=setup_record(estimate=("anchor",)), noise_mm=0.05)
         alone = _fresh_rmse_mm(chain, params, truth, single.problem.model, single.x, anchor_mm)
         together = _fresh_rmse_mm(chain, params, truth, s.model, s.x, anchor_mm)
         errors.append((alone, together))
@@ -173,7 +173,7 @@ def test_roles_train_and_test(chain, params, three):
 @pytest.mark.parametrize("kwargs, message", [
     ({"data": "same label"}, "two sets are labelled 'x'"),
     ({"data": "same file"}, "given twice"),
-    ({"anchor_mm": (0, 0, 0)}, "anchor_mm: one value for several sets"),
+    ({"setup": cp.CableSetup(anchor_mm=(0, 0, 0))}, "anchor_mm: one value for several sets"),
     ({"test_data": "robots/irb120_default.csv"}, "name the one whose set-up the session shares"),
     ({"method": "rbf"}, "one correction per set, valid for none of the others"),
 ])
@@ -231,7 +231,7 @@ def test_html_report_has_a_table_per_set(three):
 
     _, sets = three
     result = cp.calibrate("irb120", [FitSet(sets[0], "left"), FitSet(sets[1], "right")], method="lm",
-                          estimate=("anchor",))
+                          setup=setup_record(estimate=("anchor",)))
     page = render_html(build_report(result))
     assert "Measurement sets" in page and "Set left" in page and "Set right" in page
 
@@ -240,8 +240,8 @@ def test_html_report_has_a_table_per_set(three):
 def test_kalman_filters_update_row_by_row_over_stacked_sets(chain, params, three, method):
     truth, sets = three
     data = [FitSet(s, f"s{k + 1}", noise_mm=0.05) for k, s in enumerate(sets)]
-    result = cp.calibrate("irb120", data, method=method, estimate=("anchor",))
-    reference = cp.calibrate("irb120", data, method="lm", estimate=("anchor",))
+    result = cp.calibrate("irb120", data, method=method, setup=setup_record(estimate=("anchor",)))
+    reference = cp.calibrate("irb120", data, method="lm", setup=setup_record(estimate=("anchor",)))
     for s, ref, anchor_mm in zip(result.sets, reference.sets, ANCHORS_MM, strict=True):
         error = _fresh_rmse_mm(chain, params, truth, s.model, s.x, anchor_mm)
         assert error < 1.3 * _fresh_rmse_mm(chain, params, truth, ref.model, ref.x, anchor_mm) + 0.005

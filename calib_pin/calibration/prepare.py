@@ -203,10 +203,10 @@ def deprecated_records(loose: dict[str, Any], setup: SensorSetup | None,
     from ..sensors.setup import given
 
     shorthand = {k: loose[k] for k in DEPRECATED_SETUP if k in loose and given(loose[k])}
+    record = setup_record(setup, **shorthand)  # a bad value is refused before the warning
     if shorthand:
         warnings.warn(f"{', '.join(shorthand)} as separate keyword(s) are deprecated: pass setup=calib_pin."
                       "CableSetup(...) (or the record of your sensor)", DeprecationWarning, stacklevel=4)
-    record = setup_record(setup, **shorthand)
     return record, as_compliance(compliance, payload_kg=loose.get("payload_kg"),
                                  payload_com_mm=loose.get("payload_com_mm"),
                                  cable_tension_n=loose.get("cable_tension_n"), stacklevel=5)
