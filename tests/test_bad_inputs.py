@@ -574,11 +574,11 @@ R3_WRONG: list[Case] = [
     (CAL, [*TWO_SETS, "--fix", "theta_7", "--analyze"], TWO_FILES, 2, "argument fix: no unknown 'theta_7'"),
     (CAL, [*TWO_SETS, "--estimate", "anchor", "--fix", "theta_1,b:anchor_x", "--analyze"], TWO_FILES, 0, "rank"),
     (CAL, [*TWO_SETS, "--nominal", "none.json"], TWO_FILES, 2, "none.json: no such start file"),
-    # ... compare --nominal: measured data only, not --models
+    # ... compare --nominal: measured data only; with --models every model starts from the file
     (CMP, ["irb120", "--simulate", "gauss", "--nominal", "c.json", "--methods", "lm"], {}, 2,
      "--nominal starts from one robot's own calibration: give --data, without --simulate"),
     (CMP, ["irb120", "--data", "a.csv", "--models", "dh,hayati", "--nominal", "c.json"], {"a.csv": data()}, 2,
-     "without --models (each model starts from the catalogue URDF)"),
+     "c.json: no such start file"),
     (CMP, ["irb120", "--data", "a.csv", "--data", "b.csv", "--nominal", "none.json", "--methods", "lm", "--out", "o"],
      TWO_FILES, 2, "none.json: no such start file"),
     # ... rbf and lm+rbf learn one set-up's readings: refused with several sets

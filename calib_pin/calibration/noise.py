@@ -136,13 +136,15 @@ def estimate_noise(problem: Problem, train: np.ndarray, sigmas: list[float | Non
     if not unknown or (len(flat) == 1 and not method.weighs_noise):
         return Noise(tuple(map(tuple, now)), tuple(map(tuple, where)), 0, "default" if unknown else "stated")
     pilot = _method(PILOT)
-    fits, estimate = 0, None
+    fits = 0
     while True:
         noise = Noise(tuple(map(tuple, now)), tuple(map(tuple, where)))
         training = apply(problem, noise).subset(train)
         estimate = run_method(pilot, training, x0, seed=seed, noise=noise.sigma, loss=loss, fixed=fixed,
                               history=history)
         fits += 1
+        if len(flat) > 1 and fits >= MAX_FITS:  # the sigmas this fit was weighted by
+            break
         rank = Subspace.of(training.jacobian(estimate.x), training.scale, estimate.x).rank
         residuals = _residuals(training, estimate.x)
         n_total = sum(r.size for by_part in residuals.values() for r in by_part)
@@ -157,7 +159,7 @@ def estimate_noise(problem: Problem, train: np.ndarray, sigmas: list[float | Non
         moved = max(abs(new[k][j] / now[k][j] - 1.0) for k, j in unknown)
         now = new
         _refuse_misfit(problem, now, unknown, method.name, source)
-        if len(flat) == 1 or moved < TOLERANCE or fits >= MAX_FITS:
+        if len(flat) == 1 or moved < TOLERANCE:
             break
     for k, j in unknown:
         where[k][j] = "estimate"
@@ -167,7 +169,7 @@ def estimate_noise(problem: Problem, train: np.ndarray, sigmas: list[float | Non
         words = "stated"
     elif len(flat) == 1:
         words = (f"estimated: RSS / (m - r) of a first LM fit on the training rows, m = {training.n_values} values, "
-                 f"r = {rank} identifiable directions (the set states no noise)")
+                 f"r = {rank} identifiable directions (the set states no noise)")  # one fit: rank was computed
     elif len(now) == 1:
         words = f"estimated per part from the residual ({fits} fit{plural}; noise_by_part)"
     else:

@@ -31,11 +31,13 @@ from .common import (
     add_model_argument,
     add_robot_arguments,
     add_test_fraction_argument,
+    add_unknowns_arguments,
     compliance_options,
     count,
     fail,
     positive_float,
     run,
+    unknowns_options,
 )
 from .process import collecting
 
@@ -97,13 +99,7 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
     add_loss_argument(p)
     add_model_argument(p)
     add_compliance_arguments(p)
-    p.add_argument("--fix", help="unknowns held at their nominal value, comma-separated: robot deviations "
-                   "(theta_1,d_1), compliances (compliance_joint_2) or sensor unknowns (device_rz)")
-    p.add_argument("--free", help="the robot deviations and compliances to estimate, comma-separated; every "
-                   "other one is held at its nominal value (the sensor's unknowns stay free)")
-    p.add_argument("--nominal", help="start from the robot's own calibrated kinematics instead of the catalogue "
-                   "URDF: a calib-pin <robot>_calibration.json, or a UR default_kinematics.yaml (ur_description's "
-                   "layout; what --export yaml writes); deviations are still written from the URDF")
+    add_unknowns_arguments(p, "; deviations are still written from the URDF")
     p.add_argument("--export", type=export_formats, default=("urdf",),
                    help="formats of the corrected robot, comma-separated: urdf (default), yaml (joint origins for "
                    "xacro.load_yaml; ur_description's default_kinematics.yaml too for ur* robots), dh (DH table TOML, "
@@ -324,8 +320,7 @@ def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
     from ..sensors import setup_from_args, setup_record
 
     return {"end_frame": args.end_frame, "setup": setup_record(**setup_from_args(args)), "noise_mm": args.noise_mm,
-            "parameters": args.model, **compliance_options(args),
-            **{k: v for k, v in (("fix", args.fix), ("free", args.free), ("nominal", args.nominal)) if v is not None}}
+            "parameters": args.model, **compliance_options(args), **unknowns_options(args)}
 
 
 def _analyze(args: argparse.Namespace) -> int:

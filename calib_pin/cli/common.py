@@ -291,6 +291,24 @@ def add_model_argument(p: argparse.ArgumentParser) -> None:
     group(p, FIT_GROUP).add_argument("--model", choices=MODELS, help=MODEL_HELP)
 
 
+def add_unknowns_arguments(p: argparse.ArgumentParser, start_note: str = "") -> None:
+    """``--fix``, ``--free`` and ``--nominal``: the unknowns held, and where the estimate starts."""
+    g = group(p, FIT_GROUP)
+    g.add_argument("--fix", help="unknowns held at their nominal value, comma-separated: robot deviations "
+                   "(theta_1,d_1), compliances (compliance_joint_2) or sensor unknowns (device_rz)")
+    g.add_argument("--free", help="the robot deviations and compliances to estimate, comma-separated; every "
+                   "other one is held at its nominal value (the sensor's unknowns stay free)")
+    g.add_argument("--nominal", help="start from the robot's own calibrated kinematics instead of the catalogue "
+                   "URDF: a calib-pin <robot>_calibration.json, or a UR default_kinematics.yaml (ur_description's "
+                   f"layout; what --export yaml writes){start_note}")
+
+
+def unknowns_options(args: argparse.Namespace) -> dict[str, Any]:
+    """``--fix``, ``--free`` and ``--nominal`` as the keyword arguments of calibrate, compare and
+    compare_models (only those given)."""
+    return {k: v for k, v in (("fix", args.fix), ("free", args.free), ("nominal", args.nominal)) if v is not None}
+
+
 def add_quiet_argument(p: argparse.ArgumentParser) -> None:
     """``--quiet``: no progress bar."""
     p.add_argument("--quiet", action="store_true", help=QUIET_HELP)

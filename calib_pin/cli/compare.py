@@ -30,6 +30,7 @@ from .common import (
     add_robot_argument,
     add_seed_argument,
     add_test_fraction_argument,
+    add_unknowns_arguments,
     compliance_options,
     count,
     estimate_names,
@@ -38,6 +39,7 @@ from .common import (
     one_line,
     positive_float,
     run,
+    unknowns_options,
 )
 
 #: Most trials one comparison may run.
@@ -58,8 +60,9 @@ def add_compare_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser
     add_robot_argument(p)
     p.add_argument("--data", action="append",
                    help="measurement set CSV (default: the robot's shipped set); give it once per set "
-                   "(--data a.csv --data b.csv) to compare on the sets stacked: one robot, each set its own "
-                   "sensor set-up from its file, every set split by pose with each trial's seed")
+                   "(--data a.csv --data b.csv) to compare on the sets fitted together as calibrate fits them: "
+                   "one robot, each set its own sensor set-up from its file (or FILE:key=value, as calibrate's "
+                   "--data), every set split by pose with each trial's seed")
     p.add_argument("--trials", type=count(MAX_TRIALS), default=1,
                    help="repeat over N seeded splits (or simulated sets): mean ± sd (default 1)")
     p.add_argument("--out", default="out/compare", help="output folder (default ./out/compare); each finished trial is "
@@ -82,9 +85,7 @@ def add_compare_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser
                    "comma-separated geometric, dh, hayati, placement, compliance:JOINT+JOINT[:cad|basis], "
                    "compliance:all; the first is the reference of the paired differences; writes models.md, models.csv")
     p.add_argument("--method-of-models", default="lm", help="the estimator of --models (default lm)")
-    p.add_argument("--nominal", help="start every method from the robot's own calibrated kinematics instead of the "
-                   "catalogue URDF (as calibrate --nominal): a calib-pin <robot>_calibration.json or a UR "
-                   "default_kinematics.yaml; measured data only")
+    add_unknowns_arguments(p, "; measured data only (not --simulate)")
     add_parallel_arguments(p)
     add_quiet_argument(p)
     return p
@@ -100,9 +101,8 @@ def compare_main(argv: Sequence[str] | None = None) -> int:
         return fail("--models compares on measured data: give --data, not --simulate")
     if args.models and any(a == "--methods" or a.startswith("--methods=") for a in argv):
         return fail("--models fits every model with one method, --method-of-models (default lm): leave --methods out")
-    if args.nominal and (args.models or args.simulate):
-        return fail(f"--nominal starts from one robot's own calibration: give --data, without "
-                    f"{'--models (each model starts from the catalogue URDF)' if args.models else '--simulate'}")
+    if args.nominal and args.simulate:
+        return fail("--nominal starts from one robot's own calibration: give --data, without --simulate")
     with quiet_progress(args.quiet):
         return run(lambda: _compare_models(args, argv) if args.models else _compare(args, argv))
 
@@ -115,20 +115,17 @@ def _compare_models(args: argparse.Namespace, argv: list[str]) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise CalibPinError(f"{out}: the output folder is a file")
-    if args.data is not None and len(args.data) > 1:
-        raise CalibPinError("--models compares on one --data set")
-    data = args.data[0] if args.data else None
-    outputs = Outputs(out, inputs={**robot_inputs(args.robot), "--data": data})
+    outputs = Outputs(out, inputs=_inputs(args))
     for name in MODEL_OUTPUT_NAMES:
         outputs.check(out / name)
     if args.compliance:  # the loads (--payload-kg, ...) apply to every compliance model
         raise CalibPinError("with --models the compliant joints are in each model (compliance:joint_2+joint_3): "
                             "leave --compliance out")
-    result = compare_models(args.robot, data, models=args.models, method=args.method_of_models, trials=args.trials,
-                            seed=args.seed, test_fraction=args.test_fraction, parameters=args.model,
-                            estimate=args.estimate, jobs=args.jobs, scheduler=args.scheduler,
+    result = compare_models(args.robot, _data(args), models=args.models, method=args.method_of_models,
+                            trials=args.trials, seed=args.seed, test_fraction=args.test_fraction,
+                            parameters=args.model, setup=_setup(args), jobs=args.jobs, scheduler=args.scheduler,
                             payload_kg=args.payload_kg, payload_com_mm=args.payload_com_mm,
-                            cable_tension_n=args.cable_tension_n)
+                            cable_tension_n=args.cable_tension_n, **unknowns_options(args))
     command = "python scripts/compare.py " + " ".join(argv)
     outputs.add(out / "models.md", lambda tmp: result.write_markdown(tmp, command))
     outputs.add(out / "models.csv", lambda tmp: result.write_csv(tmp))
@@ -147,11 +144,7 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise CalibPinError(f"{out}: the output folder is a file")
-    data = args.data if args.data is None or len(args.data) > 1 else args.data[0]  # several: the sets stacked
-    inputs = {**robot_inputs(args.robot),
-              **({f"--data {d}": d for d in data} if isinstance(data, list) else {"--data": data}),
-              "--nominal": args.nominal}
-    refusal = Outputs(out, inputs=inputs)
+    refusal = Outputs(out, inputs=_inputs(args))
     for name in OUTPUT_NAMES:  # an input is never an output: refused before the trials
         refusal.check(out / name)
     if args.trials >= 10:
@@ -159,13 +152,12 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
               "(Ctrl-C stops; the finished trials are kept and the same command resumes)", file=sys.stderr, flush=True)
     try:
         result = compare(
-            args.robot, data, trials=args.trials, seed=args.seed,
+            args.robot, None if args.simulate else _data(args), trials=args.trials, seed=args.seed,
             methods=args.methods if any(a == "--methods" or a.startswith("--methods=") for a in argv) else None,
             test_fraction=args.test_fraction, simulate_noise=args.simulate,
             noise_mm=args.noise_mm, poses=args.poses, jobs=args.jobs, scheduler=args.scheduler,
             checkpoint=out, notify=lambda line: print(line, flush=True), **compliance_options(args),
-            parameters=args.model, estimate=args.estimate,
-            **({"nominal": args.nominal} if args.nominal else {}),
+            parameters=args.model, setup=_setup(args), **unknowns_options(args),
         )
     except Interrupted as e:
         print(f"\n{one_line(str(e))}", file=sys.stderr)
@@ -184,6 +176,30 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     for path in written:
         print(f"wrote {path}")
     return 0
+
+
+def _data(args: argparse.Namespace) -> Any:
+    """``--data`` as compare takes it: None, one file, or several (with their per-set options),
+    as calibrate's (:func:`calib_pin.cli.calibrate.data_argument`)."""
+    from .calibrate import _data as calibrate_data
+
+    return calibrate_data(args)
+
+
+def _setup(args: argparse.Namespace) -> Any:
+    """``--estimate`` as the set-up record every set gets (None without it)."""
+    from ..sensors import setup_record
+
+    return setup_record(estimate=args.estimate) if args.estimate else None
+
+
+def _inputs(args: argparse.Namespace) -> dict[str, Any]:
+    """The command's input files by label (never an output)."""
+    from .calibrate import data_argument
+
+    files = [data_argument(d)[0] for d in args.data or ()]
+    sets = {"--data": files[0]} if len(files) == 1 else {f"--data {f}": f for f in files}
+    return {**robot_inputs(args.robot), **sets, "--nominal": args.nominal}
 
 
 def _write(result: Any, out: Path, command: str) -> list[Path]:

@@ -491,7 +491,8 @@ def _methods_for_data(calibration: Calibration, methods: list[str], default: boo
     if refused and notify is not None:
         names = ", ".join(sorted({sensor_for(k).data_name for k in kinds
                                   if set(refused) & set(getattr(sensor_for(k), "unsupported_methods", ()))}))
-        why = f"{names} rows differ in size" if names else "several sets are fitted as one robot"
+        why = (f"they need rows of one size, and {names} rows differ in size" if names
+               else "they learn one set-up's values, and several sets are fitted as one robot")
         notify(f"left out {', '.join(refused)}: {why} (--methods chooses)")
     kept = [m for m in methods if m not in refused]
     for m in kept:
