@@ -50,7 +50,7 @@ def test_the_timed_calib_pin_run_fits_the_device_frame_every_time(device_fits):
     """The race times calib-pin from building the problem (its device-frame fit) through the
     estimate, as it says: the problem ``prepare`` kept is not reused (it was, until issue 24's
     fourth round, leaving the 2 ms fit out of every timed run)."""
-    setup, _, _ = benchmark_figaroh._session(30, 0)  # prepare fitted it once
+    setup, _, _ = benchmark_figaroh.ur5_session(30, 0)  # prepare fitted it once
     device_fits.clear()
     for _ in range(2):
         benchmark_figaroh._calib_pin(setup, "lm", 0)
@@ -100,7 +100,7 @@ def test_the_ekf_qibas_stages_split_the_timed_run():
 
     stages, iterations = benchmark_figaroh.ekf_qibas_stages(samples=30, repeats=1)
     assert set(stages) == {"problem", "ekf", "qibas"} and all(v > 0 for v in stages.values())
-    setup, _, _ = benchmark_figaroh._session(30, 0)
+    setup, _, _ = benchmark_figaroh.ur5_session(30, 0)
     problem = setup.problem_on(np.arange(30))
     whole = run_estimator("ekf-qibas", problem, np.zeros(problem.n_params), noise=setup.noise, history=False)
     assert iterations == whole.extras["stages"]["qibas"]

@@ -41,6 +41,10 @@ def add_benchmark_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    help=f"method of --commands' calibrate and batch ({DEFAULT_METHOD})")
     p.add_argument("--quick-start", action="store_true",
                    help="also time the quick start (calib-pin calibrate irb120) and its phases, fresh processes")
+    p.add_argument("--floor", action="store_true",
+                   help="also time calibrate ur5 --model placement --test-fraction 0 --no-html on 1 000 simulated "
+                   "marker positions (lm, ekf-qibas) as whole processes against a process that only imports numpy, "
+                   "Pinocchio and scipy.optimize, interleaved")
     p.add_argument("--against", choices=["figaroh"],
                    help="also race FIGAROH (when installed) on simulated UR5 positions, 100 and 1 000 samples")
     return p
@@ -88,9 +92,21 @@ def _benchmark(args: argparse.Namespace) -> int:
         _quick_start(args)
     if args.commands:
         _commands(args)
+    if args.floor:
+        _floor(args)
     if args.against == "figaroh":
         _against_figaroh(args)
     return 0
+
+
+def _floor(args: argparse.Namespace) -> None:
+    from ..studies.benchmark_commands import FLOOR_SAMPLES, PROCESS_NOTE, above_floor, format_floor
+
+    repeats = max(args.repeats, 5)
+    print(f"calibrate ur5 --model placement --test-fraction 0 --no-html on {FLOOR_SAMPLES} simulated marker positions "
+          f"(seed {args.seed}) as whole processes, interleaved with the floor (a process importing numpy, Pinocchio "
+          f"and scipy.optimize), median wall s of {repeats} runs; {PROCESS_NOTE}:")
+    print(format_floor(above_floor(repeats=repeats, seed=args.seed)))
 
 
 def _quick_start(args: argparse.Namespace) -> None:

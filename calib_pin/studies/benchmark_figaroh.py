@@ -180,7 +180,7 @@ def ekf_qibas_stages(samples: int = SIZES[0], repeats: int = 5, seed: int = 0) -
     problem (the device frame and marker fitted anew), of the registered ``ekf`` on it (the
     filter EKF-QIBAS starts with) and of the rest of the ``ekf-qibas`` run (its QIBAS stage),
     each timed as the race times it (collector off); and the QIBAS stage's iterations."""
-    calibration, _, _ = _session(samples, seed)
+    calibration, _, _ = ur5_session(samples, seed)
     rows = np.arange(len(calibration.data))
     times: dict[str, list[float]] = {"problem": [], "ekf": [], "qibas": []}
     iterations = 0
@@ -223,7 +223,7 @@ def _collected_then_off() -> Iterator[None]:
             gc.enable()
 
 
-def _session(samples: int, seed: int) -> tuple[Calibration, Any, np.ndarray]:
+def ur5_session(samples: int, seed: int) -> tuple[Calibration, Any, np.ndarray]:
     """The seeded UR5 session ready to calibrate, its truth, and the fresh poses [rad]."""
     chain = load_chain("ur5")
     data, truth = simulate_positions(chain, parameter_model(chain), samples, seed=seed, noise_mm=NOISE_MM,
@@ -236,7 +236,7 @@ def race(samples: int, methods: list[str], repeats: int, seed: int,
          selections: tuple[str, ...] = SELECTIONS) -> list[Race]:
     """Both tools on one seeded session of ``samples`` poses, interleaved ``repeats`` times
     (each calib-pin method, then FIGAROH with each parameter selection); medians."""
-    setup, truth, fresh = _session(samples, seed)
+    setup, truth, fresh = ur5_session(samples, seed)
     true_model = truth.model(setup.chain, setup.params)
     points = np.zeros(len(setup.data), dtype=int)
     true_train = true_model.predict(truth.x_model, setup.data.q, points)
@@ -336,7 +336,7 @@ def whole_processes(methods: list[str], repeats: int = 5, seed: int = 0,
         return None
     out = []
     for samples in sizes:
-        setup, _, _ = _session(samples, seed)
+        setup, _, _ = ur5_session(samples, seed)
         with tempfile.TemporaryDirectory(prefix="calib-pin-figaroh-") as name:
             folder = Path(name)
             config = _write_figaroh_files(folder, setup)
