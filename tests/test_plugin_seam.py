@@ -17,7 +17,7 @@ import pytest
 
 import calib_pin as cp
 from calib_pin.robot.poses import random_poses
-from calib_pin.sensors import SENSORS, CableSetup, PositionSetup, add_sensor_arguments, setup_record
+from calib_pin.sensors import SENSORS, CableSetup, PositionSetup, add_sensor_arguments, sensor_for, setup_record
 
 PACKAGE = Path(cp.__file__).parent
 #: Where kinds may be named: the sensors themselves and the CSV layer.
@@ -110,10 +110,11 @@ def test_setup_records_are_validated_once_and_built_from_the_loose_options():
 
 def test_calibrate_takes_a_setup_record_as_the_loose_keywords(tmp_path):
     data = cp.read_measurements(PACKAGE.parent / "robots" / "irb120_default.csv")
-    assert isinstance(data.setup, CableSetup) and data.setup.anchor_mm is not None
+    filed = sensor_for(data.kind).setup_of(data)
+    assert isinstance(filed, CableSetup) and filed.anchor_mm is not None
     kwargs = {"method": "lm", "seed": 0}
-    loose = cp.calibrate("irb120", data, anchor_mm=data.setup.anchor_mm + 0.5, estimate="anchor", **kwargs)
-    record = cp.calibrate("irb120", data, setup=CableSetup(anchor_mm=data.setup.anchor_mm + 0.5,
+    loose = cp.calibrate("irb120", data, anchor_mm=filed.anchor_mm + 0.5, estimate="anchor", **kwargs)
+    record = cp.calibrate("irb120", data, setup=CableSetup(anchor_mm=filed.anchor_mm + 0.5,
                                                            estimate=("anchor",)), **kwargs)
     assert np.array_equal(loose.x, record.x)
     with pytest.raises(cp.CalibPinError, match="is for drawstring data"):
@@ -155,7 +156,7 @@ def test_an_invented_sensor_reads_writes_and_calibrates(tmp_path, distance):
     assert [line for line in text.splitlines() if not line.startswith("#")][0].endswith(",q6_deg,distance_mm")
     data = cp.read_measurements(path)
     assert data.kind == "distance" and data.values.shape == (80,)
-    assert data.setup == fake_sensor.DistanceSetup(target_mm=(0, 0, 50))
+    assert sensor_for(data.kind).setup_of(data) == fake_sensor.DistanceSetup(target_mm=(0, 0, 50))
     with pytest.raises(cp.CalibPinError, match="--anchor-mm is for drawstring data; .*holds laser distances"):
         cp.calibrate("irb120", path, method="lm", anchor_mm=(1, 2, 3))
     result = cp.calibrate("irb120", path, method="lm", test_fraction=0.25, setup=fake_sensor.DistanceSetup(

@@ -3,8 +3,7 @@ row by row, for any :class:`MeasurementSet` (read, simulated or made by hand).
 
 :func:`check_measurements` is what the library's entry points (``prepare``,
 ``calibrate``, a ``test_data`` session) call, and so the
-command line through them. :func:`check_same_setup` refuses a validation session whose
-own drawstring set-up contradicts the one the calibration used.
+command line through them.
 """
 
 from __future__ import annotations
@@ -205,17 +204,3 @@ def _file_keys(path: str) -> set[str] | None:
 def _mm(value: Any) -> str:
     return ", ".join(f"{v:.10g}" for v in np.atleast_1d(np.asarray(value, dtype=float) * 1e3))
 
-
-def check_same_setup(session: MeasurementSet, training: MeasurementSet, options: dict[str, Any]) -> None:
-    """Refuse a validation session whose own sensor set-up contradicts the calibration's:
-    the training set's, or the caller's overrides in ``options``; what contradicts is the
-    sensor's to say (:meth:`~calib_pin.sensors.base.MeasurementModel.check_same_setup`).
-
-    Raises:
-        DataError: naming the session's file, the key and both values.
-    """
-    from ..sensors import SENSORS
-
-    model = SENSORS.get(session.kind)
-    if model is not None:
-        model.check_same_setup(session, training, options)

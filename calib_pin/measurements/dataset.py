@@ -75,8 +75,6 @@ class MeasurementSet:
         labels: The sensor's text label columns (its ``label_columns``: a contact set's
             ``contact_id``, ``plane_id``), name to shape (n_rows,) text, '' where a row
             leaves one empty.
-
-    :attr:`setup` is the sensor's set-up record the set carries (``CableSetup``, ...).
     """
 
     q: np.ndarray
@@ -111,16 +109,6 @@ class MeasurementSet:
 
     def __len__(self) -> int:
         return len(self.q)
-
-    @property
-    def setup(self) -> Any:
-        """The set-up record of the set's sensor, as its file (or maker) gave it
-        (:class:`~calib_pin.sensors.CableSetup`, ...; fields in mm), or None (a pose list,
-        or a sensor without set-up metadata)."""
-        from ..sensors import SENSORS
-
-        model = SENSORS.get(self.kind)
-        return None if model is None else model.setup_of(self)
 
     def _values_of(self, columns: tuple[str, ...], what: str) -> np.ndarray:
         from ..sensors import SENSORS
