@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.measurements.schema import SCHEMAS
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors import SENSORS, CableSetup, PositionSetup, add_sensor_arguments, sensor_for, setup_record
 
@@ -23,6 +24,8 @@ PACKAGE = Path(cp.__file__).parent
 #: Where kinds may be named: the sensors themselves and the CSV layer.
 OWNERS = ("sensors/", "measurements/csv_reader.py", "measurements/csv_writer.py", "measurements/columns.py",
           "measurements/dialect.py",
+          # the built-in kinds' file schemas (SCHEMAS), which the CSV layer reads below the sensors
+          "measurements/schema.py",
           # a sensor's own simulator of example sessions, named for its kind
           "simulation/contact.py", "simulation/pose.py")
 #: Modules that still name a kind, each with why (file -> reason). Shrink it; never grow it.
@@ -187,6 +190,7 @@ def test_an_invented_sensor_gets_its_cli_flags(tmp_path, distance, capsys):
     report = json.loads((out / "report.json").read_text())
     assert report["test"]["after"]["rmse_mm"] < 0.03
     assert "distance" not in SENSORS or SENSORS["distance"] is fake_sensor.DistanceModel
+    assert "distance" not in SCHEMAS or SCHEMAS["distance"] is fake_sensor.DistanceModel.schema
 
 
 def test_an_invented_sensors_columns_are_checked_as_the_others(tmp_path, distance):
