@@ -6,10 +6,10 @@ a zero offset:
 
     reading(q) = u . p(q, x, t) + zero.
 
-This module is all a new sensor needs (plus one registry line, :func:`register` below,
-or ``SENSORS[DistanceModel.kind] = DistanceModel`` in ``calib_pin/sensors/__init__.py``):
-its set-up record (CLI flags from its fields), its CSV value column (``distance_mm``)
-and metadata keys (``# target_mm``, ``# zero_mm``), its geometry, its predictions and
+This module is all a new sensor needs (plus one registry line, :func:`register` below:
+``calib_pin.sensors.register(DistanceModel)``): its set-up record (CLI flags from its
+fields), its file's schema (the CSV value column ``distance_mm``, the metadata keys
+``# target_mm`` and ``# zero_mm``), its geometry, its predictions and
 their Jacobian, its report section, and its simulated rows (``simulate_rows``: then
 ``calib_pin.simulation.simulator.simulate_set`` and ``simulate_sessions(kinds=[..., "distance"])``
 simulate it with truth). No other module of calib-pin is touched.
@@ -24,7 +24,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from calib_pin.exceptions import DataError
+from calib_pin.measurements.schema import SCHEMAS, Schema
 from calib_pin.sensors import SENSORS
+from calib_pin.sensors import register as register_sensor
 from calib_pin.sensors.base import MeasurementModel
 from calib_pin.sensors.problem import SetProblem
 from calib_pin.sensors.setup import SensorSetup, option, xyz_mm
@@ -73,14 +75,12 @@ class Beam:
 class DistanceModel(MeasurementModel):
     """Laser distances along a fixed beam; the zero offset is estimated with the robot."""
 
-    kind = "distance"
+    schema: ClassVar[Schema] = Schema("distance", "laser distances", value_columns=("distance",),
+                                      metadata_keys={"target": 3, "zero": 1})
     values_per_row = 1
     geometry_type = Beam
     error_name = "distance error"
     setup_type = DistanceSetup
-    data_name = "laser distances"
-    value_columns = ("distance",)
-    metadata_keys: ClassVar[dict[str, int]] = {"target": 3, "zero": 1}
 
     def __init__(self, chain: Any, params: Any, beam: Beam, compliance: Any = None,
                  estimate: tuple[str, ...] = ("zero",)) -> None:
@@ -153,9 +153,10 @@ class DistanceModel(MeasurementModel):
 
 
 def register() -> None:
-    """The one registry entry."""
-    SENSORS[DistanceModel.kind] = DistanceModel
+    """The one registry entry (the model in SENSORS, its schema in SCHEMAS)."""
+    register_sensor(DistanceModel)
 
 
 def unregister() -> None:
     SENSORS.pop(DistanceModel.kind, None)
+    SCHEMAS.pop(DistanceModel.kind, None)

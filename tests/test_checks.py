@@ -1,6 +1,6 @@
 """The library checks a measurement set as the CSV reader does: another robot's data, NaN
 readings or angles, joints outside their limits, and a validation session whose own
-drawstring set-up contradicts the calibration's (calib_pin.measurements.checks)."""
+drawstring set-up contradicts the calibration's (calib_pin.calibration.validation)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
-from calib_pin.measurements.checks import check_measurements, check_same_setup
+from calib_pin.calibration.validation import check_same_setup
+from calib_pin.measurements.checks import check_measurements
 
 
 @pytest.fixture(scope="module")

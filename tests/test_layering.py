@@ -1,5 +1,5 @@
-"""The library does not depend on its command line: no module outside calib_pin/cli/
-imports calib_pin.cli (imports parsed with ast, relative ones resolved)."""
+"""The library's layers: no module outside calib_pin/cli/ imports calib_pin.cli, and the
+measurement sets sit below the sensors (imports parsed with ast, relative ones resolved)."""
 
 from __future__ import annotations
 
@@ -45,6 +45,28 @@ def cli_imports_outside_cli() -> list[str]:
 
 def test_no_module_outside_cli_imports_the_cli():
     assert cli_imports_outside_cli() == []
+
+
+#: The packages above the measurement sets: they read, write or fit measurement sets.
+ABOVE_MEASUREMENTS = ("sensors", "simulation", "calibration", "analysis", "estimators", "report", "studies", "cli",
+                      "export", "hardware")
+
+
+def measurement_imports_above() -> list[str]:
+    bad = []
+    for path in sorted((PACKAGE / "measurements").rglob("*.py")):
+        for line, module in _imports(path.read_text(encoding="utf-8"), _module(path), path.name == "__init__.py"):
+            parts = module.split(".")
+            if parts[0] == "calib_pin" and len(parts) > 1 and parts[1] in ABOVE_MEASUREMENTS:
+                bad.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {module}")
+    return bad
+
+
+def test_the_measurement_sets_import_nothing_above_them():
+    """calib_pin/measurements/ learns a kind's file from its schema (measurements/schema.py),
+    never from the sensors: no import of the sensors or anything above, not even inside a
+    function or under TYPE_CHECKING."""
+    assert measurement_imports_above() == []
 
 
 def test_the_check_resolves_relative_and_absolute_imports():

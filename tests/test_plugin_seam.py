@@ -16,13 +16,16 @@ import numpy as np
 import pytest
 
 import calib_pin as cp
+from calib_pin.measurements.schema import SCHEMAS
 from calib_pin.robot.poses import random_poses
-from calib_pin.sensors import SENSORS, CableSetup, PositionSetup, add_sensor_arguments, setup_record
+from calib_pin.sensors import SENSORS, CableSetup, PositionSetup, add_sensor_arguments, sensor_for, setup_record
 
 PACKAGE = Path(cp.__file__).parent
 #: Where kinds may be named: the sensors themselves and the CSV layer.
 OWNERS = ("sensors/", "measurements/csv_reader.py", "measurements/csv_writer.py", "measurements/columns.py",
           "measurements/dialect.py",
+          # the built-in kinds' file schemas (SCHEMAS), which the CSV layer reads below the sensors
+          "measurements/schema.py",
           # a sensor's own simulator of example sessions, named for its kind
           "simulation/contact.py", "simulation/pose.py")
 #: Modules that still name a kind, each with why (file -> reason). Shrink it; never grow it.
@@ -110,11 +113,12 @@ def test_setup_records_are_validated_once_and_built_from_the_loose_options():
 
 def test_calibrate_takes_a_setup_record_as_the_loose_keywords(tmp_path):
     data = cp.read_measurements(PACKAGE.parent / "robots" / "irb120_default.csv")
-    assert isinstance(data.setup, CableSetup) and data.setup.anchor_mm is not None
+    filed = sensor_for(data.kind).setup_of(data)
+    assert isinstance(filed, CableSetup) and filed.anchor_mm is not None
     kwargs = {"method": "lm", "seed": 0}
     with pytest.warns(DeprecationWarning, match="setup=calib_pin.CableSetup"):  # the shorthand, kept one release
-        loose = cp.calibrate("irb120", data, anchor_mm=data.setup.anchor_mm + 0.5, estimate="anchor", **kwargs)
-    record = cp.calibrate("irb120", data, setup=CableSetup(anchor_mm=data.setup.anchor_mm + 0.5,
+        loose = cp.calibrate("irb120", data, anchor_mm=filed.anchor_mm + 0.5, estimate="anchor", **kwargs)
+    record = cp.calibrate("irb120", data, setup=CableSetup(anchor_mm=filed.anchor_mm + 0.5,
                                                            estimate=("anchor",)), **kwargs)
     assert np.array_equal(loose.x, record.x)
     with pytest.raises(cp.CalibPinError, match="is for drawstring data"):
@@ -156,7 +160,7 @@ def test_an_invented_sensor_reads_writes_and_calibrates(tmp_path, distance):
     assert [line for line in text.splitlines() if not line.startswith("#")][0].endswith(",q6_deg,distance_mm")
     data = cp.read_measurements(path)
     assert data.kind == "distance" and data.values.shape == (80,)
-    assert data.setup == fake_sensor.DistanceSetup(target_mm=(0, 0, 50))
+    assert sensor_for(data.kind).setup_of(data) == fake_sensor.DistanceSetup(target_mm=(0, 0, 50))
     with pytest.raises(cp.CalibPinError, match="--anchor-mm is for drawstring data; .*holds laser distances"):
         cp.calibrate("irb120", path, method="lm", setup=CableSetup(anchor_mm=(1, 2, 3)))
     result = cp.calibrate("irb120", path, method="lm", test_fraction=0.25, setup=fake_sensor.DistanceSetup(
@@ -187,6 +191,7 @@ def test_an_invented_sensor_gets_its_cli_flags(tmp_path, distance, capsys):
     report = json.loads((out / "report.json").read_text())
     assert report["test"]["after"]["rmse_mm"] < 0.03
     assert "distance" not in SENSORS or SENSORS["distance"] is fake_sensor.DistanceModel
+    assert "distance" not in SCHEMAS or SCHEMAS["distance"] is fake_sensor.DistanceModel.schema
 
 
 def test_an_invented_sensors_columns_are_checked_as_the_others(tmp_path, distance):

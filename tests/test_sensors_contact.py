@@ -92,7 +92,7 @@ def test_a_contact_set_reads_and_writes_through_the_csv_layer(robot, tmp_path):
     assert back.labels["plane_id"].tolist() == data.labels["plane_id"].tolist()
     (a, b, length, line), = back.sensor_meta["distance"]
     assert (a, b) == ("A", "B") and length == pytest.approx(truth.sensor.distances[0][2], abs=1e-9) and line == 4
-    assert back.setup == cp.sensors.ContactSetup(tool_mm=(10, -5, 60))
+    assert cp.sensors.sensor_for(back.kind).setup_of(back) == cp.sensors.ContactSetup(tool_mm=(10, -5, 60))
     problem = ContactModel.problem_for(chain, params, back, np.arange(len(back)), {})
     assert problem.model.fixtures.tool_known and "tool_x" not in problem.model.names
     with pytest.raises(cp.DataError, match=r"c.csv:\d+: distance_m: distance_mm on line 4 and distance_m here mix units"):

@@ -83,7 +83,7 @@ def test_a_pose_set_reads_and_writes_through_the_csv_layer(robot, tmp_path):
     assert back.kind == "pose" and back.values.shape == (5, 7) and back.point_ids is None
     assert np.allclose(back.values[:, :3], data.values[:, :3], atol=1e-9)
     assert np.allclose(back.values[:, 3:], data.values[:, 3:], atol=1e-11)
-    assert back.setup == cp.sensors.PoseSetup(noise_deg=0.02)
+    assert cp.sensors.sensor_for(back.kind).setup_of(back) == cp.sensors.PoseSetup(noise_deg=0.02)
     lines = text.splitlines()
     header = next(k for k, line in enumerate(lines) if not line.startswith("#"))
     fields = lines[header + 2].split(",")

@@ -17,7 +17,6 @@ import numpy as np
 
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements import MeasurementSet, read_measurements
-from ..measurements.checks import check_same_setup
 from ..measurements.load import load_data
 from ..parameters import MODELS, ParameterModel, parameter_model
 from ..robot import Chain, RobotDescription, load_chain, resolve_robot
@@ -144,7 +143,7 @@ class Calibration:
                 has, no or a wrong ``same``, a set-up that disagrees with the named set's,
                 the training rows themselves.
         """
-        from .validation import choose_training_set, same_rows
+        from .validation import check_same_setup, choose_training_set, same_rows
 
         roles = [s.role for s in self.sets]
         if "test" in roles:

@@ -5,8 +5,8 @@ drawstring re-anchored. :class:`TestSet` says which, per session:
 
 - ``register=None`` (the default): the same set-up as the training set (``same``: its
   label). The session's own set-up must agree with the calibration's, else it is refused
-  (a drawstring's ``# anchor_mm``; a device frame more than 5 mm from the calibration's);
-  nothing is fitted on it (:func:`score_session`).
+  (:func:`check_same_setup`: a drawstring's ``# anchor_mm``; a device frame more than 5 mm
+  from the calibration's); nothing is fitted on it (:func:`score_session`).
 - ``register=k`` (the session's first k poses) or ``register="role"`` (its rows whose
   ``role`` column says ``register``): a new set-up, re-registered first. Only the session's
   own sensor unknowns (a device frame and markers, a drawstring's anchor and offset) are
@@ -23,6 +23,7 @@ its sensor unknowns fitted on the same rows with the nominal robot, the rest sco
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -32,9 +33,22 @@ from ..analysis.metrics import Metrics
 from ..estimators.problem import data_row_errors
 from ..exceptions import ArgumentError, DataError
 from ..measurements import MeasurementSet
-from ..sensors import sensor_for
+from ..sensors import SENSORS, sensor_for
 from ..sensors.problem import SetProblem
 from .holdout import REGISTER_ROLE, TestSet
+
+
+def check_same_setup(session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
+    """Refuse a validation session whose own sensor set-up contradicts the calibration's:
+    the training set's, or the caller's overrides in ``options``; what contradicts is the
+    sensor's to say (:meth:`~calib_pin.sensors.base.MeasurementModel.check_same_setup`).
+
+    Raises:
+        DataError: naming the session's file, the key and both values.
+    """
+    model = SENSORS.get(session.kind)
+    if model is not None:
+        model.check_same_setup(session, training, options)
 
 
 def choose_training_set(test: TestSet, session: MeasurementSet, labels: tuple[str, ...] | list[str],

@@ -189,7 +189,7 @@ def _simulate(args: argparse.Namespace) -> int:
                                         anchors_mm=anchors or None, poses=poses, geometries=geometries, **common,
                                         setup={"noise_deg": args.noise_deg} if args.noise_deg is not None else None)
     for data in sets:
-        refused = sensor_for(data.kind).refuse_values(data.values)
+        refused = sensor_for(data.kind).schema.refuse_values(data.values)
         if refused is not None:
             raise CalibPinError(f"simulated row {refused[0] + 1}: {refused[1]}: --length-offset-mm or the sensor "
                                 "geometry is wrong")

@@ -3,8 +3,8 @@ row by row, for any :class:`MeasurementSet` (read, simulated or made by hand).
 
 :func:`check_measurements` is what the library's entry points (``prepare``,
 ``calibrate``, a ``test_data`` session) call, and so the
-command line through them. :func:`check_same_setup` refuses a validation session whose
-own drawstring set-up contradicts the one the calibration used.
+command line through them. What a set of each kind holds is its schema's
+(:data:`calib_pin.measurements.schema.SCHEMAS`).
 """
 
 from __future__ import annotations
@@ -20,17 +20,15 @@ from ..exceptions import DataError
 from ..robot.chain import Chain
 from ..util.arguments import LIMIT_TOLERANCE, as_instance, outside_limits
 from .dataset import MeasurementSet
+from .schema import SCHEMAS
 
 #: What a pose list's ``kind`` is (a set without values).
 POSES = "poses"
 
 
 def kinds() -> tuple[str, ...]:
-    """Data kinds a set may hold: each registered sensor's (:data:`calib_pin.sensors.SENSORS`),
-    or a pose list."""
-    from ..sensors import SENSORS
-
-    return (*SENSORS, POSES)
+    """Data kinds a set may hold: each registered schema's (:data:`~.schema.SCHEMAS`), or a pose list."""
+    return (*SCHEMAS, POSES)
 
 
 #: How far two set-ups may differ and still agree, [m]: a file's rounding, down to the
@@ -64,9 +62,7 @@ def _check_shapes(chain: Chain, data: MeasurementSet) -> None:
     where = _where(data)
     if data.kind not in kinds():
         raise DataError(where, f"kind '{data.kind}' is not one of {', '.join(kinds())}", None, "kind")
-    from ..sensors import SENSORS
-
-    model = SENSORS.get(data.kind)
+    schema = SCHEMAS.get(data.kind)
     q = np.asarray(data.q)
     if q.dtype.kind not in "iuf" or q.ndim != 2 or q.shape[1] != chain.n_joints:
         raise DataError(where, f"joint angles of shape {q.shape} ({q.dtype.name}): expected (n_rows, "
@@ -74,18 +70,17 @@ def _check_shapes(chain: Chain, data: MeasurementSet) -> None:
     if not len(q):
         raise DataError(where, "has no rows", None, "q")
     values = np.asarray(data.values)
-    # numbers a data row holds: a sensor whose residual rows differ from them says so (a pose: 7 read, 6 fitted)
-    per_row = None if model is None else getattr(model, "data_values_per_row", model.values_per_row)
+    per_row = None if schema is None else schema.data_values_per_row  # numbers a data row holds
     expected = None if per_row is None else (len(q),) if per_row == 1 else (len(q), per_row)
-    if model is not None and expected is not None and (values.dtype.kind not in "iuf" or values.shape != expected):
-        one = "reading" if per_row == 1 else ", ".join(model.value_columns)
+    if schema is not None and expected is not None and (values.dtype.kind not in "iuf" or values.shape != expected):
+        one = "reading" if per_row == 1 else ", ".join(schema.value_columns)
         raise DataError(where, f"{data.kind} values of shape {values.shape} ({values.dtype.name}): expected "
                         f"{expected} numbers, one {one} per row", None, "values")
     for name in ("lines", "pose_ids", "point_ids"):
         labels = getattr(data, name)
         if labels is not None and np.shape(labels) != (len(q),):
             raise DataError(where, f"{name} of shape {np.shape(labels)}: expected one per row ({len(q)})", None, name)
-    if model is not None and model.point_labels and data.point_ids is None:
+    if schema is not None and schema.point_labels and data.point_ids is None:
         raise DataError(where, f"a {data.kind} set needs point_ids (which marker each row measured)", None,
                         "point_ids")
 
@@ -109,21 +104,19 @@ def _check_angles(chain: Chain, data: MeasurementSet) -> None:
 
 
 def _check_values(data: MeasurementSet) -> None:
-    from ..sensors import SENSORS
-
-    model = SENSORS.get(data.kind)
-    if model is None:  # a pose list
+    schema = SCHEMAS.get(data.kind)
+    if schema is None:  # a pose list
         return
     values = np.asarray(data.values, dtype=float)
     bad = np.argwhere(~np.isfinite(values))
-    columns = model.value_columns
+    columns = schema.value_columns
     name = columns[0] if len(columns) == 1 else data.kind
     if len(bad):
         row = int(bad[0][0])
         line, prefix = _row_line(data, row)
         raise DataError(_where(data), f"{prefix}{values[tuple(bad[0])]} is not a finite {name} reading", line,
                         columns[0] if len(columns) == 1 else columns[int(bad[0][1])])
-    refused = model.refuse_values(values)
+    refused = schema.refuse_values(values)
     if refused is not None:
         row, why = refused
         line, prefix = _row_line(data, row)
@@ -205,17 +198,3 @@ def _file_keys(path: str) -> set[str] | None:
 def _mm(value: Any) -> str:
     return ", ".join(f"{v:.10g}" for v in np.atleast_1d(np.asarray(value, dtype=float) * 1e3))
 
-
-def check_same_setup(session: MeasurementSet, training: MeasurementSet, options: dict[str, Any]) -> None:
-    """Refuse a validation session whose own sensor set-up contradicts the calibration's:
-    the training set's, or the caller's overrides in ``options``; what contradicts is the
-    sensor's to say (:meth:`~calib_pin.sensors.base.MeasurementModel.check_same_setup`).
-
-    Raises:
-        DataError: naming the session's file, the key and both values.
-    """
-    from ..sensors import SENSORS
-
-    model = SENSORS.get(session.kind)
-    if model is not None:
-        model.check_same_setup(session, training, options)

@@ -27,6 +27,7 @@ from pathlib import Path
 
 from ..exceptions import DataError
 from .dialect import quote
+from .schema import SCHEMAS
 
 #: Columns a compensated pose list carries beside the joints (calib-pin compensate); read past.
 ANNOTATIONS = ("position_error_mm", "orientation_error_urad", "status")
@@ -50,18 +51,18 @@ class Columns:
     extra: dict[int, str] = field(default_factory=dict)
     #: Unnamed columns (kept as extra unless blank in every row).
     unnamed: list[int] = field(default_factory=list)
-    #: A registered sensor's value columns beyond the drawstring's and the positions'
-    #: (its ``value_columns``): quantity -> (column index, unit).
+    #: A registered kind's value columns beyond the drawstring's and the positions'
+    #: (its schema's ``value_columns``): quantity -> (column index, unit).
     sensor: dict[str, tuple[int, str]] = field(default_factory=dict)
     #: That sensor's kind ("" without such columns).
     sensor_kind: str = ""
-    #: A registered sensor's unit-free value columns (its ``plain_columns``, after its
-    #: ``value_columns``: a 6-D pose's quaternion): name -> column index.
+    #: A registered kind's unit-free value columns (its schema's ``plain_columns``, after
+    #: its ``value_columns``: a 6-D pose's quaternion): name -> column index.
     plain: dict[str, int] = field(default_factory=dict)
     #: That sensor's kind ("" without such columns).
     plain_kind: str = ""
-    #: A registered sensor's text label columns (its ``label_columns``: a contact set's
-    #: ``contact_id``, ``plane_id``): name -> column index.
+    #: A registered kind's text label columns (its schema's ``label_columns``: a contact
+    #: set's ``contact_id``, ``plane_id``): name -> column index.
     labels: dict[str, int] = field(default_factory=dict)
     #: That sensor's kind ("" without such columns).
     label_kind: str = ""
@@ -76,37 +77,27 @@ _BUILT_IN = {("length",), ("x", "y", "z")}
 
 
 def plugin_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
-    """Quantity -> (kind, all its value columns) of every registered sensor whose values
+    """Quantity -> (kind, all its value columns) of every registered schema whose values
     are not the drawstring's length or the positions' x, y, z."""
-    from ..sensors import SENSORS
-
-    return {c: (kind, model.value_columns) for kind, model in SENSORS.items()
-            if model.value_columns and tuple(model.value_columns) not in _BUILT_IN for c in model.value_columns}
+    return {c: (kind, schema.value_columns) for kind, schema in SCHEMAS.items()
+            if schema.value_columns and schema.value_columns not in _BUILT_IN for c in schema.value_columns}
 
 
 def plain_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
-    """Name -> (kind, all its unit-free columns) of every registered sensor with
+    """Name -> (kind, all its unit-free columns) of every registered schema with
     ``plain_columns`` (read as they are, after its ``value_columns``)."""
-    from ..sensors import SENSORS
-
-    plain = {kind: tuple(getattr(model, "plain_columns", ())) for kind, model in SENSORS.items()}
-    return {c: (kind, names) for kind, names in plain.items() for c in names}
+    return {c: (kind, schema.plain_columns) for kind, schema in SCHEMAS.items() for c in schema.plain_columns}
 
 
 def label_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
-    """Name -> (kind, all its label columns) of every registered sensor with
+    """Name -> (kind, all its label columns) of every registered schema with
     ``label_columns`` (text naming what a row touched; a row may leave some empty)."""
-    from ..sensors import SENSORS
-
-    labels = {kind: tuple(getattr(model, "label_columns", ())) for kind, model in SENSORS.items()}
-    return {c: (kind, names) for kind, names in labels.items() for c in names}
+    return {c: (kind, schema.label_columns) for kind, schema in SCHEMAS.items() for c in schema.label_columns}
 
 
 def kind_of_columns(columns: tuple[str, ...]) -> str:
-    """The registered kind whose value columns are ``columns``."""
-    from ..sensors import SENSORS
-
-    return next(kind for kind, model in SENSORS.items() if tuple(model.value_columns) == columns)
+    """The registered kind whose value columns are ``columns`` (the first, in registry order)."""
+    return next(kind for kind, schema in SCHEMAS.items() if schema.value_columns == columns)
 
 
 def _units(quantity: str) -> str:
@@ -273,18 +264,16 @@ def _check_plain(cols: Columns, path: Path, line: int) -> None:
     Raises:
         DataError: naming the missing or foreign column.
     """
-    from ..sensors import SENSORS
-
-    model = SENSORS[cols.plain_kind]
+    schema = SCHEMAS[cols.plain_kind]
     kind = cols.plain_kind
     if cols.length is not None or cols.sensor_kind or cols.point is not None:
         other = "length" if cols.length is not None else "point_id" if cols.point is not None else cols.sensor_kind
         raise DataError(str(path), f"has {kind} columns and {other}: one set holds one sensor's data", line)
-    coords = tuple(model.value_columns) == ("x", "y", "z")
-    for quantity in model.value_columns:
+    coords = schema.value_columns == ("x", "y", "z")
+    for quantity in schema.value_columns:
         if quantity not in (cols.coords if coords else cols.sensor):
             raise DataError(str(path), f"missing column {quantity}_mm (or {quantity}_m) of a {kind} set", line)
-    plain = tuple(getattr(model, "plain_columns", ()))
+    plain = schema.plain_columns
     for name in plain:
         if name not in cols.plain:
             raise DataError(str(path), f"missing column {name} of a {kind} set ({', '.join(plain)})", line)

@@ -62,6 +62,7 @@ from .columns import (
 )
 from .dataset import MeasurementSet, point_label
 from .dialect import Dialect, Override, number, quote, shown_separator
+from .schema import SCHEMAS
 
 __all__ = ["ANNOTATIONS", "number", "quote", "read_measurements"]
 
@@ -69,11 +70,9 @@ _INTEGER = re.compile(r"^[-+]?\d+$")
 
 
 def _keys(size: int) -> tuple[str, ...]:
-    """The set-up metadata keys of the registered sensors that hold ``size`` numbers
+    """The set-up metadata keys of the registered schemas that hold ``size`` numbers
     (3: a vector, 1: a scalar; ``noise`` is every set's), in mm or m."""
-    from ..sensors import SENSORS
-
-    keys = dict.fromkeys(k for m in SENSORS.values() for k, n in m.metadata_keys.items() if n == size)
+    keys = dict.fromkeys(k for s in SCHEMAS.values() for k, n in s.metadata_keys.items() if n == size)
     return tuple(keys) + (("noise",) if size == 1 else ())
 #: Largest field accepted, characters.
 _FIELD_LIMIT = 1000
@@ -156,12 +155,10 @@ def _metadata_line(parsed: _Parsed, stripped: str, path: Path, number_: int) -> 
 
 
 def _pair_key(key: str) -> tuple[str, float] | None:
-    """(name, scale to m) of a registered sensor's pair metadata key (``distance_mm``:
+    """(name, scale to m) of a registered schema's pair metadata key (``distance_mm``:
     ``label, label, length``, given once a pair), else None."""
-    from ..sensors import SENSORS
-
     base, _, unit = key.rpartition("_")
-    pairs = {k for m in SENSORS.values() for k in getattr(m, "pair_metadata", ())}
+    pairs = {k for s in SCHEMAS.values() for k in s.pair_metadata}
     scale = {"mm": 1e-3, "m": 1.0}.get(unit)
     return (base, scale) if base in pairs and scale else None
 
@@ -534,10 +531,9 @@ def read_measurements(
         raise DataError(str(path), f"is for robot '{meta['robot']}', not '{chain.name}'", None, "robot")
     kind = cols.label_kind or cols.plain_kind or cols.sensor_kind or (kind_of_columns(("x", "y", "z")) if cols.position else (
         kind_of_columns(("length",)) if cols.length is not None else "poses"))
-    from ..sensors import SENSORS
-
-    own = dict(SENSORS[kind].metadata_keys) if kind in SENSORS else {}
-    own.update({k: 0 for k in getattr(SENSORS.get(kind), "pair_metadata", ())})
+    schema = SCHEMAS.get(kind)
+    own = dict(schema.metadata_keys) if schema is not None else {}
+    own.update({k: 0 for k in (schema.pair_metadata if schema is not None else ())})
     return MeasurementSet(
         q=q, values=values if values.shape[1] != 1 else values[:, 0], kind=kind,
         anchor=meta.get("anchor"), tool=meta.get("tool"), length_offset=meta.get("length_offset", 0.0),

@@ -16,6 +16,7 @@ import numpy as np
 from ..util.arguments import as_instance, as_path
 from ..util.atomic import write_text
 from .dataset import MeasurementSet, PointLabel, point_label
+from .schema import SCHEMAS
 
 
 def text_field(text: str) -> str:
@@ -46,17 +47,16 @@ def _mm(v: np.ndarray) -> str:
 def metadata_lines(data: MeasurementSet) -> list[str]:
     """The ``# key: value`` lines of a set: robot, end frame, sensor geometry, noise, notes."""
     lines = [f"# {key}: {value}" for key, value in (("robot", data.robot), ("end_frame", data.end_frame)) if value]
-    from ..sensors import SENSORS
-
-    own = SENSORS[data.kind].metadata_keys if data.kind in SENSORS else {}
-    keys = dict.fromkeys(k for m in SENSORS.values() for k in m.metadata_keys.items())
+    schema = SCHEMAS.get(data.kind)
+    own = schema.metadata_keys if schema is not None else {}
+    keys = dict.fromkeys(k for s in SCHEMAS.values() for k in s.metadata_keys.items())
     for key, size in keys:  # each sensor's set-up metadata (the drawstring's in anchor, tool, length_offset)
         value = data.sensor_meta.get(key, getattr(data, key, None))
         if value is None or (size == 1 and key not in own):
             continue
         text = _mm(np.asarray(value, dtype=float).reshape(-1)) if size > 1 else f"{float(value) * 1e3:.6f}"
         lines.append(f"# {key}_mm: {text}")
-    for key in getattr(SENSORS.get(data.kind), "pair_metadata", ()):  # one line a pair: label, label, length
+    for key in schema.pair_metadata if schema is not None else ():  # one line a pair: label, label, length
         lines += [f"# {key}_mm: {a}, {b}, {length * 1e3:.6f}" for a, b, length, *_ in data.sensor_meta.get(key, ())]
     if data.noise is not None:
         lines.append(f"# noise_mm: {data.noise * 1e3:.6f}")
@@ -64,17 +64,17 @@ def metadata_lines(data: MeasurementSet) -> list[str]:
 
 
 def header(n_joints: int, kind: str, with_pose: bool = False) -> str:
-    """The column line of a set of ``kind`` (a registered sensor's, or ``poses``): a
-    sensor with point labels gets ``pose`` and ``point_id`` first, then the joints, then
+    """The column line of a set of ``kind`` (a registered schema's, or ``poses``): a
+    kind with point labels gets ``pose`` and ``point_id`` first, then the joints, then
     its value columns in mm."""
-    from ..sensors import SENSORS
-
-    model = SENSORS.get(kind)
+    schema = SCHEMAS.get(kind)
     joints = [f"q{i}_deg" for i in range(1, n_joints + 1)]
-    values = [f"{c}_mm" for c in model.value_columns] if model is not None else []
-    values += list(getattr(model, "plain_columns", ()))  # unit-free, after the others (a pose's quaternion)
-    values += list(getattr(model, "label_columns", ()))  # text naming what a row touched (a contact's fixture)
-    if model is not None and model.point_labels:
+    values: list[str] = []
+    if schema is not None:
+        values += [f"{c}_mm" for c in schema.value_columns]
+        values += schema.plain_columns  # unit-free, after the others (a pose's quaternion)
+        values += schema.label_columns  # text naming what a row touched (a contact's fixture)
+    if schema is not None and schema.point_labels:
         return ",".join(["pose", "point_id", *joints, *values])
     return ",".join((["pose"] if with_pose else []) + joints + values)
 
@@ -104,11 +104,10 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
         lines.append("# csv: sep=,")
     lines.append(",".join([header(data.q.shape[1], data.kind), *map(text_field, data.extra)]))
     values = np.asarray(data.values, dtype=float).reshape(len(data), -1)
-    labelled = _point_labels(data.kind)
-    from ..sensors import SENSORS
-
-    n_plain = len(getattr(SENSORS.get(data.kind), "plain_columns", ()))
-    label_names = tuple(getattr(SENSORS.get(data.kind), "label_columns", ()))
+    schema = SCHEMAS.get(data.kind)
+    labelled = schema is not None and schema.point_labels
+    n_plain = len(schema.plain_columns) if schema is not None else 0
+    label_names = schema.label_columns if schema is not None else ()
     plain, values = values[:, values.shape[1] - n_plain :], values[:, : values.shape[1] - n_plain]
     for k in range(len(data)):
         labels: tuple[PointLabel, ...] = ()
@@ -119,12 +118,6 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
         texts = [text_field(str(data.labels[name][k])) if name in data.labels else "" for name in label_names]
         lines.append(",".join([row(data.q[k], values[k], labels, plain[k]), *texts, *_extra_fields(data, k)]))
     write_text(path, "\n".join(lines) + "\n")
-
-
-def _point_labels(kind: str) -> bool:
-    from ..sensors import SENSORS
-
-    return kind in SENSORS and SENSORS[kind].point_labels
 
 
 def write_poses(

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import CalibPinError
+from .schema import SCHEMAS, default_kind
 
 #: A marker's ``point_id``: a whole number, or a text label (``SMR1``, ``T2``, ``A``).
 PointLabel = int | str
@@ -51,8 +52,8 @@ class MeasurementSet:
         values: What the sensor read, [m]: shape (n_rows,) for drawstring readings,
             (n_rows, 3) for positions in the measuring device's frame.
         kind: The sensor kind the values are of (a key of
-            :data:`calib_pin.sensors.SENSORS`; empty: its first, the drawstring); ``poses``
-            for a pose list without values.
+            :data:`~calib_pin.measurements.schema.SCHEMAS`; empty: its first, the
+            drawstring); ``poses`` for a pose list without values.
         anchor: Drawstring: P0 in the base frame, shape (3,), [m], or None.
         tool: Drawstring: the tool point in the end frame, shape (3,), [m], or None.
         length_offset: Drawstring: zero offset, [m] (0 if not given).
@@ -69,14 +70,12 @@ class MeasurementSet:
         extra: The file's other columns, name to shape (n_rows,): float when every field
             is a number (empty ones NaN), else the text as written; values in the file's
             own units, unused by calib-pin (see :meth:`ignored_note`).
-        sensor_meta: The file's set-up metadata of the set's sensor (its
+        sensor_meta: The file's set-up metadata of the set's sensor (its schema's
             ``metadata_keys``), key to value in SI ([m]); the drawstring's is also in
             ``anchor``, ``tool``, ``length_offset``.
-        labels: The sensor's text label columns (its ``label_columns``: a contact set's
-            ``contact_id``, ``plane_id``), name to shape (n_rows,) text, '' where a row
-            leaves one empty.
-
-    :attr:`setup` is the sensor's set-up record the set carries (``CableSetup``, ...).
+        labels: The sensor's text label columns (its schema's ``label_columns``: a
+            contact set's ``contact_id``, ``plane_id``), name to shape (n_rows,) text, ''
+            where a row leaves one empty.
     """
 
     q: np.ndarray
@@ -101,8 +100,6 @@ class MeasurementSet:
         """A list or tuple given for an array field (a set made by hand) becomes an array;
         what it holds is checked by :func:`~calib_pin.measurements.checks.check_measurements`."""
         if not self.kind:
-            from ..sensors import default_kind
-
             self.kind = default_kind()
         for name in ("q", "values", "anchor", "tool", "lines", "pose_ids", "point_ids"):
             value = getattr(self, name)
@@ -112,21 +109,9 @@ class MeasurementSet:
     def __len__(self) -> int:
         return len(self.q)
 
-    @property
-    def setup(self) -> Any:
-        """The set-up record of the set's sensor, as its file (or maker) gave it
-        (:class:`~calib_pin.sensors.CableSetup`, ...; fields in mm), or None (a pose list,
-        or a sensor without set-up metadata)."""
-        from ..sensors import SENSORS
-
-        model = SENSORS.get(self.kind)
-        return None if model is None else model.setup_of(self)
-
     def _values_of(self, columns: tuple[str, ...], what: str) -> np.ndarray:
-        from ..sensors import SENSORS
-
-        model = SENSORS.get(self.kind)
-        if model is None or model.value_columns != columns:
+        schema = SCHEMAS.get(self.kind)
+        if schema is None or schema.value_columns != columns:
             raise CalibPinError(f"{self.source or 'the set'} holds {self.kind} data, not {what}")
         return self.values
 

@@ -9,11 +9,13 @@
 - :class:`.contact.ContactModel`: touches of fixed points and planes (no instrument), set
   up by a :class:`.contact.ContactSetup`.
 
-The registry :data:`SENSORS` is the only place the kinds are listed: it maps a
-measurement set's ``kind`` to its model. Everything else asks it: the CSV reader and
-writer for a kind's value columns and metadata keys, the pipeline for its set-up record,
-the CLI for its flags (:func:`add_sensor_arguments`). Adding a sensor is one module (a
-subclass of :class:`.base.MeasurementModel` with its :class:`.setup.SensorSetup`) and one
+The registry :data:`SENSORS` maps a measurement set's ``kind`` to its model; what a
+file of each kind holds (value columns, metadata keys) is the model's ``schema``, a
+record of :data:`calib_pin.measurements.schema.SCHEMAS`, which the CSV layer asks without
+importing the sensors. Everything else asks :data:`SENSORS`: the pipeline for a kind's
+set-up record, the CLI for its flags (:func:`add_sensor_arguments`). Adding a sensor is
+one module (a subclass of :class:`.base.MeasurementModel` with its
+:class:`~calib_pin.measurements.schema.Schema` and :class:`.setup.SensorSetup`) and one
 entry here (or :func:`register` at run time).
 """
 
@@ -24,6 +26,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from ..exceptions import ArgumentError
+from ..measurements.schema import default_kind, register_schema
 from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart
 from .cable import CABLE_EXTRAS, CableModel, CableSetup, Drawstring
 from .contact import ContactModel, ContactSetup, Fixtures
@@ -43,15 +46,12 @@ def sensor_for(kind: str) -> type[MeasurementModel]:
 
 
 def register(model: type[MeasurementModel]) -> type[MeasurementModel]:
-    """Add a sensor to :data:`SENSORS` under its ``kind`` (a plug-in's one line; usable as
-    a class decorator). Returns the model."""
+    """Add a sensor to :data:`SENSORS` under its ``kind``, and its schema to
+    :data:`~calib_pin.measurements.schema.SCHEMAS` (a plug-in's one line; usable as a
+    class decorator). Returns the model."""
+    register_schema(model.schema)
     SENSORS[model.kind] = model
     return model
-
-
-def default_kind() -> str:
-    """The kind of a set made in memory without one: the registry's first."""
-    return next(iter(SENSORS))
 
 
 def setup_types() -> tuple[type[SensorSetup], ...]:

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
+from ..measurements.schema import Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec, Deflection
 from ..robot.kinematics import Kinematics
@@ -135,12 +136,17 @@ class MeasurementModel(ABC):
             size in SI units.
         n_robot: Number of robot deviations; ``sensor_start``: index of the first sensor unknown.
         deflection: The compliance model, or None.
-        kind: The measurement-set kind this sensor reads (``MeasurementSet.kind``).
-        values_per_row: Numbers one data row holds (1 reading, 3 coordinates).
+        schema: What a measurement file of this sensor holds (a
+            :class:`~calib_pin.measurements.schema.Schema`); ``kind`` (the measurement-set
+            kind this sensor reads, ``MeasurementSet.kind``) and ``data_name`` (what a set
+            holds, for people: "drawstring readings") are its, set when the subclass is defined.
+        values_per_row: Residual entries one row gives (1 reading, 3 coordinates).
         error_name: What a row's error is, for people ("reading error"); ``value_unit``: its unit.
     """
 
+    schema: ClassVar[Schema]
     kind: ClassVar[str]
+    data_name: ClassVar[str]
     values_per_row: ClassVar[int] = 1
     error_name: ClassVar[str] = "error"
     #: The unit of a row's error (:meth:`row_errors`, and the ``*_mm`` fields of its
@@ -154,20 +160,17 @@ class MeasurementModel(ABC):
     estimable: ClassVar[tuple[str, ...]] = ()
     #: The sensor's set-up options record (a :class:`~calib_pin.sensors.setup.SensorSetup`).
     setup_type: ClassVar[type[SensorSetup]]
-    #: What a set of this sensor holds, for people ("drawstring readings").
-    data_name: ClassVar[str] = "readings"
-    #: The quantities of a row's values in a measurement file: column ``<name>_mm`` or
-    #: ``<name>_m`` each (``length``; ``x``, ``y``, ``z``), in the order of ``values``.
-    value_columns: ClassVar[tuple[str, ...]] = ()
-    #: The file's set-up metadata keys of this sensor (``# <key>_mm`` or ``# <key>_m``),
-    #: key -> how many numbers (1, or 3 for a vector); read in SI into ``MeasurementSet.sensor_meta``.
-    metadata_keys: ClassVar[dict[str, int]] = {}
-    #: Rows carry ``pose`` and ``point_id`` labels (which marker a row measured).
-    point_labels: ClassVar[bool] = False
     #: The set-up is fitted on the set's own training rows (what: ``fitted_setup``), so a
     #: set of this sensor cannot be all-test.
     fits_setup: ClassVar[bool] = False
     fitted_setup: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """A sensor that declares its ``schema`` takes its ``kind`` and ``data_name`` from it."""
+        super().__init_subclass__(**kwargs)
+        schema = cls.__dict__.get("schema")
+        if schema is not None:
+            cls.kind, cls.data_name = schema.kind, schema.data_name
 
     def __init__(self, chain: Chain, params: ParameterModel, extra: list[tuple[str, str, float]],
                  compliance: ComplianceSpec | None = None,
@@ -208,11 +211,6 @@ class MeasurementModel(ABC):
         from ..exceptions import CalibPinError
 
         raise CalibPinError(f"poses cannot be planned for {cls.data_name} without data")
-
-    @classmethod
-    def refuse_values(cls, values: np.ndarray) -> tuple[int, str] | None:
-        """A row whose finite values this sensor cannot have read: (row, why), or None."""
-        return None
 
     @classmethod
     def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from ..exceptions import ArgumentError, CalibPinError, DataError
+from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..util.arguments import MAX_MM, as_array, as_float, as_optional, as_xyz_mm
@@ -194,15 +195,12 @@ class CableModel(MeasurementModel):
 
     prefit: DrawstringPrefit | None = None
 
-    kind = "cable"
+    schema: ClassVar[Schema] = SCHEMAS["cable"]
     values_per_row = 1
     geometry_type = Drawstring
     error_name = "reading error"
     estimable = CABLE_EXTRAS
     setup_type = CableSetup
-    data_name = "drawstring readings"
-    value_columns = ("length",)
-    metadata_keys = {"anchor": 3, "tool": 3, "length_offset": 1}
 
     def __init__(self, chain: Chain, params: ParameterModel, sensor: Drawstring, estimate: tuple[str, ...] = (),
                  compliance: ComplianceSpec | None = None) -> None:
@@ -352,14 +350,6 @@ class CableModel(MeasurementModel):
                                 f"the validation session has {_mm(own)} mm, the calibration {_mm(used)} mm ({by}): "
                                 "measure both with the same set-up, re-register the session on its own first poses "
                                 "(--test-data FILE:register=K), or correct the file's line", None, key)
-
-    @classmethod
-    def refuse_values(cls, values: np.ndarray) -> tuple[int, str] | None:
-        """A drawstring reading is >= 0."""
-        if (values < 0).any():
-            row = int(np.argmax(values < 0))
-            return row, f"{values[row] * 1e3:g} mm is negative: a drawstring reading is >= 0"
-        return None
 
     def geometry_at(self, x: np.ndarray | None) -> Drawstring:
         """The sensor geometry x implies (``sensor`` plus the estimated corrections)."""

@@ -41,6 +41,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ArgumentError, CalibPinError, DataError
+from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..util.arguments import as_optional, as_xyz_mm
@@ -52,8 +53,6 @@ if TYPE_CHECKING:
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
 
-#: Label columns of a contact set: a row names one of them.
-LABEL_COLUMNS = ("contact_id", "plane_id")
 #: A plane needs at least this many rows at distinct configurations to be located.
 MIN_PLANE_POINTS = 3
 _EZ = np.array([0.0, 0.0, 1.0])
@@ -157,7 +156,7 @@ class ContactSetup(SensorSetup):
 def _label_rows(data: MeasurementSet) -> tuple[np.ndarray, np.ndarray]:
     """Each row's ``contact_id`` and ``plane_id`` text ('' where not given)."""
     n = len(data)
-    columns = [np.asarray(data.labels.get(name, np.full(n, "")), dtype=str) for name in LABEL_COLUMNS]
+    columns = [np.asarray(data.labels.get(name, np.full(n, "")), dtype=str) for name in ContactModel.schema.label_columns]
     return columns[0], columns[1]
 
 
@@ -361,12 +360,10 @@ class ContactProblem(SetProblem):
 class ContactModel(MeasurementModel):
     """Touches of fixed points and planes by a tool point on a chain whose deviations follow a parameter model."""
 
-    kind = "contact"
+    schema: ClassVar[Schema] = SCHEMAS["contact"]
     #: Residual entries differ by row (3 a point, 1 a plane or a distance: see
     #: ``ContactProblem.row_offsets``); 1, the fewest, for a count of values.
     values_per_row = 1
-    #: A contact row holds no measured value: it says which fixture the tool point touches.
-    data_values_per_row = 0
     #: Rows differ in size within a set (a set of several is not stacked yet: it is fitted alone).
     rows_differ = True
     #: Methods that need rows of one size (a sigma-point batch, a correction per row's values).
@@ -374,13 +371,6 @@ class ContactModel(MeasurementModel):
     geometry_type = Fixtures
     error_name = "contact error (distance of the tool point from its point or plane)"
     setup_type = ContactSetup
-    data_name = "contact fixtures"
-    value_columns = ()
-    #: Text columns naming each row's fixture (read and written as they are).
-    label_columns = LABEL_COLUMNS
-    #: Metadata keys holding ``label, label, length`` (``_mm`` or ``_m``), each line once a pair.
-    pair_metadata = ("distance",)
-    metadata_keys: ClassVar[dict[str, int]] = {"tool": 3}
     fits_setup = True
     fitted_setup = "fixture points and planes"
 

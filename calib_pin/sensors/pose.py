@@ -40,6 +40,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ArgumentError, CalibPinError, DataError
+from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
@@ -56,8 +57,6 @@ if TYPE_CHECKING:
 DEFAULT_NOISE_DEG = 0.01
 #: What a pose model estimates with the robot's deviations (both, unless a truth's model).
 POSE_EXTRAS = ("device", "body")
-#: A quaternion whose norm is farther than this from 1 is refused (it is not a rotation as written).
-QUATERNION_TOLERANCE = 1e-3
 
 
 def quaternion_matrices(quat: np.ndarray) -> np.ndarray:
@@ -245,18 +244,12 @@ class PoseProblem(SetProblem):
 class PoseModel(MeasurementModel):
     """Device-frame poses of a body on a chain whose deviations follow a parameter model."""
 
-    kind = "pose"
+    schema: ClassVar[Schema] = SCHEMAS["pose"]
     #: Residual entries a row holds: position error [m], weighted orientation error.
     values_per_row = 6
-    #: Numbers a data row holds: position [m] and quaternion (w, x, y, z).
-    data_values_per_row = 7
     geometry_type = PoseRig
     error_name = "pose error (position mm, orientation scaled by noise_mm/noise_deg)"
     setup_type = PoseSetup
-    data_name = "6-D poses"
-    value_columns = ("x", "y", "z")
-    #: Unit-free value columns after ``value_columns`` (read and written as they are).
-    plain_columns = ("qw", "qx", "qy", "qz")
     fits_setup = True
     fitted_setup = "device frame and body"
 
@@ -294,17 +287,6 @@ class PoseModel(MeasurementModel):
             return PoseSetup(noise_deg=float(text)) if text is not None else None
         except (ValueError, CalibPinError):
             return None  # refused, naming the file, when the set is calibrated (noise_of)
-
-    @classmethod
-    def refuse_values(cls, values: np.ndarray) -> tuple[int, str] | None:
-        """A quaternion must have norm 1 within :data:`QUATERNION_TOLERANCE`."""
-        norms = np.linalg.norm(np.asarray(values, dtype=float).reshape(len(values), -1)[:, 3:7], axis=1)
-        bad = np.abs(norms - 1.0) > QUATERNION_TOLERANCE
-        if bad.any():
-            row = int(np.argmax(bad))
-            return row, (f"quaternion (qw, qx, qy, qz) has norm {norms[row]:.6g}, not 1 within "
-                         f"{QUATERNION_TOLERANCE:g}: a Hamilton unit quaternion is expected")
-        return None
 
     @classmethod
     def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,

@@ -29,6 +29,7 @@ import pinocchio as pin
 
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements.dataset import PointLabel, point_label
+from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
@@ -135,14 +136,11 @@ class PositionSetup(SensorSetup):
 class PositionModel(MeasurementModel):
     """Device-frame positions of markers on a chain whose deviations follow a parameter model."""
 
-    kind = "position"
+    schema: ClassVar[Schema] = SCHEMAS["position"]
     values_per_row = 3
     geometry_type = PositionDevice
     error_name = "Euclidean position error in the device frame"
     setup_type = PositionSetup
-    data_name = "positions"
-    value_columns = ("x", "y", "z")
-    point_labels = True
     fits_setup = True
     fitted_setup = "device frame"
 
