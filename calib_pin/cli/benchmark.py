@@ -100,7 +100,8 @@ def _benchmark(args: argparse.Namespace) -> int:
 
 
 def _floor(args: argparse.Namespace) -> None:
-    from ..studies.benchmark_commands import FLOOR_SAMPLES, PROCESS_NOTE, above_floor, format_floor
+    from ..studies.benchmark_commands import PROCESS_NOTE
+    from ..studies.benchmark_floor import FLOOR_SAMPLES, above_floor, format_floor
 
     repeats = max(args.repeats, 5)
     print(f"calibrate ur5 --model placement --test-fraction 0 --no-html on {FLOOR_SAMPLES} simulated marker positions "

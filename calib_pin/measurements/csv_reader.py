@@ -49,7 +49,6 @@ from ..exceptions import DataError
 from ..robot.chain import Chain, as_chain
 from ..util.arguments import as_bool, as_optional, as_path
 from ..util.input_files import check_regular
-from . import dialect
 from .columns import (
     ANNOTATIONS,
     Columns,
@@ -61,7 +60,20 @@ from .columns import (
     plugin_columns,
 )
 from .dataset import MeasurementSet, point_label
-from .dialect import Dialect, Override, number, quote, shown_separator
+from .dialect import (
+    KEY,
+    SEPARATORS,
+    Dialect,
+    Override,
+    as_number,
+    decimal_mark,
+    number,
+    parse_override,
+    quote,
+    separator,
+    shown_separator,
+    vector_parts,
+)
 from .schema import SCHEMAS
 
 __all__ = ["ANNOTATIONS", "number", "quote", "read_measurements"]
@@ -92,7 +104,7 @@ def _metadata_value(key: str, text: str, path: Path, line: int, decimal: str) ->
     base, _, unit = key.rpartition("_")
     scale = {"mm": 1e-3, "m": 1.0}.get(unit)
     if base in _keys(3) and scale:
-        parts = dialect.vector_parts(text, decimal)
+        parts = vector_parts(text, decimal)
         if len(parts) != 3:
             raise DataError(str(path), f"needs 3 numbers (x, y, z), got '{quote(text)}'", line, key)
         return base, np.array([number(p, path, line, key, mark) for p, mark in parts]) * scale
@@ -143,10 +155,10 @@ def _metadata_line(parsed: _Parsed, stripped: str, path: Path, number_: int) -> 
     if parsed.header is not None:
         raise DataError(str(path), "metadata after the header line is not read: move it above the header",
                         number_, key)
-    if key == dialect.KEY:
+    if key == KEY:
         if parsed.override.line is not None:
             raise DataError(str(path), "metadata given twice", number_, key)
-        parsed.override = dialect.parse_override(value, path, number_)
+        parsed.override = parse_override(value, path, number_)
         return
     if _pair_key(key) is None and _meta_name(key) in {_meta_name(seen) for _, seen, _ in parsed.raw_meta}:
         # anchor_mm and anchor_m too; a pair key (# distance_mm: A, B, 300) may be given once a pair
@@ -217,7 +229,7 @@ def _tokenize_header(parsed: _Parsed, path: Path) -> list[str]:
     """Split the header with the file's separator (found on it, or stated by ``# csv:``)."""
     assert parsed.header is not None
     raw_header = parsed.header[0]
-    sep = dialect.separator(raw_header, parsed.override, path, parsed.header_line)
+    sep = separator(raw_header, parsed.override, path, parsed.header_line)
     parsed.header = [f.strip() for f in _fields(raw_header, sep, path, parsed.header_line)]
     parsed.dialect = Dialect(sep, ".")
     return parsed.header
@@ -228,7 +240,7 @@ def _tokenize_rows(parsed: _Parsed, path: Path) -> None:
     header's are a trailing separator, dropped)."""
     header, sep = parsed.header, parsed.dialect.sep
     assert header is not None
-    others = [s for s in dialect.SEPARATORS.values() if s != sep]
+    others = [s for s in SEPARATORS.values() if s != sep]
     for number_, raw in parsed.raw_rows:
         fields = _fields(raw, sep, path, number_)
         if len(fields) > len(header) and not any(f.strip() for f in fields[len(header):]):
@@ -440,7 +452,7 @@ def _extra(parsed: _Parsed, cols: Columns) -> dict[str, np.ndarray]:
     out: dict[str, np.ndarray] = {}
     for col in sorted(named):
         texts = [fields[col].strip() for _, fields in parsed.rows]
-        values = [dialect.as_number(t, parsed.dialect.decimal) if t else np.nan for t in texts]
+        values = [as_number(t, parsed.dialect.decimal) if t else np.nan for t in texts]
         numeric = all(v is not None for v in values) and any(t for t in texts)
         out[named[col]] = np.array(values, dtype=float) if numeric else np.array(texts, dtype=str)
     return out
@@ -494,7 +506,7 @@ def read_measurements(
     check_columns(cols, n_joints, chain.name if chain else None, chain.end_frame if chain else None, path, line,
                   readings)
     _tokenize_rows(parsed, path)
-    decimal = dialect.decimal_mark(parsed.dialect.sep, parsed.override, _numeric_fields(parsed, cols), path)
+    decimal = decimal_mark(parsed.dialect.sep, parsed.override, _numeric_fields(parsed, cols), path)
     parsed.dialect = Dialect(parsed.dialect.sep, decimal)
     _metadata(parsed, path)
     if not parsed.rows and not allow_empty:

@@ -25,90 +25,17 @@ import argparse
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from ..exceptions import ArgumentError
-from ..measurements.schema import default_kind, register_schema
+from ..measurements.schema import default_kind
 from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart
 from .cable import CABLE_EXTRAS, CableModel, CableSetup, Drawstring
 from .contact import ContactModel, ContactSetup, Fixtures
 from .pose import PoseModel, PoseRig, PoseSetup
 from .position import PositionDevice, PositionModel, PositionSetup, fit_device
-from .setup import SensorSetup, add_setup_arguments, given
+from .registry import SENSORS, check_estimate, register, sensor_for, setup_fields, setup_types
+from .setup import SensorSetup, add_setup_arguments, setup_record
 
-#: Measurement-set kind -> the measurement model that predicts it.
-SENSORS: dict[str, type[MeasurementModel]] = {CableModel.kind: CableModel, PositionModel.kind: PositionModel}
-SENSORS[PoseModel.kind] = PoseModel
-SENSORS[ContactModel.kind] = ContactModel
-
-
-def sensor_for(kind: str) -> type[MeasurementModel]:
-    """The measurement model of a measurement set's ``kind``."""
-    return SENSORS[kind]
-
-
-def register(model: type[MeasurementModel]) -> type[MeasurementModel]:
-    """Add a sensor to :data:`SENSORS` under its ``kind``, and its schema to
-    :data:`~calib_pin.measurements.schema.SCHEMAS` (a plug-in's one line; usable as a
-    class decorator). Returns the model."""
-    register_schema(model.schema)
-    SENSORS[model.kind] = model
-    return model
-
-
-def setup_types() -> tuple[type[SensorSetup], ...]:
-    """Every registered sensor's set-up record type, in registry order."""
-    return tuple(dict.fromkeys(m.setup_type for m in SENSORS.values()))
-
-
-def setup_fields() -> tuple[str, ...]:
-    """Every field name of the registered set-up records, each once."""
-    return tuple(dict.fromkeys(n for t in setup_types() for n in t.field_names()))
-
-
-def check_estimate(estimate: Any) -> tuple[str, ...]:
-    """The sensor unknowns named in ``estimate`` (a comma-separated str or a sequence of
-    names; blanks dropped).
-
-    Raises:
-        ArgumentError: not names, or a name no sensor can estimate.
-    """
-    from ..util.arguments import as_names
-
-    valid = tuple(dict.fromkeys(e for s in SENSORS.values() for e in s.estimable))
-    names = as_names(estimate, "estimate")
-    for e in names:
-        if e not in valid:
-            raise ArgumentError("estimate", f"cannot estimate '{e}' (valid: {', '.join(valid)})")
-    return names
-
-
-def setup_record(setup: Any = None, **loose: Any) -> SensorSetup | None:
-    """The caller's sensor set-up as one record: ``setup`` (a record), with the loose
-    keyword options (``anchor_mm=...``, the shorthand) laid over it; without ``setup``,
-    the first registered record that has every loose option given; None when nothing is given.
-
-    Raises:
-        ArgumentError: ``setup`` is no set-up record, or a loose option it (or any) has no field for.
-    """
-    import dataclasses
-
-    chosen = {k: v for k, v in loose.items() if given(v)}
-    if setup is not None:
-        if not isinstance(setup, SensorSetup):
-            names = ", ".join(t.__name__ for t in setup_types())
-            raise ArgumentError("setup", f"expected a sensor set-up record ({names}), got {type(setup).__name__}")
-        own = set(setup.field_names())
-        for name in chosen:
-            if name not in own:
-                raise ArgumentError(name, f"is not an option of {type(setup).__name__} (its fields: {', '.join(own)})")
-        return dataclasses.replace(setup, **chosen) if chosen else setup
-    if not chosen:
-        return None
-    for record in setup_types():
-        if set(chosen) <= set(record.field_names()):
-            return record(**chosen)
-    unknown = sorted(set(chosen) - set(setup_fields()))
-    raise ArgumentError(unknown[0] if unknown else "setup",
-                        "options of different sensors given together: pass one sensor's set-up")
+for _model in (CableModel, PositionModel, PoseModel, ContactModel):
+    register(_model)
 
 
 def add_sensor_arguments(p: argparse.ArgumentParser, notes: Mapping[str, str] | None = None,

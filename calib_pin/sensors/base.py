@@ -24,6 +24,8 @@ from ..measurements.schema import Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec, Deflection
 from ..robot.kinematics import Kinematics
+from .registry import SENSORS
+from .setup import SensorSetup, flag_of, given
 
 #: Sensor noise (1 sigma) assumed when neither the data (``# noise_mm``) nor the caller give it, [mm].
 DEFAULT_NOISE_MM = 0.05
@@ -32,7 +34,6 @@ if TYPE_CHECKING:
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
     from .problem import SetProblem
-    from .setup import SensorSetup
 
 
 @dataclass(frozen=True)
@@ -243,9 +244,6 @@ class MeasurementModel(ABC):
             CalibPinError: naming the option's flag and the data.
         """
         from ..exceptions import CalibPinError
-        from . import SENSORS
-        from .setup import flag_of, given
-
         own = set(cls.setup_type.field_names())
         for other in SENSORS.values():
             for name in other.setup_type.field_names():

@@ -21,6 +21,7 @@ from ..robot.deflection import ComplianceSpec
 from ..util.arguments import MAX_MM, as_array, as_float, as_optional, as_xyz_mm
 from .base import SETUP_MISFIT_M, MeasurementModel, check_rows, chosen
 from .problem import SetProblem
+from .registry import check_estimate
 from .setup import SensorSetup, estimate_names, finite, option, xyz_mm
 
 if TYPE_CHECKING:
@@ -111,8 +112,6 @@ class CableSetup(SensorSetup):
                            "anchor and offset pre-fitted and estimated", parser=estimate_names)
 
     def __post_init__(self) -> None:
-        from . import check_estimate
-
         set_ = object.__setattr__
         set_(self, "anchor_mm", as_optional(as_xyz_mm, self.anchor_mm, "anchor_mm"))
         set_(self, "tool_mm", as_optional(as_xyz_mm, self.tool_mm, "tool_mm"))

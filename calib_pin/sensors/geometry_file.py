@@ -33,7 +33,7 @@ def read_geometry(path: str | Path, kinds: Sequence[str]) -> tuple[str, Any]:
         DataError: an unreadable file, no JSON object, a kind that is none of ``kinds``
             (or missing where there are several), or a set-up its sensor cannot read.
     """
-    from . import sensor_for
+    from .registry import sensor_for
 
     try:
         doc = json.loads(Path(path).read_text(encoding="utf-8"))

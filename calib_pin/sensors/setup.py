@@ -18,6 +18,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..exceptions import ArgumentError
+from .registry import check_estimate, setup_fields, setup_types
 
 # --- the flags' parsers (argparse types; the CLI's other flags use them too) ---
 
@@ -57,8 +58,6 @@ def finite(text: str) -> float:
 
 def estimate_names(text: str) -> tuple[str, ...]:
     """Comma-separated sensor unknowns to estimate."""
-    from . import check_estimate
-
     try:
         names = check_estimate(text.split(","))
     except ArgumentError as e:
@@ -165,3 +164,31 @@ def add_setup_arguments(p: argparse.ArgumentParser, setups: Iterable[type[Sensor
             if meta["metavar"]:
                 kwargs["metavar"] = meta["metavar"]
             group.add_argument(flag_of(f.name), **kwargs)
+
+
+def setup_record(setup: Any = None, **loose: Any) -> SensorSetup | None:
+    """The caller's sensor set-up as one record: ``setup`` (a record), with the loose
+    keyword options (``anchor_mm=...``, the shorthand) laid over it; without ``setup``,
+    the first registered record that has every loose option given; None when nothing is given.
+
+    Raises:
+        ArgumentError: ``setup`` is no set-up record, or a loose option it (or any) has no field for.
+    """
+    chosen = {k: v for k, v in loose.items() if given(v)}
+    if setup is not None:
+        if not isinstance(setup, SensorSetup):
+            names = ", ".join(t.__name__ for t in setup_types())
+            raise ArgumentError("setup", f"expected a sensor set-up record ({names}), got {type(setup).__name__}")
+        own = set(setup.field_names())
+        for name in chosen:
+            if name not in own:
+                raise ArgumentError(name, f"is not an option of {type(setup).__name__} (its fields: {', '.join(own)})")
+        return dataclasses.replace(setup, **chosen) if chosen else setup
+    if not chosen:
+        return None
+    for record in setup_types():
+        if set(chosen) <= set(record.field_names()):
+            return record(**chosen)
+    unknown = sorted(set(chosen) - set(setup_fields()))
+    raise ArgumentError(unknown[0] if unknown else "setup",
+                        "options of different sensors given together: pass one sensor's set-up")

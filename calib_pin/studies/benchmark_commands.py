@@ -57,7 +57,7 @@ class Run:
     code: int
 
 
-def _script(name: str) -> list[str]:
+def script_argv(name: str) -> list[str]:
     """How a user runs a command: the script wrapper, or ``-m calib_pin.cli`` when the
     package is installed without the scripts folder."""
     path = ROOT / "scripts" / f"{name}.py"
@@ -112,7 +112,7 @@ def _make_sets(folder: Path, rows: int, seed: int) -> None:
     for argv in (["irb120", "--poses", str(rows), "--seed", str(seed), "--out", str(folder / "set.csv"), *quiet],
                  ["irb120", "--poses", str(max(rows // BATCH_SETS, 20)), "--sessions", str(BATCH_SETS),
                   "--seed", str(seed), "--out", str(folder / "b.csv"), *quiet]):
-        made = subprocess.run([*_script("simulate"), *argv], cwd=folder, capture_output=True, text=True)
+        made = subprocess.run([*script_argv("simulate"), *argv], cwd=folder, capture_output=True, text=True)
         if made.returncode:
             raise RuntimeError(f"simulate {' '.join(argv)} failed: {made.stderr.strip()[-300:]}")
 
@@ -121,18 +121,18 @@ def command_argv(name: str, folder: Path, method: str) -> list[str]:
     """The command line of ``name`` (see :data:`COMMANDS`) on the sets in ``folder``."""
     data = str(folder / "set.csv")
     if name == "calibrate":
-        return [*_script("calibrate"), "irb120", "--data", data, "--method", method, "--out", str(folder / "cal")]
+        return [*script_argv("calibrate"), "irb120", "--data", data, "--method", method, "--out", str(folder / "cal")]
     if name == "no-html":
-        return [*_script("calibrate"), "irb120", "--data", data, "--method", method, "--no-html",
+        return [*script_argv("calibrate"), "irb120", "--data", data, "--method", method, "--no-html",
                 "--out", str(folder / "cal-nohtml")]
     if name == "compare":
-        return [*_script("compare"), "irb120", "--data", data, "--trials", str(COMPARE_TRIALS), "--quiet",
+        return [*script_argv("compare"), "irb120", "--data", data, "--trials", str(COMPARE_TRIALS), "--quiet",
                 "--out", str(folder / "compare")]
     if name == "batch":
-        return [*_script("batch"), *(str(folder / f"b_{k}.csv") for k in range(1, BATCH_SETS + 1)),
+        return [*script_argv("batch"), *(str(folder / f"b_{k}.csv") for k in range(1, BATCH_SETS + 1)),
                 "--robot", "irb120", "--method", method, "--out", str(folder / "batch")]
     if name == "compensate":
-        return [*_script("compensate"), "irb120", "--calibration", str(folder / "cal"),
+        return [*script_argv("compensate"), "irb120", "--calibration", str(folder / "cal"),
                 "--targets", str(folder / "targets.csv"), "--out", str(folder / "compensated.csv"), "--force"]
     raise ValueError(f"unknown command '{name}' (valid: {', '.join(COMMANDS)})")
 
@@ -222,7 +222,7 @@ def quick_start_phases(repeats: int = 3) -> tuple[dict[str, float], float]:
     phases: list[dict[str, float]] = []
     walls = []
     with tempfile.TemporaryDirectory(prefix="calib-pin-quick-") as tmp:
-        quick = [*_script("calibrate"), "irb120", "--out", str(Path(tmp) / "out")]
+        quick = [*script_argv("calibrate"), "irb120", "--out", str(Path(tmp) / "out")]
         warm_up([sys.executable, "-c", PHASES_SCRIPT], Path(tmp))
         warm_up(quick, Path(tmp))
         for _ in range(repeats):
@@ -233,62 +233,3 @@ def quick_start_phases(repeats: int = 3) -> tuple[dict[str, float], float]:
             phases.append(json.loads(run.stdout.strip().splitlines()[-1]))
             walls.append(timed_process(quick, Path(tmp))[0])
     return {k: statistics.median(p[k] for p in phases) for k in phases[0]}, statistics.median(walls)
-
-
-#: Samples (one marker each) of the floor comparison's simulated UR5 session.
-FLOOR_SAMPLES = 1000
-#: The floor comparison's goals: calibrate's whole process at most this many times the floor.
-FLOOR_GOALS = {"lm": 1.3, "ekf-qibas": 1.5}
-
-
-@dataclass(frozen=True)
-class FloorRun:
-    """One command against the floor: its median wall time and the floor's [s]."""
-
-    method: str
-    wall_s: float
-    floor_s: float
-
-    @property
-    def ratio(self) -> float:
-        """The command's median over the floor's."""
-        return self.wall_s / self.floor_s
-
-
-def above_floor(methods: tuple[str, ...] = tuple(FLOOR_GOALS), repeats: int = 7, seed: int = 0,
-                samples: int = FLOOR_SAMPLES) -> list[FloorRun]:
-    """``calibrate ur5 --model placement --test-fraction 0 --no-html`` on ``samples`` simulated
-    marker positions, each method as a whole process, interleaved ``repeats`` times with a
-    process that only imports numpy, Pinocchio and scipy.optimize (the floor any such tool
-    pays, :data:`calib_pin.studies.benchmark_figaroh.FLOOR_PROCESS`); medians."""
-    from ..measurements.csv_writer import write_measurements
-    from .benchmark_figaroh import FLOOR_PROCESS, ur5_session
-
-    calibration, _, _ = ur5_session(samples, seed)
-    with tempfile.TemporaryDirectory(prefix="calib-pin-floor-") as name:
-        folder = Path(name)
-        write_measurements(folder / "ur5.csv", calibration.data)
-        argvs = {m: [*_script("calibrate"), "ur5", "--data", "ur5.csv", "--model", "placement", "--method", m,
-                     "--test-fraction", "0", "--no-html", "--seed", str(seed), "--out", f"out_{m}"] for m in methods}
-        argvs["floor"] = [sys.executable, "-c", FLOOR_PROCESS]
-        for argv in argvs.values():
-            warm_up(argv, folder)
-        times: dict[str, list[float]] = {k: [] for k in argvs}
-        for _ in range(repeats):
-            for k, argv in argvs.items():
-                wall, _, code = timed_process(argv, folder)
-                if code:
-                    raise RuntimeError(f"{' '.join(argv[1:3])} ... --method {k} exited {code}")
-                times[k].append(wall)
-    floor = statistics.median(times["floor"])
-    return [FloorRun(m, statistics.median(times[m]), floor) for m in methods]
-
-
-def format_floor(runs: list[FloorRun]) -> str:
-    """The floor table: each method's median, the floor's, their ratio and the goal."""
-    lines = [f"{'method':12s}{'median s':>10s}{'floor s':>9s}{'ratio':>8s}{'above s':>9s}  goal"]
-    for r in runs:
-        goal = FLOOR_GOALS.get(r.method)
-        verdict = "" if goal is None else f"<= {goal:g}x ({'met' if r.ratio <= goal else 'not met'})"
-        lines.append(f"{r.method:12s}{r.wall_s:10.3f}{r.floor_s:9.3f}{r.ratio:7.2f}x{r.wall_s - r.floor_s:9.3f}  {verdict}")
-    return "\n".join(lines)

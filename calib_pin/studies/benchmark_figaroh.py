@@ -328,7 +328,7 @@ def whole_processes(methods: list[str], repeats: int = 5, seed: int = 0,
 
     from ..measurements.csv_writer import write_measurements
     from ..robot.chain import resolve_robot
-    from .benchmark_commands import _script, timed_process, warm_up
+    from .benchmark_commands import script_argv, timed_process, warm_up
 
     try:
         import figaroh  # noqa: F401
@@ -343,7 +343,7 @@ def whole_processes(methods: list[str], repeats: int = 5, seed: int = 0,
             write_measurements(folder / "ur5.csv", setup.data)
             figaroh_argv = [sys.executable, "-c", _FIGAROH_PROCESS, str(resolve_robot("ur5").urdf), str(config),
                             SELECTIONS[0]]
-            argvs = {m: [*_script("calibrate"), "ur5", "--data", str(folder / "ur5.csv"), "--method", m,
+            argvs = {m: [*script_argv("calibrate"), "ur5", "--data", str(folder / "ur5.csv"), "--method", m,
                          "--no-html", "--test-fraction", "0", "--seed", str(seed), "--out", str(folder / m)]
                      for m in methods}
             argvs["figaroh"] = figaroh_argv
