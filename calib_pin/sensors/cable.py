@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from ..exceptions import ArgumentError, CalibPinError, DataError
+from ..exceptions import ArgumentError, DataError
 from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
@@ -172,13 +172,6 @@ def _check_setup_fits(model: CableModel, data: MeasurementSet, options: Mapping[
                     "frame mistake?", None, field)
 
 
-def _vector_mm(value: Any, name: str) -> np.ndarray:
-    v = np.asarray(value, dtype=float).reshape(-1)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise CalibPinError(f"{name} needs 3 finite numbers (x, y, z in mm)")
-    return v * 1e-3
-
-
 class CableModel(MeasurementModel):
     """Drawstring readings of a chain whose deviations follow a parameter model.
 
@@ -238,8 +231,9 @@ class CableModel(MeasurementModel):
                     fit_rows: np.ndarray, options: Mapping[str, Any]) -> SetProblem:
         cls.refuse_foreign(options, data)
         get = options.get
-        anchor = _vector_mm(get("anchor_mm"), "anchor_mm") if get("anchor_mm") is not None else data.anchor
-        tool = _vector_mm(get("tool_mm"), "tool_mm") if get("tool_mm") is not None else data.tool
+        # the options' points come from a CableSetup record, checked when it was made [mm]
+        anchor = np.asarray(get("anchor_mm")) * 1e-3 if get("anchor_mm") is not None else data.anchor
+        tool = np.asarray(get("tool_mm")) * 1e-3 if get("tool_mm") is not None else data.tool
         estimate = tuple(get("estimate") or ())
         if tool is None and "tool" not in estimate:
             raise DataError(data.source, "no tool point: add '# tool_mm: x, y, z', pass --tool-mm, or estimate it "
