@@ -1,4 +1,6 @@
-"""calib-pin: kinematic calibration of robot arms on Pinocchio, from cables, trackers, 6-D poses or contacts.
+"""calib-pin: kinematic calibration of robot arms on Pinocchio.
+
+It calibrates from cables, trackers, 6-D poses or contacts.
 
 A calibration is one robot and a list of measurement sets (one set is a list of one):
 :func:`prepare` checks them once, :func:`solve` fits any method and scores the rows held
@@ -43,14 +45,14 @@ _API = {
     "EstimatorError": "exceptions", "RobotError": "exceptions",
 }
 
-#: Public names of the previous version -> (their new name, its module); each warns once.
+#: Deprecated public names -> (the name to use, its module); each warns once.
 _RENAMED = {
     "CalibrationSetup": ("Calibration", "calibration.prepare"),
     "CalibrationProblem": ("SetProblem", "sensors.problem"),
     "StackedProblem": ("Problem", "calibration.problem"),
 }
 
-#: Modules of the previous version -> where their contents went (imports of them warn).
+#: Deprecated module paths -> the modules that hold their contents (imports of them warn).
 _MOVED_MODULES = {
     "arguments": "util.arguments", "units": "util.units", "progress": "util.progress", "atomic": "util.atomic",
     "input_files": "util.input_files", "optional": "util.optional", "sanity": "parameters.sanity",
@@ -146,8 +148,10 @@ def __dir__() -> list[str]:
 
 
 class _MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
-    """Imports of a module of the previous version's layout give the module that holds
-    its contents now, with a DeprecationWarning (kept for one release)."""
+    """Imports of a deprecated module path give the module that holds its contents.
+
+    With a DeprecationWarning; kept for one release.
+    """
 
     def find_spec(self, fullname: str, path: Any = None, target: Any = None) -> Any:
         old = fullname.removeprefix(f"{__name__}.")

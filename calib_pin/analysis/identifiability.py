@@ -109,8 +109,9 @@ PIVOT_TOL = 1e-3
 
 def _null_lines(null: np.ndarray, names: list[str], scale: np.ndarray, units: list[str],
                 tol: float = 0.05, pivot_tol: float = PIVOT_TOL) -> list[list[tuple[int, str]]]:
-    """Null-space basis (k, n) of scaled coordinates, orthonormal rows, in reduced
-    row-echelon form, as lines of text: each line is a change of the parameters (in mm and
+    """Null-space basis (k, n) of scaled coordinates, in reduced row-echelon form, as lines of text.
+
+    The basis has orthonormal rows. Each line is a change of the parameters (in mm and
     mrad) that no reading sees, led by its pivot (+1 typical size), its terms in parameter
     order, the lines in pivot order.
 
@@ -119,7 +120,7 @@ def _null_lines(null: np.ndarray, names: list[str], scale: np.ndarray, units: li
     line then keeps the parameters that make it up); the rows left then take any pivot
     above ``pivot_tol``. So no coefficient grows beyond 1 / tol (then 1 / pivot_tol): at a
     start, where an exact degeneracy of zero deviations is slightly broken, the lines are
-    those at zero (an RREF pivoting on such a sliver printed theta_6 -6e16 mrad). A term
+    those at zero (an RREF pivoting on such a sliver gives coefficients like -6e16 mrad). A term
     below ``tol`` (scaled) is left out. Each line is its terms as (column, text), the
     text a parameter's change in mm or mrad (``d_2 +1 mm``).
     """
@@ -165,9 +166,12 @@ _LAST_SVD: list[Any] = []
 
 
 def _key(problem: Any, x: np.ndarray) -> tuple[Any, ...] | None:
-    """What ``problem``'s Jacobian at ``x`` is made from: its class, its measurement model
-    (the object) and every array field's bytes, of each part and its weight for a
-    calibration problem of several parts; None for a problem of other fields (not kept)."""
+    """What ``problem``'s Jacobian at ``x`` is made from, or None for a problem of other fields.
+
+    Its class, its measurement model (the object) and every array field's bytes, of each
+    part and its weight for a calibration problem of several parts; a problem of other
+    fields is not kept.
+    """
     parts = getattr(problem, "parts", None)
     if parts is not None:  # a calibration problem: its parts' keys, weights and columns
         keys = [_key(part, problem.model.part_x(x, k)) for part, k in zip(parts, problem.sets, strict=True)]
@@ -199,9 +203,11 @@ def _same(a: Any, b: Any) -> bool:
 
 
 def _jacobian(problem: Any, x: np.ndarray) -> np.ndarray:
-    """``problem.jacobian(x)``; when the last call here was of the same rows, model and x,
-    a copy of that call's array (kept read-only here; the caller's copy is its own): a
-    Jacobian is a pure function of them."""
+    """``problem.jacobian(x)``, or a copy of the last call's when it was of the same rows, model and x.
+
+    The last array is kept read-only here; the caller's copy is its own: a Jacobian is a
+    pure function of them.
+    """
     key = _key(problem, x)
     if key is not None and _LAST_JACOBIAN and _same(_LAST_JACOBIAN[0], key):
         return np.array(_LAST_JACOBIAN[1])
@@ -215,9 +221,11 @@ def _jacobian(problem: Any, x: np.ndarray) -> np.ndarray:
 
 
 def _svd(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The singular values and right singular vectors of ``np.linalg.svd(matrix,
-    full_matrices=False)``; for a matrix of the same bytes as the last call's, copies of
-    that call's (kept read-only here; the caller's copies are its own)."""
+    """The singular values and right singular vectors of ``np.linalg.svd(matrix, full_matrices=False)``.
+
+    For a matrix of the same bytes as the last call's, copies of that call's (kept
+    read-only here; the caller's copies are its own).
+    """
     key = (matrix.shape, matrix.tobytes())
     if _LAST_SVD and _LAST_SVD[0] == key:
         s, vt = _LAST_SVD[1]
@@ -299,9 +307,12 @@ def analyze(problem: Any, x: np.ndarray | None = None, rcond: float = RCOND,
 
 
 def distinct_values(problem: Any) -> int:
-    """How many values the distinct rows of ``problem`` hold: a row repeated (the same pose
-    and point) counts once, each row its own size (``row_offsets``); a stacked problem's
-    sets in turn (a cable's length and a tracker's position at one pose are both counted)."""
+    """How many values the distinct rows of ``problem`` hold.
+
+    A row repeated (the same pose and point) counts once, each row its own size
+    (``row_offsets``); a stacked problem's sets in turn (a cable's length and a tracker's
+    position at one pose are both counted).
+    """
     parts = getattr(problem, "parts", None)
     if parts is not None:
         return sum(distinct_values(p) for p in parts)

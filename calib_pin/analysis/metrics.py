@@ -53,6 +53,9 @@ def split_rows(n: int, test_fraction: float, seed: int) -> tuple[np.ndarray, np.
 def check_fraction(test_fraction: float) -> float:
     """The share of rows held out, in [0, 1).
 
+    Args:
+        test_fraction: The share to check.
+
     Raises:
         ArgumentError: not a number in [0, 1).
     """
@@ -60,16 +63,17 @@ def check_fraction(test_fraction: float) -> float:
 
 
 def pooled_unit(sets: Sequence[Any]) -> str | None:
-    """The one unit of every set's row errors (each set's ``unit``), or None when they
-    differ (no pool)."""
+    """The one unit of every set's row errors (each set's ``unit``), or None when they differ (no pool)."""
     units = {s.unit for s in sets}
     return units.pop() if len(units) == 1 else None
 
 
 def units_words(sets: Sequence[Any]) -> str:
-    """What the all-sets metrics pool, for people and report.json: ``every set's row errors
-    together, in mm``, or why there are none (``the sets' row errors are in different units
-    (a, b: mm; c: deg)``)."""
+    """What the all-sets metrics pool, for people and report.json, or why there are none.
+
+    For example ``every set's row errors together, in mm``, or ``the sets' row errors are
+    in different units (a, b: mm; c: deg)``.
+    """
     unit = pooled_unit(sets)
     if unit is not None:
         return f"every set's row errors together, in {unit}"

@@ -173,16 +173,20 @@ def _above_base(model: MeasurementModel, q: np.ndarray) -> np.ndarray:
 
 
 def _rows(model: MeasurementModel, q: np.ndarray) -> np.ndarray:
-    """Scaled identification rows of each pose, shape (n_poses, rows per pose, n_params):
-    every point the sensor measures, every value of each."""
+    """Scaled identification rows of each pose, shape (n_poses, rows per pose, n_params).
+
+    Every point the sensor measures, every value of each.
+    """
     rows, points = model.grid_points(len(q))
     jac = model.predict_with_jacobian(np.zeros(model.n_params), q[rows], points)[1] * model.scale
     return jac.reshape(len(q), -1, model.n_params)
 
 
 def _greedy(z: np.ndarray, n: int) -> list[int]:
-    """D-optimal greedy choice of n poses from per-pose blocks z (n_poses, k, r): each
-    step adds the pose with the largest log det gain (a rank-k update of the inverse)."""
+    """D-optimal greedy choice of n poses from per-pose blocks z (n_poses, k, r).
+
+    Each step adds the pose with the largest log det gain (a rank-k update of the inverse).
+    """
     inverse = np.eye(z.shape[2]) / (RIDGE * np.max(np.sum(z**2, axis=(1, 2))))
     chosen: list[int] = []
     available = np.ones(len(z), dtype=bool)

@@ -1,4 +1,4 @@
-"""How a calibration's rows are held out to score it: a seeded fraction, K folds, or a separate session.
+"""How a calibration holds out rows to score it: a seeded fraction, K folds or a separate session.
 
 - :class:`Fraction`: each set (of role ``split``) split by pose, ``test_fraction`` of its
   poses held out, seeded (the paper's 80/20).
@@ -44,8 +44,9 @@ class Fraction:
 
 @dataclass(frozen=True)
 class Folds:
-    """K-fold cross-validation by pose of the training rows (those :class:`Fraction`'s
-    ``test_fraction`` leaves), besides the fit on all of them.
+    """K-fold cross-validation by pose of the training rows, besides the fit on all of them.
+
+    The training rows are those :class:`Fraction`'s ``test_fraction`` leaves.
 
     Attributes:
         k: Folds, at least 2 (and at most the training poses).
@@ -108,8 +109,16 @@ Holdout = Fraction | Folds | TestSet
 
 
 def as_holdout(test_fraction: float = 0.2, test_data: Any = None) -> Holdout:
-    """The holdout of ``calibrate``'s two arguments: ``test_data`` (a path, a set or a
-    :class:`TestSet`) when given, else :class:`Fraction` of ``test_fraction``.
+    """The holdout of ``calibrate``'s two arguments ``test_fraction`` and ``test_data``.
+
+    ``test_data`` (a path, a set or a :class:`TestSet`) when given, else :class:`Fraction`
+    of ``test_fraction``.
+
+    Args:
+        test_fraction: Share of each set's poses held out, in [0, 1); checked beside a
+            session too.
+        test_data: A separate validation session (a CSV path, a
+            :class:`~calib_pin.measurements.MeasurementSet` or a :class:`TestSet`), or None.
 
     Raises:
         ArgumentError: naming the argument.
@@ -126,8 +135,10 @@ def as_holdout(test_fraction: float = 0.2, test_data: Any = None) -> Holdout:
 
 
 def fold_of_rows(groups: np.ndarray, folds: int, seed: int) -> np.ndarray:
-    """Each row's fold (0 .. folds - 1), whole poses (``groups``, one label a row) to a fold,
-    the poses dealt out in a seeded random order."""
+    """Each row's fold (0 .. folds - 1), whole poses to a fold.
+
+    ``groups`` holds one pose label a row; the poses are dealt out in a seeded random order.
+    """
     poses = np.unique(groups)
     order = np.random.default_rng(seed).permutation(len(poses))
     fold_of_pose = np.empty(len(poses), dtype=int)

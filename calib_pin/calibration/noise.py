@@ -81,8 +81,11 @@ class Noise:
 
 
 def apply(problem: Problem, noise: Noise) -> Problem:
-    """``problem`` with each set weighted by its noise, and each set whose rows have parts
-    reweighted within (:meth:`~calib_pin.sensors.base.MeasurementModel.with_part_noise`)."""
+    """``problem`` with each set weighted by its noise.
+
+    Each set whose rows have parts is also reweighted within
+    (:meth:`~calib_pin.sensors.base.MeasurementModel.with_part_noise`).
+    """
     from dataclasses import replace
 
     weighted = problem.with_weights(noise.set_sigmas)
@@ -100,8 +103,11 @@ def apply(problem: Problem, noise: Noise) -> Problem:
 
 def _components(problem: Problem, sigmas: list[float | None], origins: list[str],
                 default: float) -> tuple[list[list[float]], list[list[str]]]:
-    """Each set's parts' sigma and origin: a set whose rows have parts (a 6-D pose) as its
-    model says (``default`` origin: unknown), else its one sigma (None: unknown, ``default``)."""
+    """Each set's parts' sigma and origin.
+
+    A set whose rows have parts (a 6-D pose) as its model says (``default`` origin: unknown),
+    else its one sigma (None: unknown, ``default``).
+    """
     out_s, out_o = [], []
     for k, model in enumerate(problem.model.parts):
         own = model.noise_parts()

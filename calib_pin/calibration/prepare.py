@@ -1,4 +1,4 @@
-"""The one preparation of a calibration: the robot, its parameter model and its measurement sets, checked once.
+"""The one preparation of a calibration: robot, parameter model and measurement sets, checked once.
 
 :func:`prepare` loads the robot and every measurement set (one set is a list of one),
 checks each value where it enters, and returns a :class:`Calibration`: what
@@ -76,9 +76,12 @@ class Calibration:
 
     @property
     def data(self) -> MeasurementSet:
-        """Every set's rows in turn, as one set: of one set, the set itself; of several, pose
-        labels ``<label>:<pose>``, and sets of several kinds (rows of different sizes) make
-        one of kind ``<kind>+<kind>`` whose ``values`` hold each row's values as an object."""
+        """Every set's rows in turn, as one set.
+
+        Of one set, the set itself; of several, pose labels ``<label>:<pose>``, and sets of
+        several kinds (rows of different sizes) make one of kind ``<kind>+<kind>`` whose
+        ``values`` hold each row's values as an object.
+        """
         if len(self.sets) == 1:
             return self.sets[0].data
         made = self._cache.get("data")
@@ -101,11 +104,13 @@ class Calibration:
         return train, test
 
     def problem_on(self, fit_rows: np.ndarray, reuse: bool = True) -> Problem:
-        """Every row of every set, each set's starting sensor geometry fitted on its rows
-        among ``fit_rows`` (rows of :attr:`data`: the training rows; nothing is fitted on a
-        test row). Made once for the same rows (every method of a split shares it; the
+        """Every row of every set, each set's starting sensor geometry fitted on ``fit_rows``.
+
+        ``fit_rows`` are rows of :attr:`data`: the training rows; nothing is fitted on a
+        test row. Made once for the same rows (every method of a split shares it; the
         last :data:`KEPT_PROBLEMS` splits and every row's are kept); ``reuse`` False: fitted
-        anew all the same (a benchmark timing the whole fit)."""
+        anew all the same (a benchmark timing the whole fit).
+        """
         fit_rows = np.asarray(fit_rows, dtype=int)
         made: dict[bytes, Problem] = self._cache.setdefault("problems", {})
         key = fit_rows.tobytes()
@@ -123,20 +128,29 @@ class Calibration:
 
     @property
     def problem(self) -> Problem:
-        """Every row, each sensor's starting geometry fitted on all of its rows (for an
-        analysis of the whole data; a solve fits on the training rows only)."""
+        """Every row, each sensor's starting geometry fitted on all of its rows.
+
+        For an analysis of the whole data; a solve fits on the training rows only.
+        """
         return self.problem_on(np.arange(self.offsets[-1]))
 
     def start_on(self, problem: Problem, training: Problem) -> tuple[np.ndarray, tuple[int, ...]]:
-        """Where an estimate on ``training`` (rows of ``problem``) starts, shape (n_params,),
-        SI units (zero deviations, or the robot's own kinematics of ``start`` with each
-        sensor's geometry fitted to it), and the indices of the unknowns held there."""
+        """Where an estimate on ``training`` starts, shape (n_params,), SI, and the unknowns held there.
+
+        ``training`` are rows of ``problem``. The start is zero deviations, or the robot's own
+        kinematics of ``start`` with each sensor's geometry fitted to it; the held unknowns
+        are given by their indices.
+        """
         x0 = np.zeros(problem.n_params) if self.start is None else self.start.x0(problem, training)
         return x0, tuple(problem.model.names.index(n) for n in self.fixed)
 
     def validation(self, test: TestSet) -> tuple[TestSet, int]:
-        """A validation session with its data loaded, and the set (index) whose set-up it
-        shares, or whose sensor re-registers it.
+        """A validation session with its data loaded, and the index of the set it relates to.
+
+        That set is the one whose set-up the session shares, or whose sensor re-registers it.
+
+        Args:
+            test: The validation session and how its set-up relates to the training sets.
 
         Raises:
             CalibPinError: a set with role ``test`` beside it, a session of a kind no set
@@ -192,6 +206,11 @@ DEPRECATED_LOADS = ("payload_kg", "payload_com_mm", "cable_tension_n")
 def deprecated_records(loose: dict[str, Any], setup: SensorSetup | None,
                 compliance: Any) -> tuple[SensorSetup | None, Compliance | None]:
     """The set-up record and the compliance record, with the deprecated loose keywords laid in.
+
+    Args:
+        loose: The deprecated keywords given (:data:`DEPRECATED_SETUP`, :data:`DEPRECATED_LOADS`).
+        setup: The sensor set-up record given, or None.
+        compliance: The compliance given (a record, joint names, or None).
 
     Raises:
         ArgumentError: an unknown keyword, a bad value (named), a load beside a record.
@@ -270,8 +289,14 @@ def prepare(
     nominal: str | Path | None = None,
     **deprecated: Any,
 ) -> Calibration:
-    """Load and check a robot and its measurement sets for calibration (arguments as
-    :func:`calib_pin.calibrate`).
+    """Load and check a robot and its measurement sets for calibration.
+
+    Args:
+        robot: Robot name or URDF path (``irb120``).
+        data: A measurement CSV or set, or a list of them (or of
+            :class:`~calib_pin.calibration.sets.FitSet`); None: the robot's shipped set.
+        end_frame, noise_mm, parameters, setup, compliance, fix, free, nominal, deprecated: As
+            :func:`calib_pin.calibrate` (``noise_mm``: 1 sigma [mm]).
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message; a bad

@@ -94,8 +94,10 @@ class ProblemModel:
 
     @property
     def error_name(self) -> str:
-        """What a row's error is: the sets' one name, or each kind's with its sets
-        (``reading error (cable); position error (tracker)``)."""
+        """What a row's error is: the sets' one name, or each kind's with its sets.
+
+        For example ``reading error (cable); position error (tracker)``.
+        """
         names: dict[str, list[str]] = {}
         for label, part in zip(self.labels, self.parts, strict=True):
             names.setdefault(str(part.error_name), []).append(label)
@@ -175,8 +177,10 @@ class ProblemModel:
         return np.asarray(x, dtype=float)[self.sensor_start :]
 
     def point_jacobian(self, x: np.ndarray, q: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """A point fixed in the end frame [m] and its derivative (n_rows, 3, n_params):
-        the robot's part only (zero in every set's sensor columns)."""
+        """A point fixed in the end frame [m] and its derivative (n_rows, 3, n_params).
+
+        The derivative holds the robot's part only (zero in every set's sensor columns).
+        """
         points, jac = self.first.point_jacobian(self.part_x(x, 0), q, point)
         if self.one is not None:
             return points, jac
@@ -203,8 +207,14 @@ class ProblemModel:
                 "set_kinds": {label: part.kind for _, (label, part) in pairs}}
 
     def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-        """What the only set's sensor reads at q for x, [m] (several sets: name the set,
-        ``result.predict(q, set=...)``).
+        """What the only set's sensor reads at q for x, [m].
+
+        With several sets, name the set: ``result.predict(q, set=...)``.
+
+        Args:
+            x: The unknowns, shape (n_params,), SI; None: the start.
+            q: Joint angles [rad], shape (n_poses, n_joints).
+            points: Which of the sensor's points each pose measures (indices), or None.
 
         Raises:
             CalibPinError: several sets.
@@ -223,8 +233,9 @@ class ProblemModel:
 
 @dataclass(frozen=True)
 class Problem(RowProblem):
-    """A calibration problem of one or more sets with one robot (module docstring); it
-    implements :class:`calib_pin.estimators.problem.LeastSquares`.
+    """A calibration problem of one or more sets with one robot (module docstring).
+
+    It implements :class:`calib_pin.estimators.problem.LeastSquares`.
 
     Attributes:
         model: The model (every set's measurement model, the labels).
@@ -267,8 +278,11 @@ class Problem(RowProblem):
         return Problem(self.model, self.parts, weights, self.sets)
 
     def with_parts(self, parts: Sequence[SetProblem]) -> Problem:
-        """The same weights with each part's problem replaced (a set's model reweighted
-        within, :meth:`~calib_pin.sensors.base.MeasurementModel.with_part_noise`)."""
+        """The same weights with each part's problem replaced.
+
+        A part is replaced by its set's model reweighted within
+        (:meth:`~calib_pin.sensors.base.MeasurementModel.with_part_noise`).
+        """
         models = list(self.model.parts)
         for k, part in zip(self.sets, parts, strict=True):
             models[k] = part.model
@@ -308,8 +322,11 @@ class Problem(RowProblem):
 
     @property
     def row_offsets(self) -> np.ndarray:
-        """Where each row's entries start, shape (n_rows + 1,): each part's own offsets in
-        turn (its rows may hold another number of values than the others')."""
+        """Where each row's entries start, shape (n_rows + 1,).
+
+        Each part's own offsets in turn (its rows may hold another number of values than
+        the others').
+        """
         if self._only is not None:
             return self._only.row_offsets
         starts = np.cumsum([0] + [p.n_values for p in self.parts])
@@ -324,8 +341,10 @@ class Problem(RowProblem):
 
     @property
     def q(self) -> np.ndarray:
-        """Every data row's joint angles, shape (n_data, n_joints), [rad]: row k is row
-        ``data_rows[k]`` (a contact set's known-distance rows carry no pose)."""
+        """Every data row's joint angles, shape (n_data, n_joints), [rad].
+
+        Row k is row ``data_rows[k]`` (a contact set's known-distance rows carry no pose).
+        """
         if self._only is not None:
             return self._only.q
         return np.concatenate([p.q for p in self.parts])
@@ -341,8 +360,10 @@ class Problem(RowProblem):
 
     @property
     def data_rows(self) -> np.ndarray:
-        """The rows that are data rows: every part's (a contact set's known distances are
-        rows of its own, no data row), shape (n_data,)."""
+        """The rows that are data rows, every part's, shape (n_data,).
+
+        A contact set's known distances are rows of its own, no data row.
+        """
         return np.concatenate([getattr(p, "data_rows", np.arange(p.n_rows)) + int(self._offsets[k])
                                for k, p in enumerate(self.parts)] or [np.zeros(0)]).astype(int)
 
@@ -360,8 +381,11 @@ class Problem(RowProblem):
                                for k, (p, w) in enumerate(zip(self.parts, self.weights, strict=True))])
 
     def residuals(self, xs: np.ndarray | list[np.ndarray]) -> np.ndarray:
-        """:meth:`residual` at k points xs, shape (k, n_values): each part's own batched
-        evaluation (:meth:`~calib_pin.sensors.problem.SetProblem.residuals`), weighted, side by side."""
+        """:meth:`residual` at k points xs, shape (k, n_values).
+
+        Each part's own batched evaluation (:meth:`~calib_pin.sensors.problem.SetProblem.residuals`),
+        weighted, side by side.
+        """
         if self._only is not None:
             return self._only.residuals(xs)
         blocks = [w * p.residuals([self._x(x, k) for x in xs])
@@ -377,8 +401,10 @@ class Problem(RowProblem):
         return [float(r @ r) / len(r) for r in self.residuals(xs)]
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
-        """Derivative of :meth:`residual`, shape (n_values, n_params); a set's rows are
-        zero in the other sets' sensor columns."""
+        """Derivative of :meth:`residual`, shape (n_values, n_params).
+
+        A set's rows are zero in the other sets' sensor columns.
+        """
         if self._only is not None:
             return self._only.jacobian(x)
         jac = np.zeros((self.n_values, self.n_params))
@@ -390,8 +416,10 @@ class Problem(RowProblem):
         return jac
 
     def row_residual_with_jacobian(self, x: np.ndarray, row: int) -> tuple[np.ndarray, np.ndarray]:
-        """Row ``row``'s weighted residual (its set's values per row,) and Jacobian
-        (its set's values per row, n_params)."""
+        """Row ``row``'s weighted residual and Jacobian.
+
+        Shapes: (its set's values per row,) and (its set's values per row, n_params).
+        """
         if self._only is not None:
             return self._only.row_residual_with_jacobian(x, row)
         k = int(np.searchsorted(self._offsets, row, side="right")) - 1
@@ -402,9 +430,11 @@ class Problem(RowProblem):
         return w * r, full
 
     def subset(self, rows: np.ndarray | slice) -> Problem:
-        """The problem restricted to some data rows (rows of :attr:`q`, the parts' data rows
-        in turn, kept in that order within each part; each contact set's known-distance
-        rows stay with its part); parts left without rows are left out."""
+        """The problem restricted to some data rows; parts left without rows are left out.
+
+        ``rows`` are rows of :attr:`q`, the parts' data rows in turn, kept in that order
+        within each part; each contact set's known-distance rows stay with its part.
+        """
         n_data = [len(p.q) for p in self.parts]
         index = np.arange(sum(n_data))[rows] if isinstance(rows, slice) else np.asarray(rows, dtype=int).reshape(-1)
         starts = np.cumsum([0] + n_data)
@@ -421,9 +451,11 @@ class Problem(RowProblem):
         return Problem(self.model, tuple(parts), np.asarray(weights), tuple(sets))
 
     def row_errors(self, residual: np.ndarray) -> np.ndarray:
-        """Size of each row's error in its own set's unit (the weight divided out), shape
-        (n_rows,), [m]: each set's rows as its own problem sizes them (a reading's |error|,
-        a position's Euclidean error), so sets of rows of different sizes mix."""
+        """Size of each row's error in its own set's unit, shape (n_rows,), [m].
+
+        The weight is divided out. Each set's rows as its own problem sizes them (a
+        reading's |error|, a position's Euclidean error), so sets of rows of different sizes mix.
+        """
         if self._only is not None:
             return self._only.row_errors(residual)
         residual = np.asarray(residual)
@@ -436,8 +468,10 @@ class Problem(RowProblem):
         return np.arange(self._offsets[part], self._offsets[part + 1])
 
     def part_data(self, k: int) -> tuple[int, np.ndarray] | None:
-        """Where set k's data rows stand among :attr:`q`'s: (its part, the data rows), or None
-        when set k has no rows here."""
+        """Where set k's data rows stand among :attr:`q`'s: (its part, the data rows).
+
+        None when set k has no rows here.
+        """
         if k not in self.sets:
             return None
         part = self.sets.index(k)
@@ -445,8 +479,11 @@ class Problem(RowProblem):
         return part, np.arange(start, start + len(self.parts[part].q))
 
     def named_directions(self, x: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, str]]:
-        """Directions of the unknowns each part's sensor names (a turn of the base with the
-        fixtures), as vectors of x, by name (prefixed with the set's label with several sets)."""
+        """Directions of the unknowns each part's sensor names, as vectors of x, by name.
+
+        A direction is for example a turn of the base with the fixtures; with several sets
+        the name is prefixed with the set's label.
+        """
         out: dict[str, tuple[np.ndarray, str]] = {}
         for k, p in enumerate(self.parts):
             named = getattr(p, "named_directions", None)

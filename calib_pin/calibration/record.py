@@ -43,8 +43,10 @@ def _compliance(result: CalibrationResult) -> dict[str, Any] | None:
 
 
 def _basis_compliance(spec: ComplianceSpec, basis: Any, beta: np.ndarray) -> dict[str, Any]:
-    """The gravity basis model: its coefficients [rad] and the directions each term stands
-    for (checked against the robot's own basis when the file is loaded)."""
+    """The gravity basis model: its coefficients [rad] and the directions each term stands for.
+
+    The directions are checked against the robot's own basis when the file is loaded.
+    """
     owner = np.repeat(np.arange(len(spec.joints)), basis.terms)
     return {
         **spec.to_dict(),
@@ -88,6 +90,9 @@ def calibration_document(result: CalibrationResult) -> dict[str, Any]:
 def calibration_text(result: CalibrationResult) -> str:
     """The text :func:`write_calibration` writes: the calibration file of ``result``.
 
+    Args:
+        result: A calibration's result.
+
     Raises:
         CalibPinError: the method estimates no kinematic parameters (``rbf``), or a
             compliance is negative (or NaN).
@@ -103,6 +108,10 @@ def calibration_text(result: CalibrationResult) -> str:
 
 def write_calibration(result: CalibrationResult, path: str | Path) -> Path:
     """Write the calibration file of ``result`` to ``path``.
+
+    Args:
+        result: A calibration's result.
+        path: The calibration file to write.
 
     Raises:
         CalibPinError: the method estimates no kinematic parameters (``rbf``), or a

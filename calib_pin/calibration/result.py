@@ -106,8 +106,10 @@ class CalibrationResult:
 
     @property
     def outlier_rows(self) -> list[int]:
-        """Data rows (0-based) the robust estimate judged outliers (a contact set's
-        known-distance rows, no data row, are never named)."""
+        """Data rows (0-based) the robust estimate judged outliers.
+
+        A contact set's known-distance rows, no data row, are never named.
+        """
         from ..estimators.problem import data_rows
 
         if not self.estimate.outliers:
@@ -134,8 +136,10 @@ class CalibrationResult:
 
     @property
     def sensor_corrections(self) -> dict[str, float]:
-        """Estimated corrections of the sensor's geometry by name with unit
-        (``anchor_x_mm``, ``device_rz_deg``, ``marker1_y_mm``); empty if none."""
+        """Estimated corrections of the sensor's geometry by name with unit; empty if none.
+
+        Names carry the unit: ``anchor_x_mm``, ``device_rz_deg``, ``marker1_y_mm``.
+        """
         model = self.problem.model
         n = model.sensor_start
         return for_humans(model.sensor_part(self.x), model.names[n:], model.units[n:])
@@ -149,8 +153,10 @@ class CalibrationResult:
 
     @property
     def bounded_compliance(self) -> tuple[str, ...]:
-        """Joints whose compliance fitted negative and was fixed at zero (a compliance is
-        >= 0, see :mod:`calib_pin.estimators.active_set`); empty if none."""
+        """Joints whose compliance fitted negative and was fixed at zero; empty if none.
+
+        A compliance is >= 0, see :mod:`calib_pin.estimators.active_set`.
+        """
         spec = self.problem.model.compliance_spec
         first = self.problem.model.n_robot
         return tuple(spec.joints[i - first] for i in self.estimate.bounded) if spec is not None else ()
@@ -187,6 +193,9 @@ class CalibrationResult:
     def set_result(self, set: int | str | None = None) -> SetResult:
         """The :class:`SetResult` of a set named by its label or index (None: the only set).
 
+        Args:
+            set: The set's label or index (0-based); None with one set.
+
         Raises:
             CalibPinError: None with several sets, or a label or index of no set.
         """
@@ -204,9 +213,11 @@ class CalibrationResult:
                             f"from 0 to {len(self.sets) - 1})")
 
     def sanity_error(self) -> str | None:
-        """Why the estimate may not be exported (a negative compliance, or a deviation,
-        robot or sensor, beyond SANITY_M / SANITY_RAD of :mod:`calib_pin.parameters.sanity`, naming
-        the first), or None."""
+        """Why the estimate may not be exported, or None.
+
+        A negative compliance, or a deviation, robot or sensor, beyond SANITY_M / SANITY_RAD
+        of :mod:`calib_pin.parameters.sanity`, naming the first.
+        """
         model = self.problem.model
         for i in model.nonnegative:
             if not self.x[i] >= 0:
@@ -228,6 +239,9 @@ class CalibrationResult:
     def to_urdf(self, path: str | Path) -> Path:
         """Write the corrected URDF (only joint origins differ from the input).
 
+        Args:
+            path: The URDF file to write.
+
         Raises:
             CalibPinError: the method yields no kinematic parameters (``rbf``), or a
                 deviation is beyond the sanity bound.
@@ -241,7 +255,10 @@ class CalibrationResult:
 
     @cached_property
     def uncertainty(self) -> Uncertainty | None:
-        """Standard errors and end-frame position uncertainty (:mod:`calib_pin.analysis.uncertainty`); None for rbf."""
+        """Standard errors and end-frame position uncertainty; None for rbf.
+
+        See :mod:`calib_pin.analysis.uncertainty`.
+        """
         if not self.kinematic:
             return None
         from ..analysis.uncertainty import estimate_uncertainty
@@ -325,6 +342,15 @@ class SetResult:
 
     def predict(self, q: Any, point_ids: Any = None) -> np.ndarray:
         """What this set's sensor reads at joint angles q, as :meth:`CalibrationResult.predict`.
+
+        Args:
+            q: Joint angles [rad], shape (n_poses, n_joints), or (n_joints,) for one pose.
+            point_ids: Positions only: which marker each pose measures (one label, or one
+                per pose); None with one marker.
+
+        Returns:
+            Readings, shape (n_poses,), [m]; or positions, shape (n_poses, 3), [m], in the
+            device frame.
 
         Raises:
             CalibPinError: as :meth:`CalibrationResult.predict`.

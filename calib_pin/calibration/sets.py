@@ -119,8 +119,14 @@ def set_sigma(given: FitSet, noise_mm: float | None, data: MeasurementSet) -> tu
 
 
 def set_overrides(given: FitSet, data: MeasurementSet, label: str) -> tuple[dict[str, Any], tuple[str, ...]]:
-    """A set's own set-up overrides (its FitSet's ``setup``, the fields given), checked
-    against its sensor kind, and those of them its file also had.
+    """A set's own set-up overrides, checked against its sensor kind, and those its file also had.
+
+    The overrides are its FitSet's ``setup``, the fields given.
+
+    Args:
+        given: The set as the caller gave it.
+        data: The set's loaded measurements.
+        label: The set's label, for messages.
 
     Raises:
         ArgumentError: a ``setup`` with ``estimate`` (one for every set).
@@ -145,8 +151,13 @@ def set_overrides(given: FitSet, data: MeasurementSet, label: str) -> tuple[dict
 
 
 def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...]:
-    """Each set's label (given, else its file's stem, else ``s<k>``); the same label or the
-    same file twice is refused.
+    """Each set's label: given, else its file's stem, else ``s<k>``.
+
+    The same label or the same file twice is refused.
+
+    Args:
+        sets: The sets as the caller gave them.
+        loaded: Their loaded measurements, in the same order.
 
     Raises:
         CalibPinError: two sets of one label; a file given twice; a set of role ``test``
@@ -182,9 +193,12 @@ SETUP_COLUMNS = ("session", "setup", "station")
 
 
 def mixed_setups_warning(data: MeasurementSet, train: np.ndarray, after_rmse_mm: float, sigma: float) -> str | None:
-    """The warning for a set fitted as one sensor set-up whose own column says its training
-    rows come from several (``session`` A, B, C: three anchors in one file), when the fit
-    leaves more than SETUP_SIGMAS x its noise ``sigma`` [m]; else None."""
+    """The warning for a set fitted as one sensor set-up whose rows come from several, or None.
+
+    The set's own column says its training rows come from several set-ups (``session`` A,
+    B, C: three anchors in one file); the warning is given when the fit leaves more than
+    SETUP_SIGMAS x its noise ``sigma`` [m].
+    """
     for name in SETUP_COLUMNS:
         column = data.extra.get(name)
         if column is None or after_rmse_mm <= SETUP_SIGMAS * sigma * 1e3:

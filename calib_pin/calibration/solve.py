@@ -1,4 +1,4 @@
-"""The one fit of a calibration: a method on the training rows of every set, scored on the rows held out.
+"""The one fit of a calibration: a method on every set's training rows, scored on the rows held out.
 
 :func:`solve` takes a prepared :class:`~calib_pin.calibration.prepare.Calibration`, a
 method and how rows are held out (:mod:`calib_pin.calibration.holdout`), and returns one
@@ -59,6 +59,10 @@ class Fit:
 def method_record(method: Any, loss: str) -> Method:
     """``method`` (a name or a record) as a record that takes ``loss``.
 
+    Args:
+        method: An estimator's name (``calib_pin.ESTIMATORS``) or record.
+        loss: ``linear``, or a robust loss (``huber``, ``soft_l1``, ``cauchy``).
+
     Raises:
         ArgumentError: not a method name, or a loss that is no text.
         EstimatorError: an unknown method or loss, or a loss the method has no robust variant for.
@@ -71,6 +75,10 @@ def method_record(method: Any, loss: str) -> Method:
 
 def check_method(record: Method, calibration: Calibration) -> None:
     """Refuse a method the calibration's sets cannot take.
+
+    Args:
+        record: The method's record.
+        calibration: The prepared calibration.
 
     Raises:
         EstimatorError: a data kind the method does not take, or rows of several sizes for
@@ -98,6 +106,15 @@ def fit(calibration: Calibration, method: Method, train: np.ndarray, *, seed: in
     noise is its stated one or estimated from the training rows where it matters
     (:mod:`calib_pin.calibration.noise`).
 
+    Args:
+        calibration: The prepared calibration.
+        method: The method's record.
+        train: The training rows, indices (0-based) into ``calibration.data``.
+        seed: Seed of the estimator.
+        loss: ``linear``, or a robust loss.
+        history: Record the training RMSE after every iteration.
+        reuse: Share the problem made for the same rows (False: make it anew).
+
     Raises:
         DataError: fewer training values than unknowns, training rows that cannot calibrate
             anything, a noise estimate that is a misfit.
@@ -124,8 +141,11 @@ def fit(calibration: Calibration, method: Method, train: np.ndarray, *, seed: in
 
 def _noise(calibration: Calibration, problem: Problem, train: np.ndarray, method: Method, x0: np.ndarray,
            seed: int, loss: str, held: tuple[int, ...], history: bool) -> Noise:
-    """Each set's noise for ``method`` on the ``train`` rows, estimated once for every method
-    that needs the same (the pilot fit is a Levenberg-Marquardt fit, whatever the method)."""
+    """Each set's noise for ``method`` on the ``train`` rows.
+
+    It is estimated once for every method that needs the same (the pilot fit is a
+    Levenberg-Marquardt fit, whatever the method).
+    """
     key = ("noise", np.asarray(train).tobytes(), loss, method.weighs_noise, x0.tobytes(), held,
            method.name == PILOT and history)
     known = calibration._cache.get(key)
@@ -147,8 +167,11 @@ def _after(part: Any, xk: np.ndarray | None, estimate: EstimateResult) -> np.nda
 
 def score(calibration: Calibration, method: Method, done: Fit, train: np.ndarray, test: np.ndarray, *,
           seed: int, loss: str, notes: Sequence[str] = ()) -> CalibrationResult:
-    """The calibration's result: each set's errors before (at the start) and after the fit
-    on its training and test rows, in its own unit, and every set's together."""
+    """The calibration's result: each set's errors before and after the fit, and all together.
+
+    Errors before (at the start) and after the fit on each set's training and test rows,
+    in its own unit, and every set's together.
+    """
     problem, estimate, x0 = done.problem, done.estimate, done.x0
     model = problem.model
     warnings_ = [note for note in (s.data.ignored_note() for s in calibration.sets) if note] + list(notes)
@@ -201,8 +224,7 @@ def score(calibration: Calibration, method: Method, done: Fit, train: np.ndarray
 
 def solve(calibration: Calibration, method: str | Method = DEFAULT_METHOD, *, holdout: Holdout | float = 0.2,
           seed: int = 0, loss: str = "linear", history: bool = True) -> CalibrationResult:
-    """Estimate with ``method`` (and ``loss``) on the training rows of every set, and score
-    the rows held out.
+    """Estimate with ``method`` (and ``loss``) on every set's training rows; score the rows held out.
 
     Args:
         calibration: A prepared calibration (:func:`calib_pin.prepare`).
@@ -252,8 +274,10 @@ def _solve(calibration: Calibration, record: Method, holdout: Holdout, seed: int
 
 def _solve_session(calibration: Calibration, method: Method, test: TestSet, seed: int, loss: str,
                    history: bool) -> CalibrationResult:
-    """Every row of every set trains; the validation session is the test, scored with the
-    set-up of the set it names, or re-registered first."""
+    """Every row of every set trains; the validation session is the test.
+
+    The session is scored with the set-up of the set it names, or re-registered first.
+    """
     session, k = calibration.validation(test)
     if session.register is not None and not method.kinematic:
         raise CalibPinError(f"method '{method.name}' learns a correction of the training set-up's values: a "
@@ -303,10 +327,18 @@ class CrossValidation:
 
 def cross_validate(calibration: Calibration, method: str | Method, rows: np.ndarray, folds: int, *, seed: int = 0,
                    loss: str = "linear") -> CrossValidation:
-    """K-fold cross-validation by pose of the calibration's model on ``rows`` (rows of
-    ``calibration.data``): each fold held out once while the method is fitted (:func:`fit`:
-    each sensor's start, the start and the held unknowns, each set's noise) on the others,
-    and its rows scored.
+    """K-fold cross-validation by pose of the calibration's model on ``rows``.
+
+    Each fold is held out once while the method is fitted on the others (:func:`fit`: each
+    sensor's start, the start and the held unknowns, each set's noise), and its rows scored.
+
+    Args:
+        calibration: The prepared calibration.
+        method: An estimator's name or record.
+        rows: The rows to cross-validate, indices (0-based) into ``calibration.data``.
+        folds: K, at least 2 and at most the poses of ``rows``.
+        seed: Seed of the folds and the estimator.
+        loss: ``linear``, or a robust loss.
 
     Raises:
         ArgumentError: K out of range for the poses (``folds``).

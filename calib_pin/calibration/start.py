@@ -57,10 +57,12 @@ class Start:
     fit_m: float
 
     def x0(self, problem: Any, training: Any) -> np.ndarray:
-        """Where an estimate of ``problem``'s unknowns starts, shape (n_params,), SI: the
-        start's robot deviations and compliances, the sensor's geometry fitted to
+        """Where an estimate of ``problem``'s unknowns starts, shape (n_params,), SI.
+
+        The start's robot deviations and compliances, the sensor's geometry fitted to
         ``training`` (rows of ``problem``, or all of it) with the robot held there
-        (:meth:`sensor_fit`)."""
+        (:meth:`sensor_fit`).
+        """
         x = np.zeros(problem.n_params)
         model = problem.model
         x[:model.n_robot] = self.robot_x
@@ -69,11 +71,13 @@ class Start:
         return self.sensor_fit(training, x)
 
     def sensor_fit(self, problem: Any, x0: np.ndarray) -> np.ndarray:
-        """x0 with its sensor unknowns (device frame, markers, anchor) fitted to ``problem``'s
-        rows with the robot held at the start (scipy least squares on the active set's
-        :class:`~calib_pin.estimators.active_set.Fixed` problem): the sensor's starting
-        geometry was fitted with the catalogue robot, and would otherwise carry the
-        start's difference from it."""
+        """x0 with its sensor unknowns fitted to ``problem``'s rows, the robot held at the start.
+
+        The sensor unknowns are the device frame, markers, anchor; the fit is scipy least
+        squares on the active set's :class:`~calib_pin.estimators.active_set.Fixed` problem.
+        The sensor's starting geometry is fitted with the catalogue robot, and would
+        otherwise carry the start's difference from it.
+        """
         from scipy.optimize import least_squares
 
         from ..estimators.active_set import Fixed
@@ -100,8 +104,11 @@ class Start:
 
 
 def fit_deltas(params: ParameterModel, deltas: list[pin.SE3], iterations: int = 30) -> tuple[np.ndarray, float]:
-    """Deviations x whose ``params.deltas(x)`` are closest to ``deltas`` (least squares on
-    the twists log6(delta(x)^-1 target)); (x, largest remaining twist entry)."""
+    """Deviations x whose ``params.deltas(x)`` are closest to ``deltas``, and the largest misfit.
+
+    Least squares on the twists log6(delta(x)^-1 target); returns (x, largest remaining
+    twist entry).
+    """
     x = np.zeros(len(params.names))
 
     def residual(x: np.ndarray) -> np.ndarray:

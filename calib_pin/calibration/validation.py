@@ -39,9 +39,16 @@ from .holdout import REGISTER_ROLE, TestSet
 
 
 def check_same_setup(session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
-    """Refuse a validation session whose own sensor set-up contradicts the calibration's:
-    the training set's, or the caller's overrides in ``options``; what contradicts is the
-    sensor's to say (:meth:`~calib_pin.sensors.base.MeasurementModel.check_same_setup`).
+    """Refuse a validation session whose own sensor set-up contradicts the calibration's.
+
+    The calibration's set-up is the training set's, or the caller's overrides in
+    ``options``; what contradicts is the sensor's to say
+    (:meth:`~calib_pin.sensors.base.MeasurementModel.check_same_setup`).
+
+    Args:
+        session: The validation session's measurements.
+        training: The training set whose set-up it shares.
+        options: That set's sensor options (the caller's overrides).
 
     Raises:
         DataError: naming the session's file, the key and both values.
@@ -53,9 +60,17 @@ def check_same_setup(session: MeasurementSet, training: MeasurementSet, options:
 
 def choose_training_set(test: TestSet, session: MeasurementSet, labels: tuple[str, ...] | list[str],
                         kinds: list[str], sources: list[str] | None = None) -> int:
-    """The training set (index into ``labels``) a validation session of several sets relates
-    to: with ``register`` the first set of its kind (whose sensor model re-registers it);
-    else the set ``same`` names (its label, or its file's name), or the only set of its kind.
+    """The training set (index into ``labels``) a validation session relates to.
+
+    With ``register``, the first set of its kind (whose sensor model re-registers it); else
+    the set ``same`` names (its label, or its file's name), or the only set of its kind.
+
+    Args:
+        test: The session, with ``same`` and ``register``.
+        session: The session's measurements.
+        labels: The training sets' labels.
+        kinds: The training sets' data kinds, in the same order.
+        sources: The training sets' files, in the same order ("" in memory), or None.
 
     Raises:
         DataError: a session of a kind no training set has, or of another kind than the named set.
@@ -87,6 +102,10 @@ def choose_training_set(test: TestSet, session: MeasurementSet, labels: tuple[st
 def registration_rows(session: MeasurementSet, register: int | str) -> tuple[np.ndarray, np.ndarray]:
     """The session's registration rows and scored rows (0-based, disjoint, every row in one).
 
+    Args:
+        session: The validation session's measurements.
+        register: k (its first k poses register) or ``"role"`` (its rows of role ``register``).
+
     Raises:
         DataError: no ``role`` column or no row marked ``register``; k poses that leave
             nothing to score.
@@ -115,8 +134,11 @@ def registration_rows(session: MeasurementSet, register: int | str) -> tuple[np.
 
 
 def _fit_sensor(problem: SetProblem, fixed: np.ndarray) -> np.ndarray:
-    """x with the problem's robot part (deviations, compliances) held at ``fixed`` and its
-    sensor unknowns fitted by scipy's least squares (Levenberg-Marquardt) from zero."""
+    """x with the problem's robot part held at ``fixed`` and its sensor unknowns fitted.
+
+    The robot part is the deviations and compliances; the sensor unknowns are fitted by
+    scipy's least squares (Levenberg-Marquardt) from zero.
+    """
     from scipy.optimize import least_squares  # imported when a session is re-registered
 
     def full(e: np.ndarray) -> np.ndarray:
@@ -193,13 +215,17 @@ DEVICE_SHIFT_M = 5e-3
 
 
 def score_session(model: Any, x: np.ndarray, correction: Any, session: MeasurementSet) -> dict[str, Metrics]:
-    """The ``test`` metrics (before, after) of a separate validation session measured with
-    a training set's set-up: ``model`` that set's measurement model, ``x`` its unknowns as
-    calibrated, ``correction`` a learnt correction of the values (or None).
+    """The ``test`` metrics (before, after) of a validation session on a training set's set-up.
 
     Nothing is fitted on the session: a point the calibration never saw (a new marker) is
     located from its first row with the model being scored, and the session's other rows
     are predicted (see :meth:`calib_pin.sensors.base.MeasurementModel.session_errors`).
+
+    Args:
+        model: The measurement model of the training set whose set-up the session shares.
+        x: Its unknowns as calibrated, SI.
+        correction: A learnt correction of the values, or None.
+        session: The validation session's measurements.
 
     Raises:
         DataError: the session's own device frame is far from the calibration's (moved).

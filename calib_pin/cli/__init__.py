@@ -48,15 +48,19 @@ EPILOG = ("exit status: 0 done; 2 bad input (one line on stderr naming the file,
 
 
 def arguments_function(name: str) -> str:
-    """The name of the function of command ``name``'s module that adds its arguments:
-    ``add_<main function less _main>_arguments`` (``add_make_poses_arguments``)."""
+    """The name of the function of command ``name``'s module that adds its arguments.
+
+    ``add_<main function less _main>_arguments`` (``add_make_poses_arguments``).
+    """
     return f"add_{COMMANDS[name][1].removesuffix('_main')}_arguments"
 
 
 class CommandParser(OneLineParser):
-    """The subparser of one command: prog ``calib-pin COMMAND``, its arguments added on
-    first use by ``fill`` (the command module's ``add_<command>_arguments``); errors one
-    line, exit 2, as :class:`~.common.OneLineParser`'s."""
+    """The subparser of one command: prog ``calib-pin COMMAND``, its arguments added on first use.
+
+    ``fill`` adds them (the command module's ``add_<command>_arguments``); errors are one
+    line, exit 2, as :class:`~.common.OneLineParser`'s.
+    """
 
     def __init__(self, *args: Any, fill: Callable[[argparse.ArgumentParser], Any] | None = None,
                  **kwargs: Any) -> None:
@@ -74,8 +78,10 @@ class CommandParser(OneLineParser):
 
     def parse_known_args(self, args: Sequence[str] | None = None,  # type: ignore[override]
                          namespace: argparse.Namespace | None = None) -> tuple[argparse.Namespace, list[str]]:
-        """Parse the command's arguments; an argument it does not know is this command's
-        error (``calib-pin calibrate: error: unrecognized arguments: ...``), as it was."""
+        """Parse the command's arguments; an argument it does not know is this command's error.
+
+        Reported as ``calib-pin calibrate: error: unrecognized arguments: ...``.
+        """
         self.populate()
         parsed, extras = super().parse_known_args(args, namespace)
         if extras:
@@ -115,9 +121,11 @@ def _filler(name: str) -> Callable[[argparse.ArgumentParser], Any]:
 
 
 def parser(populate: Iterable[str] = ()) -> OneLineParser:
-    """The one ``calib-pin`` parser: a subparser per command of :data:`COMMANDS` (dest
-    ``command``), each filled with its arguments on first use; the commands in ``populate``
-    are filled now (this imports their modules)."""
+    """The one ``calib-pin`` parser: a subparser per command of :data:`COMMANDS`.
+
+    Dest ``command``; each subparser is filled with its arguments on first use; the
+    commands in ``populate`` are filled at once (this imports their modules).
+    """
     top = OneLineParser(prog="calib-pin", description=DESCRIPTION, epilog=EPILOG, formatter_class=_CommandList)
     commands = top.add_subparsers(title="commands", dest="command", metavar="COMMAND", required=True,
                                   parser_class=CommandParser)
@@ -137,16 +145,18 @@ def command_parser(top: argparse.ArgumentParser, name: str) -> CommandParser:
 
 
 def parse_args(name: str, argv: Sequence[str] | None = None) -> argparse.Namespace:
-    """``calib-pin NAME ARGV...`` parsed by the one parser (``argv`` None: ``sys.argv[1:]``);
-    a bad argument exits 2 with one line naming it."""
+    """``calib-pin NAME ARGV...`` parsed by the one parser (``argv`` None: ``sys.argv[1:]``).
+
+    A bad argument exits 2 with one line naming it.
+    """
     argv = list(sys.argv[1:] if argv is None else argv)
     return parser().parse_args([name, *argv])
 
 
 #: BLAS threads of every command. calib-pin's matrices are small (at most a few
 #: hundred thousand rows by ~50 columns): one thread costs little at the largest sizes,
-#: and on a loaded machine a multithreaded BLAS spins and turns a millisecond SVD into
-#: half a second in some processes. Library callers keep their own setting.
+#: and on a loaded machine a multithreaded BLAS spins and turns a quick SVD into a long
+#: wait. Library callers keep their own setting.
 BLAS_THREADS = 1
 
 
@@ -155,10 +165,12 @@ THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"
 
 
 def limit_blas_threads(threads: int = BLAS_THREADS) -> None:
-    """Limit the BLAS and OpenMP pools of this process (and of the worker processes it
-    starts) to ``threads``: threadpoolctl for the libraries already loaded, the
-    environment for those loaded later (scipy bundles its own OpenBLAS, loaded with
-    scipy.linalg, and Pinocchio brings OpenMP)."""
+    """Limit the BLAS and OpenMP pools of this process and of its worker processes to ``threads``.
+
+    threadpoolctl for the libraries already loaded, the environment for those loaded
+    later (scipy bundles its own OpenBLAS, loaded with scipy.linalg, and Pinocchio brings
+    OpenMP).
+    """
     global _ENVIRONMENT_LIMITED
     for variable in THREAD_VARIABLES:
         os.environ[variable] = str(threads)
@@ -189,7 +201,7 @@ def command(name: str) -> Callable[[Sequence[str] | None], int]:
     try:
         limit_blas_threads()  # before the command's module loads numpy, scipy or Pinocchio
         main = getattr(importlib.import_module(f"{__name__}.{module}"), function)
-    except KeyboardInterrupt:  # Ctrl-C while the libraries load (half a second): one line, not a traceback
+    except KeyboardInterrupt:  # Ctrl-C while the libraries load: one line, not a traceback
         return _stopped
 
     def limited(argv: Sequence[str] | None = None) -> int:

@@ -66,8 +66,12 @@ def batch_main(argv: Sequence[str] | None = None) -> int:
 
 
 def calibration_files(argument: str) -> str | tuple[str, ...]:
-    """One SESSION argument: a CSV, or several joined by ``+`` (one calibration of those
-    sets). An existing file is taken whole, '+' in its name or not.
+    """One SESSION argument: a CSV, or several joined by ``+`` (one calibration of those sets).
+
+    An existing file is taken whole, '+' in its name or not.
+
+    Args:
+        argument: The SESSION argument as typed.
 
     Raises:
         CalibPinError: an empty part (``a.csv++b.csv``, a leading or trailing ``+``).

@@ -53,9 +53,11 @@ def export_formats(text: str) -> tuple[str, ...]:
 
 
 def assumed_noise(text: str) -> float:
-    """The sensor sigma the Kalman filters assume, mm, in (0, 100]: 0 is refused with the
-    reason (a filter that trusts a reading exactly divides by it; ``simulate --noise-mm 0``
-    makes a noise-free set, which calibrates with the default sigma)."""
+    """The sensor sigma the Kalman filters assume, [mm], in (0, 100]; 0 is refused with the reason.
+
+    A filter that trusts a reading exactly divides by it; ``simulate --noise-mm 0`` makes a
+    noise-free set, which calibrates with the default sigma.
+    """
     try:
         if float(text) == 0:
             raise argparse.ArgumentTypeError(
@@ -120,11 +122,13 @@ def calibrate_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _per_set_named(args: argparse.Namespace, action: Any) -> int:
-    """``action(args)``, with a refusal of a per-set option (``--data FILE:key=value``)
-    that the library checks later (a value its record refuses, a key the file's sensor
-    does not take, a role for the only set) naming that argument and key, as the parse
-    of :func:`data_argument` does, rather than the global flag (``--noise-deg``) or the
-    library's argument (``noise_deg``) the user never typed.
+    """``action(args)``, a refused per-set option named by its ``--data`` argument and key.
+
+    A per-set option (``--data FILE:key=value``) that the library checks later (a value its
+    record refuses, a key the file's sensor does not take, a role for the only set) is
+    named by that argument and key, as the parse of :func:`data_argument` does, rather
+    than the global flag (``--noise-deg``) or the library's argument (``noise_deg``) the
+    user never typed.
 
     Raises:
         CalibPinError: ``action``'s, reworded for a per-set key given in one ``--data``.
@@ -161,11 +165,12 @@ SET_KEYS = ("noise_mm", "role", "label")
 
 
 def data_keys() -> dict[str, tuple[Any, str]]:
-    """Every key a ``--data`` argument takes, in order, with its value's parser (None:
-    checked by :func:`data_argument` itself) and its words for ``--help`` (unit, the
-    sensors whose sets take it): the sensors' set-up fields (every registered sensor's,
-    but ``estimate``, a choice for every set), then :data:`SET_KEYS`. The one table both
-    the parse and the help read.
+    """Every key a ``--data`` argument takes, in order, with its value's parser and its help.
+
+    The parser None: checked by :func:`data_argument` itself; the words for ``--help``:
+    unit, the sensors whose sets take it. The keys are the sensors' set-up fields (every
+    registered sensor's, but ``estimate``, a choice for every set), then :data:`SET_KEYS`.
+    The one table both the parse and the help read.
     """
     from ..calibration.sets import ROLES
     from ..sensors import setup_types
@@ -186,8 +191,9 @@ def data_keys() -> dict[str, tuple[Any, str]]:
 
 def _file_options(text: str, flag: str, no_file: str, not_pair: str,
                   keys: Sequence[str] | None = None) -> tuple[str, list[tuple[str, str]]]:
-    """Split ``FILE[:key=value[:key=value ...]]`` into the file and its (key, value) items:
-    the whole argument when it is an existing file, else split at the first ':' whose left
+    """Split ``FILE[:key=value[:key=value ...]]`` into the file and its (key, value) items.
+
+    The whole argument when it is an existing file, else split at the first ':' whose left
     part is one. ``keys``: the valid keys (None: any; an unknown key is then named with the
     valid ones by the caller), each at most once.
 
@@ -217,9 +223,14 @@ def _file_options(text: str, flag: str, no_file: str, not_pair: str,
 
 
 def data_argument(text: str) -> tuple[str, dict[str, Any]]:
-    """A ``--data`` argument ``FILE[:key=value[:key=value ...]]`` as (file, options)
-    (:func:`_file_options`). Keys: :func:`data_keys` (the sensors' set-up fields,
-    ``anchor_mm=600,200,-100``, then ``noise_mm``, ``role`` and ``label``); each value parsed as its flag's.
+    """A ``--data`` argument ``FILE[:key=value[:key=value ...]]`` as (file, options).
+
+    Split by :func:`_file_options`. Keys: :func:`data_keys` (the sensors' set-up fields,
+    ``anchor_mm=600,200,-100``, then ``noise_mm``, ``role`` and ``label``); each value
+    parsed as its flag's.
+
+    Args:
+        text: The argument as typed (lengths in [mm]).
 
     Raises:
         CalibPinError: naming the argument and the key (unknown, twice, bad value).
@@ -246,9 +257,13 @@ def data_argument(text: str) -> tuple[str, dict[str, Any]]:
 
 
 def validation_argument(text: str | None) -> Any:
-    """A ``--test-data`` argument ``FILE[:register=K|role][:same=LABEL]`` as the library's
-    test_data: the file, or a :class:`~calib_pin.calibration.validation.TestSet` with its choice
-    (:func:`_file_options`).
+    """A ``--test-data`` argument ``FILE[:register=K|role][:same=LABEL]`` as the library's test_data.
+
+    The file, or a :class:`~calib_pin.calibration.validation.TestSet` with its choice
+    (split by :func:`_file_options`).
+
+    Args:
+        text: The argument as typed, or None (not given).
 
     Raises:
         CalibPinError: naming the argument and the key (unknown, twice, bad value).
@@ -288,8 +303,9 @@ def _fit_set(path: str, options: dict[str, Any]) -> Any:
 
 
 def _data(args: argparse.Namespace) -> Any:
-    """``--data`` as ``prepare`` takes it: None, one file, or a list of several (FitSets
-    with the per-set options of ``FILE:key=value``).
+    """``--data`` as ``prepare`` takes it: None, one file, or a list of several.
+
+    Several are FitSets with the per-set options of ``FILE:key=value``.
 
     Raises:
         CalibPinError: a drawstring set-up option given once for several sets, a bad
@@ -340,10 +356,12 @@ def _analyze(args: argparse.Namespace) -> int:
 
 
 def analysis_point(calibration: Any) -> tuple[Any, str]:
-    """Where ``--analyze`` analyses the data's poses, SI units (n_params,), and its words:
-    zero deviations (the catalogue URDF), or with ``--nominal`` the start a calibration
+    """Where ``--analyze`` analyses the data's poses, SI units (n_params,), and its words.
+
+    Zero deviations (the catalogue URDF), or with ``--nominal`` the start a calibration
     would take (:meth:`~calib_pin.calibration.start.Start.x0`, the sensor's geometry fitted
-    to every row with the robot held there)."""
+    to every row with the robot held there).
+    """
     import numpy as np
 
     problem, start = calibration.problem, calibration.start
@@ -398,7 +416,7 @@ def _calibrate(args: argparse.Namespace) -> int:
               "--nominal": args.nominal}
     # an input in --out is never replaced, nor removed as stale; all files together or none
     # report.html draws figures per set, which only the collector frees: on for several sets
-    # (one set's are a bounded 15 MB, and the collector's passes over matplotlib 0.1 s)
+    # (one set's take bounded memory, and the collector's passes over matplotlib take time)
     with collecting() if len(result.sets) > 1 else contextlib.nullcontext():
         done = write_outputs(result, Path(args.out), args.export, html=not args.no_html, inputs=inputs,
                              silence="--no-html silences this")
@@ -429,8 +447,10 @@ RIGID_NM_PER_RAD = 1e9
 
 
 def compliance_cells(soft: dict[str, Any]) -> str:
-    """The compliances of report.json's ``compliance`` section for people: urad/Nm and the
-    stiffness in Nm/rad; a joint at zero is rigid (its stiffness is infinite, JSON null)."""
+    """The compliances of report.json's ``compliance`` section for people: [urad/Nm] and [Nm/rad].
+
+    The stiffness is in Nm/rad; a joint at zero is rigid (its stiffness is infinite, JSON null).
+    """
     if soft.get("compliance_model") == "basis":
         return basis_cells(soft)
     bounded = set(soft.get("bounded_at_zero", ()))
@@ -461,8 +481,10 @@ def basis_cells(soft: dict[str, Any]) -> str:
 
 
 def _header(result: Any) -> None:
-    """The run in one line, what a row's error is, and the tables: each set's with several
-    sets, then every set's rows together (of one set: its own)."""
+    """The run in one line, what a row's error is, and the tables.
+
+    Each set's table with several sets, then every set's rows together (of one set: its own).
+    """
     from ..analysis.metrics import pooled_unit, units_words
 
     several = len(result.sets) > 1
@@ -588,8 +610,11 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
 
 
 def _outlier_lines(report: dict[str, Any]) -> str:
-    """Where the outliers are: ``file lines 16, 19``, or with several sets each set's
-    (``mix_1 line 16; mix_2 lines 19, 20``): a line number alone does not name its file."""
+    """Where the outliers are: ``file lines 16, 19``, or with several sets each set's.
+
+    With several sets: ``mix_1 line 16; mix_2 lines 19, 20``; a line number alone does not
+    name its file.
+    """
     lines, sets = report["outlier_lines"], report.get("outlier_sets")
     if not lines:
         return "file lines none"

@@ -89,8 +89,11 @@ def _profile(args: argparse.Namespace) -> SensorProfile:
 
 
 def _outputs(args: argparse.Namespace, profile: SensorProfile) -> Outputs:
-    """The --save-profile file, refused now if it may not be written (an existing file
-    without --force; an input, or the session, even with it); written by the caller last."""
+    """The --save-profile file, refused here if it may not be written; written by the caller last.
+
+    It may not be written over an existing file without --force, nor over an input or the
+    session even with it.
+    """
     inputs = {**robot_inputs(args.robot), "--poses": args.poses, "--profile": args.profile,
               "--port": args.port}
     if args.out:
@@ -190,8 +193,10 @@ def _wait(auto: float | None):
 
 
 def _start(session: Session, outputs: Outputs, args: argparse.Namespace) -> None:
-    """Write what the checks allowed: the session's header or cut, the --save-profile file
-    (if that fails, a session file this run created is removed again)."""
+    """Write what the checks allowed: the session's header or cut, the --save-profile file.
+
+    If that fails, a session file this run created is removed again.
+    """
     new = session.new
     session.start()
     try:

@@ -1,8 +1,9 @@
-"""What every command shares: one-line errors, argument types, the exit codes, and the
-argument groups several commands hold (:func:`add_robot_arguments`, :func:`add_seed_argument`,
-:func:`add_compliance_arguments`, :func:`add_parallel_arguments`, ...): each option is
-defined once here and added to every ``calib-pin`` subcommand that takes it, under the same
-group title, with the same help.
+"""What every command shares: one-line errors, argument types, exit codes, shared argument groups.
+
+The argument groups several commands hold (:func:`add_robot_arguments`,
+:func:`add_seed_argument`, :func:`add_compliance_arguments`, :func:`add_parallel_arguments`,
+...): each option is defined once here and added to every ``calib-pin`` subcommand that
+takes it, under the same group title, with the same help.
 
 This module imports no numpy, scipy or Pinocchio (``calib-pin --help`` and the parser's
 skeleton stay quick): a group that needs a registry (the parameter models, the sensors'
@@ -36,8 +37,10 @@ _LIST_ACTIONS = (argparse._AppendAction, argparse._AppendConstAction, argparse._
 
 
 def one_line(text: str) -> str:
-    """``text`` with every control character escaped as ``repr`` does (``\\n``, ``\\x1b``):
-    a file name or a field may hold them, and an error message stays one line."""
+    """``text`` with every control character escaped as ``repr`` does (``\\n``, ``\\x1b``).
+
+    A file name or a field may hold them, and an error message stays one line.
+    """
     if text.isprintable():
         return text
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
@@ -65,8 +68,11 @@ class OneLineParser(argparse.ArgumentParser):
         return super().parse_known_args(self._prepared(argv), namespace)
 
     def _prepared(self, argv: list[str]) -> list[str]:
-        """``argv`` with ``--opt -2.2,0,50`` as ``--opt=-2.2,0,50``; refuses an option
-        that holds one value given twice (in any spelling: ``--opt x``, ``--opt=x``)."""
+        """``argv`` with ``--opt -2.2,0,50`` as ``--opt=-2.2,0,50``.
+
+        Refuses an option that holds one value given twice (in any spelling: ``--opt x``,
+        ``--opt=x``).
+        """
         out: list[str] = []
         seen: dict[argparse.Action, str] = {}
         i = 0
@@ -110,8 +116,10 @@ NOTHING_WRITTEN = "stopped by Ctrl-C: nothing was written"
 
 
 def run(action: Callable[[], int], interrupted: str = NOTHING_WRITTEN) -> int:
-    """Run a command's work: a user's mistake becomes one line on stderr and exit 2,
-    Ctrl-C one line and exit 130 (naming the outputs already written in full, if any)."""
+    """Run a command's work: a user's mistake is one line and exit 2, Ctrl-C one line and 130.
+
+    A user's mistake goes to stderr; Ctrl-C names the outputs already written in full, if any.
+    """
     from ..util.outputs import WRITTEN
 
     mark = len(WRITTEN)
@@ -251,8 +259,11 @@ QUIET_HELP = "no progress bar (it is drawn on stderr, only on a terminal)"
 
 
 def group(p: argparse.ArgumentParser, title: str) -> Any:
-    """``p``'s argument group ``title``, made on first use (so the shared options of a
-    group land in one section of ``--help`` wherever a command adds them)."""
+    """``p``'s argument group ``title``, made on first use.
+
+    So the shared options of a group land in one section of ``--help`` wherever a command
+    adds them.
+    """
     for g in p._action_groups:
         if g.title == title:
             return g
@@ -304,8 +315,10 @@ def add_unknowns_arguments(p: argparse.ArgumentParser, start_note: str = "") -> 
 
 
 def unknowns_options(args: argparse.Namespace) -> dict[str, Any]:
-    """``--fix``, ``--free`` and ``--nominal`` as the keyword arguments of calibrate, compare and
-    compare_models (only those given)."""
+    """``--fix``, ``--free`` and ``--nominal`` as keyword arguments of calibrate, compare, compare_models.
+
+    Only those given.
+    """
     return {k: v for k, v in (("fix", args.fix), ("free", args.free), ("nominal", args.nominal)) if v is not None}
 
 
@@ -325,11 +338,13 @@ def add_parallel_arguments(p: argparse.ArgumentParser) -> None:
 def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_default: str, *,
                         skip: Sequence[str] = (), defaults: dict[str, Any] | None = None,
                         anchor_per_session: bool = False) -> None:
-    """The robot arguments shared by calibrate and simulate, and every registered sensor's
-    set-up flags (:func:`calib_pin.sensors.add_sensor_arguments`; ``skip``: fields without
-    a flag here, ``defaults``: flag defaults); ``anchor_default`` and ``tool_default`` say
-    what the point flags default to (``anchor_per_session``: --anchor-mm may be given once
-    per session, a list)."""
+    """The robot arguments shared by calibrate and simulate, and every registered sensor's set-up flags.
+
+    The set-up flags come from :func:`calib_pin.sensors.add_sensor_arguments`; ``skip``:
+    fields without a flag here, ``defaults``: flag defaults; ``anchor_default`` and
+    ``tool_default`` say what the point flags default to (``anchor_per_session``:
+    --anchor-mm may be given once per session, a list).
+    """
     from ..sensors import add_sensor_arguments
 
     add_robot_argument(p)
@@ -356,8 +371,12 @@ def add_compliance_arguments(p: argparse.ArgumentParser, what: str = "estimate")
 
 
 def compliance_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The compliance arguments as one record, built once: ``{"compliance": Compliance
-    or None}``, the keyword argument of ``prepare``/``calibrate``/``compare``/``simulate``.
+    """The compliance arguments as one record, built once: ``{"compliance": Compliance or None}``.
+
+    The keyword argument of ``prepare``/``calibrate``/``compare``/``simulate``.
+
+    Args:
+        args: The parsed command line (``--compliance`` and its loads).
 
     Raises:
         CalibPinError: a load (--payload-kg, --payload-com-mm, --cable-tension-n)

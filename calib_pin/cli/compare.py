@@ -179,8 +179,10 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
 
 
 def _data(args: argparse.Namespace) -> Any:
-    """``--data`` as compare takes it: None, one file, or several (with their per-set options),
-    as calibrate's (:func:`calib_pin.cli.calibrate.data_argument`)."""
+    """``--data`` as compare takes it: None, one file, or several (with their per-set options).
+
+    As calibrate's (:func:`calib_pin.cli.calibrate.data_argument`).
+    """
     from .calibrate import _data as calibrate_data
 
     return calibrate_data(args)
@@ -203,8 +205,10 @@ def _inputs(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _write(result: Any, out: Path, command: str) -> list[Path]:
-    """Write the tables and the figures together, or none. The figures are optional
-    (:func:`calib_pin.util.optional.figures_or_warn`): without a working matplotlib, or when
+    """Write the tables and the figures together, or none.
+
+    The figures are optional (:func:`calib_pin.util.optional.figures_or_warn`): without a
+    working matplotlib, or when
     drawing fails, one warning line and the tables alone."""
     from ..exceptions import CalibPinError
     from ..util.optional import figures_or_warn

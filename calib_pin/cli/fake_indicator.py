@@ -41,7 +41,10 @@ def add_fake_indicator_arguments(p: argparse.ArgumentParser) -> argparse.Argumen
 
 
 def fake_indicator_main(argv: Sequence[str] | None = None) -> int:
-    """``fake_indicator.py [--protocol modbus|ascii] [--value-mm V | --values F.csv --follow OUT.csv] ...``."""
+    """Run the simulated dial indicator.
+
+    ``fake_indicator.py [--protocol modbus|ascii] [--value-mm V | --values F.csv --follow OUT.csv] ...``.
+    """
     from ..hardware.fake_indicator import FakeIndicator
     from ..measurements import read_measurements
 

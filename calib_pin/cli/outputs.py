@@ -1,6 +1,8 @@
-"""The commands' ``--force`` option. The output writer itself (:class:`Outputs`: inputs
-never replaced, existing files only with ``force``, all outputs or none) is the library's,
-:mod:`calib_pin.util.outputs`."""
+"""The commands' ``--force`` option.
+
+The output writer itself (:class:`Outputs`: inputs never replaced, existing files only
+with ``force``, all outputs or none) is the library's, :mod:`calib_pin.util.outputs`.
+"""
 
 from __future__ import annotations
 

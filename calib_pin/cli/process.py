@@ -5,24 +5,23 @@ what differs is Python's cyclic garbage collector, which belongs to the process:
 
 * While a one-pass command (:data:`ONE_PASS`: one calibration, one simulated set, one
   compensated program, one pose file) runs, the collector is off. Such a command imports
-  its libraries as it goes (numpy, Pinocchio, scipy, filterpy, matplotlib: some 270 000
-  objects with the report), and the collector traverses them again and again while they
-  load: 0.35 s of the quick start's command (``python scripts/calibrate.py irb120``,
-  measured with ``gc.callbacks``). What it would free is the command's own cyclic
-  garbage: a run over 100 000 readings keeps its 484 MB peak. Reference counting frees
-  everything else as usual, and every file is written and closed before the command
-  returns.
+  its libraries as it goes (numpy, Pinocchio, scipy, filterpy, matplotlib: hundreds of
+  thousands of objects with the report), and the collector traverses them again and again
+  while they load, a large share of a short command's time. What it would free is the
+  command's own cyclic garbage, too little to change a large run's peak memory. Reference
+  counting frees everything else as usual, and every file is written and closed before
+  the command returns.
 * A part of a one-pass command whose cyclic garbage would grow with its input runs with the
   collector on again, everything made before it frozen (:func:`collecting`): the drawing of
-  report.html when it has several sets (figures per set; 60 sets peaked at 496 MB with the
-  collector off, 233 MB with it on). One set's figures are a bounded 15 MB (the quick start
-  189 -> 204 MB), and the collector's passes over matplotlib while it draws them cost 0.1 s.
+  report.html when it has several sets (figures per set, which only the collector frees, so
+  the peak memory would grow with the sets). One set's figures take bounded memory, and the
+  collector's passes over matplotlib while it draws them take time.
 * The other commands (compare, batch, collect, benchmark, fake-indicator) repeat their work
   for as long as they are asked to, so their garbage would grow with it: the collector
   stays on.
 * When any command returns, every tracked object is frozen (``gc.freeze``): the
   interpreter's last collection at exit then skips them instead of traversing the
-  libraries' objects once more (0.1 s of every process that imports scipy.optimize).
+  libraries' objects once more.
 
 A library caller (``command(name)(argv)`` in its own process, the tests) keeps its
 collector as it is: only :func:`run_command` changes it, and only for its own process.
@@ -40,8 +39,10 @@ ONE_PASS = frozenset({"calibrate", "simulate", "compensate", "make-poses", "plan
 
 
 def run_command(name: str, argv: Sequence[str] | None = None) -> int:
-    """Run command ``name`` with ``argv`` as this process's work (see the module
-    docstring); its exit status. Call it once, from the process's entry point."""
+    """Run command ``name`` with ``argv`` as this process's work; its exit status.
+
+    See the module docstring. Call it once, from the process's entry point.
+    """
     from . import command
 
     if name in ONE_PASS:
@@ -54,12 +55,13 @@ def run_command(name: str, argv: Sequence[str] | None = None) -> int:
 
 @contextlib.contextmanager
 def collecting() -> Iterator[None]:
-    """The cyclic collector on for a part of a one-pass command whose cyclic garbage grows
-    with its input: report.html's figures (matplotlib frees a figure only through the
-    collector: about 4 MB a set in a report of many sets, 60 sets 233 -> 496 MB peak with
-    the collector off throughout). Every object made before is frozen first, so its passes
-    skip them; off again after. Nothing changes when the collector is on (a library caller,
-    a repeating command)."""
+    """The cyclic collector on for a part of a one-pass command whose cyclic garbage grows with its input.
+
+    That part is report.html's figures: matplotlib frees a figure only through the
+    collector, so with it off the peak memory of a report of many sets grows with the sets.
+    Every object made before is frozen first, so its passes skip them; off again after.
+    Nothing changes when the collector is on (a library caller, a repeating command).
+    """
     if gc.isenabled():
         yield
         return
@@ -72,8 +74,10 @@ def collecting() -> Iterator[None]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """The ``calib-pin`` console script: ``calib-pin COMMAND ...`` through :func:`run_command`;
-    help and an unknown or missing command as :func:`calib_pin.cli.main` answers them."""
+    """The ``calib-pin`` console script: ``calib-pin COMMAND ...`` through :func:`run_command`.
+
+    Help and an unknown or missing command as :func:`calib_pin.cli.main` answers them.
+    """
     from . import COMMANDS
     from . import main as cli_main
 

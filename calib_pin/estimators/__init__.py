@@ -73,6 +73,9 @@ class Method:
     def check(self, loss: str = "linear") -> None:
         """Refuse a loss this method does not take, in one line.
 
+        Args:
+            loss: ``linear``, or a robust loss (``huber``, ``soft_l1``, ``cauchy``).
+
         Raises:
             EstimatorError: unknown loss, or a loss it has no robust variant for.
         """
@@ -84,8 +87,11 @@ class Method:
                                  f"{', '.join(robust)}")
 
     def takes(self, kind: str, unsupported: tuple[str, ...] = ()) -> str | None:
-        """Why this method cannot fit data of ``kind`` (whose sensor names the methods it
-        cannot serve in ``unsupported``, rows of several sizes), or None."""
+        """Why this method cannot fit data of ``kind``, or None.
+
+        The sensor of ``kind`` names the methods it cannot serve in ``unsupported``; some
+        methods cannot fit rows of several sizes.
+        """
         if self.kinds and kind not in self.kinds:
             return f"method '{self.name}' takes {' or '.join(self.kinds)} data, not {kind} data; use a parameter method"
         if self.name in unsupported:
@@ -125,6 +131,9 @@ DEFAULT_METHOD = "ekf-qibas"
 def get_method(name: str) -> Method:
     """The method record registered as ``name``.
 
+    Args:
+        name: A method's name (``lm``, ``ekf-qibas``, ...).
+
     Raises:
         EstimatorError: unknown name, with the list of valid ones.
     """
@@ -145,8 +154,10 @@ def run_estimator(
     name: str, problem: LeastSquares, x0: np.ndarray, *, seed: int = 0, noise: float = 5e-5,
     loss: str = "linear", history: bool = True, fixed: tuple[int, ...] = (),
 ) -> EstimateResult:
-    """Run the estimator ``name`` (with ``loss``) on any least-squares problem, recording its
-    convergence history (unless ``history`` is False) and its wall time ``time_s``.
+    """Run the estimator ``name`` (with ``loss``) on any least-squares problem.
+
+    It records its convergence history (unless ``history`` is False) and its wall time
+    ``time_s``.
 
     Args:
         name: A method of :data:`METHODS` (``lm``, ``ekf-qibas``, ...).
@@ -177,8 +188,9 @@ def run_estimator(
 
 def run_method(method: Method, problem: LeastSquares, x0: np.ndarray, *, seed: int, noise: float, loss: str,
                history: bool = True, fixed: tuple[int, ...] = ()) -> EstimateResult:
-    """:func:`run_estimator` of a method record and arguments already checked (the
-    calibration's own path, which checks each once where it enters).
+    """:func:`run_estimator` of a method record and arguments already checked.
+
+    The calibration's own path, which checks each once where it enters.
 
     Unknowns the problem names in ``nonnegative`` (the joint compliances) come out >= 0
     for every method: one fitted negative is fixed at zero and the method runs again

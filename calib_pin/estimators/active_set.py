@@ -34,8 +34,9 @@ TOLERANCE = 1e-3
 
 @dataclass(frozen=True)
 class Fixed(RowProblem):
-    """A least-squares problem with some unknowns held at given values: the estimator sees
-    the free ones only (their columns, scale and count).
+    """A least-squares problem with some unknowns held at given values.
+
+    The estimator sees the free ones only (their columns, scale and count).
 
     Attributes:
         problem: The full problem.

@@ -9,9 +9,9 @@ The beetle sits at z (search coordinates, see :mod:`calib_pin.estimators.subspac
 4. moves to the best of the candidates (the antennae, already evaluated, the
    interpolated point and, only if none of those improved, the BAS point) when it
    improves the cost. This is the *greedy* variant: z is always the best point so far,
-   so the history never rises. (The original BAS moves by eq. 13 whatever the cost and
+   so the history never rises. (The paper's BAS moves by eq. 13 whatever the cost and
    only remembers the best point; with a decaying step in 20 dimensions that wanders
-   and converged worse in our trials.)
+   and converges worse.)
 5. decays step and antenna length (eq. 12): delta <- mu delta + delta0,
    m <- tau m + m0.
 
@@ -54,8 +54,7 @@ class BAS:
 
     Its step decays more slowly than QIBAS's (mu = tau = 0.98 against 0.95, with a
     larger budget): without the interpolation the beetle needs more iterations, and
-    with 0.95 its step died before it reached the optimum (test RMSE 0.54 mm instead of
-    0.07 mm on a seeded session).
+    with 0.95 its step dies out before it reaches the optimum.
 
     Attributes:
         max_iter: Iteration budget.
@@ -125,7 +124,7 @@ class BAS:
                 z_qi = interpolate(z, m, b, f, f_l, f_r, z_bas)
                 if look_ahead:
                     # The next iteration's antennae around z_qi (its direction and antenna
-                    # length are known now) in the same batched call: used, and counted,
+                    # length are already known) in the same batched call: used, and counted,
                     # when the beetle moves to z_qi, as it nearly always does.
                     b_next = rng.standard_normal(space.dim)
                     b_next /= math.sqrt(b_next.dot(b_next))  # as b above (math.sqrt: the same correctly rounded root)
@@ -152,9 +151,12 @@ class BAS:
 
 
 def _best(*pairs: float | np.ndarray) -> tuple[float, np.ndarray]:
-    """The (cost, point) of pairs given flat (cost, point, cost, point, ...) that
-    ``min(candidates, key=cost)`` picks: the first of the lowest (a later one replaces it
-    only when lower, so a NaN never does), without building the list and key calls."""
+    """The (cost, point) that ``min(candidates, key=cost)`` picks, of pairs given flat.
+
+    The pairs come as (cost, point, cost, point, ...); the first of the lowest wins (a
+    later one replaces it only when lower, so a NaN never does), without building the list
+    and key calls.
+    """
     f, z = pairs[0], pairs[1]
     for k in range(2, len(pairs), 2):
         if pairs[k] < f:

@@ -42,9 +42,8 @@ from .subspace import Subspace
 Callback = Callable[[float, float], None]
 
 #: Most history entries a method records over its row updates (see the module docstring):
-#: a convergence figure is drawn from a hundred points as well as from every one (each
-#: entry is the training RMSE over every row: at 100 000 rows, 300 entries were about 30 %
-#: of ``calibrate --method ekf-qibas``'s CPU time, 100 entries cost a third of that).
+#: a convergence figure is drawn from a hundred points as well as from every one, and each
+#: entry is the training RMSE over every row, a full residual pass.
 HISTORY_POINTS = 100
 
 #: ``correction(q, points)``: what to add to the values a model predicts at joint angles
@@ -112,13 +111,17 @@ class EstimateResult:
 
     @property
     def bounded(self) -> tuple[int, ...]:
-        """Unknowns (indices into x) that must be >= 0, fitted negative and fixed at zero
-        (:mod:`calib_pin.estimators.active_set`)."""
+        """Unknowns (indices into x) that must be >= 0, fitted negative and fixed at zero.
+
+        See :mod:`calib_pin.estimators.active_set`.
+        """
         return tuple(self.extras.get("bounded", ()))
 
     def predict(self, model: Any, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-        """Values [m] this estimate predicts at joint angles q [rad] with a measurement model,
-        for rows measuring ``points`` (point indices; None for a one-point sensor)."""
+        """Values [m] this estimate predicts at joint angles q [rad] with a measurement model.
+
+        For rows measuring ``points`` (point indices; None for a one-point sensor).
+        """
         values = model.predict(self.x, q, points)
         if self.correction is not None:
             values = values + self.correction(np.atleast_2d(q), points).reshape(values.shape)
@@ -132,8 +135,10 @@ class EstimateResult:
         return r + self.correction(problem.q, problem.points).reshape(-1)  # type: ignore[attr-defined]
 
     def converged(self, tolerance: float = 0.05) -> tuple[int, float]:
-        """Iterations and evaluations used until the training RMSE first came within
-        ``tolerance`` (relative) of its final value (needs a recorded history)."""
+        """Iterations and evaluations used until the training RMSE first came within ``tolerance``.
+
+        ``tolerance`` is relative to its final value; needs a recorded history.
+        """
         if not self.history:
             return self.iterations, float(self.nfev)
         h = np.asarray(self.history)
@@ -161,8 +166,10 @@ class History:
 
 
 def offset(callback: Callback | None, evaluations: float, skip_first: bool = True) -> Callback | None:
-    """A callback for a later stage: its evaluations counted after ``evaluations``
-    already used, and (``skip_first``) its start not recorded again."""
+    """A callback for a later stage, its evaluations counted after ``evaluations`` already used.
+
+    With ``skip_first``, its start is not recorded again.
+    """
     if callback is None:
         return None
     state = {"first": skip_first}
@@ -198,8 +205,10 @@ class Tracker:
         return self.callback is not None
 
     def whitened(self, x0: np.ndarray) -> Subspace:
-        """The identifiable subspace at x0 (:mod:`calib_pin.estimators.subspace`); its Jacobian
-        counts as one evaluation."""
+        """The identifiable subspace at x0 (:mod:`calib_pin.estimators.subspace`).
+
+        Its Jacobian counts as one evaluation.
+        """
         self.nfev += 1
         x0 = np.asarray(x0, dtype=float)
         return Subspace.of(self.problem.jacobian(x0), self.problem.scale, x0)
@@ -210,11 +219,14 @@ class Tracker:
         return self.problem.cost(x)
 
     def costs(self, xs: list[np.ndarray], used: int | None = None) -> list[float]:
-        """:meth:`cost` at several points, counted as one evaluation each (or as ``used``:
-        the first ``used`` points, when the others are a look-ahead that is counted only
-        if the method uses it, see :meth:`count`): batched where the problem's own class
-        evaluates several at once (``costs``, :attr:`batched`), else one by one (a
-        problem with another cost, e.g. a robust one, never inherits the plain batch)."""
+        """:meth:`cost` at several points, counted as one evaluation each (or as ``used``).
+
+        With ``used``, the first ``used`` points are counted, when the others are a
+        look-ahead that is counted only if the method uses it (see :meth:`count`). Batched
+        where the problem's own class evaluates several at once (``costs``, :attr:`batched`),
+        else one by one (a problem with another cost, e.g. a robust one, never inherits the
+        plain batch).
+        """
         self.nfev += len(xs) if used is None else used
         batched = getattr(type(self.problem), "costs", None)
         if batched is None:
@@ -247,16 +259,21 @@ class Tracker:
             self.callback(float(rmse_m), self.nfev)
 
     def record_at(self, x: np.ndarray) -> None:
-        """Report the training RMSE at x; computed only when recording, and not counted
-        as work (it is bookkeeping, not part of the method)."""
+        """Report the training RMSE at x; computed only when recording, and not counted as work.
+
+        It is bookkeeping, not part of the method.
+        """
         if self.callback is not None:
             self.flush()
             self.callback(rmse(self.problem.residual(x)), self.nfev)
 
     def flush(self) -> None:
-        """Report the row updates' RMSEs held back by :meth:`record_update`, in order: their
-        residuals in one batched pass of the problem's own ``residuals`` (the same numbers to
-        the bit as one :meth:`record_at` each, the same callback calls in the same order)."""
+        """Report the row updates' RMSEs held back by :meth:`record_update`, in order.
+
+        Their residuals come from one batched pass of the problem's own ``residuals`` (the
+        same numbers to the bit as one :meth:`record_at` each, the same callback calls in the
+        same order).
+        """
         if not self.pending:
             return
         pending, self.pending = self.pending, []
@@ -265,15 +282,19 @@ class Tracker:
             self.callback(rmse(r), nfev)  # type: ignore[misc]
 
     def thin(self, updates: int) -> None:
-        """Record at most :data:`HISTORY_POINTS` of ``updates`` row updates after the start
-        (every ``stride``-th and the last); call before the start is recorded."""
+        """Record at most :data:`HISTORY_POINTS` of ``updates`` row updates after the start.
+
+        Every ``stride``-th and the last; call before the start is recorded.
+        """
         self.stride = max(1, -(-updates // HISTORY_POINTS))
         self.updates = updates
         self.recorded = [0] if self.stride > 1 else []
 
     def record_update(self, x: np.ndarray, update: int) -> None:
-        """After row update ``update`` (1-based) at estimate x: :meth:`record_at` when it is
-        one of the thinned points (see :meth:`thin`)."""
+        """After row update ``update`` (1-based) at estimate x: :meth:`record_at` at a thinned point.
+
+        It records only when ``update`` is one of the thinned points (see :meth:`thin`).
+        """
         if self.callback is None or (update % self.stride and update != self.updates):
             return
         if self.stride > 1:
@@ -281,9 +302,8 @@ class Tracker:
         if getattr(type(self.problem), "residuals", None) is None:
             self.record_at(x)
             return
-        # Held back and evaluated in batches of at most BATCH_ROWS point-rows (one batched
-        # pass instead of one residual call per recorded update: the history of a filter run
-        # cost about as much as the filter itself).
+        # Held back and evaluated in batches of at most BATCH_ROWS point-rows: one batched
+        # pass instead of one residual call per recorded update.
         self.pending.append((np.array(x, dtype=float), self.nfev))
         if len(self.pending) * self.problem.n_rows >= BATCH_ROWS or update == self.updates:
             self.flush()

@@ -18,8 +18,9 @@ UPDATING = ("immediate", "deferred")
 
 @dataclass(frozen=True)
 class DE:
-    """scipy's differential evolution in the whitened search coordinates of :mod:`calib_pin.estimators.subspace`.
+    """scipy's differential evolution in the whitened search coordinates.
 
+    The coordinates are those of :mod:`calib_pin.estimators.subspace`.
     Strategy ``best1bin`` with dithered mutation (0.5, 1) and recombination 0.7 (scipy's
     defaults), a population of ``popsize`` x dimension members, Latin-hypercube start in
     a box of +-``bound`` times the start residual's norm per coordinate, with x0 as one

@@ -37,8 +37,10 @@ BLOCK_ROWS = 1024
 
 
 def row_blocks(n_rows: int) -> list[tuple[int, int]]:
-    """The EKF's blocks of rows linearised together, (first, end) each: sizes 1, 2, 4,
-    ... up to :data:`BLOCK_ROWS`, the last one cut at ``n_rows``."""
+    """The EKF's blocks of rows linearised together, (first, end) each.
+
+    Sizes 1, 2, 4, ... up to :data:`BLOCK_ROWS`, the last one cut at ``n_rows``.
+    """
     out, first, size = [], 0, 1
     while first < n_rows:
         out.append((first, min(first + size, n_rows)))
@@ -64,7 +66,7 @@ class EKF:
     residual is carried to the current estimate to first order, h_k(z) = r_k(z_b) +
     H_k(z_b) (z - z_b) (exact for a linear model). Row 0 is linearised at x0; the
     estimate moves most in the first rows, where the blocks are smallest. One Python
-    call per block, not one per row (per row, the call overhead was most of the
+    call per block, not one per row (per row, the call overhead is most of the
     Jacobian's cost).
 
     One iteration is one measurement update (``passes`` x poses in all); each costs
@@ -101,7 +103,7 @@ class EKF:
         update = 0
         for _ in range(self.passes):
             for first, end in row_blocks(problem.n_rows):
-                # One batched residual and Jacobian for the block, at the estimate now (z_b).
+                # One batched residual and Jacobian for the block, at the current estimate (z_b).
                 z_b = kf.x.copy()
                 x_b = space.to_x(z_b[:, 0])
                 if batched:

@@ -1,16 +1,16 @@
-"""filterpy's Kalman filters without the imports of scipy.stats and scipy.ndimage they do not need here.
+"""filterpy's Kalman filters without the scipy.stats and scipy.ndimage imports they do not need.
 
 ``import filterpy`` runs its package ``__init__``, which imports every subpackage:
-``filterpy.stats`` imports ``scipy.stats`` (about 0.6 s warm on a loaded 2-core machine,
-most of a quick start's import time) and ``filterpy.discrete_bayes`` imports
-``scipy.ndimage`` (0.1-0.25 s). The filters use ``filterpy.stats`` for one thing,
+``filterpy.stats`` imports ``scipy.stats`` (slow to import: most of a quick start's
+import time) and ``filterpy.discrete_bayes`` imports ``scipy.ndimage`` (slow too).
+The filters use ``filterpy.stats`` for one thing,
 ``logpdf``, inside their lazily computed ``log_likelihood``/``likelihood`` properties,
 which calib-pin never reads, and never use ``discrete_bayes``. :func:`kalman` puts
 stand-ins for both in ``sys.modules`` first: modules whose attributes load the real
 module (:data:`DEFERRED`) on first access, and a ``logpdf`` (the one name filterpy's
 filters import from ``stats``) that loads the real ``filterpy.stats.stats`` (and so
-scipy.stats) when called. Everything filterpy does works as before; only the moment
-scipy.stats and scipy.ndimage are imported moves. When filterpy or either subpackage was
+scipy.stats) when called. Everything filterpy does works unchanged; only the moment
+scipy.stats and scipy.ndimage are imported moves. When filterpy or either subpackage is
 already imported the stand-ins are not installed.
 """
 
@@ -37,8 +37,10 @@ def _logpdf(*args: Any, **kwargs: Any) -> Any:
 
 
 class _Deferred(types.ModuleType):
-    """A filterpy subpackage whose attributes come from its real module (:data:`DEFERRED`),
-    imported on first use."""
+    """A filterpy subpackage whose attributes come from its real module, imported on first use.
+
+    The real modules are named in :data:`DEFERRED`.
+    """
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("__"):
@@ -65,7 +67,10 @@ def _defer_stats() -> None:
 
 
 def kalman() -> types.ModuleType:
-    """``filterpy.kalman`` (ExtendedKalmanFilter, UnscentedKalmanFilter, MerweScaledSigmaPoints),
-    imported with ``filterpy.stats`` and ``filterpy.discrete_bayes`` deferred (see the module docstring)."""
+    """``filterpy.kalman``, imported with ``filterpy.stats`` and ``filterpy.discrete_bayes`` deferred.
+
+    It holds ExtendedKalmanFilter, UnscentedKalmanFilter, MerweScaledSigmaPoints; see the
+    module docstring.
+    """
     _defer_stats()
     return importlib.import_module("filterpy.kalman")

@@ -70,9 +70,11 @@ class LeastSquares(Protocol):
 
 
 def row_offsets(problem: Any) -> np.ndarray:
-    """Where each row's residual entries start in ``problem``'s residual, shape
-    (n_rows + 1,): its ``row_offsets``, or, for a problem that states only
-    ``values_per_row`` (rows of one size), multiples of it."""
+    """Where each row's residual entries start in ``problem``'s residual, shape (n_rows + 1,).
+
+    Its ``row_offsets``, or, for a problem that states only ``values_per_row`` (rows of one
+    size), multiples of it.
+    """
     offsets = getattr(problem, "row_offsets", None)
     if offsets is None:
         return np.arange(problem.n_rows + 1) * int(problem.values_per_row)
@@ -80,8 +82,10 @@ def row_offsets(problem: Any) -> np.ndarray:
 
 
 def data_rows(problem: Any) -> np.ndarray:
-    """The rows of ``problem`` that are data rows, in order, shape (n_data,): row k of its
-    ``q`` (and of the measurement set) is row ``data_rows(problem)[k]`` of its residual's rows.
+    """The rows of ``problem`` that are data rows, in order, shape (n_data,).
+
+    Row k of its ``q`` (and of the measurement set) is row ``data_rows(problem)[k]`` of its
+    residual's rows.
 
     Every row is a data row except a contact set's known-distance rows (``# distance_mm``):
     they carry no pose, follow its touches, and are kept by every ``subset`` (so they are
@@ -99,9 +103,12 @@ def data_row_errors(problem: Any, residual: np.ndarray) -> np.ndarray:
 
 
 class RowProblem:
-    """What every least-squares problem derives from its residual and row size: the
-    cost and the rows of residual entries (shared by :class:`~calib_pin.sensors.problem.SetProblem`,
-    :class:`calib_pin.calibration.problem.Problem` and the active set's reduced problem)."""
+    """What every least-squares problem derives from its residual and row size.
+
+    The cost and the rows of residual entries, shared by
+    :class:`~calib_pin.sensors.problem.SetProblem`, :class:`calib_pin.calibration.problem.Problem`
+    and the active set's reduced problem.
+    """
 
     values_per_row: Any
     n_rows: Any

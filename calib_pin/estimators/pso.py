@@ -13,8 +13,9 @@ from .problem import LeastSquares
 
 @dataclass(frozen=True)
 class PSO:
-    """Global-best particle swarm in the whitened search coordinates of :mod:`calib_pin.estimators.subspace`.
+    """Global-best particle swarm in the whitened search coordinates.
 
+    The coordinates are those of :mod:`calib_pin.estimators.subspace`.
     Every iteration each particle's velocity becomes
     ``inertia * v + c1 * r1 * (own best - z) + c2 * r2 * (swarm best - z)``
     (r1, r2 uniform in [0, 1) per coordinate), clamped to the box size, and the particle

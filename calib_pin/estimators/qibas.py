@@ -26,8 +26,9 @@ UPSILON0 = 1e-12
 def parabola_vertex(
     x1: np.ndarray, x2: np.ndarray, x3: np.ndarray | float, f1: float, f2: float, f3: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per-dimension vertex of the parabola through (x1, f1), (x2, f2), (x3, f3) (eq. 16);
-    an abscissa given as a number is the same in every dimension.
+    """Per-dimension vertex of the parabola through (x1, f1), (x2, f2), (x3, f3) (eq. 16).
+
+    An abscissa given as a number is the same in every dimension.
 
     Returns:
         vertex: shape like x1.
@@ -59,12 +60,14 @@ def interpolated_point(
 
 
 def _vertex_about_best(b: np.ndarray, f1: float, f2: float, f3: float) -> tuple[np.ndarray, np.ndarray]:
-    """``parabola_vertex(-b, b, 0.0, f1, f2, f3)`` for a finite b, the same bits with fewer
-    array operations, by identities exact in floating point: (-b)**2 == b**2, so
+    """``parabola_vertex(-b, b, 0.0, f1, f2, f3)`` for a finite b, the same bits with fewer operations.
+
+    By identities exact in floating point: (-b)**2 == b**2, so
     x2**2 - x1**2 is +0 and its term the number 0.0 * f3; x - 0.0 == x (also for -0.0), so
     x1 - x3 is x1 and d23 is b; |0.0 - x1| == |b|, so d31's test is d23's; |x1 - x2| ==
     |-b - b| == 2 |b| (exact), above 1e-9 wherever |b| is, so d12's test is implied by it
-    (``tests/test_problem_batched.py`` checks it against the reference, to the bit)."""
+    (``tests/test_problem_batched.py`` checks it against the reference, to the bit).
+    """
     x1 = -b
     sq = b**2
     num = (sq * f2 + (0.0 - sq) * f1) + 0.0 * f3

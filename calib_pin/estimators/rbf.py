@@ -6,7 +6,7 @@ training rows. Predictions are then the model's values plus the network's output
 
 Inputs (``features``): ``sincos``, the sine and cosine of every joint angle (the forward
 kinematics is a sum of products of them, and 0 and 2 pi are the same angle), or
-``angles``, the raw joint angles [rad] (the first version of M5). For a sensor that
+``angles``, the raw joint angles [rad]. For a sensor that
 measures several points per pose (markers), the row's point index enters as dummy
 columns of size ``point_scale``. Input columns constant on the training rows are dropped.
 
@@ -19,9 +19,8 @@ no grid point beats a zero correction (then the correction is zero: nothing lear
 Above :data:`MAX_CENTRES` training rows the network is fitted, and its settings
 cross-validated, on a seeded subset of whole poses holding at most that many rows (every
 row still counts in the result's residual): a dense network costs the cube of its
-centres, so without the bound 2000 positions took minutes; with it the cost is bounded
-by a constant plus one prediction per row (linear in the rows). At or below it every
-row is a centre, as before.
+centres; with the bound the cost is a constant plus one prediction per row (linear in
+the rows). At or below it every row is a centre.
 
 It yields **no kinematic parameters**: ``x`` stays at x0 and the result carries a
 ``correction(q, points)`` instead, so calib-pin exports no URDF for it. It corrects only
@@ -132,8 +131,11 @@ class RBF:
         return result
 
     def inputs(self, q: np.ndarray, points: np.ndarray | None) -> Inputs:
-        """The input map fitted to the training rows (their joint angles q [rad] and
-        point indices): constant columns dropped.
+        """The input map fitted to the training rows: constant columns dropped.
+
+        Args:
+            q: The training rows' joint angles, shape (n_rows, n_joints), [rad].
+            points: Their point indices, shape (n_rows,), or None for a one-point sensor.
 
         Raises:
             EstimatorError: unknown ``features``.
@@ -151,8 +153,10 @@ class RBF:
 
 
 def centre_rows(pose: np.ndarray, seed: int) -> np.ndarray:
-    """The rows that become centres: all when there are at most :data:`MAX_CENTRES`, else
-    the rows of whole poses, taken in a seeded random order while they fit in that many.
+    """The rows that become centres: all of them, or whole poses up to :data:`MAX_CENTRES` rows.
+
+    All when there are at most :data:`MAX_CENTRES`, else the rows of whole poses, taken in
+    a seeded random order while they fit in that many.
 
     Args:
         pose: Each row's pose index, shape (n_rows,).

@@ -43,14 +43,19 @@ _RHO: dict[str, Callable[[np.ndarray], np.ndarray]] = {
 
 
 def robust_scale(residual: np.ndarray) -> float:
-    """1.4826 x median absolute deviation [unit of the residual]: sigma for Gaussian
-    noise, barely moved by a few gross errors."""
+    """1.4826 x median absolute deviation [unit of the residual].
+
+    It is sigma for Gaussian noise, barely moved by a few gross errors.
+    """
     return float(1.4826 * np.median(np.abs(residual - np.median(residual))))
 
 
 def refit_scales(residual_of: Callable[[], np.ndarray]) -> Iterator[float]:
-    """The scales of the refit scheme: each from the residual of the previous fit
-    (``residual_of()``), while it shrinks by more than 10 %, at most MAX_REFITS."""
+    """The scales of the refit scheme, at most MAX_REFITS.
+
+    Each from the residual of the previous fit (``residual_of()``), while it shrinks by
+    more than 10 %.
+    """
     scale = np.inf
     for _ in range(MAX_REFITS):
         new_scale = max(robust_scale(residual_of()), 1e-9)
@@ -111,8 +116,10 @@ def refit(estimator: Any, problem: LeastSquares, x0: np.ndarray, loss: str, *, s
 
 @dataclass(frozen=True)
 class Robust:
-    """An estimator that minimises ``problem.cost``, with a robust ``loss``: the same
-    call signature as every estimator (see :func:`refit`)."""
+    """An estimator that minimises ``problem.cost``, with a robust ``loss``.
+
+    The same call signature as every estimator (see :func:`refit`).
+    """
 
     estimator: Any
     loss: str

@@ -64,8 +64,10 @@ class Subspace:
     @classmethod
     def of_svd(cls, s: np.ndarray, vt: np.ndarray, scale: np.ndarray, x0: np.ndarray | None = None,
                rcond: float = RCOND) -> Subspace:
-        """:meth:`of` from the economy SVD of ``jacobian * scale`` already made: its
-        singular values ``s`` (descending) and right singular vectors ``vt``."""
+        """:meth:`of` from the economy SVD of ``jacobian * scale`` already made.
+
+        Its singular values ``s`` (descending) and right singular vectors ``vt``.
+        """
         scale = np.asarray(scale, dtype=float)
         keep = s > rcond * s[0] if len(s) and s[0] > 0 else np.zeros(len(s), dtype=bool)
         x0 = np.zeros(len(scale)) if x0 is None else np.array(x0, dtype=float)
@@ -102,7 +104,9 @@ class Subspace:
         return self.x0 + self.basis @ z
 
     def covariance(self, noise: float) -> np.ndarray:
-        """Covariance of a least-squares estimate along the identifiable directions for
-        residual noise ``noise`` (1 sigma) per value, shape (n_params, n_params), SI units."""
+        """Covariance of a least-squares estimate along the identifiable directions, SI.
+
+        For residual noise ``noise`` (1 sigma) per value; shape (n_params, n_params).
+        """
         basis = self.basis
         return noise**2 * basis @ basis.T

@@ -28,8 +28,9 @@ def _symmetric_sqrt(p: np.ndarray) -> np.ndarray:
 
 
 class _Predictions:
-    """The measurement function of one update: each sigma point's row residual, computed
-    for all of them in one batched call before filterpy's update asks for them.
+    """The measurement function of one update: each sigma point's row residual.
+
+    Computed for all of them in one batched call before filterpy's update asks for them.
 
     filterpy's update calls ``hx(sigma_point)`` once per point; :meth:`__call__` hands
     back the row predicted at that point, found by its bytes. A point not among them

@@ -1,7 +1,10 @@
-"""Writing a calibrated robot in the formats a robot stack reads: the corrected URDF
-(:mod:`.urdf`), joint-origin YAML for xacro and ur_description (:mod:`.yaml`), and the
-corrected DH table (:mod:`.dh`); the atomic writer of a run's files (:mod:`.outputs`) and
-what a calibration writes, all of it or none (:mod:`.bundle`, ``write_outputs``)."""
+"""Writing a calibrated robot in the formats a robot stack reads.
+
+The corrected URDF (:mod:`.urdf`), joint-origin YAML for xacro and ur_description
+(:mod:`.yaml`), and the corrected DH table (:mod:`.dh`); the atomic writer of a run's
+files (:mod:`.outputs`) and what a calibration writes, all of it or none (:mod:`.bundle`,
+``write_outputs``).
+"""
 
 from __future__ import annotations
 

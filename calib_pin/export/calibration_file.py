@@ -56,6 +56,9 @@ def calibration_path(folder: str | Path, robot: str) -> Path:
 def find_calibration(path: Path) -> Path:
     """The calibration file ``path``, or the one ``*_calibration.json`` of folder ``path``.
 
+    Args:
+        path: A calibration file, or the folder that holds one.
+
     Raises:
         CalibPinError: no such file, or not exactly one in the folder.
     """
@@ -75,8 +78,10 @@ def _json_spelling(value: float) -> str:
 
 
 def _check_finite(value: Any, source: Path, key: str = "") -> None:
-    """Refuse a NaN or infinite number anywhere in the document (calib-pin never writes
-    one), naming its key (``deviations_si.a_1``, ``compliance.cable_pull.anchor_mm[0]``)."""
+    """Refuse a NaN or infinite number anywhere in the document (calib-pin never writes one).
+
+    The refusal names its key (``deviations_si.a_1``, ``compliance.cable_pull.anchor_mm[0]``).
+    """
     if isinstance(value, float) and not np.isfinite(value):
         raise DataError(str(source), f"{_json_spelling(value)} is not a finite number", None, key or None)
     if isinstance(value, dict):
@@ -114,8 +119,10 @@ def _version(doc: dict[str, Any], source: Path) -> None:
 
 
 def _chain(doc: dict[str, Any], robot: str | None, source: Path) -> Chain:
-    """The nominal chain the calibration was made on: by name, else by the URDF path;
-    its URDF must be the one calibrated (same SHA-256), its joints the file's."""
+    """The nominal chain the calibration was made on: by name, else by the URDF path.
+
+    Its URDF must be the one calibrated (same SHA-256), its joints the file's.
+    """
     for key in ("robot", "urdf", "urdf_sha256", "end_frame"):
         _field(doc, key, str, "text", source)
     joints = _field(doc, "joints", list, "the list of joint names", source)
@@ -163,9 +170,12 @@ def _deviations(doc: dict[str, Any], params: Any, chain: Chain, source: Path) ->
 
 
 def _same_for_humans(doc: dict[str, Any], x: np.ndarray, params: Any, source: Path) -> None:
-    """The file's ``deviations`` (mm and deg, for people to read) must say what its
-    ``deviations_si`` say (the values used): a value edited by hand in one of them only
-    is refused, naming it. A file without ``deviations`` is fine."""
+    """Refuse a file whose ``deviations`` do not say what its ``deviations_si`` say.
+
+    ``deviations`` are in mm and deg, for people to read; ``deviations_si`` are the values
+    used. A value edited by hand in one of them only is refused, naming it. A file without
+    ``deviations`` is fine.
+    """
     shown = doc.get("deviations")
     if shown is None:
         return
@@ -244,8 +254,10 @@ def _compliance_of(soft: dict[str, Any], chain: Chain, source: Path,
 
 
 def _basis_values(soft: dict[str, Any], spec: ComplianceSpec, chain: Chain, source: Path) -> np.ndarray:
-    """The basis coefficients [rad] of the file, in the robot's basis order; the file's
-    basis directions must be the robot's (the same URDF gives the same basis)."""
+    """The basis coefficients [rad] of the file, in the robot's basis order.
+
+    The file's basis directions must be the robot's (the same URDF gives the same basis).
+    """
     from ..robot.gravity_basis import GravityBasis
 
     p = "compliance."

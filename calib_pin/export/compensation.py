@@ -61,12 +61,11 @@ OK, POSITION_ONLY, REFUSED = "ok", "position-only", "refused"
 MAX_CORRECTION_RAD = float(np.deg2rad(10.0))
 #: Weight of the joint correction against the orientation error in the position-first
 #: solve, [rad of orientation per rad of joints]^2: a joint moves by 0.1 rad only where that
-#: buys about 0.01 rad of orientation. It was 1e-4: near the shoulder singularity (wrist
-#: centre on axis 1) joint_1 then swung to the 10 deg bound, sweeping the upper arm and
-#: forearm through the cell, for a few mrad of orientation. Measured on the Wu calibration
-#: (tests/test_compensation.py's targets): the largest joint change of a position-only row
-#: falls from 10 deg to 5 deg (2.5 deg at the shoulder), its orientation residual rises
-#: from 7.8 to 9.7 mrad mean (1 would give 2.4 deg, but 20 mrad: 3 mm at a 150 mm tool).
+#: buys about 0.01 rad of orientation. With a much smaller weight, near the shoulder
+#: singularity (wrist centre on axis 1) joint_1 swings to the 10 deg bound, sweeping the
+#: upper arm and forearm through the cell, for a few mrad of orientation; a much larger one
+#: keeps the joints closer still but leaves a far larger orientation residual (see
+#: tests/test_compensation.py's targets on the Wu calibration).
 _REGULARISATION = 1e-2
 #: Weight of the position error in the position-first solve, [1/m]: 1 um counts as 10 mrad.
 _POSITION_WEIGHT = 1e6
@@ -101,8 +100,10 @@ class Compensation:
         return tuple(r if s == REFUSED else "" for s, r in zip(self.status, self.reasons, strict=True))
 
     def check(self, position_only: bool = False) -> None:
-        """Raises CalibPinError naming the first target (1-based) refused, or position-only
-        unless ``position_only``."""
+        """Refuse a compensation with a refused target, or a position-only one unless ``position_only``.
+
+        Raises CalibPinError naming the first such target (1-based).
+        """
         for k, (status, reason) in enumerate(zip(self.status, self.reasons, strict=True)):
             if status == REFUSED or (status == POSITION_ONLY and not position_only):
                 raise CalibPinError(f"target {k + 1}: {status}: {reason}")
@@ -150,10 +151,12 @@ class CalibratedRobot:
         self._nominal = Kinematics(chain)
 
     def set_reference(self, deviations: np.ndarray | None) -> None:
-        """The model the targets were computed with (:meth:`nominal`, what :meth:`solve`
-        aims at): the catalogue URDF (None, the default) or that geometry corrected by
-        ``deviations`` (shape (len(params.names),), SI), e.g. a controller's own factory
-        calibration (``compensate --nominal``)."""
+        """Set the model the targets were computed with (:meth:`nominal`, what :meth:`solve` aims at).
+
+        The catalogue URDF (None, the default) or that geometry corrected by ``deviations``
+        (shape (len(params.names),), SI), e.g. a controller's own factory calibration
+        (``compensate --nominal``).
+        """
         self._nominal = Kinematics(self.chain)
         if deviations is not None:
             deviations = as_array(deviations, "deviations", (len(self.params.names),))
@@ -193,8 +196,10 @@ class CalibratedRobot:
         return frames[0] if np.ndim(q) == 1 else frames
 
     def nominal(self, q: np.ndarray) -> pin.SE3 | list[pin.SE3]:
-        """The nominal model's end frame at q (as :meth:`forward`; the reference of
-        :meth:`set_reference` when one is set)."""
+        """The nominal model's end frame at q, as :meth:`forward`.
+
+        The reference of :meth:`set_reference` when one is set.
+        """
         q = as_angles_rad(q, "q", self.chain)
         rot, trans, _ = self._nominal.frames(np.atleast_2d(q))
         frames = [pin.SE3(r, t) for r, t in zip(rot, trans, strict=True)]
@@ -222,8 +227,9 @@ class CalibratedRobot:
         return result.q[0] if np.ndim(q_nominal) == 1 else result.q
 
     def solve(self, q_nominal: np.ndarray, max_iterations: int = 50) -> Compensation:
-        """:meth:`compensate` for many targets, with the remaining errors and a status per
-        target; a refused target never stops the others.
+        """:meth:`compensate` for many targets, with the remaining errors and a status per target.
+
+        A refused target never stops the others.
 
         Two stages, each started from the target itself:
 
@@ -261,9 +267,9 @@ class CalibratedRobot:
         Each target keeps its best command with its error and Jacobian; every iteration
         tries a step from there (damped by that target's damping), keeps it when the error
         falls (damping / 10) and else raises the damping tenfold and tries again from the
-        best command. (A rejected step used to go back to the best command without a new
-        step: the next iteration found the same error there, rejected it as "not better",
-        and the target stalled at its start, leaving a reachable target to stage 2.)
+        best command. (Going back to the best command without a new step would find the
+        same error there in the next iteration, reject it as "not better", and stall the
+        target at its start, leaving a reachable target to stage 2.)
         """
         n = len(q_nom)
         q, best_q = q_nom.copy(), q_nom.copy()
@@ -352,11 +358,13 @@ class CalibratedRobot:
     @staticmethod
     def _trust_region(x: np.ndarray, k: int, residual: Callable[[np.ndarray, int], tuple[np.ndarray, np.ndarray]],
                       lo: np.ndarray, hi: np.ndarray, merit: float) -> np.ndarray:
-        """The position-first merit minimised again from ``x`` by scipy's bounded trust-region
-        least squares (``trf``), for a target the Gauss-Newton steps left short of its position
-        (near the stretched-elbow singularity they crawl); the better of the two commands.
-        Found on the Wu calibration with the basis model: 4 of the 120 shipped poses were
-        refused as "out of reach" 30-160 um off, while a command within 2 deg meets them."""
+        """The position-first merit minimised again from ``x`` by scipy's trust-region least squares.
+
+        Bounded ``trf``, for a target the Gauss-Newton steps left short of its position (near
+        the stretched-elbow singularity they crawl); the better of the two commands. Without
+        it, some shipped poses of the Wu calibration with the basis model would be refused as
+        out of reach, while a command within 2 deg meets them.
+        """
         fit = least_squares(lambda z: residual(z, k)[0], x, jac=lambda z: residual(z, k)[1],
                             bounds=(lo, hi + 1e-300), method="trf", x_scale=1.0, xtol=1e-15, ftol=1e-15,
                             gtol=1e-15, max_nfev=300)

@@ -73,6 +73,11 @@ def write_dh_table(params: ParameterModel, x: np.ndarray, path: str | Path) -> P
     reader does not know beta: the file's header says so, and the table is only exact
     with it.
 
+    Args:
+        params: A :class:`calib_pin.parameters.DHModel` or ``HayatiModel``.
+        x: The robot's deviations, shape (n_params,), SI ([m], [rad]).
+        path: The TOML file to write.
+
     Raises:
         CalibPinError: placement model, or x of the wrong length.
     """

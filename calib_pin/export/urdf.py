@@ -102,8 +102,14 @@ def corrected_origins(
 
 
 def calibrated_urdf(chain: Chain, deltas: Sequence[pin.SE3], robot_name: str | None = None) -> bytes:
-    """The bytes :func:`write_calibrated_urdf` writes: the chain's URDF with perturbed joint
-    origins (UTF-8).
+    """The bytes :func:`write_calibrated_urdf` writes: the chain's URDF with perturbed joint origins.
+
+    UTF-8.
+
+    Args:
+        chain: The nominal robot chain.
+        deltas: The perturbation of each joint placement and of the end frame.
+        robot_name: The ``<robot name>`` to write; None: the URDF's own.
 
     Raises:
         RobotError: the end frame has a deviation but no fixed joint to carry it.

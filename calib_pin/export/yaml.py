@@ -76,6 +76,11 @@ def write_joint_origins_yaml(chain: Chain, deltas: Sequence[pin.SE3], path: str 
     Units [m] and [rad]; each origin is relative to the joint's parent link, as in the
     URDF ``<origin xyz rpy>``. A xacro loads it with ``xacro.load_yaml``.
 
+    Args:
+        chain: The nominal robot chain.
+        deltas: The perturbation of each joint placement and of the end frame.
+        path: The YAML file to write.
+
     Raises:
         RobotError: as :func:`joint_origins`.
     """
@@ -211,6 +216,11 @@ def write_ur_kinematics_yaml(chain: Chain, deltas: Sequence[pin.SE3], path: str 
     warns that it is not the controller's own calibration). Pass the file as
     ur_description's ``kinematics_params`` / ``kinematics_parameters_file``.
 
+    Args:
+        chain: The nominal chain of a UR arm.
+        deltas: The perturbation of each joint placement and of the end frame.
+        path: The YAML file to write.
+
     Returns:
         The part of the end-frame correction this layout cannot hold (see
         :func:`ur_kinematics`), also written in the file's header; the caller should
@@ -243,14 +253,19 @@ _REST = re.compile(r"T xyz \[mm\] = (\S+) (\S+) (\S+); rpy \[deg\] = (\S+) (\S+)
 
 
 def read_ur_kinematics_yaml(chain: Chain, path: str | Path) -> list[pin.SE3]:
-    """The corrections of ``chain`` that a ``default_kinematics.yaml`` holds (the inverse of
-    :func:`write_ur_kinematics_yaml`).
+    """The corrections of ``chain`` that a ``default_kinematics.yaml`` holds.
+
+    The inverse of :func:`write_ur_kinematics_yaml`.
 
     Each key's origin gives the joint placement P_i = G_{i-1} O_i G_i^-1 (the link frames
     G_i of :func:`ur_kinematics`); wrist_3's screw about axis 6 stays in P_6 (it commutes
     with joint 6), and a calib-pin header's tool0 line (the part the layout cannot hold)
     becomes the end frame's correction. A controller's own file has no such line: tool0
     is ur_description's.
+
+    Args:
+        chain: The nominal chain of a UR arm.
+        path: The ``default_kinematics.yaml`` file.
 
     Returns:
         ``n_joints + 1`` transforms right-multiplied onto the chain's joint placements and

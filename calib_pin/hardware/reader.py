@@ -169,6 +169,9 @@ class SensorProfile:
     def load(cls, path: str | Path) -> SensorProfile:
         """Read a profile saved by :meth:`save` (unknown keys are an error).
 
+        Args:
+            path: The profile file.
+
         Raises:
             CalibPinError: unreadable file, unknown key, or a bad value.
         """
@@ -343,6 +346,10 @@ def open_reader(port: str, profile: SensorProfile) -> Reader:
 def read_with_retries(reader: Reader, sleep=time.sleep) -> float:
     """One reading [mm]; transient faults are retried up to ``profile.retries`` times.
 
+    Args:
+        reader: An open sensor reader (its ``profile`` sets the retries and the pause).
+        sleep: Waits a number of seconds between tries (replaced in tests).
+
     Raises:
         SensorFault: a disconnect at once; a transient fault once the retries are used,
             with the count in the message.
@@ -378,6 +385,11 @@ class StableReading:
 
 def read_stable(reader: Reader, sleep=time.sleep) -> StableReading:
     """Read until the last ``samples`` readings agree within ``tolerance_mm``; average them.
+
+    Args:
+        reader: An open sensor reader (its ``profile`` sets ``samples``, ``tolerance_mm``
+            [mm] and ``max_reads``).
+        sleep: Waits a number of seconds between samples (replaced in tests).
 
     Raises:
         NotSettled: no such run within ``max_reads`` readings.

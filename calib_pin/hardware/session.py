@@ -46,8 +46,10 @@ SAME_POSE_DEG = 1e-6
 
 
 class SessionWriteError(CalibPinError):
-    """A row or the header did not reach the disk in full (a full disk, an I/O error);
-    the message says how many poses are safe."""
+    """A row or the header did not reach the disk in full (a full disk, an I/O error).
+
+    The message says how many poses are safe.
+    """
 
 
 @dataclass
@@ -84,8 +86,9 @@ class Session:
         return self._header is not None
 
     def start(self) -> None:
-        """Write what preparing only planned: a new file with its header (created
-        atomically, and locked), or the cut of an incomplete last line.
+        """Write what preparing only planned: a new file with its header, or a cut last line.
+
+        A new file is created atomically, and locked; an incomplete last line is cut.
 
         Raises:
             SessionWriteError: the header could not be written (nothing is then left).
@@ -101,8 +104,10 @@ class Session:
             self._keep = None
 
     def discard(self) -> None:
-        """Remove a file this run created and has not written a row to (another output
-        of the run failed: all of them or none), and release it."""
+        """Remove a file this run created and has not written a row to, and release it.
+
+        Another output of the run failed: all of them or none.
+        """
         if self._fd is not None and self.done == 0:
             with contextlib.suppress(FileNotFoundError):
                 self.path.unlink()
@@ -135,8 +140,9 @@ def _header(chain: Chain, profile: SensorProfile, poses_path: str, anchor_mm, to
 
 
 def _write_all(fd: int, data: bytes, written: list[int] | None = None) -> None:
-    """Write every byte of ``data`` (a short write is continued; a write that makes no
-    progress is a full disk), then ``fsync``; ``written[0]`` counts the bytes written.
+    """Write every byte of ``data``, then ``fsync``; ``written[0]`` counts the bytes written.
+
+    A short write is continued; a write that makes no progress is a full disk.
 
     Raises:
         OSError: the bytes did not all reach the disk.
@@ -226,6 +232,14 @@ def prepare_session(
     :meth:`Session.start` then writes the header of a new file, or cuts an incomplete
     last line; :meth:`Session.close` releases the lock.
 
+    Args:
+        out: The measurement CSV to create or resume.
+        poses: The pose list to measure.
+        chain: The robot chain.
+        profile: The sensor's profile (written in the header).
+        anchor_mm, tool_mm: The drawstring's anchor (base frame) and tool point (end
+            frame), [mm], or None; a resumed file's must agree.
+
     Raises:
         DataError: the existing file is not a measurement set of this robot, holds a
             pose that is not in the pose list or whose joint angles differ from it, or
@@ -255,8 +269,12 @@ def open_session(
     out: str | Path, poses: MeasurementSet, chain: Chain, profile: SensorProfile,
     *, anchor_mm=None, tool_mm=None,
 ) -> Session:
-    """Create the output file, or reopen it to resume (:func:`prepare_session`, then
-    :meth:`Session.start`); close the session when done.
+    """Create the output file, or reopen it to resume; close the session when done.
+
+    :func:`prepare_session`, then :meth:`Session.start`.
+
+    Args:
+        out, poses, chain, profile, anchor_mm, tool_mm: As :func:`prepare_session`.
 
     Raises:
         DataError: as :func:`prepare_session`.
@@ -298,6 +316,11 @@ def _check_resume(path: Path, done: MeasurementSet, poses: MeasurementSet, ancho
 
 def append_row(session: Session, k: int, reading: StableReading) -> str:
     """Append pose ``k``'s row (every byte written, then fsync); return the line written.
+
+    Args:
+        session: The started session.
+        k: The pose's index in the pose list (0-based).
+        reading: Its settled reading.
 
     Raises:
         SessionWriteError: the row did not reach the disk in full. It is cut away

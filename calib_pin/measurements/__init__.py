@@ -1,5 +1,7 @@
-"""Measurement sets: joint angles and sensor values, in memory and as CSV files; what a
-file of each sensor kind holds (:mod:`.schema`)."""
+"""Measurement sets: joint angles and sensor values, in memory and as CSV files.
+
+Also what a file of each sensor kind holds (:mod:`.schema`).
+"""
 
 from .csv_reader import read_measurements
 from .csv_writer import write_measurements, write_poses

@@ -1,5 +1,7 @@
-"""Checks of a measurement set against the robot it is for: the ones the CSV reader makes
-row by row, for any :class:`MeasurementSet` (read, simulated or made by hand).
+"""Checks of a measurement set against the robot it is for, for a set from any source.
+
+The checks the CSV reader makes row by row, for any :class:`MeasurementSet` (read,
+simulated or made by hand).
 
 :func:`check_measurements` is what the library's entry points (``prepare``,
 ``calibrate``, a ``test_data`` session) call, and so the
@@ -177,8 +179,10 @@ _META_KEY = re.compile(r"^#\s*([A-Za-z_][\w.]*)\s*:")
 
 
 def _file_keys(path: str) -> set[str] | None:
-    """The metadata keys (``# key:`` lines above the header) of the CSV file ``path``, or
-    None when it is not a readable file (a set made in memory)."""
+    """The metadata keys (``# key:`` lines above the header) of the CSV file ``path``, or None.
+
+    None when it is not a readable file (a set made in memory).
+    """
     try:
         with open(path, encoding="utf-8-sig", errors="replace") as f:
             keys = set()

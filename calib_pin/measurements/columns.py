@@ -77,21 +77,27 @@ _BUILT_IN = {("length",), ("x", "y", "z")}
 
 
 def plugin_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
-    """Quantity -> (kind, all its value columns) of every registered schema whose values
-    are not the drawstring's length or the positions' x, y, z."""
+    """Quantity -> (kind, all its value columns) of every registered schema of other values.
+
+    Other values: not the drawstring's length or the positions' x, y, z.
+    """
     return {c: (kind, schema.value_columns) for kind, schema in SCHEMAS.items()
             if schema.value_columns and schema.value_columns not in _BUILT_IN for c in schema.value_columns}
 
 
 def plain_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
-    """Name -> (kind, all its unit-free columns) of every registered schema with
-    ``plain_columns`` (read as they are, after its ``value_columns``)."""
+    """Name -> (kind, all its unit-free columns) of every registered schema with ``plain_columns``.
+
+    They are read as they are, after its ``value_columns``.
+    """
     return {c: (kind, schema.plain_columns) for kind, schema in SCHEMAS.items() for c in schema.plain_columns}
 
 
 def label_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
-    """Name -> (kind, all its label columns) of every registered schema with
-    ``label_columns`` (text naming what a row touched; a row may leave some empty)."""
+    """Name -> (kind, all its label columns) of every registered schema with ``label_columns``.
+
+    Labels are text naming what a row touched; a row may leave some empty.
+    """
     return {c: (kind, schema.label_columns) for kind, schema in SCHEMAS.items() for c in schema.label_columns}
 
 
@@ -126,6 +132,11 @@ def _looks_ours(name: str, path: Path, line: int) -> None:
 
 def classify(header: list[str], path: Path, line: int) -> Columns:
     """Sort a header's columns into calib-pin's and extra ones.
+
+    Args:
+        header: The header's column names.
+        path: The file, for messages.
+        line: The header's line in the file (1-based).
 
     Raises:
         DataError: a name twice, a quantity twice, or a name that looks like one of ours.
@@ -190,6 +201,14 @@ def _missing(cols: Columns, n_joints: int, readings: bool) -> list[str]:
 
 def check_near_misses(cols: Columns, header: list[str], n_joints: int, readings: bool, path: Path, line: int) -> None:
     """Refuse an extra column whose name is a near-miss of a column the file lacks.
+
+    Args:
+        cols: The header's columns, sorted (:func:`classify`).
+        header: The header's column names.
+        n_joints: The chain's joints.
+        readings: The file must hold sensor values (not a pose list).
+        path: The file, for messages.
+        line: The header's line in the file (1-based).
 
     Raises:
         DataError: ``lenght_mm`` without a length column, and the like.
@@ -258,8 +277,10 @@ def check_columns(cols: Columns, n_joints: int, robot: str | None, end_frame: st
 
 
 def _check_plain(cols: Columns, path: Path, line: int) -> None:
-    """Refuse a header with a sensor's unit-free columns but not all of them and its
-    value columns (a 6-D pose set: x, y, z and qw, qx, qy, qz), or with another sensor's.
+    """Refuse a header with some of a sensor's unit-free columns, or with another sensor's.
+
+    A sensor's unit-free columns go with all of them and its value columns (a 6-D pose
+    set: x, y, z and qw, qx, qy, qz).
 
     Raises:
         DataError: naming the missing or foreign column.

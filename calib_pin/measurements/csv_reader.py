@@ -82,8 +82,10 @@ _INTEGER = re.compile(r"^[-+]?\d+$")
 
 
 def _keys(size: int) -> tuple[str, ...]:
-    """The set-up metadata keys of the registered schemas that hold ``size`` numbers
-    (3: a vector, 1: a scalar; ``noise`` is every set's), in mm or m."""
+    """The set-up metadata keys of the registered schemas that hold ``size`` numbers, in mm or m.
+
+    3: a vector, 1: a scalar; ``noise`` is every set's.
+    """
     keys = dict.fromkeys(k for s in SCHEMAS.values() for k, n in s.metadata_keys.items() if n == size)
     return tuple(keys) + (("noise",) if size == 1 else ())
 #: Largest field accepted, characters.
@@ -167,8 +169,10 @@ def _metadata_line(parsed: _Parsed, stripped: str, path: Path, number_: int) -> 
 
 
 def _pair_key(key: str) -> tuple[str, float] | None:
-    """(name, scale to m) of a registered schema's pair metadata key (``distance_mm``:
-    ``label, label, length``, given once a pair), else None."""
+    """(name, scale to m) of a registered schema's pair metadata key, else None.
+
+    For example ``distance_mm``: ``label, label, length``, given once a pair.
+    """
     base, _, unit = key.rpartition("_")
     pairs = {k for s in SCHEMAS.values() for k in s.pair_metadata}
     scale = {"mm": 1e-3, "m": 1.0}.get(unit)
@@ -236,8 +240,10 @@ def _tokenize_header(parsed: _Parsed, path: Path) -> list[str]:
 
 
 def _tokenize_rows(parsed: _Parsed, path: Path) -> None:
-    """Split the rows with the header's separator (trailing blank fields beyond the
-    header's are a trailing separator, dropped)."""
+    """Split the rows with the header's separator.
+
+    Trailing blank fields beyond the header's are a trailing separator, dropped.
+    """
     header, sep = parsed.header, parsed.dialect.sep
     assert header is not None
     others = [s for s in SEPARATORS.values() if s != sep]
@@ -257,8 +263,10 @@ def _tokenize_rows(parsed: _Parsed, path: Path) -> None:
 
 
 def _numeric_fields(parsed: _Parsed, cols: Columns):
-    """(text, line, name) of every numeric field: the scalar metadata, then the rows' joints,
-    lengths and coordinates (what tells the decimal mark)."""
+    """(text, line, name) of every numeric field: what tells the decimal mark.
+
+    The scalar metadata, then the rows' joints, lengths and coordinates.
+    """
     assert parsed.header is not None
     for number_, key, value in parsed.raw_meta:
         if _meta_name(key) in _keys(1):
@@ -318,9 +326,11 @@ _NUMBERS = re.compile(r"(?:[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\n)*")
 
 
 def _column(rows: list[tuple[int, list[str]]], col: int, decimal: str) -> np.ndarray | None:
-    """Column ``col`` of every row as :func:`~calib_pin.measurements.dialect.number` reads
-    each field (the same floats), in one pass; None when any field is not a number it
-    accepts (the row-by-row reading then names it)."""
+    """Column ``col`` of every row as :func:`~calib_pin.measurements.dialect.number` reads it, in one pass.
+
+    The same floats; None when any field is not a number it accepts (the row-by-row
+    reading then names it).
+    """
     texts = [fields[col].strip() for _, fields in rows]
     if decimal == ",":
         if any("." in t for t in texts):
@@ -339,10 +349,12 @@ def _column(rows: list[tuple[int, list[str]]], col: int, decimal: str) -> np.nda
 
 def _rows_at_once(parsed: _Parsed, cols: Columns, chain: Chain | None, n_joints: int, width: int,
                   decimal: str) -> tuple[np.ndarray, np.ndarray] | None:
-    """The joint angles (n, n_joints) and values (n, width) of every row, a column at a
-    time: the numbers :func:`_angles` and :func:`_values` give row by row, to the bit.
+    """The joint angles (n, n_joints) and values (n, width) of every row, a column at a time.
+
+    The numbers :func:`_angles` and :func:`_values` give row by row, to the bit.
     None when any row is one they refuse (they then name its line and column) or the
-    columns are of a kind read only row by row (labels, a sensor's unit-free columns)."""
+    columns are of a kind read only row by row (labels, a sensor's unit-free columns).
+    """
     if cols.label_kind or cols.plain_kind or cols.plain:
         return None
     rows, n = parsed.rows, len(parsed.rows)

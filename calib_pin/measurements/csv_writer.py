@@ -64,9 +64,11 @@ def metadata_lines(data: MeasurementSet) -> list[str]:
 
 
 def header(n_joints: int, kind: str, with_pose: bool = False) -> str:
-    """The column line of a set of ``kind`` (a registered schema's, or ``poses``): a
-    kind with point labels gets ``pose`` and ``point_id`` first, then the joints, then
-    its value columns in mm."""
+    """The column line of a set of ``kind`` (a registered schema's, or ``poses``).
+
+    A kind with point labels gets ``pose`` and ``point_id`` first, then the joints, then
+    its value columns in mm.
+    """
     schema = SCHEMAS.get(kind)
     joints = [f"q{i}_deg" for i in range(1, n_joints + 1)]
     values: list[str] = []
@@ -81,17 +83,25 @@ def header(n_joints: int, kind: str, with_pose: bool = False) -> str:
 
 def row(q: np.ndarray, values: Iterable[float] = (), labels: Iterable[PointLabel] = (),
         plain: Iterable[float] = ()) -> str:
-    """One data row: labels (whole numbers, or text), angles [rad] written in degrees (9
-    decimals), values [m] written in mm (6 decimals: 1 nm, far below any sensor's resolution),
-    then unit-free values (``plain``: a quaternion, 12 decimals)."""
+    """One data row: labels, angles in degrees, values in mm, then unit-free values.
+
+    Labels: whole numbers, or text; angles [rad] written in degrees (9 decimals); values
+    [m] written in mm (6 decimals: 1 nm, far below any sensor's resolution); unit-free
+    values (``plain``: a quaternion, 12 decimals).
+    """
     return ",".join([_label(v) for v in labels] + [f"{v:.9f}" for v in np.rad2deg(q)]
                     + [f"{v * 1e3:.6f}" for v in values] + [f"{v:.12f}" for v in plain])
 
 
 def write_measurements(path: str | Path, data: MeasurementSet) -> None:
-    """Write a measurement set, metadata first; a position set gets ``pose`` and
-    ``point_id`` columns (labels as they are: numbers or text); the set's extra columns
-    follow calib-pin's, so nothing read is lost.
+    """Write a measurement set, metadata first.
+
+    A position set gets ``pose`` and ``point_id`` columns (labels as they are: numbers or
+    text); the set's extra columns follow calib-pin's, so nothing read is lost.
+
+    Args:
+        path: The CSV file to write.
+        data: The measurement set.
 
     Raises:
         ArgumentError: ``path`` is not a path, or ``data`` not a MeasurementSet.
@@ -140,10 +150,11 @@ def write_compensated(
     path: str | Path, q: np.ndarray, pose_ids: np.ndarray, position_error_m: np.ndarray,
     orientation_error_rad: np.ndarray, notes: dict[str, str], extra: dict[str, np.ndarray] | None = None,
 ) -> None:
-    """Write compensated joint targets: ``pose,q1_deg,...`` as a pose list, the targets'
-    other columns as they were (a program's speed, zone or name), then each row's
-    remaining end-frame error (``position_error_mm``, ``orientation_error_urad``; the
-    reader reads past them).
+    """Write compensated joint targets as a pose list, with their other columns and remaining errors.
+
+    ``pose,q1_deg,...`` as a pose list, the targets' other columns as they were (a
+    program's speed, zone or name), then each row's remaining end-frame error
+    (``position_error_mm``, ``orientation_error_urad``; the reader reads past them).
 
     Args:
         q: Joint commands, shape (n_poses, n_joints), [rad].

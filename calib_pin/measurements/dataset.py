@@ -16,8 +16,13 @@ PointLabel = int | str
 
 
 def point_label(value: Any) -> PointLabel:
-    """A marker label as a plain ``int`` (numpy integers and whole floats too) or ``str``
-    (text stripped; text that is a whole number, ``"2"``, stays text).
+    """A marker label as a plain ``int`` or ``str``.
+
+    Numpy integers and whole floats become ``int``; text is stripped, and text that is a
+    whole number, ``"2"``, stays text.
+
+    Args:
+        value: A ``point_id`` value.
 
     Raises:
         CalibPinError: anything else (a fraction, NaN, None, a list).
@@ -97,8 +102,10 @@ class MeasurementSet:
     labels: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        """A list or tuple given for an array field (a set made by hand) becomes an array;
-        what it holds is checked by :func:`~calib_pin.measurements.checks.check_measurements`."""
+        """A list or tuple given for an array field (a set made by hand) becomes an array.
+
+        What it holds is checked by :func:`~calib_pin.measurements.checks.check_measurements`.
+        """
         if not self.kind:
             self.kind = default_kind()
         for name in ("q", "values", "anchor", "tool", "lines", "pose_ids", "point_ids"):
@@ -135,8 +142,10 @@ class MeasurementSet:
 
     @property
     def groups(self) -> np.ndarray:
-        """Each row's pose label: rows of one pose go to the same side of a split
-        (one group a row when the file has no ``pose`` column)."""
+        """Each row's pose label: rows of one pose go to the same side of a split.
+
+        One group a row when the file has no ``pose`` column.
+        """
         return self.pose_ids if self.pose_ids is not None else np.arange(len(self))
 
     def describe_rows(self) -> str:
@@ -146,8 +155,10 @@ class MeasurementSet:
         return f"{len(self)} poses"
 
     def ignored_note(self) -> str | None:
-        """``ignored columns: temp_C, sigma_mm (in s.csv; read and kept, not used)``, or
-        None when the set has no extra columns."""
+        """The note on the extra columns, or None when the set has none.
+
+        For example ``ignored columns: temp_C, sigma_mm (in s.csv; read and kept, not used)``.
+        """
         if not self.extra:
             return None
         where = f"in {Path(self.source).name}; " if self.source else ""

@@ -62,6 +62,11 @@ class Override:
 def parse_override(text: str, path: Path, line: int) -> Override:
     """The settings of a ``# csv:`` line's value (``sep=; decimal=,``).
 
+    Args:
+        text: The line's value.
+        path: The file, for messages.
+        line: The line in the file (1-based).
+
     Raises:
         DataError: a setting that is not one of ``sep=,`` ``sep=;`` ``sep=tab`` ``decimal=.`` ``decimal=,``.
     """
@@ -83,6 +88,12 @@ def parse_override(text: str, path: Path, line: int) -> Override:
 def separator(header: str, override: Override, path: Path, line: int) -> str:
     """The file's separator: the ``# csv:`` line's, else the one the header line uses.
 
+    Args:
+        header: The header line.
+        override: The ``# csv:`` line's settings.
+        path: The file, for messages.
+        line: The header's line in the file (1-based).
+
     Raises:
         DataError: the header holds both ``,`` and ``;`` and no ``# csv: sep=`` says which.
     """
@@ -103,7 +114,13 @@ def separator(header: str, override: Override, path: Path, line: int) -> str:
 
 
 def decimal_mark(sep: str, override: Override, samples: Iterable[tuple[str, int, str]], path: Path) -> str:
-    """The file's decimal mark, from the numeric fields ``samples`` (text, file line, column).
+    """The file's decimal mark, from the numeric fields ``samples``.
+
+    Args:
+        sep: The file's separator.
+        override: The ``# csv:`` line's settings.
+        samples: The numeric fields as (text, file line, column).
+        path: The file, for messages.
 
     Raises:
         DataError: a file with ``;`` or tab separators that uses both ``,`` and ``.``.
@@ -143,8 +160,10 @@ def number(text: str, path: Path | str, line: int | None, name: str, decimal: st
 
 
 def as_number(text: str, decimal: str = ".") -> float | None:
-    """The number ``text`` writes with decimal mark ``decimal`` (``1e-3`` allowed; ``1_0``,
-    a thousands separator, ``inf`` and ``nan`` are not), or None."""
+    """The number ``text`` writes with decimal mark ``decimal``, or None.
+
+    ``1e-3`` is allowed; ``1_0``, a thousands separator, ``inf`` and ``nan`` are not.
+    """
     t = text.strip()
     if decimal == ",":
         if "." in t:

@@ -1,5 +1,7 @@
-"""A robot's measurement set: read from its file (or its shipped default), checked
-against the chain, with the chain for the set's own end frame."""
+"""A robot's measurement set, read from its file (or its shipped default) and checked.
+
+It is checked against the chain, and comes with the chain for the set's own end frame.
+"""
 
 from __future__ import annotations
 
@@ -15,9 +17,12 @@ from .dataset import MeasurementSet
 
 def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_label: str = "",
               end_frame: str | None = None) -> tuple[Chain, MeasurementSet]:
-    """The measurement set for ``chain`` (its shipped default when ``data`` is None), and
-    the chain again for the set's own ``end_frame`` when the caller named none; a set in
-    memory is checked as a file is (:func:`~calib_pin.measurements.checks.check_measurements`)."""
+    """The measurement set for ``chain``, and the chain again for the set's own ``end_frame``.
+
+    The set is the shipped default when ``data`` is None; the chain is rebuilt for the
+    set's end frame when the caller named none; a set in memory is checked as a file is
+    (:func:`~calib_pin.measurements.checks.check_measurements`).
+    """
     if data is None:
         data = chain.description.default_data
         if data is None or not Path(data).is_file():

@@ -1,7 +1,10 @@
-"""The pose list: the joint angles a robot is to visit (``pose`` optional, default 1..n, and
-one column per joint, in the CSV layout of :func:`.csv_reader.read_measurements` without
-readings), as ``calib-pin poses`` writes it (:func:`.csv_writer.write_poses`) and ``collect``,
-``simulate --poses`` and ``compensate`` read it."""
+"""The pose list: the joint angles a robot is to visit.
+
+``pose`` optional, default 1..n, and one column per joint, in the CSV layout of
+:func:`.csv_reader.read_measurements` without readings, as ``calib-pin poses`` writes it
+(:func:`.csv_writer.write_poses`) and ``collect``, ``simulate --poses`` and ``compensate``
+read it.
+"""
 
 from __future__ import annotations
 
@@ -18,6 +21,10 @@ __all__ = ["read_pose_list"]
 
 def read_pose_list(path: str | Path, chain: Chain) -> MeasurementSet:
     """A pose list: ``pose`` (optional, default 1..n) and joint columns, within limits.
+
+    Args:
+        path: The CSV file.
+        chain: The robot chain the joints and limits are read for.
 
     Raises:
         DataError: as :func:`calib_pin.measurements.read_measurements`.

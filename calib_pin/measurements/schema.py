@@ -42,8 +42,11 @@ def nonnegative_readings(values: np.ndarray) -> tuple[int, str] | None:
 
 
 def unit_quaternions(values: np.ndarray) -> tuple[int, str] | None:
-    """The first 6-D pose of ``values`` (n_rows, 7: x, y, z [m], qw, qx, qy, qz) whose
-    quaternion's norm is not 1 within :data:`QUATERNION_TOLERANCE`: (row, why), or None."""
+    """The first 6-D pose of ``values`` whose quaternion is not of norm 1: (row, why), or None.
+
+    ``values``: (n_rows, 7: x, y, z [m], qw, qx, qy, qz); the norm is 1 within
+    :data:`QUATERNION_TOLERANCE`.
+    """
     norms = np.linalg.norm(np.asarray(values, dtype=float).reshape(len(values), -1)[:, 3:7], axis=1)
     bad = np.abs(norms - 1.0) > QUATERNION_TOLERANCE
     if bad.any():

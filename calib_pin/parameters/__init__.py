@@ -20,8 +20,10 @@ MODELS = ("dh", "hayati", "placement")
 
 
 def default_model(chain: Chain) -> str:
-    """The parameter model used when none is named: ``dh`` when the robot has a DH
-    table (``robots/<name>.toml``), else ``placement``."""
+    """The parameter model used when none is named: ``dh`` with a DH table, else ``placement``.
+
+    The DH table is the robot's ``robots/<name>.toml``.
+    """
     return "dh" if chain.description.dh is not None else "placement"
 
 
@@ -30,6 +32,10 @@ def parameter_model(chain: Chain, name: str | None = None) -> ParameterModel:
 
     ``dh`` and ``hayati`` need the robot's DH table (``robots/<name>.toml``);
     ``placement`` works for any URDF chain.
+
+    Args:
+        chain: The robot chain.
+        name: ``dh``, ``hayati`` or ``placement``; None: :func:`default_model`.
 
     Raises:
         RobotError: the robot has no DH table for a DH model, or the name is unknown.

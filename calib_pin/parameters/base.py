@@ -36,8 +36,10 @@ class ParameterModel(Protocol):
     scale: np.ndarray
 
     def delta_matrices(self, x: np.ndarray) -> np.ndarray:
-        """Transforms right-multiplied onto each joint placement, then the end frame, as
-        homogeneous matrices, shape (n_joints + 1, 4, 4) (the FK path's form)."""
+        """Transforms right-multiplied onto each joint placement, then the end frame, as matrices.
+
+        Homogeneous matrices, shape (n_joints + 1, 4, 4) (the FK path's form).
+        """
         ...
 
     def deltas(self, x: np.ndarray) -> list[pin.SE3]:
@@ -51,6 +53,11 @@ class ParameterModel(Protocol):
 
 def as_parameter_model(value: Any, arg: str, chain: Any = None) -> Any:
     """A parameter model (:func:`calib_pin.parameter_model`), of ``chain`` when given.
+
+    Args:
+        value: The value to check.
+        arg: The argument's name, for messages.
+        chain: The chain it must belong to, or None.
 
     Raises:
         ArgumentError: not a parameter model, or one of another chain, naming ``arg``.

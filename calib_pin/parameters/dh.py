@@ -184,10 +184,12 @@ class DHModel:
         self._jac_blocks = index[rows + 1, :, rows, :3]  # (n, 6, 3): the a, d|beta, alpha blocks
 
     def delta_matrices(self, x: np.ndarray) -> np.ndarray:
-        """Placement perturbations for deviations x, shape (4 n,), [m, m, rad, rad] (a
-        Hayati row's second entry is beta [rad]), as matrices, shape (n + 1, 4, 4):
+        """Placement perturbations for deviations x, as matrices, shape (n + 1, 4, 4).
+
+        x has shape (4 n,), [m, m, rad, rad] (a Hayati row's second entry is beta [rad]);
         delta_0 = pre_0 W_0 and delta_i = pre_i S_(i-1) W_i, with the link S_i(x) and
-        W_i = Rz(theta_offset_i + dtheta_i) C_i (W_n: the end matrix)."""
+        W_i = Rz(theta_offset_i + dtheta_i) C_i (W_n: the end matrix).
+        """
         t = self.table
         da, dd, dal, dth = self._split(x)
         if self.hayati_rows:
@@ -275,8 +277,10 @@ def _inverse(m: np.ndarray) -> np.ndarray:
 
 
 def _act_inv(m: np.ndarray, twist: np.ndarray) -> np.ndarray:
-    """M^-1 acting on twists (v, w): (R^T (v - p x w), R^T w); shapes (n, 4, 4) and
-    (n, k, 6) -> (n, k, 6)."""
+    """M^-1 acting on twists (v, w): (R^T (v - p x w), R^T w).
+
+    Shapes (n, 4, 4) and (n, k, 6) -> (n, k, 6).
+    """
     rt = np.swapaxes(m[:, :3, :3], 1, 2)
     p = m[:, None, :3, 3]
     v, w = twist[..., :3], twist[..., 3:]

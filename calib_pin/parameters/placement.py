@@ -37,8 +37,10 @@ class PlacementModel:
         return np.array([m.homogeneous for m in self.deltas(x)])
 
     def delta_matrices_many(self, xs: list[np.ndarray]) -> np.ndarray:
-        """:meth:`delta_matrices` at k points xs (each (6 (n + 1),)) in one array, shape
-        (k, n + 1, 4, 4): the same exp6 of each twist, stacked (no per-point array)."""
+        """:meth:`delta_matrices` at k points xs (each (6 (n + 1),)) in one array, shape (k, n + 1, 4, 4).
+
+        The same exp6 of each twist, stacked (no per-point array).
+        """
         twists = np.asarray(xs, dtype=float).reshape(-1, 6)
         return np.array([pin.exp6(t).homogeneous for t in twists]).reshape(len(xs), -1, 4, 4)
 

@@ -15,8 +15,11 @@ SANITY_RAD = float(np.deg2rad(5.0))
 
 
 def beyond_sanity(value: float, unit: str) -> str | None:
-    """``+500 mm is beyond the sanity bound 20 mm`` for a deviation ``value`` in SI
-    ``unit`` (``m`` or ``rad``) outside its bound, else None (other units: None)."""
+    """Why a deviation ``value`` in SI ``unit`` is outside its sanity bound, else None.
+
+    For example ``+500 mm is beyond the sanity bound 20 mm``; ``unit`` is ``m`` or ``rad``
+    (other units: None).
+    """
     if unit not in ("m", "rad"):
         return None
     bound = SANITY_M if unit == "m" else SANITY_RAD

@@ -1,5 +1,7 @@
-"""The report of a calibration: one JSON-ready dict, the one source of every number
-that ``report.json``, the console summary and the HTML report show."""
+"""The report of a calibration: one JSON-ready dict, the one source of every number shown.
+
+The numbers are those ``report.json``, the console summary and the HTML report show.
+"""
 
 from __future__ import annotations
 
@@ -35,8 +37,10 @@ def _estimate(result: CalibrationResult) -> dict[str, Any]:
 
 
 def _outliers(result: CalibrationResult) -> dict[str, Any]:
-    """The rows a robust fit marked (0-based, of ``result.data``), their file lines and, with
-    several sets, the label of the set (file) each belongs to."""
+    """The rows a robust fit marked (0-based, of ``result.data``) and their file lines.
+
+    With several sets, also the label of the set (file) each belongs to.
+    """
     lines = result.data.lines
     rows = result.outlier_rows
     out: dict[str, Any] = {"outlier_rows": rows,
@@ -48,8 +52,10 @@ def _outliers(result: CalibrationResult) -> dict[str, Any]:
 
 
 def _residuals(result: CalibrationResult) -> dict[str, Any]:
-    """Per data row error before and after [mm], computed as the metrics are (so their
-    RMSE is the report's): 0-based ``rows``, ``split`` train/test, ``outlier``."""
+    """Per data row error before and after [mm], computed as the metrics are.
+
+    So their RMSE is the report's; with 0-based ``rows``, ``split`` train/test, ``outlier``.
+    """
     problem, x0 = result.problem, np.zeros(result.problem.n_params)
     rows: list[int] = []
     split: list[str] = []
@@ -77,8 +83,11 @@ def _spectrum(result: CalibrationResult) -> dict[str, Any]:
 
 
 def _workspace(result: CalibrationResult) -> dict[str, Any] | None:
-    """End-frame origin [mm] and its predicted 1-sigma position uncertainty [mm] at each
-    random workspace pose of the uncertainty analysis; None without kinematic parameters."""
+    """End-frame origin [mm] and its predicted 1-sigma position uncertainty [mm] at workspace poses.
+
+    At each random workspace pose of the uncertainty analysis; None without kinematic
+    parameters.
+    """
     unc = result.uncertainty
     if unc is None:
         return None
@@ -95,11 +104,14 @@ def _in_unit(values: np.ndarray, unit: str) -> dict[str, float]:
 
 
 def part_report(problem: Any, x: np.ndarray | None, splits: dict[str, np.ndarray]) -> dict[str, Any]:
-    """A set whose rows have parts in units of their own (a 6-D pose's position and
-    orientation; :meth:`~calib_pin.sensors.base.MeasurementModel.errors_by_part`):
+    """The errors and noise per part of a set whose rows have parts in units of their own.
+
+    Parts such as a 6-D pose's position and orientation
+    (:meth:`~calib_pin.sensors.base.MeasurementModel.errors_by_part`). The report holds
     ``errors_by_part`` (split -> stage -> part -> RMS/mean/max in the part's unit, nominal
     before, ``x`` after) and ``noise_by_part`` (part -> the sigma its entries were weighted
-    by, in its unit, and where it came from); {} for any other set. ``problem``: the set's."""
+    by, in its unit, and where it came from); {} for any other set. ``problem``: the set's.
+    """
     model = problem.model
     out: dict[str, Any] = {}
     errors: dict[str, Any] = {}
@@ -119,8 +131,11 @@ def part_report(problem: Any, x: np.ndarray | None, splits: dict[str, np.ndarray
 
 
 def noise_parts_line(noise_by_part: dict[str, dict[str, Any]]) -> str:
-    """``noise per part (1 sigma): position 0.05 mm (file), orientation 0.01 deg (estimate)``
-    of a report's ``noise_by_part``."""
+    """One line of a report's ``noise_by_part``.
+
+    For example ``noise per part (1 sigma): position 0.05 mm (file), orientation 0.01 deg
+    (estimate)``.
+    """
     cells = []
     for name, doc in noise_by_part.items():
         key = next(k for k in doc if k != "noise_from")
@@ -129,22 +144,27 @@ def noise_parts_line(noise_by_part: dict[str, dict[str, Any]]) -> str:
 
 
 def _set_reports(result: CalibrationResult) -> list[dict[str, Any]]:
-    """Each set's table and set-up (:meth:`~calib_pin.calibration.result.SetResult.as_dict`),
-    with its errors and noise per part when its rows have parts (scored on its own rows:
-    not with a learnt correction, nor beside a separate validation session)."""
+    """Each set's table and set-up (:meth:`~calib_pin.calibration.result.SetResult.as_dict`).
+
+    With its errors and noise per part when its rows have parts (scored on its own rows:
+    not with a learnt correction, nor beside a separate validation session).
+    """
     own = result.estimate.correction is None and not result.test_source
     return [{**s.as_dict(), **(part_report(s.problem, s.x, {"train": s.train, "test": s.test}) if own else {})}
             for s in result.sets]
 
 
 def build_report(result: CalibrationResult) -> dict[str, Any]:
-    """JSON-ready summary of a calibration: what was calibrated with what, the metrics
-    before and after [mm], the estimate's run, the deviations with their uncertainty, the
-    identifiability, the sensor geometry, the split, each set's table and any warnings;
-    and the arrays the HTML report draws: ``residuals`` (per data row),
+    """JSON-ready summary of a calibration, and the arrays the HTML report draws.
+
+    What was calibrated with what, the metrics before and after [mm], the estimate's run,
+    the deviations with their uncertainty, the identifiability, the sensor geometry, the
+    split, each set's table and any warnings; and the arrays the HTML report draws:
+    ``residuals`` (per data row),
     ``identifiability_spectrum`` and ``workspace_uncertainty`` (per random workspace pose).
     The keys of a calibration of one set are those of that set (its geometry, its errors
-    per part)."""
+    per part).
+    """
     from ..analysis.metrics import units_words
 
     kinematic = result.kinematic
@@ -219,8 +239,10 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
 
 
 def rank_warning(rank: int, unknowns: int) -> str:
-    """The one line a calibration gets whose poses identify fewer than half its unknowns
-    (normal in calibration, so not refused: the blind directions stay at zero)."""
+    """The one line a calibration gets whose poses identify fewer than half its unknowns.
+
+    Normal in calibration, so not refused: the blind directions stay at zero.
+    """
     return (f"the training poses identify only {rank} of {unknowns} directions: the blind directions stay "
             "at zero (--analyze lists them)")
 

@@ -1,5 +1,6 @@
-"""What a calibration writes: the corrected robot, the calibration file, report.html and
-report.json, all together or none, through one function.
+"""What a calibration writes, all together or none, through one function.
+
+The corrected robot, the calibration file, report.html and report.json.
 
 :func:`write_outputs` is what ``calibrate``, ``batch`` and library users call, so the same
 rules hold for each:
@@ -10,7 +11,7 @@ rules hold for each:
 * every file goes through :class:`~calib_pin.util.outputs.Outputs`: written under
   temporary names and renamed together, and never one of the caller's inputs;
 * a file an earlier run wrote in the folder that this run does not write (a stale URDF
-  beside a now refused fit) is removed, unless it is an input;
+  beside a fit refused in this run) is removed, unless it is an input;
 * report.html needs a working matplotlib: without one a single warning line on stderr
   says so and everything else is written.
 
@@ -102,7 +103,11 @@ class WrittenOutputs:
 
 
 def check_formats(formats: str | Sequence[str], result: CalibrationResult | None = None) -> tuple[str, ...]:
-    """``formats`` (a sequence of names or ``"urdf,yaml"``) without repeats, each one of :data:`EXPORTS`.
+    """``formats`` without repeats, each one of :data:`EXPORTS`.
+
+    Args:
+        formats: A sequence of names or ``"urdf,yaml"``.
+        result: The calibration, to refuse ``dh`` for the placement model; None: not checked.
 
     Raises:
         ArgumentError: an unknown format, or none.
@@ -165,15 +170,19 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
 
 
 def _as_read(data: bytes) -> str:
-    """``data`` as ``Path.read_text(encoding="utf-8")`` reads a file of these bytes (universal
-    newlines): a file's text made in memory is the text written and read back."""
+    """``data`` as ``Path.read_text(encoding="utf-8")`` reads a file of these bytes.
+
+    Universal newlines: a file's text made in memory is the text written and read back.
+    """
     return io.TextIOWrapper(io.BytesIO(data), encoding="utf-8").read()
 
 
 def planned_files(result: CalibrationResult, formats: str | Sequence[str] = ("urdf",), *,
                   html: bool = True) -> list[str]:
-    """The names of the files :func:`write_outputs` may write for ``result`` (report.html
-    is left out when matplotlib fails), in order."""
+    """The names of the files :func:`write_outputs` may write for ``result``, in order.
+
+    report.html is left out when matplotlib fails.
+    """
     name = result.chain.name
     formats = check_formats(formats, result)
     files = []
@@ -262,8 +271,12 @@ def _writer(text: str) -> Callable[[Path], Any]:
 
 
 def add_outputs(out: Outputs, rendered: RenderedOutputs, folder: str | os.PathLike[str] | None = None) -> dict[str, Any]:
-    """Queue ``rendered``'s files and its report.json in ``out`` (in ``folder``, default
-    ``out.folder``); returns the report as report.json will hold it.
+    """Queue ``rendered``'s files and its report.json in ``out``; the report as report.json holds it.
+
+    Args:
+        out: The output writer.
+        rendered: The files' text (:func:`render_outputs`).
+        folder: Where they go; default ``out.folder``.
 
     Raises:
         OutputError: a file is one of ``out``'s inputs, a folder, a device.
@@ -282,8 +295,10 @@ def stale_files(folder: str | os.PathLike[str], robot: str) -> list[Path]:
 
 
 def remove_stale(candidates: Sequence[Path], written: Sequence[Path], inputs: Inputs | None = None) -> list[Path]:
-    """Remove each of ``candidates`` that exists, was not ``written`` and is no input;
-    returns the files removed."""
+    """Remove each of ``candidates`` that exists, was not ``written`` and is no input.
+
+    Returns the files removed.
+    """
     kept = {os.path.abspath(p) for p in written}
     removed = []
     for path in dict.fromkeys(candidates):

@@ -4,8 +4,8 @@ Every function takes the report dict (:func:`calib_pin.report.build.build_report
 report.json holds) and returns a PNG as bytes. Drawn with
 matplotlib's object API on the Agg canvas (no pyplot, no screen), each in one draw with
 a fixed layout (margins in inches, room for the labels each figure has): a constrained layout
-would measure every tick and label twice more before drawing, about a third of the time. Units
-as the keys say: [mm] and [deg].
+would measure every tick and label twice more before drawing. Units as the keys say: [mm]
+and [deg].
 """
 
 from __future__ import annotations
@@ -27,9 +27,11 @@ MAX_DRAWN_ROWS = 3000
 
 
 def drawn_rows(n_rows: int, keep: np.ndarray | None = None) -> np.ndarray:
-    """Indices of the rows a per-row figure draws: all up to :data:`MAX_DRAWN_ROWS`, else
-    every k-th (evenly spread, k = ceil(n_rows / MAX_DRAWN_ROWS)) and the rows in ``keep``
-    (a boolean mask, e.g. the outliers)."""
+    """Indices of the rows a per-row figure draws: all up to :data:`MAX_DRAWN_ROWS`, else a spread.
+
+    Else every k-th (evenly spread, k = ceil(n_rows / MAX_DRAWN_ROWS)) and the rows in
+    ``keep`` (a boolean mask, e.g. the outliers).
+    """
     step = -(-n_rows // MAX_DRAWN_ROWS)
     if step <= 1:
         return np.arange(n_rows)
@@ -244,9 +246,11 @@ def workspace(r: dict) -> bytes:
 
 
 def convergence(r: dict) -> bytes:
-    """Training RMSE per iteration of the estimator (at the iterations the history holds:
-    at most a hundred of a Kalman filter's row updates, see
-    :data:`calib_pin.estimators.base.HISTORY_POINTS`)."""
+    """Training RMSE per iteration of the estimator, at the iterations the history holds.
+
+    At most a hundred of a Kalman filter's row updates, see
+    :data:`calib_pin.estimators.base.HISTORY_POINTS`.
+    """
     h = np.asarray(r["train_rmse_history_mm"])
     iterations = np.asarray(r.get("history_iterations") or np.arange(len(h)))
     fig = _figure(6, 3.6)

@@ -155,10 +155,13 @@ def _cell(value: Any) -> str:
 
 
 def geometry_rows(geometry: dict, prefix: str = "") -> list[list[str]]:
-    """A sensor's geometry (its model's ``geometry_report``, the unit in each key's ending)
-    as table rows (quantity, value, unit): nested records flattened, their names joined by
-    " / " (``device_frame / translation``), a top-level key of :data:`LABELS` by its name
-    there. Names no sensor: any record a sensor reports is shown."""
+    """A sensor's geometry as table rows (quantity, value, unit).
+
+    The geometry is its model's ``geometry_report``, the unit in each key's ending; nested
+    records flattened, their names joined by " / " (``device_frame / translation``), a
+    top-level key of :data:`LABELS` by its name there. Names no sensor: any record a sensor
+    reports is shown.
+    """
     rows: list[list[str]] = []
     for key, value in geometry.items():
         name, _, unit = str(key).rpartition("_")
@@ -194,8 +197,10 @@ def _errors_by_part(doc: dict) -> str:
 
 
 def _geometry_section(title: str, view: dict, describe: str) -> str:
-    """One sensor's geometry as a table (every key its ``geometry_report`` gives), with its
-    description, and its errors per part when its rows have parts."""
+    """One sensor's geometry as a table, with its description and its errors per part.
+
+    Every key its ``geometry_report`` gives; the errors per part when its rows have parts.
+    """
     keys = view.get("_geometry", {})
     head = f"<h3>{html.escape(title)}</h3>" if title else ""
     words = f"<p>{html.escape(describe)}</p>" if describe else ""
@@ -204,15 +209,19 @@ def _geometry_section(title: str, view: dict, describe: str) -> str:
 
 
 def sensor_html(r: dict, figures: bool = True) -> str:
-    """report.html's Sensor section: each sensor's description, its geometry table and its
-    errors per part (one set, or each set in turn), with its figure where one is drawn."""
+    """report.html's Sensor section: each sensor's description, geometry table and errors per part.
+
+    One set, or each set in turn, with its figure where one is drawn.
+    """
     return "".join(_geometry_section(title, v, str(v.get("sensor", ""))) + (_sensor_figure(v) if figures else "")
                    for title, v in sensor_views(r))
 
 
 def _drawable(r: dict) -> bool:
-    """Whether the sensor figure draws this geometry (a device frame with markers, a cable
-    anchor); the others (a 6-D body, contact fixtures) have their table only."""
+    """Whether the sensor figure draws this geometry (a device frame with markers, a cable anchor).
+
+    The others (a 6-D body, contact fixtures) have their table only.
+    """
     return ("device_frame" in r and "markers_mm" in r) or all(k in r for k in ("anchor_mm", "tool_mm",
                                                                                  "length_offset_mm"))
 
@@ -253,10 +262,12 @@ def _sets_section(r: dict) -> str:
 
 
 def sensor_views(r: dict) -> list[tuple[str, dict]]:
-    """The report's sensor geometry as (title, report-like dict) pairs: one, or one per
-    measurement set (``_geometry``: what the sensor's ``geometry_report`` gave, report.json's
+    """The report's sensor geometry as (title, report-like dict) pairs: one, or one per set.
+
+    ``_geometry``: what the sensor's ``geometry_report`` gave, report.json's
     ``sensor_geometry`` or the set's ``set_geometry``; a set's table, ``errors_by_part``
-    among them, laid over the report's)."""
+    among them, laid over the report's.
+    """
     if "set_geometry" not in r:
         return [("", {**r, "_geometry": r.get("sensor_geometry", {})})]
     tables = {s["label"]: s for s in r.get("sets", ())}
@@ -300,6 +311,9 @@ def _decimated(n_rows: int) -> str:
 
 def render_html(r: dict) -> str:
     """The report page of a report dict (:func:`calib_pin.report.build.build_report`).
+
+    Args:
+        r: The report dict, as report.json holds it.
 
     Raises:
         CalibPinError: matplotlib is not installed.

@@ -124,8 +124,10 @@ class Chain:
 
     @functools.cached_property
     def joint_kinds(self) -> tuple[str, ...]:
-        """Pinocchio joint kind of each chain joint (``JointModelRY``, ...); read once (the
-        CSV reader asks for every angle of every row)."""
+        """Pinocchio joint kind of each chain joint (``JointModelRY``, ...).
+
+        Read once: the CSV reader asks for every angle of every row.
+        """
         return tuple(self.model.joints[j].shortname() for j in range(1, self.model.njoints))
 
     def configuration(self, q: np.ndarray) -> np.ndarray:
@@ -260,8 +262,10 @@ def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> C
 
 
 def _limits(model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Each joint of a chain model: continuous or not, and its limits ([rad] or [m];
-    +-inf for a continuous joint)."""
+    """Each joint of a chain model: continuous or not, and its limits ([rad] or [m]).
+
+    The limits are +-inf for a continuous joint.
+    """
     n = model.njoints - 1
     continuous = np.array([model.joints[j].nq == 2 for j in range(1, model.njoints)])
     lower, upper = np.full(n, -np.inf), np.full(n, np.inf)
@@ -274,9 +278,11 @@ def _limits(model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def joint_motions(model: pin.Model) -> np.ndarray:
-    """Each joint's motion subspace S (linear, angular) in its own frame, shape
-    (njoints - 1, 6): a unit axis in the angular part for a revolute joint, in the linear
-    part for a prismatic one (Pinocchio's local joint Jacobian at the neutral pose)."""
+    """Each joint's motion subspace S (linear, angular) in its own frame, shape (njoints - 1, 6).
+
+    A unit axis in the angular part for a revolute joint, in the linear part for a
+    prismatic one (Pinocchio's local joint Jacobian at the neutral pose).
+    """
     data = model.createData()
     pin.computeJointJacobians(model, data, pin.neutral(model))
     return np.array([np.reshape(pin.getJointJacobian(model, data, j, pin.LOCAL), (6, -1))[:, model.joints[j].idx_v]
@@ -300,6 +306,10 @@ def _check_joints(full: pin.Model, chain_ids: list[int], description: RobotDescr
 def as_chain(value: Any, arg: str = "chain") -> Chain:
     """A robot chain (:func:`calib_pin.load_chain`).
 
+    Args:
+        value: The value to check.
+        arg: The argument's name, for messages.
+
     Raises:
         ArgumentError: anything else, naming ``arg``.
     """
@@ -307,12 +317,19 @@ def as_chain(value: Any, arg: str = "chain") -> Chain:
 
 
 def as_angles_rad(q: Any, arg: str, chain: Chain, *, tolerance: float = LIMIT_TOLERANCE) -> np.ndarray:
-    """Joint angles [rad] (prismatic joints [m]) of ``chain``: shape (n_joints,) or
-    (n, n_joints), finite, within the URDF limits (less ``tolerance``; a continuous joint
-    within CONTINUOUS_TURNS turns). The array keeps its shape.
+    """Joint angles [rad] (prismatic joints [m]) of ``chain``, checked; the array keeps its shape.
+
+    Shape (n_joints,) or (n, n_joints), finite, within the URDF limits (less ``tolerance``;
+    a continuous joint within CONTINUOUS_TURNS turns).
 
     A value outside the limits, when some |q| is beyond a turn (2 pi) and every value
     read as degrees would fit, gets the hint "looks like degrees".
+
+    Args:
+        q: The joint angles [rad] (prismatic joints [m]).
+        arg: The argument's name, for messages.
+        chain: The robot chain whose limits apply.
+        tolerance: How far outside a limit a value may be, [rad] (or [m]).
 
     Raises:
         ArgumentError: naming ``arg``: not numbers, another shape, not finite, outside the limits.

@@ -105,8 +105,9 @@ LOAD_FIELDS = ("payload_kg", "payload_com_mm", "cable_tension_n")
 
 @dataclass(frozen=True)
 class Compliance:
-    """Which joints deflect, and the extra loads they carry: the options that travel
-    together, validated once when the record is made.
+    """Which joints deflect, and the extra loads they carry.
+
+    The options that travel together, validated once when the record is made.
 
     Attributes:
         joints: Compliant joint names (``("joint_2", "joint_3")``, or the comma-separated
@@ -159,6 +160,9 @@ class Compliance:
     def spec(self, chain: Chain) -> ComplianceSpec | None:
         """The record for ``chain`` (``all`` expanded; None for a rigid arm).
 
+        Args:
+            chain: The robot chain whose joints and inertias it is checked against.
+
         Raises:
             CalibPinError: a joint the chain does not have, or a URDF without inertial data.
         """
@@ -172,12 +176,20 @@ class Compliance:
 
 def as_compliance(value: Any, arg: str = "compliance", *, payload_kg: Any = None, payload_com_mm: Any = None,
                   cable_tension_n: Any = None, stacklevel: int = 3) -> Compliance | None:
-    """A :class:`Compliance` from what a caller gave as ``compliance``: a record, joint
-    names as shorthand (``"joint_2,joint_3"``, ``"all"``, a sequence of str), or None.
+    """A :class:`Compliance` from what a caller gave as ``compliance``.
 
     The loose keywords ``payload_kg``, ``payload_com_mm`` and ``cable_tension_n`` are
     deprecated aliases of the record's fields (kept for one release, with a
     DeprecationWarning); given with a record, they are refused.
+
+    Args:
+        value: A record, joint names as shorthand (``"joint_2,joint_3"``, ``"all"``, a
+            sequence of str), or None.
+        arg: The argument's name, for messages.
+        payload_kg: Deprecated: payload mass [kg].
+        payload_com_mm: Deprecated: the payload's centre of mass in the end frame [mm].
+        cable_tension_n: Deprecated: drawstring tension [N].
+        stacklevel: Of the DeprecationWarning.
 
     Raises:
         ArgumentError: ``value`` of another type, a bad field (named), or a loose keyword
@@ -238,9 +250,10 @@ class ComplianceSpec:
 
 def compliance_report(spec: ComplianceSpec, compliance: np.ndarray, bounded: Sequence[str] = (),
                       effects: dict | None = None) -> dict:
-    """The compliances [rad/Nm] and stiffnesses [Nm/rad] of the joints of ``spec``, its
-    loads, and that the URDF does not hold them (for report.json); for the basis model
-    its coefficients [rad] per joint instead.
+    """The compliances [rad/Nm] and stiffnesses [Nm/rad] of the joints of ``spec``, for report.json.
+
+    With its loads, and that the URDF does not hold them; for the basis model its
+    coefficients [rad] per joint instead.
 
     Args:
         bounded: Joints whose compliance fitted negative and was fixed at zero (a
@@ -275,9 +288,10 @@ def compliance_report(spec: ComplianceSpec, compliance: np.ndarray, bounded: Seq
 
 
 def deflection_effects(deflection: Deflection, end_origins: Any, q: np.ndarray, c: np.ndarray) -> dict:
-    """What the fitted deflection does over poses q: each joint's peak deflection [urad]
-    and the largest move of the end frame's origin it alone causes [mm]; for the basis
-    model also each joint's coefficients and gravity agreement (see
+    """What the fitted deflection does over poses q, per joint.
+
+    Each joint's peak deflection [urad] and the largest move of the end frame's origin it
+    alone causes [mm]; for the basis model also each joint's coefficients and gravity agreement (see
     :mod:`calib_pin.robot.gravity_basis`) and the joints that deflect against gravity.
 
     Args:
@@ -546,5 +560,5 @@ def compliance_spec(chain: Chain, joints: str | Sequence[str] | None, payload_kg
     if model is None:
         model = "cad" if has_inertial_data(chain) else "basis"
     spec = ComplianceSpec(names, payload, float(cable_tension_n or 0.0), str(model))
-    Deflection(chain, spec, (np.zeros(3), np.ones(3)))  # refuse a bad joint or a massless URDF now
+    Deflection(chain, spec, (np.zeros(3), np.ones(3)))  # refuse a bad joint or a massless URDF here
     return spec

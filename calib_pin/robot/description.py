@@ -166,6 +166,10 @@ def resolve_robot(robot: str | Path) -> RobotDescription:
 def as_robot(value: Any, arg: str = "robot") -> Any:
     """A robot: its name or URDF path (str or os.PathLike), or a resolved description.
 
+    Args:
+        value: The value to check.
+        arg: The argument's name, for messages.
+
     Raises:
         ArgumentError: anything else, naming ``arg``.
     """
@@ -184,9 +188,12 @@ def robot_file(robot: str | None) -> str | None:
 
 
 def robot_inputs(robot: str | None) -> dict[str, str | None]:
-    """The files a robot argument reads, by label: a URDF path; for one of calib-pin's own
-    robots by name (``irb120``), its URDF, its DH table and its default data set, which
-    an output given by path (``--out robots/irb120.urdf --force``) must never replace."""
+    """The files a robot argument reads, by label.
+
+    A URDF path; for one of calib-pin's own robots by name (``irb120``), its URDF, its DH
+    table and its default data set, which an output given by path
+    (``--out robots/irb120.urdf --force``) must never replace.
+    """
     if robot_file(robot) or not robot or robot not in own_robot_names():
         return {"ROBOT": robot_file(robot)}
     found = resolve_robot(robot)

@@ -121,8 +121,11 @@ class GravityBasis:
         self.terms = np.array(terms, dtype=int)
 
     def _carried_columns(self, j: int) -> np.ndarray:
-        """Regressor columns of the links chain joint j carries (its subtree): (m, m c) of
-        the first ``free_links``, the mass alone (a point mass at the link's joint) of the rest."""
+        """Regressor columns of the links chain joint j carries (its subtree).
+
+        (m, m c) of the first ``free_links``, the mass alone (a point mass at the link's
+        joint) of the rest.
+        """
         jid = j + 1  # Pinocchio's joint 0 is the universe
         bodies = sorted(self._model.subtrees[jid])
         free = len(bodies) if self.free_links is None else self.free_links
@@ -141,16 +144,20 @@ class GravityBasis:
         return len(self.columns)
 
     def regressor(self, q: np.ndarray) -> np.ndarray:
-        """Pinocchio's static joint torque regressor, (n_poses, n_joints, 10 n_bodies),
-        [N or m/s^2 times the unit of each inertial parameter]."""
+        """Pinocchio's static joint torque regressor, (n_poses, n_joints, 10 n_bodies).
+
+        Unit: [N or m/s^2 times the unit of each inertial parameter].
+        """
         configs = self.chain.configuration(np.atleast_2d(np.asarray(q, dtype=float)))
         zero = np.zeros(self._model.nv)
         return np.array([pin.computeJointTorqueRegressor(self._model, self._data, c, zero, zero)
                          for c in configs]).reshape(len(configs), self._model.nv, -1)
 
     def values(self, q: np.ndarray) -> np.ndarray:
-        """The basis at joint angles q, (n_poses, n_terms), dimensionless: term i is
-        d q_eff[:, columns[i]] / d beta_i."""
+        """The basis at joint angles q, (n_poses, n_terms), dimensionless.
+
+        Term i is d q_eff[:, columns[i]] / d beta_i.
+        """
         q = np.atleast_2d(np.asarray(q, dtype=float))
         key = q.tobytes() + str(q.shape).encode()
         if self._cache is not None and self._cache[0] == key:
@@ -171,9 +178,10 @@ class GravityBasis:
         return out
 
     def prior_torque(self, q: np.ndarray) -> np.ndarray:
-        """Torque of unit point masses at every joint origin and at the end frame,
-        (n_poses, len(joints)) [Nm]: the sign pattern gravity gives any arm of this
-        kinematics (see the module)."""
+        """Torque of unit point masses at every joint origin and at the end frame, (n_poses, len(joints)) [Nm].
+
+        The sign pattern gravity gives any arm of this kinematics (see the module).
+        """
         model = self._model
         pi = np.zeros(_PER_BODY * (model.njoints - 1))
         pi[0::_PER_BODY] = 1.0  # a unit mass at each link's origin (its joint)
@@ -185,9 +193,11 @@ class GravityBasis:
         return tau[:, [self.chain.joint_names.index(name) for name in self.joints]]
 
     def gravity_agreement(self, q: np.ndarray, beta: np.ndarray) -> np.ndarray:
-        """Cosine over the poses q between each joint's fitted deflection and -tau0
-        (:meth:`prior_torque`), shape (len(joints),): +1 a sag, < 0 a lift against
-        gravity; NaN where the joint has no deflection or no prior torque."""
+        """Cosine over the poses q between each joint's fitted deflection and -tau0, shape (len(joints),).
+
+        tau0 is :meth:`prior_torque`; +1 a sag, < 0 a lift against gravity; NaN where the
+        joint has no deflection or no prior torque.
+        """
         dq = self.deflections(q, beta)
         minus_tau = -self.prior_torque(q)
         num = np.sum(dq * minus_tau, axis=0)

@@ -11,10 +11,8 @@ Two evaluations share the perturbed placements:
 - Positions (:meth:`Kinematics.points` without derivatives, what every cost evaluation
   of a search asks for) are computed for all poses of a batch together, a few numpy
   operations per joint whatever the number of poses. A Python loop of one Pinocchio
-  call per pose costs about 0.5-1 us per pose in call overhead alone, and was the floor
-  that held EKF-QIBAS and QIBAS back; the batched pass costs 0.7 times that loop at 96
-  poses (the same poses again, as a search evaluates them; 1.1 times for new poses) and
-  0.28 times at 1 000 (``benchmark.py`` prints the residual against that floor). Each
+  call per pose pays a call overhead per pose, which the batched pass avoids
+  (``benchmark.py`` prints the residual against that loop). Each
   joint moves by exp(S_i q_i), with S_i Pinocchio's motion subspace of the joint
   (:func:`~calib_pin.robot.chain.joint_motions`): after its placement M_i, its
   transform is f0 F0_i + f1 F1_i + F2_i with (f0, f1) = (cos q, sin q) for a revolute
@@ -133,9 +131,11 @@ class Kinematics:
         return self._backward
 
     def _coefficients(self, q: np.ndarray) -> np.ndarray:
-        """The factors of F0 v, F1 v and F2 v in :func:`_through_joints`, (f0, f1, 1), each
-        repeated for the 4 rows of its product, shape (n_joints, 12, n_poses). The last
-        poses' are kept: a search evaluates the same poses many times."""
+        """The factors of F0 v, F1 v and F2 v in :func:`_through_joints`, shape (n_joints, 12, n_poses).
+
+        (f0, f1, 1), each repeated for the 4 rows of its product. The last poses' are kept:
+        a search evaluates the same poses many times.
+        """
         shape, bits, coef = self._coef_cache
         key = q.tobytes()  # the same bits of a float (n_poses, n_joints) q: the same factors
         if not (q.shape == shape and key == bits):
@@ -146,8 +146,10 @@ class Kinematics:
         return coef
 
     def _positions(self, q: np.ndarray, point: np.ndarray) -> np.ndarray:
-        """Base-frame positions [m] of ``point`` (3,) or (n_poses, 3) at all poses
-        q (n_poses, n_joints), back to front: the point through each joint in turn."""
+        """Base-frame positions [m] of ``point`` (3,) or (n_poses, 3) at all poses q (n_poses, n_joints).
+
+        Back to front: the point through each joint in turn.
+        """
         q = _joint_positions(q, len(self._basis[0]), finite=False)  # checked on the result below
         end = self._placements[-1]
         v = np.empty((1, 4, len(q)))
@@ -157,13 +159,15 @@ class Kinematics:
 
     def points_many(self, deltas: list[np.ndarray | None] | np.ndarray, q: np.ndarray,
                     points: list[np.ndarray] | np.ndarray) -> np.ndarray:
-        """:meth:`points` without derivatives for several perturbations at once: the
-        positions of ``points[j]`` (3,) or (n_poses, 3) under ``deltas[j]`` (as
+        """:meth:`points` without derivatives for several perturbations at once, [m].
+
+        The positions of ``points[j]`` (3,) or (n_poses, 3) under ``deltas[j]`` (as
         :meth:`set_perturbation` takes, None: nominal; or all of them stacked, shape
         (k, n_joints + 1, 4, 4)) at the poses q, shape (k, n_poses, 3),
         [m]. One batched pass for all k: the same numbers, to the bit, as k calls of
         :meth:`points` (the same products, stacked); the held perturbation is left as it is.
-        No perturbation (k = 0): shape (0, n_poses, 3)."""
+        No perturbation (k = 0): shape (0, n_poses, 3).
+        """
         q = _joint_positions(q, len(self._basis[0]), finite=False)  # checked on the result below
         k, n_place = len(deltas), len(self._nominal)
         if not k:
@@ -204,8 +208,10 @@ class Kinematics:
         return _through_joints(v, backward, self._coefficients(q), q)
 
     def _perturbed(self, deltas: np.ndarray) -> np.ndarray:
-        """nominal @ delta for k stacked perturbations (k, n_place, 4, 4), per placement
-        one matmul for all k (nominal_i @ (delta_i^1 | ... | delta_i^k)), as (n_place, k, 4, 4)."""
+        """nominal @ delta for k stacked perturbations (k, n_place, 4, 4), as (n_place, k, 4, 4).
+
+        Per placement one matmul for all k (nominal_i @ (delta_i^1 | ... | delta_i^k)).
+        """
         n_place, k = len(self._nominal), len(deltas)
         stacked = deltas.transpose(1, 2, 0, 3).reshape(n_place, 4, -1)
         return (self._nominal @ stacked).reshape(n_place, 4, k, 4).transpose(0, 2, 1, 3)
@@ -275,8 +281,9 @@ class Kinematics:
 
     def regressors(self, q: np.ndarray, joints: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray,
                                                                         np.ndarray | None]:
-        """Pinocchio's pass over the poses behind :meth:`points` with ``jacobian``: per
-        pose ``forwardKinematics`` (``computeJointJacobians`` with ``joints``) and
+        """Pinocchio's pass over the poses behind :meth:`points` with ``jacobian``.
+
+        Per pose ``forwardKinematics`` (``computeJointJacobians`` with ``joints``) and
         ``computeFrameKinematicRegressor`` (``getFrameJacobian``) on the working model.
 
         Args:
@@ -321,8 +328,10 @@ class Kinematics:
 
 
 def _joint_positions(q: np.ndarray, n_joints: int, finite: bool = True) -> np.ndarray:
-    """q as a float array (n_poses, n_joints), finite unless ``finite`` is False (the
-    batched positions check their result instead: every cost evaluation comes here).
+    """q as a float array (n_poses, n_joints), finite unless ``finite`` is False.
+
+    With ``finite`` False the batched positions check their result instead: every cost
+    evaluation comes here.
 
     Raises:
         ArgumentError: another shape, or a value that is not a finite number.
@@ -339,9 +348,10 @@ def _joint_positions(q: np.ndarray, n_joints: int, finite: bool = True) -> np.nd
 
 
 def _through_joints(v: np.ndarray, backward: np.ndarray, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Points [v, 1] in the end joint's frame carried back to the base through every
-    joint, component-major (k, 4, n_poses) (each component of all poses contiguous, so
-    each step is a few whole-array operations); positions shape (k, n_poses, 3), [m].
+    """Points [v, 1] in the end joint's frame carried back to the base through every joint.
+
+    Component-major (k, 4, n_poses) (each component of all poses contiguous, so each step
+    is a few whole-array operations); positions shape (k, n_poses, 3), [m].
     Per joint i, last to first, v <- f0 (F0 v) + f1 (F1 v) + 1 (F2 v): the three products
     from one matmul with ``backward[i]`` (k, 4, 12; row-wise [v, 1] @ backward[i] =
     (F0 v | F1 v | F2 v), used transposed: the same BLAS call, so the same numbers, as
@@ -380,12 +390,14 @@ def cross_matrices(points: np.ndarray) -> np.ndarray:
 
 def _lever(rot: np.ndarray, trans: np.ndarray, reg: np.ndarray, jac: np.ndarray | None,
            point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions of ``point`` (3,) or (n, 3) and their derivative from the end frames'
-    rotations (n, 3, 3) and translations (n, 3), and local end-frame twists (v, w) per
-    column: the regressor's (n, 6, m), the end frame's own six (the identity), then the
-    joint Jacobian's (n, 6, n_joints) if given. A local twist moves the
+    """Positions of ``point`` (3,) or (n, 3) and their derivative by local end-frame twists.
+
+    From the end frames' rotations (n, 3, 3) and translations (n, 3), and local end-frame
+    twists (v, w) per column: the regressor's (n, 6, m), the end frame's own six (the
+    identity), then the joint Jacobian's (n, 6, n_joints) if given. A local twist moves the
     point by R (v + w x point) = [R, -R [point]x] (v, w): the lever; its product with the
-    identity is the lever itself."""
+    identity is the lever itself.
+    """
     n, m = reg.shape[0], reg.shape[2]
     lever = np.empty((n, 3, 6))
     lever[:, :, :3] = rot
@@ -405,9 +417,12 @@ def _lever(rot: np.ndarray, trans: np.ndarray, reg: np.ndarray, jac: np.ndarray 
 
 
 def _frame_view(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray | None:
-    """One view of a live placement's 12 numbers (the rotation column by column, then the
-    origin) when Pinocchio keeps them so in one block (it does: an SE3 holds its rotation,
-    column-major, then its translation), else None (the two are then copied apart)."""
+    """One view of a live placement's 12 numbers when Pinocchio keeps them in one block, else None.
+
+    The 12 numbers are the rotation column by column, then the origin; Pinocchio keeps them
+    so (an SE3 holds its rotation, column-major, then its translation); else the two are
+    copied apart.
+    """
     start = rotation.__array_interface__["data"][0]
     if rotation.strides != (8, 24) or translation.strides != (8,) or (
             translation.__array_interface__["data"][0] != start + 72):

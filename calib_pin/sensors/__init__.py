@@ -41,9 +41,11 @@ for _model in (CableModel, PositionModel, PoseModel, ContactModel):
 def add_sensor_arguments(p: argparse.ArgumentParser, notes: Mapping[str, str] | None = None,
                          skip: Iterable[str] = (), defaults: Mapping[str, Any] | None = None,
                          append: Iterable[str] = ()) -> None:
-    """Add every registered sensor's set-up flags to ``p``, one argument group a sensor
-    (a field two sensors share once; ``append``: fields given once per session); see
-    :func:`.setup.add_setup_arguments`."""
+    """Add every registered sensor's set-up flags to ``p``, one argument group a sensor.
+
+    A field two sensors share comes once; ``append``: fields given once per session; see
+    :func:`.setup.add_setup_arguments`.
+    """
     add_setup_arguments(p, setup_types(), notes, skip, defaults, append)
 
 

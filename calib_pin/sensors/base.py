@@ -72,20 +72,28 @@ CHECK_ROWS = 1000
 
 
 def check_rows(n_rows: int) -> np.ndarray:
-    """The rows of a set of ``n_rows`` that check its set-up: at most :data:`CHECK_ROWS`,
-    evenly spread, first and last included."""
+    """The rows of a set of ``n_rows`` that check its set-up.
+
+    At most :data:`CHECK_ROWS`, evenly spread, first and last included.
+    """
     return np.unique(np.linspace(0, n_rows - 1, min(n_rows, CHECK_ROWS)).astype(int))
 
 
 def frame_unknowns(prefix: str, metres: float, radians: float) -> list[tuple[str, str, float]]:
-    """The six unknowns (name, unit, typical size) of a frame correction: ``PREFIX_x/y/z``
-    [m], typical ``metres``, then ``PREFIX_rx/ry/rz`` [rad], typical ``radians``."""
+    """The six unknowns (name, unit, typical size) of a frame correction.
+
+    ``PREFIX_x/y/z`` [m], typical ``metres``, then ``PREFIX_rx/ry/rz`` [rad], typical ``radians``.
+    """
     return [(f"{prefix}_{a}", "m", metres) for a in "xyz"] + [(f"{prefix}_r{a}", "rad", radians) for a in "xyz"]
 
 
 def chosen(estimate: Any, valid: tuple[str, ...], sensor: str) -> tuple[str, ...]:
-    """The sensor unknowns to estimate (a comma-separated str or a sequence of names), in
-    ``valid``'s order.
+    """The sensor unknowns to estimate, in ``valid``'s order.
+
+    Args:
+        estimate: The names asked for: a comma-separated str or a sequence of names.
+        valid: The unknowns this sensor can estimate.
+        sensor: The sensor's name, for messages.
 
     Raises:
         ArgumentError: not names, or a name this sensor has no such unknown for.
@@ -101,8 +109,10 @@ def chosen(estimate: Any, valid: tuple[str, ...], sensor: str) -> tuple[str, ...
 
 
 class Draw(Protocol):
-    """What a sensor's :meth:`MeasurementModel.simulate_rows` asks of a simulation (the
-    seeded draws every simulated set shares; :class:`calib_pin.simulation.SimulationDraw`)."""
+    """What a sensor's :meth:`MeasurementModel.simulate_rows` asks of a simulation.
+
+    The seeded draws every simulated set shares (:class:`calib_pin.simulation.SimulationDraw`).
+    """
 
     chain: Chain
     params: ParameterModel
@@ -123,9 +133,9 @@ class Draw(Protocol):
 
 
 class MeasurementModel(ABC):
-    """A sensor's predictions for the robot's deviations, the joint compliances (if any)
-    and the sensor's unknowns, in that order in one vector x.
+    """A sensor's predictions for the robot's deviations, joint compliances and sensor unknowns.
 
+    The three come in that order in one vector x; the compliances only when given.
     With a compliance spec (:mod:`calib_pin.robot.deflection`) every forward kinematics
     runs at the deflected joint angles q_eff = q - c tau(q), and x holds
     ``compliance_<joint>`` [rad/Nm] between the robot's deviations and the sensor's unknowns.
@@ -195,16 +205,22 @@ class MeasurementModel(ABC):
 
     @classmethod
     def setup_of(cls, data: MeasurementSet) -> SensorSetup | None:
-        """The set-up record the set's file gave (default: its ``sensor_meta`` as the
-        record's fields, by name; None for a set without)."""
+        """The set-up record the set's file gave; None for a set without.
+
+        Default: its ``sensor_meta`` as the record's fields, by name.
+        """
         names = set(cls.setup_type.field_names())
         given = {k: v for k, v in data.sensor_meta.items() if k in names}
         return cls.setup_type(**given) if given else None
 
     @classmethod
     def planning_model(cls, chain: Chain, params: ParameterModel, setup: SensorSetup | None) -> MeasurementModel:
-        """The model poses are planned for (``calib-pin plan-poses``), from the caller's
-        set-up (None: the sensor's default).
+        """The model poses are planned for (``calib-pin plan-poses``), from the caller's set-up.
+
+        Args:
+            chain: The robot chain.
+            params: Its parameter model.
+            setup: The caller's set-up record; None: the sensor's default.
 
         Raises:
             CalibPinError: a sensor that cannot plan without data.
@@ -215,9 +231,15 @@ class MeasurementModel(ABC):
 
     @classmethod
     def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
-        """Refuse a validation ``session`` whose own set-up contradicts the calibration's
-        (``training``'s, or the caller's overrides in ``options``); default: nothing to refuse
-        (a sensor whose set-up is fitted on the data).
+        """Refuse a validation ``session`` whose own set-up contradicts the calibration's.
+
+        The calibration's set-up is ``training``'s, or the caller's overrides in ``options``.
+        Default: nothing to refuse (a sensor whose set-up is fitted on the data).
+
+        Args:
+            session: The validation session's measurements.
+            training: The training set whose set-up it shares.
+            options: The caller's sensor options for that set.
 
         Raises:
             DataError: naming the session's file and the key.
@@ -228,17 +250,23 @@ class MeasurementModel(ABC):
     def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
                              calibrated: MeasurementModel, x: np.ndarray,
                              options: Mapping[str, Any]) -> SetProblem:
-        """The problem of a validation ``session`` on a new set-up of this sensor
-        (:mod:`calib_pin.calibration.validation`): every row, the unknowns a new placement changes after
-        the robot's, started from their fit on ``rows``. ``calibrated`` and ``x``: the
-        calibration's model and estimate (a sensor may take from them what the session does
-        not say). Default: :meth:`problem_for` with the caller's compliance only (a sensor
-        whose set-up is always fitted, e.g. a device frame and markers)."""
+        """The problem of a validation ``session`` on a new set-up of this sensor.
+
+        See :mod:`calib_pin.calibration.validation`: every row, the unknowns a new placement
+        changes after the robot's, started from their fit on ``rows``. ``calibrated`` and
+        ``x``: the calibration's model and estimate (a sensor may take from them what the
+        session does not say). Default: :meth:`problem_for` with the caller's compliance
+        only (a sensor whose set-up is always fitted, e.g. a device frame and markers).
+        """
         return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance")})
 
     @classmethod
     def refuse_foreign(cls, options: Mapping[str, Any], data: MeasurementSet) -> None:
         """Refuse a given set-up option another sensor takes and this one does not.
+
+        Args:
+            options: The caller's sensor options.
+            data: The measurement set they are given for.
 
         Raises:
             CalibPinError: naming the option's flag and the data.
@@ -270,20 +298,27 @@ class MeasurementModel(ABC):
 
     @abstractmethod
     def predict(self, x: np.ndarray | None, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-        """Predicted values at joint angles q (n_rows, n_joints) [rad], shape (n_rows,) or
-        (n_rows, values_per_row), [m]; x None: the nominal robot and sensor. ``points``: each
-        row's index of the point measured, for sensors that measure several."""
+        """Predicted values at joint angles q, shape (n_rows,) or (n_rows, values_per_row), [m].
+
+        q: shape (n_rows, n_joints) [rad]; x None: the nominal robot and sensor. ``points``:
+        each row's index of the point measured, for sensors that measure several.
+        """
 
     @abstractmethod
     def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
                               points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Predicted values (as :meth:`predict`) and their derivative with respect to x,
-        shape (n_rows, [values_per_row,] n_params), [m per unit of each parameter]."""
+        """Predicted values (as :meth:`predict`) and their derivative with respect to x.
+
+        The derivative has shape (n_rows, [values_per_row,] n_params), [m per unit of each
+        parameter].
+        """
 
     @abstractmethod
     def geometry_at(self, x: np.ndarray | None) -> Any:
-        """The sensor's geometry x implies (the starting geometry plus the estimated
-        corrections); x None: the starting geometry."""
+        """The sensor's geometry x implies; x None: the starting geometry.
+
+        The starting geometry plus the estimated corrections.
+        """
 
     @abstractmethod
     def geometry_report(self, x: np.ndarray | None) -> dict:
@@ -296,19 +331,27 @@ class MeasurementModel(ABC):
     # --- noise and errors by part (a row whose parts have noises and units of their own) -
 
     def noise_parts(self) -> tuple[NoisePart, ...]:
-        """The parts of a row that carry a noise of their own (a 6-D pose's position and
-        orientation), each with the sigma its entries are weighted by and where it came
-        from; () (the default): a row is one part, weighted by its set's noise."""
+        """The parts of a row that carry a noise of their own, with their sigma and its origin.
+
+        For example a 6-D pose's position and orientation, each with the sigma its entries
+        are weighted by and where it came from; () (the default): a row is one part,
+        weighted by its set's noise.
+        """
         return ()
 
     def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Each of :meth:`noise_parts`' unweighted entries over the rows, flattened, in SI
-        units (m, rad): what its sigma is estimated from (default: none)."""
+        """Each of :meth:`noise_parts`' unweighted entries over the rows, flattened, SI [m, rad].
+
+        What its sigma is estimated from (default: none).
+        """
         return ()
 
     def with_part_noise(self, sigmas: tuple[float, ...], origin: str) -> MeasurementModel:
-        """A copy of this model whose parts are weighted by ``sigmas`` (SI, in the order of
-        :meth:`noise_parts`; ``origin``: where they came from, e.g. ``estimate``).
+        """A copy of this model whose parts are weighted by ``sigmas``.
+
+        Args:
+            sigmas: One sigma per part, SI [m or rad], in the order of :meth:`noise_parts`.
+            origin: Where they came from, e.g. ``estimate``.
 
         Raises:
             CalibPinError: a sensor whose row is one part (the default).
@@ -318,18 +361,20 @@ class MeasurementModel(ABC):
         raise CalibPinError(f"{self.data_name}: a row is one part, weighted by its set's noise")
 
     def errors_by_part(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> dict[str, np.ndarray]:
-        """Each row's error per part in the part's own unit, the key ending with it
-        (``position_mm``, ``orientation_deg``), each shape (n_rows,); {} (the default): a
-        row is one part, its error the row error in mm."""
+        """Each row's error per part in the part's own unit, each shape (n_rows,).
+
+        The key ends with the unit (``position_mm``, ``orientation_deg``); {} (the default):
+        a row is one part, its error the row error in mm.
+        """
         return {}
 
     # --- simulation (the one seam calib_pin.simulation asks a sensor for) ----------------------
 
     @classmethod
     def simulate_rows(cls, draw: Draw, geometry: Any | None) -> tuple[MeasurementSet, Any]:
-        """A simulated set of this sensor read on the true robot: its rows, their values
-        with noise and the set-up metadata its file will carry.
+        """A simulated set of this sensor read on the true robot.
 
+        Its rows, their values with noise and the set-up metadata its file will carry.
         ``draw`` (a :class:`Draw`: :class:`calib_pin.simulation.SimulationDraw`) holds what every simulation
         shares; call it in this order, as the sensor needs:
 
@@ -362,41 +407,53 @@ class MeasurementModel(ABC):
 
     @classmethod
     def session_geometry(cls, first: Any, rng: np.random.Generator) -> Any:
-        """The true set-up of a later simulated session of this sensor (the sensor
-        re-anchored, the device moved), drawn with ``rng`` (session 1's set-up ``first``);
-        default: ``first`` itself (one set-up for every session)."""
+        """The true set-up of a later simulated session of this sensor, drawn with ``rng``.
+
+        The sensor is re-anchored, the device moved; ``first`` is session 1's set-up.
+        Default: ``first`` itself (one set-up for every session).
+        """
         return first
 
     @property
     def reference_point(self) -> np.ndarray:
-        """A point of the end frame the sensor measures, shape (3,), [m] (the planner keeps
-        it above the mounting plane)."""
+        """A point of the end frame the sensor measures, shape (3,), [m].
+
+        The planner keeps it above the mounting plane.
+        """
         return np.zeros(3)
 
     def point_index(self, labels: Any, n_rows: int, source: str = "") -> np.ndarray | None:
-        """Indices of the measured points for ``n_rows`` rows labelled ``labels`` (a file's
-        ``point_id`` values, numbers or text; None: not given), named ``source`` in
-        messages; None for a sensor that measures one point."""
+        """Indices of the measured points for ``n_rows`` rows labelled ``labels``.
+
+        ``labels`` are a file's ``point_id`` values, numbers or text (None: not given), named
+        ``source`` in messages. None for a sensor that measures one point.
+        """
         return None
 
     def grid_points(self, n_poses: int) -> tuple[np.ndarray, np.ndarray | None]:
-        """For scoring on fresh poses: row repetition and point indices that measure every
-        point once per pose (the rows are pose-major)."""
+        """Row repetition and point indices that measure every point once per pose.
+
+        For scoring on fresh poses; the rows are pose-major.
+        """
         return np.arange(n_poses), None
 
     def fresh_difference(self, predicted: np.ndarray, true: np.ndarray) -> np.ndarray:
-        """Predicted minus noise-free true values at fresh poses (:meth:`grid_points`), as
-        far as the sensor's data can tell them apart, shaped like ``predicted`` [m]: the plain
-        difference here; a sensor blind to some motion of everything it measures (the
-        base placement, for fixtures located in the base frame) removes it first."""
+        """Predicted minus noise-free true values at fresh poses, shaped like ``predicted`` [m].
+
+        Fresh poses as :meth:`grid_points`; as far as the sensor's data can tell them apart:
+        the plain difference here; a sensor blind to some motion of everything it measures
+        (the base placement, for fixtures located in the base frame) removes it first.
+        """
         return predicted - true
 
     def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
                        correction: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
                        ) -> np.ndarray:
-        """Each row's error [m] predicting a separate session at x (None: nominal), with
-        an optional learnt ``correction(q, points)`` of the values; rows of points this
-        model does not know are refused (a sensor that can locate new points overrides this)."""
+        """Each row's error [m] predicting a separate session at x (None: nominal).
+
+        With an optional learnt ``correction(q, points)`` of the values; rows of points this
+        model does not know are refused (a sensor that can locate new points overrides this).
+        """
         points = self.point_index(data.point_ids, len(data), data.source)
         predicted = self.predict(x, data.q, points)
         if correction is not None:
@@ -411,9 +468,11 @@ class MeasurementModel(ABC):
 
     @property
     def nonnegative(self) -> tuple[int, ...]:
-        """Indices of the unknowns that must be >= 0: the joint compliances (a spring gives
-        way along its load, never against it); every estimator keeps them so. The gravity
-        basis's coefficients are signed: none."""
+        """Indices of the unknowns that must be >= 0: the joint compliances.
+
+        A spring gives way along its load, never against it; every estimator keeps them so.
+        The gravity basis's coefficients are signed: none.
+        """
         if self.deflection is not None and not self.deflection.nonnegative:
             return ()
         return tuple(range(self.n_robot, self.sensor_start))
@@ -450,15 +509,19 @@ class MeasurementModel(ABC):
         return self._kin.points(self.joint_angles(x, q), point)[0]
 
     def predict_many(self, xs: list[np.ndarray], q: np.ndarray, points: np.ndarray | None = None) -> list[np.ndarray]:
-        """:meth:`predict` at several x (a search's candidate points), the same numbers
-        to the bit; a sensor may batch them (see :meth:`points_at_many`)."""
+        """:meth:`predict` at several x (a search's candidate points), the same numbers to the bit.
+
+        A sensor may batch them (see :meth:`points_at_many`).
+        """
         return [self.predict(x, q, points) for x in xs]
 
     def points_at_many(self, xs: list[np.ndarray] | np.ndarray, q: np.ndarray,
                        points: list[np.ndarray] | np.ndarray) -> np.ndarray | None:
-        """:meth:`points_at` at several x (a list, or an array (k, n_params)) in one batched
-        pass, shape (k, n_rows, 3), [m]; None with joint compliances (the deflected angles
-        differ per x: no shared pass)."""
+        """:meth:`points_at` at several x in one batched pass, shape (k, n_rows, 3), [m].
+
+        x: a list, or an array (k, n_params). None with joint compliances (the deflected
+        angles differ per x: no shared pass).
+        """
         if self.deflection is not None:
             return None
         many = getattr(self.params, "delta_matrices_many", None)
@@ -469,8 +532,10 @@ class MeasurementModel(ABC):
         return self._kin.points_many(deltas, q, points)
 
     def end_frames(self, x: np.ndarray | None, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The end frame's rotations (n_rows, 3, 3) and origins (n_rows, 3) [m] in the
-        base frame at q, for x (None: nominal); no derivatives."""
+        """The end frame's rotations (n_rows, 3, 3) and origins (n_rows, 3) [m] in the base frame.
+
+        At q, for x (None: nominal); no derivatives.
+        """
         self.set_robot(x)
         rot, trans, _ = self._kin.frames(self.joint_angles(x, q))
         return rot, trans
@@ -487,8 +552,10 @@ class MeasurementModel(ABC):
 
     def points_with_jacobians(self, x: np.ndarray, q: np.ndarray,
                               point: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`point_jacobian` plus the end-frame rotations, shape (n_rows, 3, 3)
-        (the derivative of each position with respect to the point itself)."""
+        """:meth:`point_jacobian` plus the end-frame rotations, shape (n_rows, 3, 3).
+
+        The rotations are the derivative of each position with respect to the point itself.
+        """
         xr = self.robot(x)
         self._kin.set_perturbation(self.params.delta_matrices(xr))
         soft = self.deflection

@@ -89,8 +89,10 @@ class Drawstring:
 
 @dataclass(frozen=True, eq=False)
 class CableSetup(SensorSetup):
-    """A drawstring's set-up options, each None when not given (then the measurement
-    file's ``# anchor_mm`` / ``# tool_mm`` / ``# length_offset_mm``), checked once here.
+    """A drawstring's set-up options, each None when not given, checked once here.
+
+    A field not given is the measurement file's ``# anchor_mm`` / ``# tool_mm`` /
+    ``# length_offset_mm``.
 
     Attributes:
         anchor_mm: The sensor's point P0 in the base frame, shape (3,), [mm].
@@ -129,9 +131,11 @@ def _gives_offset(data: MeasurementSet) -> bool:
 
 
 def _check_setup_fits(model: CableModel, data: MeasurementSet, options: Mapping[str, Any]) -> None:
-    """Refuse a known set-up (anchor, tool point, offset: the caller's or the file's) whose
-    cable lengths at the nominal robot are not the readings (a unit mistake, an anchor in
-    another frame): a first fit would chase it and say only that the noise is metres.
+    """Refuse a known set-up whose cable lengths at the nominal robot are not the readings.
+
+    The set-up is the anchor, tool point and offset, the caller's or the file's. A miss is
+    a unit mistake or an anchor in another frame: a first fit would chase it and say only
+    that the noise is metres.
 
     A miss that is the same on every row (spread under 25 mm: a robot's deviations) is the
     offset's; another names the whole set-up (the field: the caller's one key, else its anchor, else none).
@@ -209,8 +213,10 @@ class CableModel(MeasurementModel):
 
     @classmethod
     def planning_model(cls, chain: Chain, params: ParameterModel, setup: Any) -> CableModel:
-        """The drawstring at ``setup``'s points (a :class:`CableSetup`; the simulator's
-        defaults for those not given), estimating ``setup.estimate``."""
+        """The drawstring at ``setup``'s points, estimating ``setup.estimate``.
+
+        ``setup`` is a :class:`CableSetup`; the simulator's defaults stand for points not given.
+        """
         setup = setup if setup is not None else CableSetup()
         anchor = setup.anchor_mm if setup.anchor_mm is not None else DEFAULT_ANCHOR_MM
         tool = setup.tool_mm if setup.tool_mm is not None else DEFAULT_TOOL_MM
@@ -218,8 +224,10 @@ class CableModel(MeasurementModel):
 
     @classmethod
     def setup_of(cls, data: MeasurementSet) -> CableSetup:
-        """The set-up the set's file gave (``anchor``, ``tool``, ``length_offset``), in mm;
-        not checked (:func:`~calib_pin.measurements.checks.check_measurements` does)."""
+        """The set-up the set's file gave (``anchor``, ``tool``, ``length_offset``), in [mm].
+
+        Not checked (:func:`~calib_pin.measurements.checks.check_measurements` does).
+        """
         setup = object.__new__(CableSetup)
         for name, value in (("anchor_mm", data.anchor), ("tool_mm", data.tool), ("length_offset_mm", data.length_offset)):
             object.__setattr__(setup, name, None if value is None else np.asarray(value, dtype=float) * 1e3)
@@ -256,9 +264,11 @@ class CableModel(MeasurementModel):
 
     @classmethod
     def simulate_rows(cls, draw: Any, geometry: Drawstring | None) -> tuple[MeasurementSet, Drawstring]:
-        """A drawstring session (:meth:`MeasurementModel.simulate_rows`): poses with the tool
-        point above the mounting plane (z > 0), each reading's noise of ``draw.noise_kind``;
-        ``geometry`` None: the default anchor and tool point, no offset."""
+        """A simulated drawstring session (:meth:`MeasurementModel.simulate_rows`).
+
+        Poses with the tool point above the mounting plane (z > 0), each reading's noise of
+        ``draw.noise_kind``; ``geometry`` None: the default anchor and tool point, no offset.
+        """
         from ..measurements import MeasurementSet
 
         sensor = geometry if geometry is not None else Drawstring(
@@ -279,8 +289,10 @@ class CableModel(MeasurementModel):
 
     @classmethod
     def session_geometry(cls, first: Drawstring, rng: np.random.Generator) -> Drawstring:
-        """A later session's drawstring: re-anchored uniformly within
-        :data:`SESSION_ANCHOR_SPREAD_MM` of the default anchor, the same tool point and offset."""
+        """A later session's drawstring: re-anchored, the same tool point and offset.
+
+        Re-anchored uniformly within :data:`SESSION_ANCHOR_SPREAD_MM` of the default anchor.
+        """
         spread = np.asarray(SESSION_ANCHOR_SPREAD_MM)
         anchor = np.asarray(DEFAULT_ANCHOR_MM) + rng.uniform(-spread, spread)
         return Drawstring(anchor * 1e-3, first.tool, first.length_offset)
@@ -289,10 +301,13 @@ class CableModel(MeasurementModel):
     def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
                              calibrated: MeasurementModel, x: np.ndarray,
                              options: Mapping[str, Any]) -> SetProblem:
-        """A re-anchored session: its anchor estimated, from its file's anchor or, without
-        one, pre-fitted on ``rows`` (:func:`fit_drawstring`, the offset held). The tool point
-        and the zero offset belong to the tool and the instrument, not to where the sensor
-        sits: the session's file's when it gives them, else the calibration's (as calibrated)."""
+        """The problem of a re-anchored session: its anchor estimated.
+
+        The anchor starts from its file's anchor or, without one, is pre-fitted on ``rows``
+        (:func:`fit_drawstring`, the offset held). The tool point and the zero offset belong
+        to the tool and the instrument, not to where the sensor sits: the session's file's
+        when it gives them, else the calibration's (as calibrated).
+        """
         assert isinstance(calibrated, CableModel)
         known = calibrated.geometry_at(x)
         tool = known.tool if session.tool is None else session.tool
@@ -308,10 +323,16 @@ class CableModel(MeasurementModel):
 
     @classmethod
     def check_same_setup(cls, session: MeasurementSet, training: MeasurementSet, options: Mapping[str, Any]) -> None:
-        """Refuse a validation session whose own drawstring set-up (``anchor_mm``,
-        ``tool_mm``, ``length_offset_mm``) contradicts the calibration's: the training set's,
-        or the caller's overrides in ``options`` ([mm]). Agreement within
+        """Refuse a validation session whose own drawstring set-up contradicts the calibration's.
+
+        The set-up is ``anchor_mm``, ``tool_mm``, ``length_offset_mm``; the calibration's is
+        the training set's, or the caller's overrides in ``options``. Agreement within
         :data:`SETUP_TOLERANCE_M`, or a session that does not say, is fine.
+
+        Args:
+            session: The validation session's readings.
+            training: The training set whose set-up it shares.
+            options: The caller's sensor options for that set ([mm]).
 
         Raises:
             DataError: naming the session's file, the key and both values.
@@ -460,10 +481,12 @@ class DrawstringPrefit:
 
 def _cables(origin: np.ndarray, end_rot: np.ndarray, tool: np.ndarray,
             anchor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The cable lengths |c_i + R_i t - P0| [m], shape (n,), and their unit directions from
-    the anchor, shape (n, 3), for the end frames' origins c (n, 3) [m] and rotations R
-    (n, 3, 3), the tool point t [m, end frame] and the anchor P0 [m, base frame]: the
-    pre-fits' residual and its derivative."""
+    """The cable lengths |c_i + R_i t - P0| [m], shape (n,), and their unit directions from the anchor.
+
+    The directions have shape (n, 3); c: the end frames' origins (n, 3) [m], R: their
+    rotations (n, 3, 3), t: the tool point [m, end frame], P0: the anchor [m, base frame].
+    These are the pre-fits' residual and its derivative.
+    """
     cable = origin + end_rot @ tool - anchor
     lengths = np.linalg.norm(cable, axis=1)
     return lengths, cable / np.maximum(lengths, 1e-12)[:, None]
@@ -471,16 +494,25 @@ def _cables(origin: np.ndarray, end_rot: np.ndarray, tool: np.ndarray,
 
 def fit_tool_point(chain: Chain, params: ParameterModel, q: np.ndarray, readings: np.ndarray, anchor: np.ndarray,
                    offset: float, source: str = "") -> np.ndarray:
-    """Best-fit tool point [m, end frame] for the nominal robot with the anchor P0 [m, base
-    frame] and the zero offset [m] known: the start of an estimated tool point that no file
-    or flag gives (from the flange origin, the estimate would split the tool's z with d_6,
-    which the readings see only together). Residual of row i: |c_i + R_i t - P0| + offset -
-    reading_i, fitted by scipy's least squares from t = 0.
+    """Best-fit tool point [m, end frame] for the nominal robot with the anchor and zero offset known.
+
+    The start of an estimated tool point that no file or flag gives (from the flange
+    origin, the estimate would split the tool's z with d_6, which the readings see only
+    together). Residual of row i: |c_i + R_i t - P0| + offset - reading_i, fitted by
+    scipy's least squares from t = 0.
+
+    Args:
+        chain, params: The nominal robot chain and its parameter model.
+        q: Joint angles, shape (n_rows, n_joints), [rad].
+        readings: Cable readings, shape (n_rows,), [m].
+        anchor: The anchor P0, shape (3,), [m], base frame.
+        offset: The zero offset, [m].
+        source: The file, for messages.
 
     Raises:
         DataError: fewer rows than the 3 unknowns, naming ``source``.
     """
-    from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
+    from scipy.optimize import least_squares  # imported here: scipy.optimize is slow to import
 
     if len(q) <= 3:
         raise DataError(source, f"{len(q)} training rows cannot locate the tool point (3 unknowns to pre-fit): add "
@@ -499,8 +531,10 @@ def fit_tool_point(chain: Chain, params: ParameterModel, q: np.ndarray, readings
 
 def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings: np.ndarray, tool: np.ndarray,
                    fit_tool: bool = False, source: str = "", offset: float | None = None) -> DrawstringPrefit:
-    """Best-fit anchor P0 [m, base frame] and zero offset [m] (and, with ``fit_tool``, the
-    tool point [m, end frame]) for the nominal robot, with no guess of the anchor.
+    """Best-fit anchor P0 [m, base frame] and zero offset [m] for the nominal robot, with no guess.
+
+    With ``fit_tool``, the tool point [m, end frame] is fitted too; no guess of the anchor
+    is needed.
 
     The residual of row i is |c_i + R_i t - P0| + offset - reading_i (c_i, R_i: the nominal
     end frame's origin and rotation at q_i; t the tool point). It is fitted by scipy's
@@ -509,17 +543,20 @@ def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings
     anchor, so the anchor is within that box and one start lies within a grid cell of it);
     the offset starts at 0, the tool at ``tool``. The best final cost wins. Several starts
     because the problem has a local minimum for each side of the tool points' spread (the
-    mirror anchor, with a negative offset); 27 fits of 4 to 7 unknowns cost milliseconds.
+    mirror anchor, with a negative offset); each start is a small fit of 4 to 7 unknowns.
 
     Args:
-        q: Joint angles, shape (n_rows, n_joints), [rad]; readings: shape (n_rows,), [m].
+        q: Joint angles, shape (n_rows, n_joints), [rad].
+        readings: Cable readings, shape (n_rows,), [m].
         tool: The tool point's start (or its fixed value without ``fit_tool``), shape (3,), [m].
+        fit_tool: Fit the tool point too.
+        source: The file, for messages.
         offset: The zero offset [m] held fixed (a re-anchored instrument's, known), or None: fitted.
 
     Raises:
         DataError: fewer rows than unknowns, naming ``source``.
     """
-    from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
+    from scipy.optimize import least_squares  # imported here: scipy.optimize is slow to import
 
     fixed = offset is not None
     n_unknowns = 3 + (not fixed) + 3 * fit_tool

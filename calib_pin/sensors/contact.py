@@ -106,10 +106,14 @@ class Fixtures:
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any]) -> Fixtures:
-        """Inverse of :meth:`to_dict`; also a layout written by hand (``--geometry FILE``):
+        """Inverse of :meth:`to_dict`; also a layout written by hand (``--geometry FILE``).
+
         ``planes``, ``distances_mm`` and ``tool_mm`` optional (no planes, no distances,
         :data:`DEFAULT_CONTACT_TOOL_MM` estimated), a distance ``[A, B]`` the points' own,
         a plane's normal normalised here, labels sorted.
+
+        Args:
+            doc: The layout as a mapping (lengths in [mm]).
 
         Raises:
             ValueError: no points or planes, a point or normal not 3 numbers, a distance
@@ -165,8 +169,13 @@ def _line(data: MeasurementSet, row: int) -> int | None:
 
 
 def fixture_rows(data: MeasurementSet) -> tuple[tuple[str, ...], tuple[str, ...], np.ndarray]:
-    """The set's point labels and plane labels (each sorted) and each row's fixture:
-    index into the points, or n_points + index into the planes, shape (n_rows,).
+    """The set's point labels and plane labels (each sorted) and each row's fixture.
+
+    A row's fixture is an index into the points, or n_points + index into the planes,
+    shape (n_rows,).
+
+    Args:
+        data: A contact set (``contact_id`` and ``plane_id`` columns).
 
     Raises:
         DataError: a row with both ids or neither, naming the file and line.
@@ -187,6 +196,10 @@ def fixture_rows(data: MeasurementSet) -> tuple[tuple[str, ...], tuple[str, ...]
 
 def known_distances(data: MeasurementSet, points: tuple[str, ...]) -> tuple[tuple[int, int, float], ...]:
     """The file's ``# distance_mm`` lines as (point index, point index, length [m]).
+
+    Args:
+        data: A contact set.
+        points: Its point labels, sorted (as :func:`fixture_rows` gives them).
 
     Raises:
         DataError: a distance naming an id that is no ``contact_id`` of the set, or a
@@ -209,10 +222,13 @@ def known_distances(data: MeasurementSet, points: tuple[str, ...]) -> tuple[tupl
 
 
 def rigid_aligned(points: np.ndarray, onto: np.ndarray) -> np.ndarray:
-    """``points`` (n, 3) moved by the rigid motion (a rotation, no reflection, and a
-    translation; Kabsch's least squares) that brings them closest to ``onto`` (n, 3), same
-    unit: how a contact calibration's tool points are compared with the truth, since the
-    fixtures are located in the base frame and move with it (the base placement is blind)."""
+    """``points`` (n, 3) moved by the rigid motion that brings them closest to ``onto`` (n, 3).
+
+    The motion is a rotation, no reflection, and a translation (Kabsch's least squares);
+    same unit in and out. This is how a contact calibration's tool points are compared with
+    the truth, since the fixtures are located in the base frame and move with it (the base
+    placement is blind).
+    """
     points, onto = np.asarray(points, dtype=float), np.asarray(onto, dtype=float)
     cp_, ct = points.mean(axis=0), onto.mean(axis=0)
     u, _, vt = np.linalg.svd((points - cp_).T @ (onto - ct))
@@ -222,9 +238,9 @@ def rigid_aligned(points: np.ndarray, onto: np.ndarray) -> np.ndarray:
 
 @dataclass
 class ContactProblem(SetProblem):
-    """A calibration problem of contact rows (``points``: each row's fixture index, see
-    :func:`fixture_rows`) and the set's known distances, which every subset keeps.
+    """A calibration problem of contact rows and the set's known distances, which every subset keeps.
 
+    ``points``: each row's fixture index, see :func:`fixture_rows`.
     Rows differ in size: a point row holds 3 residual entries, a plane row 1, a distance
     row 1 (after the data rows); use :attr:`row_offsets`.
     """
@@ -261,8 +277,10 @@ class ContactProblem(SetProblem):
         return int(np.sum(self.row_sizes))
 
     def subset(self, rows: np.ndarray | slice) -> ContactProblem:
-        """The same problem restricted to some rows: data rows (indices past them, the
-        distance rows', are dropped: the distance rows always stay)."""
+        """The same problem restricted to some data rows; the distance rows always stay.
+
+        Indices past the data rows, the distance rows', are dropped.
+        """
         assert self.points is not None
         if not isinstance(rows, slice):
             rows = np.asarray(rows, dtype=int)
@@ -292,15 +310,17 @@ class ContactProblem(SetProblem):
         return r[k : k + 1], jac[k : k + 1]
 
     def row_errors(self, residual: np.ndarray) -> np.ndarray:
-        """Size of each row's error, shape (n_rows,), [m]: the tool point's distance from
-        its point, |signed distance| from its plane, |length error| of a distance."""
+        """Size of each row's error, shape (n_rows,), [m].
+
+        The tool point's distance from its point, |signed distance| from its plane,
+        |length error| of a distance.
+        """
         offsets = self.row_offsets
         r = np.asarray(residual)
         return np.array([np.linalg.norm(r[offsets[k] : offsets[k + 1]]) for k in range(self.n_rows)])
 
     def named_directions(self, x: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, str]]:
-        """Directions of x with a name, for ``--analyze``: name -> (direction, what would
-        make it seen).
+        """Directions of x with a name, for ``--analyze``: name -> (direction, what would make it seen).
 
         - ``scale``: every length grown by one factor: the robot's deviations (and the tool
           point, when estimated) fitted to grow each tool point p by p, each point P by P,
@@ -358,7 +378,10 @@ class ContactProblem(SetProblem):
 
 
 class ContactModel(MeasurementModel):
-    """Touches of fixed points and planes by a tool point on a chain whose deviations follow a parameter model."""
+    """Touches of fixed points and planes by a tool point on a chain of a parameter model.
+
+    The chain's deviations follow the parameter model.
+    """
 
     schema: ClassVar[Schema] = SCHEMAS["contact"]
     #: Residual entries differ by row (3 a point, 1 a plane or a distance: see
@@ -376,10 +399,13 @@ class ContactModel(MeasurementModel):
 
     def __init__(self, chain: Chain, params: ParameterModel, fixtures: Fixtures,
                  compliance: ComplianceSpec | None = None, estimate: tuple[str, ...] | None = None) -> None:
-        """``estimate=()``: nothing of the set-up unknown (the true fixtures and tool point,
+        """Build the model; ``estimate`` says which of the set-up is unknown.
+
+        ``estimate=()``: nothing of the set-up unknown (the true fixtures and tool point,
         as :meth:`calib_pin.simulation.simulator.Truth.model` builds a truth's model): x holds the
         robot's unknowns only. None (the default): the points and planes are estimated,
-        and the tool point unless ``fixtures.tool_known``."""
+        and the tool point unless ``fixtures.tool_known``.
+        """
         if not isinstance(fixtures, Fixtures):
             raise ArgumentError("fixtures", f"expected Fixtures, got {type(fixtures).__name__}")
         if estimate is not None and tuple(estimate):
@@ -408,9 +434,11 @@ class ContactModel(MeasurementModel):
     @classmethod
     def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
                     fit_rows: np.ndarray, options: Mapping[str, Any]) -> ContactProblem:
-        """Points and planes start from their fit with the nominal robot on ``fit_rows``
-        (:func:`fit_fixtures`); every fixture must be touched there, a plane at 3 or more
-        distinct configurations."""
+        """Points and planes start from their fit with the nominal robot on ``fit_rows``.
+
+        See :func:`fit_fixtures`; every fixture must be touched there, a plane at 3 or more
+        distinct configurations.
+        """
         cls.refuse_foreign(options, data)
         if options.get("estimate"):
             raise CalibPinError(f"--estimate {','.join(options['estimate'])} is for drawstring data; with contact "
@@ -474,8 +502,10 @@ class ContactModel(MeasurementModel):
         return np.asarray(self.fixtures.tool, dtype=float)
 
     def fresh_difference(self, predicted: np.ndarray, true: np.ndarray) -> np.ndarray:
-        """Predicted tool points (n, 3) [m] moved by the best rigid motion onto the true
-        ones (:func:`rigid_aligned`: the base placement no contact set sees), minus them."""
+        """Predicted tool points (n, 3) [m] moved by the best rigid motion onto the true ones, minus them.
+
+        See :func:`rigid_aligned`: the base placement no contact set sees.
+        """
         return rigid_aligned(predicted, true) - true
 
     # --- residuals ------------------------------------------------------------------------
@@ -494,8 +524,10 @@ class ContactModel(MeasurementModel):
         return tips, jac
 
     def distance_residual(self, x: np.ndarray | None, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """Each known distance's |P_A - P_B| - L [m], shape (n_distances,), and its
-        Jacobian (n_distances, n_params) (zeros without ``jacobian``)."""
+        """Each known distance's |P_A - P_B| - L [m], shape (n_distances,), and its Jacobian.
+
+        The Jacobian has shape (n_distances, n_params) (zeros without ``jacobian``).
+        """
         fx = self.geometry_at(x)
         r = np.empty(len(fx.distances))
         jac = np.zeros((len(fx.distances), self.n_params))
@@ -511,9 +543,11 @@ class ContactModel(MeasurementModel):
 
     def residual(self, x: np.ndarray | None, q: np.ndarray, rows: np.ndarray, jacobian: bool = False,
                  distances: bool = True) -> tuple[np.ndarray, np.ndarray]:
-        """The residual of data rows touching fixtures ``rows`` (then, with ``distances``,
-        the known distances' rows), flattened, [m], and its Jacobian (n_values, n_params)
-        (an empty one without ``jacobian``)."""
+        """The residual of data rows touching fixtures ``rows``, flattened, [m], and its Jacobian.
+
+        With ``distances``, the known distances' rows follow. The Jacobian has shape
+        (n_values, n_params) (an empty one without ``jacobian``).
+        """
         fx = self.geometry_at(x)
         n_points = len(fx.points)
         rows = np.asarray(rows, dtype=int)
@@ -559,8 +593,15 @@ class ContactModel(MeasurementModel):
     def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
                        correction: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
                        ) -> np.ndarray:
-        """Each data row's error [m] of a separate session touching this calibration's
-        fixtures (by label): its distance from its point, or from its plane.
+        """Each data row's error [m] of a separate session touching this calibration's fixtures.
+
+        Fixtures are matched by label; a row's error is its distance from its point, or
+        from its plane.
+
+        Args:
+            x: The unknowns, SI; None: nominal.
+            data: The session's contact set.
+            correction: A learnt correction of the values; must be None.
 
         Raises:
             CalibPinError: a learnt correction, or a fixture this calibration does not know.
@@ -588,16 +629,26 @@ class ContactModel(MeasurementModel):
     def touching_angles(self, x: np.ndarray | None, fixtures: np.ndarray, rng: np.random.Generator,
                         noise_m: float = DEFAULT_NOISE_MM * 1e-3, tries: int = 40,
                         margin: float = 0.0, starts: np.ndarray | None = None) -> np.ndarray:
-        """Joint angles (n_rows, n_joints) [rad] at which the model at x puts the tool point
-        on each row's fixture (index, as :func:`fixture_rows`'), missed by Gaussian noise of
-        ``noise_m`` per axis (a socket's play): inverse kinematics by Newton steps of
-        least norm from random starts, clipped to the joint limits less ``margin`` [rad] (a plane's
-        row: a random point of it within 0.1 m of the plane's point nearest the base origin).
-        Each row's start is its own, so rows of one fixture touch it in distinct
-        configurations (the tool's orientation about the point, elbow and wrist variants:
-        a touch fixes 3 of the 6 joints' freedoms, a plane's 1). ``starts`` (n_rows,
-        n_joints) [rad]: the first start of each row instead of a random one (planned
-        configurations of the nominal robot, touched by the true arm near them).
+        """Joint angles (n_rows, n_joints) [rad] at which the model at x puts the tool point on each fixture.
+
+        Each row's fixture is an index, as :func:`fixture_rows`'; the touch is missed by
+        Gaussian noise of ``noise_m`` per axis (a socket's play): inverse kinematics by
+        Newton steps of least norm from random starts, clipped to the joint limits less
+        ``margin`` [rad] (a plane's row: a random point of it within 0.1 m of the plane's
+        point nearest the base origin). Each row's start is its own, so rows of one fixture
+        touch it in distinct configurations (the tool's orientation about the point, elbow
+        and wrist variants: a touch fixes 3 of the 6 joints' freedoms, a plane's 1).
+
+        Args:
+            x: The unknowns, SI; None: nominal.
+            fixtures: Each row's fixture index, shape (n_rows,).
+            rng: The random generator of the starts and the noise.
+            noise_m: The touch's noise (1 sigma) per axis, [m].
+            tries: Random starts tried per row before giving up.
+            margin: Kept from the joint limits, [rad].
+            starts: The first start of each row instead of a random one, shape (n_rows,
+                n_joints) [rad] (planned configurations of the nominal robot, touched by the
+                true arm near them); None: random.
 
         Raises:
             CalibPinError: a fixture the arm cannot reach from ``tries`` starts.
@@ -647,16 +698,20 @@ class ContactModel(MeasurementModel):
 
     @classmethod
     def simulate_rows(cls, draw: Any, geometry: Fixtures | None) -> tuple[MeasurementSet, Fixtures]:
-        """A contact session (:meth:`MeasurementModel.simulate_rows`): ``draw.n_poses``
-        touches spread over the fixtures in turn (point A, B, ..., then the planes), each
-        made by the TRUE arm: inverse kinematics of the true robot (deviations and
-        compliances) from its own random start, so the true tool point touches, missed by
-        the socket's play (``draw.noise_mm`` per axis); the joint angles are recorded.
+        """A simulated contact session (:meth:`MeasurementModel.simulate_rows`).
+
+        ``draw.n_poses`` touches spread over the fixtures in turn (point A, B, ..., then the
+        planes), each made by the TRUE arm: inverse kinematics of the true robot (deviations
+        and compliances) from its own random start, so the true tool point touches, missed
+        by the socket's play (``draw.noise_mm`` per axis); the joint angles are recorded.
         Given poses (planned touches of the nominal arm, ``plan-poses --sensor contact``):
         each touches the fixture the nominal tool point is on there (within
-        :data:`TOUCH_TOLERANCE_M`), the true arm's configuration found from it.
-        ``geometry``: the fixture layout (:func:`default_fixtures` when None); the file
+        :data:`TOUCH_TOLERANCE_M`), the true arm's configuration found from it. The file
         states its known distances, and its tool point when ``tool_known``.
+
+        Args:
+            draw: The simulation's seeded draws (:class:`~calib_pin.sensors.base.Draw`).
+            geometry: The fixture layout; None: :func:`default_fixtures`.
 
         Raises:
             CalibPinError: a given pose touching no fixture, a gross-error noise kind, too
@@ -698,9 +753,11 @@ class ContactModel(MeasurementModel):
     @classmethod
     def planning_model(cls, chain: Chain, params: ParameterModel, setup: SensorSetup | None,
                        geometry: Fixtures | None = None) -> ContactModel:
-        """The model configurations are planned for: the fixture layout ``geometry``
-        (:func:`default_fixtures` when None), its tool point estimated unless the set-up
-        gives it (``--tool-mm``)."""
+        """The model configurations are planned for, on the fixture layout ``geometry``.
+
+        ``geometry`` None: :func:`default_fixtures`. Its tool point is estimated unless the
+        set-up gives it (``--tool-mm``).
+        """
         fx = default_fixtures() if geometry is None else geometry
         tool_mm = getattr(setup, "tool_mm", None)
         if tool_mm is not None:
@@ -708,19 +765,23 @@ class ContactModel(MeasurementModel):
         return cls(chain, params, fx)
 
     def plan_candidates(self, n: int, rng: np.random.Generator, margin: float) -> tuple[np.ndarray, np.ndarray]:
-        """Candidate touches to plan from: about ``n`` configurations of the nominal robot
-        at which the tool point touches a fixture, each fixture in turn and each from its
-        own random start (several distinct configurations per fixture), within the joint
-        limits less ``margin`` [rad], in random order. Returns the joint angles (n, n_joints)
-        [rad] and each one's fixture (index, as :func:`fixture_rows`')."""
+        """Candidate touches to plan from: about ``n`` nominal configurations touching a fixture.
+
+        The tool point of the nominal robot touches each fixture in turn, each from its own
+        random start (several distinct configurations per fixture), within the joint limits
+        less ``margin`` [rad], in random order. Returns the joint angles (n, n_joints) [rad]
+        and each one's fixture (index, as :func:`fixture_rows`').
+        """
         n_fixtures = len(self.fixtures.points) + len(self.fixtures.normals)
         rows = rng.permutation(np.arange(max(n, n_fixtures)) % n_fixtures)
         return self.touching_angles(None, rows, rng, 0.0, margin=margin), rows
 
     def planning_rows(self, q: np.ndarray, fixtures: np.ndarray) -> np.ndarray:
-        """Scaled identification rows of each candidate touch at the nominal robot, shape
-        (n, 3, n_params): a point's 3 entries, a plane's 1 and two rows of zeros (no
-        information), so that touches of both kinds are chosen among together."""
+        """Scaled identification rows of each candidate touch at the nominal robot, shape (n, 3, n_params).
+
+        A point's 3 entries, a plane's 1 and two rows of zeros (no information), so that
+        touches of both kinds are chosen among together.
+        """
         fixtures = np.asarray(fixtures, dtype=int)
         jac = self.residual(np.zeros(self.n_params), q, fixtures, jacobian=True, distances=False)[1] * self.scale
         sizes = np.where(fixtures < len(self.fixtures.points), 3, 1)
@@ -731,14 +792,18 @@ class ContactModel(MeasurementModel):
         return out
 
     def planning_problem(self, q: np.ndarray, fixtures: np.ndarray) -> ContactProblem:
-        """The problem of touches at q of ``fixtures`` with the layout's known distances
-        (for what a plan identifies: the scale is seen only with a known distance)."""
+        """The problem of touches at q of ``fixtures`` with the layout's known distances.
+
+        For what a plan identifies: the scale is seen only with a known distance.
+        """
         return ContactProblem(self, np.asarray(q, dtype=float), np.zeros((len(q), 0)),
                               np.asarray(fixtures, dtype=int))
 
     def planned_set(self, q: np.ndarray, fixtures: np.ndarray) -> MeasurementSet:
-        """The touches to make, as a contact set (:func:`contact_set`): what ``plan-poses
-        --sensor contact`` writes."""
+        """The touches to make, as a contact set (:func:`contact_set`).
+
+        What ``plan-poses --sensor contact`` writes.
+        """
         return contact_set(self.chain, self.fixtures, q, fixtures)
 
 
@@ -766,9 +831,11 @@ def _touched(model: ContactModel, q: np.ndarray) -> np.ndarray:
 
 
 def _check_tool_fits(problem: ContactProblem, data: MeasurementSet, caller: bool) -> None:
-    """Refuse a known tool point (the caller's, ``caller``, or the file's) whose touches at
-    the nominal robot, with the fixtures fitted to them, miss those fixtures by metres (a
-    unit mistake, a point in another frame): the fit would only hit the sanity bound.
+    """Refuse a known tool point whose nominal touches miss their fitted fixtures by metres.
+
+    The tool point is the caller's (``caller``) or the file's; its touches at the nominal
+    robot, with the fixtures fitted to them, miss those fixtures by metres (a unit mistake,
+    a point in another frame): the fit would only hit the sanity bound.
 
     Raises:
         DataError: naming the file, ``tool_mm``, its value and the miss.
@@ -858,18 +925,23 @@ DEFAULT_PLANES_MM = {"F": ((1.0, 0.2, 1.0), 500.0)}
 
 
 def default_fixtures() -> Fixtures:
-    """The layout ``simulate --kinds contact`` and ``plan-poses --sensor contact`` use
-    unless given one (``--geometry FILE``): the sockets :data:`DEFAULT_SOCKETS_MM`, the
-    datum-cube face :data:`DEFAULT_PLANES_MM`, the distance A-B known, the tool point
-    :data:`DEFAULT_CONTACT_TOOL_MM` (to be estimated)."""
+    """The layout ``simulate --kinds contact`` and ``plan-poses --sensor contact`` use by default.
+
+    Used unless given one (``--geometry FILE``): the sockets :data:`DEFAULT_SOCKETS_MM`,
+    the datum-cube face :data:`DEFAULT_PLANES_MM`, the distance A-B known, the tool point
+    :data:`DEFAULT_CONTACT_TOOL_MM` (to be estimated).
+    """
     return layout(DEFAULT_SOCKETS_MM, DEFAULT_PLANES_MM, (("A", "B"),), DEFAULT_CONTACT_TOOL_MM, False)
 
 
 def layout(sockets_mm: Mapping[str, Any], planes_mm: Mapping[str, tuple[Any, float]],
            distances: tuple[tuple[str, str], ...], tool_mm: Any, tool_known: bool) -> Fixtures:
-    """A fixture layout: points (label -> (x, y, z) [mm], base frame), planes (label ->
-    (normal, offset [mm]): n . p = offset, n normalised here), the pairs of points whose
-    distance is known (it is their true distance), the tool point [mm] (end frame)."""
+    """A fixture layout of points, planes, known distances and a tool point.
+
+    Points: label -> (x, y, z) [mm], base frame; planes: label -> (normal, offset [mm]):
+    n . p = offset, n normalised here; the pairs of points whose distance is known (it is
+    their true distance); the tool point [mm] (end frame).
+    """
     points = {str(k): np.asarray(v, dtype=float) * 1e-3 for k, v in sockets_mm.items()}
     planes = {str(k): (np.asarray(n, dtype=float) / np.linalg.norm(n), float(d) * 1e-3)
               for k, (n, d) in planes_mm.items()}
@@ -884,9 +956,12 @@ def layout(sockets_mm: Mapping[str, Any], planes_mm: Mapping[str, tuple[Any, flo
 
 def contact_set(chain: Chain, fixtures: Fixtures, q: np.ndarray, rows: np.ndarray,
                 noise_m: float | None = None) -> MeasurementSet:
-    """A contact set of touches at q (n, n_joints) [rad] of fixtures ``rows`` (indices, as
-    :func:`fixture_rows`'): its ``contact_id`` / ``plane_id`` labels, the layout's known
-    distances (``# distance_mm``) and its tool point when known (``# tool_mm``)."""
+    """A contact set of touches at q (n, n_joints) [rad] of fixtures ``rows``.
+
+    ``rows`` are indices, as :func:`fixture_rows`'. The set holds its ``contact_id`` /
+    ``plane_id`` labels, the layout's known distances (``# distance_mm``) and its tool
+    point when known (``# tool_mm``).
+    """
     from ..measurements import MeasurementSet
 
     fx = fixtures

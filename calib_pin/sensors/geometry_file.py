@@ -26,8 +26,13 @@ from ..exceptions import DataError
 
 
 def read_geometry(path: str | Path, kinds: Sequence[str]) -> tuple[str, Any]:
-    """The sensor kind and true set-up of ``path``, for one of ``kinds`` (the sensors of
-    the command: its file's ``data_kind``, or the one kind given).
+    """The sensor kind and true set-up of ``path``, for one of ``kinds``.
+
+    The kind is its file's ``data_kind``, or the one kind given.
+
+    Args:
+        path: A JSON geometry file.
+        kinds: The sensors of the command.
 
     Raises:
         DataError: an unreadable file, no JSON object, a kind that is none of ``kinds``

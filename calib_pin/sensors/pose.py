@@ -60,8 +60,7 @@ POSE_EXTRAS = ("device", "body")
 
 
 def quaternion_matrices(quat: np.ndarray) -> np.ndarray:
-    """Rotation matrices (n, 3, 3) of Hamilton quaternions (n, 4) ``w, x, y, z``
-    (normalised first)."""
+    """Rotation matrices (n, 3, 3) of Hamilton quaternions (n, 4) ``w, x, y, z`` (normalised first)."""
     quat = np.asarray(quat, dtype=float).reshape(-1, 4)
     w, x, y, z = (quat / np.linalg.norm(quat, axis=1, keepdims=True)).T
     return np.stack([
@@ -133,8 +132,10 @@ def _positive_deg(text: str) -> float:
 
 @dataclass(frozen=True, eq=False)
 class PoseSetup(SensorSetup):
-    """A 6-D pose set-up's options. The device frame and the body start from their best
-    fit on the training rows and are always estimated.
+    """A 6-D pose set-up's options.
+
+    The device frame and the body start from their best fit on the training rows and are
+    always estimated.
 
     Attributes:
         noise_deg: Orientation noise, 1 sigma per axis, [deg] (None: the file's
@@ -157,9 +158,14 @@ class PoseSetup(SensorSetup):
 
 
 def noise_of(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[float, float]:
-    """The set's position noise [m] and orientation noise [rad] (1 sigma per axis): the
-    caller's (``noise_mm`` in the options, ``noise_deg``), else the file's (``# noise_mm``,
-    ``# noise_deg``), else the defaults.
+    """The set's position noise [m] and orientation noise [rad], 1 sigma per axis.
+
+    The caller's (``noise_mm`` in the options, ``noise_deg``), else the file's
+    (``# noise_mm``, ``# noise_deg``), else the defaults.
+
+    Args:
+        data: The pose set.
+        options: The caller's sensor options (``noise_mm`` [mm], ``noise_deg`` [deg]).
 
     Raises:
         DataError: a ``# noise_deg`` that is not a positive number, naming the file.
@@ -180,9 +186,11 @@ def noise_of(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[float, f
 
 
 def noise_origins(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[str, str]:
-    """Where :func:`noise_of`'s two noises come from: ``caller``, ``file`` or ``default``
-    (not stated: each such part's sigma is estimated from the residual when the set is
-    calibrated, :mod:`calib_pin.calibration.noise`)."""
+    """Where :func:`noise_of`'s two noises come from: ``caller``, ``file`` or ``default``.
+
+    ``default`` is not stated: each such part's sigma is estimated from the residual when
+    the set is calibrated (:mod:`calib_pin.calibration.noise`).
+    """
     position = "caller" if options.get("noise_mm") is not None else "file" if data.noise else "default"
     orientation = "caller" if options.get("noise_deg") is not None else "file" if "noise_deg" in data.notes \
         else "default"
@@ -191,9 +199,11 @@ def noise_origins(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[str
 
 @dataclass
 class PoseProblem(SetProblem):
-    """A calibration problem of 6-D pose rows: 6 residual entries a row (the position
-    error [m], the weighted orientation error, see the module docstring), from
-    ``readings`` of 7 numbers a row (position [m], quaternion)."""
+    """A calibration problem of 6-D pose rows: 6 residual entries a row.
+
+    The entries are the position error [m] and the weighted orientation error (see the
+    module docstring), from ``readings`` of 7 numbers a row (position [m], quaternion).
+    """
 
     @property
     def n_values(self) -> int:
@@ -204,9 +214,11 @@ class PoseProblem(SetProblem):
         return self.model.residual(x, self.q, self.readings).reshape(-1)
 
     def predict_with_jacobian(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The residual plus the measured values' own part (so that residual = values -
-        readings holds entrywise for the position; the orientation entries are the
-        errors themselves) and the Jacobian, shapes (6 n_rows,) and (6 n_rows, n_params)."""
+        """The residual plus the measured values' own part, and the Jacobian.
+
+        Shapes (6 n_rows,) and (6 n_rows, n_params); residual = values - readings holds
+        entrywise for the position; the orientation entries are the errors themselves.
+        """
         r, jac = self.model.residual_with_jacobian(x, self.q, self.readings)
         return r.reshape(-1), jac.reshape(self.n_values, -1)
 
@@ -228,8 +240,10 @@ class PoseProblem(SetProblem):
         return self.model.part_errors(x, self.q, self.readings)
 
     def part_summary(self, x: np.ndarray, splits: Mapping[str, np.ndarray]) -> str:
-        """One line for people: each split's RMS position error [mm] and orientation error
-        [deg], nominal -> at x (``splits``: name -> rows; empty ones left out)."""
+        """One line for people: each split's RMS position error [mm] and orientation error [deg].
+
+        Nominal -> at x; ``splits``: name -> rows, empty ones left out.
+        """
         cells = []
         for name, rows in splits.items():
             if len(rows):
@@ -291,8 +305,10 @@ class PoseModel(MeasurementModel):
     @classmethod
     def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
                     fit_rows: np.ndarray, options: Mapping[str, Any]) -> PoseProblem:
-        """The device frame and body start from their best fit with the nominal robot on
-        ``fit_rows`` only (:func:`fit_rig`)."""
+        """The device frame and body start from their best fit with the nominal robot on ``fit_rows`` only.
+
+        See :func:`fit_rig`.
+        """
         cls.refuse_foreign(options, data)
         if options.get("estimate"):
             raise CalibPinError(f"--estimate {','.join(options['estimate'])} is for drawstring data; with 6-D poses "
@@ -337,13 +353,18 @@ class PoseModel(MeasurementModel):
                 NoisePart("orientation", "deg", float(np.rad2deg(1.0)), self.noise_rad, self.noise_from[1]))
 
     def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> tuple[np.ndarray, ...]:
-        """The position errors [m] and the orientation errors' rotation vectors [rad], each flattened (3 n_rows,)."""
+        """The position errors [m] and the orientation errors' rotation vectors [rad].
+
+        Each flattened, shape (3 n_rows,).
+        """
         e = self.errors(x, q, readings)
         return e[:, :3].reshape(-1), e[:, 3:].reshape(-1)
 
     def with_part_noise(self, sigmas: tuple[float, ...], origin: str) -> PoseModel:
-        """A copy weighted by position noise ``sigmas[0]`` [m] and orientation noise
-        ``sigmas[1]`` [rad]; the parts whose noise was stated keep their origin."""
+        """A copy weighted by position noise ``sigmas[0]`` [m] and orientation noise ``sigmas[1]`` [rad].
+
+        The parts whose noise was stated keep their origin.
+        """
         noise_m, noise_rad = (float(s) for s in sigmas)
         if not (noise_m > 0 and noise_rad > 0):
             raise ArgumentError("noise", f"position and orientation noise must be positive, got {noise_m} m, "
@@ -379,15 +400,20 @@ class PoseModel(MeasurementModel):
 
     def predict_with_jacobian(self, x: np.ndarray, q: np.ndarray,
                               points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Predicted poses (n_rows, 7) and the derivative of the pose's position [m] and
-        of its weighted local rotation vector [m] (the residual's rows), shape (n_rows, 6,
-        n_params): the identification Jacobian a planner scores."""
+        """Predicted poses (n_rows, 7) and the derivative of the position and weighted rotation.
+
+        The derivative of the pose's position [m] and of its weighted local rotation vector
+        [m] (the residual's rows), shape (n_rows, 6, n_params): the identification Jacobian
+        a planner scores.
+        """
         predicted = self.predict(x, q)
         return predicted, self.residual_with_jacobian(x, q, predicted)[1]
 
     def errors(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> np.ndarray:
-        """Unweighted pose errors, shape (n_rows, 6): position [m], rotation vector
-        log3(R_meas^T R_pred) [rad]."""
+        """Unweighted pose errors, shape (n_rows, 6): position [m], rotation vector [rad].
+
+        The rotation vector is log3(R_meas^T R_pred).
+        """
         position, rot, _ = self._poses(x, q)
         readings = np.asarray(readings, dtype=float).reshape(len(q), 7)
         measured = quaternion_matrices(readings[:, 3:])
@@ -454,8 +480,14 @@ class PoseModel(MeasurementModel):
     def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
                        correction: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
                        ) -> np.ndarray:
-        """Each row's weighted pose error [m] (as the calibration's rows: position error
-        and orientation error times :attr:`weight`) predicting a separate session at x.
+        """Each row's weighted pose error [m] predicting a separate session at x.
+
+        As the calibration's rows: position error and orientation error times :attr:`weight`.
+
+        Args:
+            x: The unknowns, SI; None: nominal.
+            data: The session's poses.
+            correction: A learnt correction; must be None.
 
         Raises:
             CalibPinError: with a learnt correction (it corrects residuals, not poses).
@@ -465,11 +497,13 @@ class PoseModel(MeasurementModel):
         return np.linalg.norm(self.residual(x, data.q, data.values), axis=1)
 
     def session_frame_shift(self, x: np.ndarray | None, data: MeasurementSet) -> float | None:
-        """How far a separate session's own device frame is from the calibration's, [m]:
-        the RMS distance, over the session's rows, between where the calibration's frame
+        """How far a separate session's own device frame is from the calibration's, [m].
+
+        The RMS distance, over the session's rows, between where the calibration's frame
         and the session's best-fit frame (the rotation by SVD projection, then the
         translation, with the model at x and its body) put the body. None with fewer than
-        3 rows."""
+        3 rows.
+        """
         if len(data) < 3:
             return None
         rig = self.geometry_at(x)
@@ -487,11 +521,13 @@ class PoseModel(MeasurementModel):
 
     @classmethod
     def simulate_rows(cls, draw: Any, geometry: PoseRig | None) -> tuple[MeasurementSet, PoseRig]:
-        """A 6-D pose session (:meth:`MeasurementModel.simulate_rows`): one pose read at each
-        drawn configuration, the position with Gaussian noise ``draw.noise_mm`` per axis, the
-        orientation with ``draw.setup["noise_deg"]`` (else :data:`DEFAULT_NOISE_DEG`) per axis
-        (stated as ``# noise_deg``);
-        ``geometry`` None: :func:`default_rig`."""
+        """A simulated 6-D pose session (:meth:`MeasurementModel.simulate_rows`).
+
+        One pose read at each drawn configuration, the position with Gaussian noise
+        ``draw.noise_mm`` per axis, the orientation with ``draw.setup["noise_deg"]`` (else
+        :data:`DEFAULT_NOISE_DEG`) per axis (stated as ``# noise_deg``);
+        ``geometry`` None: :func:`default_rig`.
+        """
         from ..measurements import MeasurementSet
 
         rig = geometry if geometry is not None else default_rig()
@@ -517,9 +553,11 @@ class PoseModel(MeasurementModel):
         return data, rig
 
     def noisy_readings(self, x: np.ndarray | None, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Measured poses (n_rows, 7) at x: the true poses with Gaussian noise of
-        :attr:`noise_m` per coordinate and :attr:`noise_rad` per axis of a right rotation
-        vector (R_meas = R exp3(n)); position [m], quaternion (w >= 0)."""
+        """Measured poses (n_rows, 7) at x: position [m], quaternion (w >= 0).
+
+        The true poses with Gaussian noise of :attr:`noise_m` per coordinate and
+        :attr:`noise_rad` per axis of a right rotation vector (R_meas = R exp3(n)).
+        """
         position, rot, _ = self._poses(x, q)
         position = position + rng.normal(size=position.shape) * self.noise_m
         turns = rng.normal(size=(len(q), 3)) * self.noise_rad
@@ -528,15 +566,19 @@ class PoseModel(MeasurementModel):
 
 
 def default_rig() -> PoseRig:
-    """The simulator's device frame (2 m in front of the robot, turned 150 deg about z) and
-    body (80 mm out of the flange, off axis, tilted)."""
+    """The simulator's device frame and body.
+
+    The device frame is 2 m in front of the robot, turned 150 deg about z; the body 80 mm
+    out of the flange, off axis, tilted.
+    """
     return PoseRig(pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.01, np.deg2rad(150.0)), np.array([2.0, 0.3, -0.4])),
                    pin.SE3(pin.rpy.rpyToMatrix(0.3, -0.2, 0.5), np.array([0.02, -0.01, 0.08])))
 
 
 def fit_rig(chain: Chain, params: ParameterModel, q: np.ndarray, poses: np.ndarray, weight: float) -> PoseRig:
-    """Best-fit device frame T_DB and body T_EK for the nominal robot (a hand-eye fit,
-    T_DB T_BE(q) T_EK = T_DK).
+    """Best-fit device frame T_DB and body T_EK for the nominal robot.
+
+    A hand-eye fit, T_DB T_BE(q) T_EK = T_DK.
 
     The rotations first: alternate R_DB = proj(sum R_DK R_EK^T R_BE^T) and R_EK =
     proj(sum R_BE^T R_DB^T R_DK) (proj: the nearest rotation, by SVD) from four starts
@@ -582,7 +624,7 @@ def fit_rig(chain: Chain, params: ParameterModel, q: np.ndarray, poses: np.ndarr
         return model.residual_with_jacobian(np.concatenate([zero, e]), q, poses)[1][:, :, model.sensor_start:] \
             .reshape(6 * n, -1)
 
-    from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
+    from scipy.optimize import least_squares  # imported here: scipy.optimize is slow to import
 
     fit = least_squares(residual, np.zeros(12), jac=jacobian, method="lm")
     return model.geometry_at(np.concatenate([zero, fit.x]))

@@ -75,8 +75,13 @@ class PositionDevice:
     labels: tuple[PointLabel, ...]
 
     def index_of(self, labels: Any, source: str = "", field: str | None = "point_id") -> np.ndarray:
-        """Marker indices of labels (a file's ``point_id`` values, or a caller's: numbers
-        or text; ``2`` and ``"2"`` name the same marker), shape (n,).
+        """Marker indices of labels, shape (n,).
+
+        Args:
+            labels: A file's ``point_id`` values, or a caller's: numbers or text; ``2`` and
+                ``"2"`` name the same marker.
+            source: The file, for messages.
+            field: The column named in messages.
 
         Raises:
             DataError: a label that is not one of :attr:`labels` (the markers are named).
@@ -118,9 +123,11 @@ class PositionDevice:
 
 @dataclass(frozen=True, eq=False)
 class PositionSetup(SensorSetup):
-    """A position device's set-up options: none to give today. The device frame and the
-    marker points start from their best fit on the training rows and are always
-    estimated, so ``estimate`` must stay empty (it is refused, naming the data).
+    """A position device's set-up options: none to give.
+
+    The device frame and the marker points start from their best fit on the training
+    rows and are always estimated, so ``estimate`` must stay empty (it is refused, naming
+    the data).
     """
 
     title: ClassVar[str] = "position device"
@@ -161,8 +168,10 @@ class PositionModel(MeasurementModel):
     @classmethod
     def problem_for(cls, chain: Chain, params: ParameterModel, data: MeasurementSet,
                     fit_rows: np.ndarray, options: Mapping[str, Any]) -> SetProblem:
-        """The device frame and markers start from their best fit with the nominal robot
-        on ``fit_rows`` only; every marker must appear there."""
+        """The device frame and markers start from their best fit with the nominal robot on ``fit_rows`` only.
+
+        Every marker must appear there.
+        """
         cls.refuse_foreign(options, data)
         if options.get("estimate"):
             raise CalibPinError(
@@ -181,9 +190,12 @@ class PositionModel(MeasurementModel):
 
     @classmethod
     def simulate_rows(cls, draw: Any, geometry: PositionDevice | None) -> tuple[MeasurementSet, PositionDevice]:
-        """A position session (:meth:`MeasurementModel.simulate_rows`): every marker measured
-        at each pose (rows pose-major, markers labelled 1..k), each coordinate with Gaussian
-        noise ``draw.noise_mm``; ``geometry`` None: the default device frame and markers."""
+        """A simulated position session (:meth:`MeasurementModel.simulate_rows`).
+
+        Every marker measured at each pose (rows pose-major, markers labelled 1..k), each
+        coordinate with Gaussian noise ``draw.noise_mm``; ``geometry`` None: the default
+        device frame and markers.
+        """
         from ..measurements import MeasurementSet
 
         device = geometry if geometry is not None else PositionDevice(
@@ -208,18 +220,22 @@ class PositionModel(MeasurementModel):
 
     @classmethod
     def session_geometry(cls, first: PositionDevice, rng: np.random.Generator) -> PositionDevice:
-        """A later session's device: moved from session 1's, turned about the vertical
-        within :data:`SESSION_DEVICE_TURN_DEG` and shifted within
-        :data:`SESSION_DEVICE_SHIFT_MM`; the same markers (the one tool's)."""
+        """A later session's device, moved from session 1's; the same markers (the one tool's).
+
+        Turned about the vertical within :data:`SESSION_DEVICE_TURN_DEG` and shifted within
+        :data:`SESSION_DEVICE_SHIFT_MM`.
+        """
         move = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, np.deg2rad(rng.uniform(-1, 1) * SESSION_DEVICE_TURN_DEG)),
                        rng.uniform(-1, 1, 3) * np.asarray(SESSION_DEVICE_SHIFT_MM) * 1e-3)
         return PositionDevice(move * first.frame, first.markers, first.labels)
 
     @classmethod
     def planning_model(cls, chain: Chain, params: ParameterModel, setup: Any) -> PositionModel:
-        """A device with the simulator's markers (:data:`DEFAULT_MARKERS_MM`,
-        labelled 1..3) and frame, its frame and markers estimated (a rigid move of the device
-        changes no design: the information is the same in any frame)."""
+        """A device with the simulator's markers and frame, its frame and markers estimated.
+
+        The markers are :data:`DEFAULT_MARKERS_MM`, labelled 1..3; a rigid move of the
+        device changes no design: the information is the same in any frame.
+        """
         if setup is not None and setup.given():
             raise CalibPinError(f"a position device takes no set-up options to plan for (got {', '.join(setup.given())})")
         device = PositionDevice(default_device_frame(), np.array(DEFAULT_MARKERS_MM) * 1e-3,
@@ -230,10 +246,19 @@ class PositionModel(MeasurementModel):
     def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
                              calibrated: MeasurementModel, x: np.ndarray,
                              options: Mapping[str, Any]) -> SetProblem:
-        """A moved device: its frame estimated. The markers ride on the tool, not on the
-        device: when the calibration knows every marker of the session they are its own (as
-        calibrated) and stay fixed, and the frame starts from their rigid (Kabsch) fit on
-        ``rows``; else (new markers) frame and markers are estimated, as :meth:`problem_for` does.
+        """The problem of a moved device: its frame estimated.
+
+        The markers ride on the tool, not on the device: when the calibration knows every
+        marker of the session they are its own (as calibrated) and stay fixed, and the frame
+        starts from their rigid (Kabsch) fit on ``rows``; else (new markers) frame and
+        markers are estimated, as :meth:`problem_for` does.
+
+        Args:
+            chain, params: The robot chain and its parameter model.
+            session: The validation session's measurements.
+            rows: Its registration rows (0-based).
+            calibrated, x: The calibration's model and estimate (SI).
+            options: The caller's sensor options.
 
         Raises:
             DataError: fewer values on ``rows`` than the unknowns to fit.
@@ -260,8 +285,13 @@ class PositionModel(MeasurementModel):
         return SetProblem(model, session.q, session.values, points)
 
     def point_index(self, labels: Any, n_rows: int, source: str = "") -> np.ndarray:
-        """Marker indices of ``n_rows`` rows labelled ``labels`` (the file's ``point_id``
-        values, numbers or text; None: every row measures the one marker).
+        """Marker indices of ``n_rows`` rows labelled ``labels``.
+
+        Args:
+            labels: The file's ``point_id`` values, numbers or text; None: every row
+                measures the one marker.
+            n_rows: The number of rows.
+            source: The file, for messages.
 
         Raises:
             CalibPinError: no labels with several markers.
@@ -277,11 +307,16 @@ class PositionModel(MeasurementModel):
     def session_errors(self, x: np.ndarray | None, data: MeasurementSet,
                        correction: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
                        ) -> np.ndarray:
-        """Position errors [m] of a separate session, with an optional learnt
-        ``correction(q, points)`` of the positions. A marker this calibration never saw
-        is located from its first row (that row's configuration and measured position
-        give the point in the end frame through the model at x and its device frame); its
-        other rows are scored, that first row is not.
+        """Position errors [m] of a separate session, with an optional learnt correction.
+
+        A marker this calibration never saw is located from its first row (that row's
+        configuration and measured position give the point in the end frame through the
+        model at x and its device frame); its other rows are scored, that first row is not.
+
+        Args:
+            x: The unknowns, SI; None: nominal.
+            data: The session's positions.
+            correction: A learnt ``correction(q, points)`` of the positions, or None.
 
         Raises:
             CalibPinError: a new marker with a correction (it knows the calibration's markers only).
@@ -311,10 +346,12 @@ class PositionModel(MeasurementModel):
         return np.concatenate(errors) if errors else np.zeros(0)
 
     def session_frame_shift(self, x: np.ndarray | None, data: MeasurementSet) -> float | None:
-        """How far a separate session's own device frame is from the calibration's, [m]:
-        the RMS distance, over the session's rows of known markers, between where the
+        """How far a separate session's own device frame is from the calibration's, [m].
+
+        The RMS distance, over the session's rows of known markers, between where the
         calibration's frame and the session's best-fit (Kabsch) frame put the model's
-        points. None with fewer than 3 such rows (nothing to fit a frame to)."""
+        points. None with fewer than 3 such rows (nothing to fit a frame to).
+        """
         assert data.point_ids is not None
         device = self.geometry_at(x)
         known = set(device.labels)
@@ -334,8 +371,10 @@ class PositionModel(MeasurementModel):
         return float(np.sqrt(np.mean(np.sum((theirs - ours) ** 2, axis=1))))
 
     def locate(self, x: np.ndarray | None, q: np.ndarray, position: np.ndarray) -> np.ndarray:
-        """The end-frame point [m] that the model at x puts at device-frame ``position``
-        [m] at joint angles q (one row)."""
+        """The end-frame point [m] the model at x puts at device-frame ``position`` [m] at q.
+
+        q: the joint angles of one row.
+        """
         device = self.geometry_at(x)
         base = device.frame.actInv(np.asarray(position, dtype=float))
         q = self.joint_angles(x, np.atleast_2d(q))
@@ -383,8 +422,11 @@ class PositionModel(MeasurementModel):
 
     def predict_stacked(self, xs: list[np.ndarray] | np.ndarray, q: np.ndarray,
                         points: np.ndarray | None = None) -> np.ndarray:
-        """:meth:`predict_many` as one array, shape (k, n_rows, 3), [m] (what a batched
-        residual subtracts the readings from); xs a list of k points or an array (k, n_params)."""
+        """:meth:`predict_many` as one array, shape (k, n_rows, 3), [m].
+
+        What a batched residual subtracts the readings from; xs a list of k points or an
+        array (k, n_params).
+        """
         markers = _index(points, len(q))
         if not len(xs):
             return np.empty((0, len(q), 3))
@@ -400,10 +442,12 @@ class PositionModel(MeasurementModel):
 
     def _geometries_many(self, xs: list[np.ndarray] | np.ndarray,
                          markers: np.ndarray) -> tuple[np.ndarray, np.ndarray, Any]:
-        """:meth:`geometry_at` at each of xs (a list, or an array (k, n_params)), as the
-        device frames' transposed rotations (k, 3, 3) and translations (k, 3) [m] and each
-        point's rows' markers (k, n_rows, 3) stacked (or a list of (n_rows, 3)): the same
-        exp6 and sums, without a :class:`PositionDevice` per point."""
+        """:meth:`geometry_at` at each of xs (a list, or an array (k, n_params)), as arrays.
+
+        The device frames' transposed rotations (k, 3, 3) and translations (k, 3) [m] and
+        each point's rows' markers (k, n_rows, 3) stacked (or a list of (n_rows, 3)): the
+        same exp6 and sums, without a :class:`PositionDevice` per point.
+        """
         k = len(xs)
         if not self.estimate or not isinstance(xs, np.ndarray) and any(x is None for x in xs):
             devices = [self.geometry_at(x) for x in xs]
@@ -436,8 +480,10 @@ class PositionModel(MeasurementModel):
 
     def sensor_jacobian(self, x: np.ndarray, device: PositionDevice, points: np.ndarray, end_rot: np.ndarray,
                         markers: np.ndarray) -> np.ndarray:
-        """The derivative of the device-frame positions with respect to the sensor's part
-        of x (device twist, then markers), shape (n_rows, 3, n_params - sensor_start).
+        """Derivative of the device-frame positions by the sensor's part of x.
+
+        The sensor's part is the device twist, then the markers; shape
+        (n_rows, 3, n_params - sensor_start).
 
         Args:
             device: :meth:`geometry_at` x.
@@ -470,8 +516,13 @@ _EYE3.setflags(write=False)
 
 
 def marker_labels(point_ids: np.ndarray, source: str = "") -> tuple[tuple[PointLabel, ...], np.ndarray]:
-    """The distinct marker labels of rows labelled ``point_ids`` (sorted) and each row's
-    index into them, shape (n_rows,).
+    """The distinct marker labels of rows labelled ``point_ids`` (sorted) and each row's index into them.
+
+    The indices have shape (n_rows,).
+
+    Args:
+        point_ids: Each row's ``point_id`` value (whole numbers or text).
+        source: The file, for messages.
 
     Raises:
         DataError: a value that is no label, or whole numbers mixed with text labels.
@@ -527,7 +578,7 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
     model = PositionModel(chain, params, PositionDevice(pin.SE3.Identity(), np.zeros((n_markers, 3)), labels))
     end_rot, origin = model.end_frames(None, q)
     points = np.zeros((n_markers, 3))
-    for _ in range(30):  # converges linearly, to 1e-16 m in about ten rounds
+    for _ in range(30):  # converges linearly, to 1e-16 m in about ten iterations
         base = origin + np.einsum("nij,nj->ni", end_rot, points[markers])
         frame = _kabsch(base, positions)
         in_base = (positions - frame.translation) @ frame.rotation
@@ -547,7 +598,7 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
         base = origin + np.einsum("nij,nj->ni", end_rot, device.markers[markers])
         return model.sensor_jacobian(x, device, base, end_rot, markers).reshape(3 * len(q), -1)
 
-    from scipy.optimize import least_squares  # here: scipy.optimize costs 0.3 s to import
+    from scipy.optimize import least_squares  # imported here: scipy.optimize is slow to import
 
     fit = least_squares(residual, np.zeros(model.n_params - model.n_robot), jac=jacobian, method="lm")
     return model.geometry_at(np.concatenate([zero, fit.x]))

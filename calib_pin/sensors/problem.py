@@ -48,8 +48,10 @@ class SetProblem(RowProblem):
 
     @property
     def nonnegative(self) -> tuple[int, ...]:
-        """Unknowns that must be >= 0 (the compliances), kept so by every estimator
-        (:func:`calib_pin.estimators.run_estimator`)."""
+        """Unknowns that must be >= 0 (the compliances).
+
+        Every estimator keeps them so (:func:`calib_pin.estimators.run_estimator`).
+        """
         return self.model.nonnegative
 
     @property
@@ -87,11 +89,13 @@ class SetProblem(RowProblem):
         return self.predict_with_jacobian(x)[1]
 
     def residuals(self, xs: np.ndarray | list[np.ndarray]) -> np.ndarray:
-        """:meth:`residual` at k points xs (k, n_params), shape (k, n_values), [m]: one
-        batched forward-kinematics pass over (points x rows), the same numbers to the bit.
+        """:meth:`residual` at k points xs (k, n_params), shape (k, n_values), [m].
+
+        One batched forward-kinematics pass over (points x rows), the same numbers to the bit.
         A problem whose class has its own :meth:`residual` (a 6-D pose's whitened rotation
         vector, a contact set's touches and distances) is evaluated point by point with it:
-        the plain batch (predicted minus measured) would be another residual."""
+        the plain batch (predicted minus measured) would be another residual.
+        """
         if type(self).residual is not SetProblem.residual:
             return np.array([self.residual(x) for x in xs])
         stacked = getattr(self.model, "predict_stacked", None)  # a model that stacks them itself: no copy
@@ -103,8 +107,10 @@ class SetProblem(RowProblem):
         return predicted.reshape(len(predicted), self.n_values)
 
     def costs(self, xs: list[np.ndarray]) -> list[float]:
-        """:meth:`cost` at several points from batched :meth:`residuals` (at most
-        :data:`BATCH_ROWS` point-rows a pass, to bound the memory), [m^2] each."""
+        """:meth:`cost` at several points from batched :meth:`residuals`, [m^2] each.
+
+        At most :data:`BATCH_ROWS` point-rows a pass, to bound the memory.
+        """
         step = max(1, BATCH_ROWS // max(1, len(self.readings)))
         if 0 < len(xs) <= step:  # one pass (a search's few candidates)
             return [float(r @ r) / len(r) for r in self.residuals(xs)]
@@ -121,7 +127,9 @@ class SetProblem(RowProblem):
         return values.reshape(-1) - self.readings[rows].reshape(-1), jac.reshape(values.size, -1)
 
     def row_errors(self, residual: np.ndarray) -> np.ndarray:
-        """Size of each row's error, shape (n_rows,), [m]: |reading error| for one value
-        per row, the Euclidean error for a position."""
+        """Size of each row's error, shape (n_rows,), [m].
+
+        |reading error| for one value per row, the Euclidean error for a position.
+        """
         return np.linalg.norm(np.asarray(residual).reshape(self.n_rows, -1), axis=1)
 

@@ -25,9 +25,11 @@ def sensor_for(kind: str) -> Any:
 
 
 def register(model: Any) -> Any:
-    """Add a sensor to :data:`SENSORS` under its ``kind``, and its schema to
-    :data:`~calib_pin.measurements.schema.SCHEMAS` (a plug-in's one line; usable as a
-    class decorator). Returns the model."""
+    """Add a sensor to :data:`SENSORS` under its ``kind``, and its schema to the schemas.
+
+    The schema goes to :data:`~calib_pin.measurements.schema.SCHEMAS`. A plug-in's one
+    line; usable as a class decorator. Returns the model.
+    """
     register_schema(model.schema)
     SENSORS[model.kind] = model
     return model
@@ -44,8 +46,10 @@ def setup_fields() -> tuple[str, ...]:
 
 
 def check_estimate(estimate: Any) -> tuple[str, ...]:
-    """The sensor unknowns named in ``estimate`` (a comma-separated str or a sequence of
-    names; blanks dropped).
+    """The sensor unknowns named in ``estimate``; blanks dropped.
+
+    Args:
+        estimate: A comma-separated str or a sequence of names.
 
     Raises:
         ArgumentError: not names, or a name no sensor can estimate.

@@ -69,8 +69,11 @@ def estimate_names(text: str) -> tuple[str, ...]:
 
 def option(default: Any = None, *, help: str, unit: str = "", parser: Callable[[str], Any] | None = None,
            metavar: str | None = None) -> Any:
-    """A set-up field with what its ``--flag`` needs: ``help`` (for people), ``unit``
-    (shown after the help), ``parser`` (argparse ``type``; None: text)."""
+    """A set-up field with what its ``--flag`` needs.
+
+    ``help`` (for people), ``unit`` (shown after the help), ``parser`` (argparse ``type``;
+    None: text).
+    """
     return dataclasses.field(default=default,
                              metadata={"help": help, "unit": unit, "parser": parser, "metavar": metavar})
 
@@ -82,8 +85,10 @@ def flag_of(name: str) -> str:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class SensorSetup:
-    """Base of every sensor's set-up record: the options a caller gives a sensor, each
-    None (or empty) when not given (the measurement file's, or the sensor's default)."""
+    """Base of every sensor's set-up record: the options a caller gives a sensor.
+
+    Each is None (or empty) when not given: the measurement file's, or the sensor's default.
+    """
 
     #: What the record's argument group is called in ``--help``.
     title: ClassVar[str] = "sensor"
@@ -167,9 +172,14 @@ def add_setup_arguments(p: argparse.ArgumentParser, setups: Iterable[type[Sensor
 
 
 def setup_record(setup: Any = None, **loose: Any) -> SensorSetup | None:
-    """The caller's sensor set-up as one record: ``setup`` (a record), with the loose
-    keyword options (``anchor_mm=...``, the shorthand) laid over it; without ``setup``,
-    the first registered record that has every loose option given; None when nothing is given.
+    """The caller's sensor set-up as one record; None when nothing is given.
+
+    ``setup`` (a record), with the loose keyword options laid over it; without ``setup``,
+    the first registered record that has every loose option given.
+
+    Args:
+        setup: A sensor's set-up record (:class:`~calib_pin.sensors.CableSetup`, ...), or None.
+        loose: Loose set-up options, the shorthand (``anchor_mm=...`` [mm]).
 
     Raises:
         ArgumentError: ``setup`` is no set-up record, or a loose option it (or any) has no field for.

@@ -21,9 +21,11 @@ def simulate_contacts(chain: Chain, params: ParameterModel, per_fixture: int, se
                       distances: tuple[tuple[str, str], ...] = (("A", "B"),),
                       tool_mm: Any = DEFAULT_CONTACT_TOOL_MM, tool_known: bool = False,
                       true_x: np.ndarray | None = None) -> tuple[MeasurementSet, Any]:
-    """Simulate a contact session of one true robot: ``per_fixture`` configurations
-    touching each socket (``sockets_mm``: label -> (x, y, z) [mm], base frame) and each
-    plane (``planes``: label -> (normal, offset [mm])), the true tool point missing each by
+    """Simulate a contact session of one true robot touching each socket and plane.
+
+    ``per_fixture`` configurations touch each socket (``sockets_mm``: label -> (x, y, z)
+    [mm], base frame) and each plane (``planes``: label -> (normal, offset [mm])), the
+    true tool point missing each by
     Gaussian noise ``noise_mm`` per axis; the file states the true distance of each pair in
     ``distances`` (``# distance_mm``) and, with ``tool_known``, the tool point.
 

@@ -18,9 +18,10 @@ from .simulator import Truth
 def simulate_poses(chain: Chain, params: ParameterModel, n_poses: int, seed: int, noise_mm: float = 0.05,
                    noise_deg: float = 0.01, nominal_rmse_mm: float = 2.0, rig: PoseRig | None = None,
                    true_x: np.ndarray | None = None) -> tuple[MeasurementSet, Any]:
-    """Simulate a 6-D pose session of one true robot: ``n_poses`` random poses within the
-    joint limits, each read with Gaussian noise (``noise_mm`` per coordinate, ``noise_deg``
-    per axis of the orientation).
+    """Simulate a 6-D pose session of one true robot at ``n_poses`` random poses.
+
+    The poses are random within the joint limits, each read with Gaussian noise
+    (``noise_mm`` per coordinate, ``noise_deg`` per axis of the orientation).
 
     True deviations (unless ``true_x``, robot deviations in SI) are drawn normal with the
     parameter model's typical sizes, scaled so the nominal model's position error has RMSE

@@ -56,6 +56,12 @@ def reading_noise(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Reading noise of ``n`` poses, [m], and the rows given a gross error.
 
+    Args:
+        kind: The noise kind (below).
+        n: Number of poses.
+        noise_mm: Standard deviation of the noise, [mm].
+        rng: The random generator.
+
     Kinds:
         ``gauss``: normal, standard deviation ``noise_mm``.
         ``student``: Student-t with 3 degrees of freedom (heavy tails), scaled to the
@@ -139,8 +145,10 @@ class Truth:
                                    session_kinds=(), session_noise=())
 
     def model(self, chain: Chain, params: ParameterModel) -> MeasurementModel:
-        """The true sensor's measurement model (nothing of the sensor estimated; the true
-        arm's compliant joints, if any): evaluate it at :attr:`x_model`."""
+        """The true sensor's measurement model: evaluate it at :attr:`x_model`.
+
+        Nothing of the sensor is estimated; the true arm's compliant joints, if any.
+        """
         return sensor_for(self.kind)(chain, params, self.sensor, estimate=(),  # type: ignore[call-arg]
                                      compliance=self.compliance)
 
@@ -174,6 +182,10 @@ class Truth:
     def from_json(cls, path: str | Path, params: ParameterModel) -> Truth:
         """Read a truth file written by :meth:`to_json` for the parameter model ``params``.
 
+        Args:
+            path: The truth file (JSON).
+            params: The parameter model its deviations belong to.
+
         Raises:
             DataError: unreadable file, or deviations that do not match ``params``.
         """
@@ -203,10 +215,11 @@ class Truth:
 
 @dataclass
 class SimulationDraw:
-    """What every simulated set shares, handed to its sensor's
-    :meth:`~calib_pin.sensors.base.MeasurementModel.simulate_rows`: the robot, the seeded
-    random draws (poses, true deviations, noise, in the order the sensor asks for them) and
-    the true compliances.
+    """What every simulated set shares, handed to its sensor's ``simulate_rows``.
+
+    Its :meth:`~calib_pin.sensors.base.MeasurementModel.simulate_rows` gets the robot, the
+    seeded random draws (poses, true deviations, noise, in the order the sensor asks for
+    them) and the true compliances.
 
     Attributes:
         chain, params: The robot and how its deviations are parametrised.
@@ -242,9 +255,13 @@ class SimulationDraw:
         self.rng = np.random.default_rng(self.seed)
 
     def poses(self, keep: Callable[[np.ndarray], np.ndarray] | None = None, why: str = "") -> np.ndarray:
-        """The set's joint angles, shape (n_poses, n_joints), [rad]: the caller's, or random
-        within the limits (:func:`calib_pin.robot.poses.random_poses`), only those with
-        ``keep(q)`` True when given (``why``: what they must do, for the refusal).
+        """The set's joint angles, shape (n_poses, n_joints), [rad]: the caller's, or random.
+
+        Random ones are within the limits (:func:`calib_pin.robot.poses.random_poses`).
+
+        Args:
+            keep: A mask of the usable poses, ``keep(q)``; only those kept when given.
+            why: What the kept poses must do, for the refusal.
 
         Raises:
             CalibPinError: too few random poses kept.
@@ -265,9 +282,11 @@ class SimulationDraw:
         return poses[: self.n_poses]
 
     def deviations(self, gap: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
-        """The true deviations, shape (n_params,), SI: ``given_x``, or drawn normal with the
-        model's typical sizes and scaled so the nominal model's row errors ``gap(x)`` [m]
-        have RMSE ``nominal_rmse_mm`` (0: all zero)."""
+        """The true deviations, shape (n_params,), SI: ``given_x``, or drawn.
+
+        Drawn normal with the model's typical sizes and scaled so the nominal model's row
+        errors ``gap(x)`` [m] have RMSE ``nominal_rmse_mm`` (0: all zero).
+        """
         self.x = _true_deviations(self.params, self.rng, self.nominal_rmse_mm, gap) \
             if self.given_x is None else self.given_x
         return self.x
@@ -279,9 +298,12 @@ class SimulationDraw:
         return np.concatenate([self.x, self.true_compliance])
 
     def noise(self, shape: int | tuple[int, ...]) -> np.ndarray:
-        """Noise of the values [m]: ``shape`` an int (one value a row): of ``noise_kind``
-        (:func:`reading_noise`, its gross-error rows kept in :attr:`outliers`); a tuple (rows
-        of several values): each value normal, 1 sigma ``noise_mm``.
+        """Noise of the values [m], of ``noise_kind`` or normal.
+
+        Args:
+            shape: An int (one value a row): of ``noise_kind`` (:func:`reading_noise`, its
+                gross-error rows kept in :attr:`outliers`); a tuple (rows of several values):
+                each value normal, 1 sigma ``noise_mm``.
 
         Raises:
             ArgumentError: a heavy-tailed or outlier kind for rows of several values.
@@ -297,8 +319,11 @@ class SimulationDraw:
 
 def _true_deviations(params: ParameterModel, rng: np.random.Generator, nominal_rmse_mm: float,
                      gap: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
-    """Deviations drawn normal with the model's typical sizes, scaled so that the
-    nominal model's errors ``gap(x)`` [m] have RMSE ``nominal_rmse_mm`` (0: all zero)."""
+    """Deviations drawn normal with the model's typical sizes, scaled to the asked nominal error.
+
+    Scaled so that the nominal model's errors ``gap(x)`` [m] have RMSE ``nominal_rmse_mm``
+    (0: all zero).
+    """
     x = rng.normal(size=len(params.names)) * params.scale
     if nominal_rmse_mm <= 0:
         return np.zeros_like(x)
@@ -323,8 +348,9 @@ def simulate_set(
     true_x: np.ndarray | None = None,
     setup: dict[str, Any] | None = None,
 ) -> tuple[MeasurementSet, Truth]:
-    """Simulate a session of any registered sensor: the common draws (:class:`SimulationDraw`)
-    and the sensor's own rows (its ``simulate_rows``).
+    """Simulate a session of any registered sensor.
+
+    The common draws (:class:`SimulationDraw`) and the sensor's own rows (its ``simulate_rows``).
 
     Args:
         sensor: The sensor's measurement model (``calib_pin.sensors.sensor_for(kind)``).
@@ -416,8 +442,10 @@ def _drawstring(anchor_mm: Any, tool_mm: Any, length_offset_mm: Any) -> Drawstri
 
 def _common_arguments(chain: Any, params: Any, n_poses: Any, seed: Any, noise_mm: Any, nominal_rmse_mm: Any,
                       poses_given: bool = False) -> tuple[int, int, float, float]:
-    """The arguments both simulators share, checked: seed, number of poses, noise and
-    nominal error [mm] (``n_poses`` is not used when poses are given)."""
+    """The arguments both simulators share, checked: seed, poses, noise and nominal error [mm].
+
+    ``n_poses`` is not used when poses are given.
+    """
     as_parameter_model(params, "params", as_chain(chain, "chain"))
     n = 1 if poses_given else as_int(n_poses, "n_poses", 1, 10**8)
     return (as_int(seed, "seed", 0), n, as_float(noise_mm, "noise_mm", 0.0, 1e3, unit="mm"),
@@ -425,8 +453,9 @@ def _common_arguments(chain: Any, params: Any, n_poses: Any, seed: Any, noise_mm
 
 
 def _true_compliance(chain: Chain, compliance: Any, values: Any) -> tuple[ComplianceSpec | None, np.ndarray]:
-    """The true arm's compliance spec and the true compliances [rad/Nm] of its joints
-    (None and empty for a rigid arm).
+    """The true arm's compliance spec and the true compliances [rad/Nm] of its joints.
+
+    None and empty for a rigid arm.
 
     Raises:
         CalibPinError: a bad compliance record, values without joints, a count that does
@@ -470,13 +499,21 @@ def simulate_positions(
     *,
     _true_x: np.ndarray | None = None,
 ) -> tuple[MeasurementSet, Truth]:
-    """Simulate a position session: every marker measured at each pose by a device
-    (:func:`simulate_set` of the position device).
+    """Simulate a position session: every marker measured at each pose by a device.
 
-    True deviations are drawn like :func:`simulate`'s, scaled so the nominal model's
-    position error (Euclidean, over all rows) has RMSE ``nominal_rmse_mm``. Each
-    coordinate gets Gaussian noise ``noise_mm`` (1 sigma). ``device`` is T_DB (default:
-    the device 2 m in front of the robot, turned 150 deg about z).
+    :func:`simulate_set` of the position device. True deviations are drawn like
+    :func:`simulate`'s, scaled so the nominal model's position error (Euclidean, over all
+    rows) has RMSE ``nominal_rmse_mm``. Each coordinate gets Gaussian noise ``noise_mm``
+    (1 sigma).
+
+    Args:
+        chain, params, n_poses, seed, nominal_rmse_mm, compliance, true_compliance: As
+            :func:`simulate` (``nominal_rmse_mm``: the position error's, [mm]).
+        noise_mm: Noise of each coordinate, 1 sigma, [mm].
+        markers_mm: The marker points in the end frame, shape (k, 3), [mm].
+        device: T_DB, the base in the device frame (default: the device 2 m in front of
+            the robot, turned 150 deg about z).
+        _true_x: Internal: the true deviations of a robot already drawn, used instead of drawing them.
 
     Returns:
         The set (rows: pose-major, markers labelled 1..k) and the truth (deviations and
@@ -493,8 +530,10 @@ def simulate_positions(
 
 
 def _device(markers_mm: Any, device: Any) -> PositionDevice:
-    """A position device's true geometry from its frame T_DB (None: the default) and
-    marker points in mm (labelled 1..k), checked."""
+    """A position device's true geometry from its frame T_DB and marker points, checked.
+
+    T_DB None: the default; the marker points are in [mm], labelled 1..k.
+    """
     markers = as_array(markers_mm, "markers_mm", (None, 3), unit="mm") * 1e-3
     if not len(markers):
         raise ArgumentError("markers_mm", "give at least one marker point (x, y, z in mm)")
@@ -622,9 +661,11 @@ def simulate_sessions(
 
 def _given_geometries(kinds: list[str], geometries: Any, anchors_mm: Any, tool_mm: Any, length_offset_mm: Any,
                       markers_mm: Any, devices: Any) -> list[Any]:
-    """Each session's true set-up the caller gave (None: the sensor's default or drawn):
+    """Each session's true set-up the caller gave (None: the sensor's default or drawn).
+
     ``geometries``, else the drawstring sessions' from ``anchors_mm`` and the position
-    sessions' from ``devices`` (each one per session of that kind, in turn)."""
+    sessions' from ``devices`` (each one per session of that kind, in turn).
+    """
     sessions = len(kinds)
     if geometries is not None:
         if not isinstance(geometries, list | tuple) or len(geometries) != sessions:

@@ -20,7 +20,7 @@ Nothing finished is lost: each set's outcome is kept in ``<out>/.calib-pin-check
 as soon as it is done (:mod:`calib_pin.studies.checkpoint`), so after Ctrl-C, a killed worker or
 a lost scheduler the same command runs only the sets not yet done. The outputs are
 written at the end, all together (:class:`calib_pin.util.outputs.Outputs`), and no file
-of an earlier run is left beside a set that now fails.
+of an earlier run is left beside a set that fails in this one.
 """
 
 from __future__ import annotations
@@ -80,8 +80,10 @@ class BatchTask:
 
     @property
     def name(self) -> str:
-        """The calibration's name: the data file's stem (``session_03``); with several
-        sets, their stems joined by ``+`` (``a+b+c``)."""
+        """The calibration's name: the data file's stem (``session_03``).
+
+        With several sets, their stems joined by ``+`` (``a+b+c``).
+        """
         return "+".join(Path(f).name.removesuffix(".csv") for f in self.files)
 
 
@@ -164,9 +166,11 @@ def _robot(task: BatchTask) -> str:
 
 
 def write_outcome(outcome: TaskOutcome, out: Path) -> None:
-    """Write a set's outputs under ``out/<set>/`` (report.json even when its URDF was
-    refused), together, and remove what an earlier run left there (all of a set that now
-    fails without a report)."""
+    """Write a set's outputs under ``out/<set>/`` together, and remove what an earlier run left there.
+
+    report.json is written even when its URDF is refused; of a set that fails in this run
+    without a report, all an earlier run left is removed.
+    """
     files = Outputs(Path(out))
     stale = _earlier_files(Path(out), outcome)
     _add_outcome(files, outcome)
@@ -186,8 +190,11 @@ def _add_outcome(files: Outputs, outcome: TaskOutcome) -> None:
 
 
 def _earlier_files(out: Path, outcome: TaskOutcome) -> list[Path]:
-    """The files an earlier batch run wrote for the set: its report.json, the files that
-    report names, and what a calibration of its robot (or this run's) writes."""
+    """The files an earlier batch run wrote for the set.
+
+    Its report.json, the files that report names, and what a calibration of its robot (or
+    this run's) writes.
+    """
     from ..report.bundle import stale_files
 
     folder = out / outcome.name
@@ -210,8 +217,7 @@ def _earlier_files(out: Path, outcome: TaskOutcome) -> list[Path]:
 
 
 def _remove_stale(stale: Sequence[Path], written: Sequence[Path], inputs: Any = None) -> None:
-    """Remove the earlier run's files this run did not write (never an input), and a set
-    folder left empty."""
+    """Remove the earlier run's files this run did not write (never an input), and a set folder left empty."""
     from ..report.bundle import remove_stale
 
     for path in remove_stale(stale, written, inputs):
@@ -233,10 +239,12 @@ def write_summary(outcomes: Sequence[TaskOutcome], path: Path) -> Path:
 
 
 def task_key(task: BatchTask) -> str:
-    """The fingerprint of what a task's outcome depends on: the data file's bytes (every
-    set's, in order), the robot (and its URDF's bytes), the method, the seed and the
-    options (see :func:`calib_pin.studies.checkpoint.fingerprint`)."""
-    if isinstance(task.data, str):  # one set: the key of earlier runs
+    """The fingerprint of what a task's outcome depends on.
+
+    The data file's bytes (every set's, in order), the robot (and its URDF's bytes), the
+    method, the seed and the options (see :func:`calib_pin.studies.checkpoint.fingerprint`).
+    """
+    if isinstance(task.data, str):  # one set: the "batch-set" key, under which existing checkpoints are kept
         data = Path(task.data)
         return fingerprint("batch-set", task.robot, file_digest(task.robot), str(data.resolve()), file_digest(data),
                            task.method, task.seed, task.options)
@@ -269,7 +277,7 @@ def run_batch(
     a run of the same tasks into the same folder reuses the kept ones (a task whose data
     file, robot, method, seed or options changed runs again). After the outputs are
     written the checkpoint is removed. The outputs are written all together or none;
-    no earlier run's report or URDF is left beside a set that now fails.
+    no earlier run's report or URDF is left beside a set that fails in this run.
 
     Args:
         tasks: One task per measurement set (set names, the file stems, must differ).

@@ -108,8 +108,10 @@ def _training_problem(poses: int, seed: int) -> Any:
 
 def scaling(methods: tuple[str, ...] = SCALING_METHODS, sizes: tuple[int, ...] = SCALING_SIZES,
             seed: int = 0) -> list[tuple[int, str, float, float]]:
-    """(poses, method, time [s], peak Python memory [MiB]) of one fit each; the time from
-    a plain fit, the memory from a second fit under tracemalloc."""
+    """(poses, method, time [s], peak Python memory [MiB]) of one fit each.
+
+    The time from a plain fit, the memory from a second fit under tracemalloc.
+    """
     rows = []
     for poses in sizes:
         calibration, _ = _session(poses, seed)
@@ -138,12 +140,15 @@ def format_scaling(rows: list[tuple[int, str, float, float]]) -> str:
 
 
 def floor(poses: int = 120, seed: int = 0, repeats: int = 50) -> dict[str, float]:
-    """Medians [ms] over the training poses: one residual, one Jacobian, the Pinocchio
+    """Medians [ms] over the training poses of a residual, a Jacobian and Pinocchio's own calls.
+
+    One residual, one Jacobian, the Pinocchio
     floor (FK; FK + computeFrameKinematicRegressor, in a Python loop, the results
     dropped: what any Pinocchio program of the same Jacobian calls, FIGAROH's
     ``calculate_kinematics_model`` among them), and the Jacobian's own Pinocchio pass
     (the floor's calls on the working model, each regressor and end frame copied into
-    the batch arrays: :meth:`~calib_pin.robot.kinematics.Kinematics.regressors`)."""
+    the batch arrays: :meth:`~calib_pin.robot.kinematics.Kinematics.regressors`).
+    """
     import time
 
     import pinocchio as pin
@@ -181,10 +186,12 @@ def floor(poses: int = 120, seed: int = 0, repeats: int = 50) -> dict[str, float
 
 
 def jacobian_profile(cost: dict[str, float]) -> str:
-    """Where one Jacobian's time goes, from :func:`floor`'s medians: Pinocchio's own calls
-    (the floor), copying their results into the batch arrays, and the rest (the chain rule:
-    the lever product per pose, the parameter model's derivative and transforms, the
-    sensor's projection)."""
+    """Where one Jacobian's time goes, from :func:`floor`'s medians.
+
+    Pinocchio's own calls (the floor), copying their results into the batch arrays, and the
+    rest (the chain rule: the lever product per pose, the parameter model's derivative and
+    transforms, the sensor's projection).
+    """
     total, calls, kept = cost["jacobian"], cost["floor FK+regressor"], cost["jacobian's Pinocchio pass"]
     return (f"Jacobian's time: Pinocchio's FK + regressor calls {calls / total:.0%} (the floor), copying their "
             f"results out {max(kept - calls, 0.0) / total:.0%}, the chain rule and the sensor's projection "

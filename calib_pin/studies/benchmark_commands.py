@@ -1,5 +1,6 @@
-"""The user's commands timed as whole processes (``benchmark.py --commands``), and the quick
-start's phases (``benchmark.py --quick-start``).
+"""The user's commands timed as whole processes, and the quick start's phases.
+
+``benchmark.py --commands`` times the commands, ``benchmark.py --quick-start`` the phases.
 
 What a user feels is a whole process: interpreter start, imports, reading the files, the
 fit, the report and its figures, writing. :func:`time_commands` runs each command as a
@@ -46,8 +47,10 @@ ROOT = Path(__file__).resolve().parents[2]
 
 @dataclass(frozen=True)
 class Run:
-    """One command at one size: median wall time [s] and the largest peak resident memory [MiB]
-    over its runs, and its exit code."""
+    """One command at one size: median wall time [s], largest peak resident memory [MiB], exit code.
+
+    The time and memory are over its runs.
+    """
 
     command: str
     rows: int
@@ -58,8 +61,10 @@ class Run:
 
 
 def script_argv(name: str) -> list[str]:
-    """How a user runs a command: the script wrapper, or ``-m calib_pin.cli`` when the
-    package is installed without the scripts folder."""
+    """How a user runs a command: the script wrapper, or ``-m calib_pin.cli``.
+
+    ``-m calib_pin.cli`` when the package is installed without the scripts folder.
+    """
     path = ROOT / "scripts" / f"{name}.py"
     if path.is_file():
         return [sys.executable, str(path)]
@@ -72,8 +77,10 @@ PROCESS_NOTE = ("each process with bytecode as a user's install has it (PYTHONDO
 
 
 def user_environment() -> dict[str, str]:
-    """This process's environment as a user's shell has it: without ``PYTHONDONTWRITEBYTECODE``
-    (a user's install has its bytecode; without it every process recompiles its modules)."""
+    """This process's environment as a user's shell has it: without ``PYTHONDONTWRITEBYTECODE``.
+
+    A user's install has its bytecode; without it every process recompiles its modules.
+    """
     return {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
 
 
@@ -83,8 +90,10 @@ def warm_up(argv: list[str], cwd: Path) -> None:
 
 
 def timed_process(argv: list[str], cwd: Path) -> tuple[float, float, int]:
-    """Wall time [s], peak resident memory [MiB] and exit code of one process (output
-    discarded), run in :func:`user_environment`."""
+    """Wall time [s], peak resident memory [MiB] and exit code of one process.
+
+    Its output is discarded; it runs in :func:`user_environment`.
+    """
     env = user_environment()
     start = time.perf_counter()
     proc = subprocess.Popen(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
@@ -95,9 +104,11 @@ def timed_process(argv: list[str], cwd: Path) -> tuple[float, float, int]:
 
 
 def _make_sets(folder: Path, rows: int, seed: int) -> None:
-    """The size's sets: ``set.csv`` (rows poses), ``b_1.csv`` .. ``b_8.csv`` (rows / 8 each)
-    and ``targets.csv`` (TARGETS poses away from the wrist and elbow singularities),
-    simulated beforehand (untimed)."""
+    """The size's sets, simulated beforehand (untimed).
+
+    ``set.csv`` (rows poses), ``b_1.csv`` .. ``b_8.csv`` (rows / 8 each) and
+    ``targets.csv`` (TARGETS poses away from the wrist and elbow singularities).
+    """
     import numpy as np
 
     from ..measurements.csv_writer import write_poses
@@ -167,8 +178,10 @@ def time_commands(commands: tuple[str, ...] = COMMANDS, sizes: tuple[int, ...] =
 
 
 def format_commands(runs: list[Run]) -> str:
-    """The command table: per command and size the wall time [s], the ratio to the size
-    before and the peak resident memory [MiB]."""
+    """The command table: per command and size the wall time [s], ratio and peak memory [MiB].
+
+    The ratio is to the size before.
+    """
     sizes = sorted({r.rows for r in runs})
     names = list(dict.fromkeys(r.command for r in runs))
     cell = {(r.command, r.rows): r for r in runs}
@@ -213,10 +226,13 @@ print(json.dumps({"import": t1 - t0, "load": t2 - t1, "fit": result.estimate.tim
 
 
 def quick_start_phases(repeats: int = 3) -> tuple[dict[str, float], float]:
-    """Median seconds of each phase of the quick start (``calibrate.py irb120``), each run in
-    a fresh process: import, load (the robot and the shipped set), fit (the estimate),
-    the rest of the calibration (split, metrics, uncertainty), report (report.json and the
-    URDF, in memory), figures (report.html); and the median wall time of the command itself."""
+    """Median seconds of each phase of the quick start (``calibrate.py irb120``), and of the whole.
+
+    Each run in a fresh process: import, load (the robot and the shipped set), fit (the
+    estimate), the rest of the calibration (split, metrics, uncertainty), report
+    (report.json and the URDF, in memory), figures (report.html); and the median wall time
+    of the command itself.
+    """
     import json
 
     phases: list[dict[str, float]] = []

@@ -1,4 +1,6 @@
-"""calib-pin against FIGAROH on the same simulated UR5 position data (``benchmark.py --against figaroh``).
+"""calib-pin against FIGAROH on the same simulated UR5 position data.
+
+Run by ``benchmark.py --against figaroh``.
 
 FIGAROH (https://github.com/thanhndv212/figaroh, ``pip install figaroh``) is not a
 dependency: :func:`against_figaroh` returns None when it is not installed. For each size
@@ -136,8 +138,10 @@ class _Figaroh:
         self.config = config
 
     def loaded(self, selection: str) -> Any:
-        """A calibrator with its config and data read (untimed), frames unknown as in FIGAROH's
-        examples, and ``selection`` its ``estimation.method`` (``structural``: FIGAROH's default)."""
+        """A calibrator with its config and data read (untimed), frames unknown as in FIGAROH's examples.
+
+        ``selection`` is its ``estimation.method`` (``structural``: FIGAROH's default).
+        """
         from figaroh.calibration.base_calibration import BaseCalibration
 
         calibrator = BaseCalibration(self.robot, str(self.config))
@@ -165,9 +169,11 @@ class _Figaroh:
 
 
 def _calib_pin(calibration: Calibration, method: str, seed: int) -> tuple[Any, Any, float]:
-    """(model, estimate, seconds) of calib-pin's fit (:func:`calib_pin.calibration.solve.fit`)
-    on every row of the session: the sensor's start fitted anew in every timed run (the one
-    ``prepare`` made and kept is not reused)."""
+    """(model, estimate, seconds) of calib-pin's fit on every row of the session.
+
+    The fit is :func:`calib_pin.calibration.solve.fit`; the sensor's start is fitted anew in
+    every timed run (the one ``prepare`` made and kept is not reused).
+    """
     rows = np.arange(len(calibration.data))
     record = method_record(method, "linear")
     start = time.perf_counter()
@@ -176,10 +182,12 @@ def _calib_pin(calibration: Calibration, method: str, seed: int) -> tuple[Any, A
 
 
 def ekf_qibas_stages(samples: int = SIZES[0], repeats: int = 5, seed: int = 0) -> tuple[dict[str, float], int]:
-    """Where the race's timed EKF-QIBAS run goes at ``samples``: the median seconds of its
-    problem (the device frame and marker fitted anew), of the registered ``ekf`` on it (the
-    filter EKF-QIBAS starts with) and of the rest of the ``ekf-qibas`` run (its QIBAS stage),
-    each timed as the race times it (collector off); and the QIBAS stage's iterations."""
+    """Where the race's timed EKF-QIBAS run goes at ``samples``, and its QIBAS stage's iterations.
+
+    The median seconds of its problem (the device frame and marker fitted anew), of the
+    registered ``ekf`` on it (the filter EKF-QIBAS starts with) and of the rest of the
+    ``ekf-qibas`` run (its QIBAS stage), each timed as the race times it (collector off).
+    """
     calibration, _, _ = ur5_session(samples, seed)
     rows = np.arange(len(calibration.data))
     times: dict[str, list[float]] = {"problem": [], "ekf": [], "qibas": []}
@@ -210,9 +218,11 @@ def format_stages(stages: dict[str, float], iterations: int, samples: int = SIZE
 
 @contextlib.contextmanager
 def _collected_then_off() -> Iterator[None]:
-    """Around one tool's timed run in the race, as :mod:`timeit` times: the garbage of the
-    runs before collected first (untimed), Python's cyclic collector off while it runs, so
-    neither tool is charged for a collection of the other's objects."""
+    """Around one tool's timed run in the race, as :mod:`timeit` times.
+
+    The garbage of the runs before is collected first (untimed), Python's cyclic collector
+    off while it runs, so neither tool is charged for a collection of the other's objects.
+    """
     gc.collect()
     enabled = gc.isenabled()
     gc.disable()
@@ -234,8 +244,10 @@ def ur5_session(samples: int, seed: int) -> tuple[Calibration, Any, np.ndarray]:
 
 def race(samples: int, methods: list[str], repeats: int, seed: int,
          selections: tuple[str, ...] = SELECTIONS) -> list[Race]:
-    """Both tools on one seeded session of ``samples`` poses, interleaved ``repeats`` times
-    (each calib-pin method, then FIGAROH with each parameter selection); medians."""
+    """Both tools on one seeded session of ``samples`` poses, interleaved ``repeats`` times; medians.
+
+    Each calib-pin method, then FIGAROH with each parameter selection.
+    """
     setup, truth, fresh = ur5_session(samples, seed)
     true_model = truth.model(setup.chain, setup.params)
     points = np.zeros(len(setup.data), dtype=int)
@@ -322,8 +334,10 @@ FLOOR_PROCESS = "import gc; gc.disable(); import numpy, pinocchio, scipy.optimiz
 
 def whole_processes(methods: list[str], repeats: int = 5, seed: int = 0,
                     sizes: tuple[int, ...] = SIZES) -> list[ProcessRace] | None:
-    """Both tools as whole processes on each size's seeded session (see the module
-    docstring), interleaved ``repeats`` times; None when FIGAROH is not installed."""
+    """Both tools as whole processes on each size's seeded session, interleaved ``repeats`` times.
+
+    See the module docstring; None when FIGAROH is not installed.
+    """
     import sys
 
     from ..measurements.csv_writer import write_measurements
@@ -364,8 +378,11 @@ def whole_processes(methods: list[str], repeats: int = 5, seed: int = 0,
 
 
 def format_processes(rows: list[ProcessRace]) -> str:
-    """The whole-process table: median wall s of each tool and their ratio; with the floor
-    (:data:`FLOOR_PROCESS`) measured, its median and calib-pin's time above it (its own)."""
+    """The whole-process table: median wall time [s] of each tool and their ratio.
+
+    With the floor (:data:`FLOOR_PROCESS`) measured, its median and calib-pin's time above
+    it (its own).
+    """
     floor = any(r.floor_s is not None for r in rows)
     extra = f"{'floor s':>9s}{'above s':>9s}" if floor else ""
     lines = [f"{'samples':>7s} {'calib-pin':10s}{'median s':>9s}{'FIGAROH s':>10s}{'ratio':>8s}{extra}"]
@@ -408,8 +425,10 @@ def format_races(rows: list[Race]) -> str:
 
 
 def format_goal(rows: list[Race]) -> str:
-    """One line: each method's ratio against FIGAROH's default selection at each size, and
-    whether all reach :data:`GOAL_RATIO`."""
+    """One line: each method's ratio against FIGAROH's default selection at each size.
+
+    And whether all reach :data:`GOAL_RATIO`.
+    """
     default = SELECTIONS[0]
     parts = []
     for method in dict.fromkeys(r.method for r in rows):

@@ -1,5 +1,6 @@
-"""calibrate as a whole process against the floor any tool built on numpy, Pinocchio and
-scipy.optimize pays (``benchmark.py --floor``).
+"""calibrate as a whole process against the floor of numpy, Pinocchio and scipy.optimize.
+
+The floor is what any tool built on those three libraries pays (``benchmark.py --floor``).
 
 What a user waits for is a whole process; what calib-pin adds is that process less one
 that only imports those three libraries (:data:`~calib_pin.studies.benchmark_figaroh.FLOOR_PROCESS`).
@@ -42,10 +43,13 @@ class FloorRun:
 
 def above_floor(methods: tuple[str, ...] = tuple(FLOOR_GOALS), repeats: int = 7, seed: int = 0,
                 samples: int = FLOOR_SAMPLES) -> list[FloorRun]:
-    """``calibrate ur5 --model placement --test-fraction 0 --no-html`` on ``samples`` simulated
+    """Each method's ``calibrate ur5`` process against the floor process, interleaved; medians.
+
+    ``calibrate ur5 --model placement --test-fraction 0 --no-html`` on ``samples`` simulated
     marker positions, each method as a whole process, interleaved ``repeats`` times with a
     process that only imports numpy, Pinocchio and scipy.optimize (the floor any such tool
-    pays, :data:`calib_pin.studies.benchmark_figaroh.FLOOR_PROCESS`); medians."""
+    pays, :data:`calib_pin.studies.benchmark_figaroh.FLOOR_PROCESS`).
+    """
     calibration, _, _ = ur5_session(samples, seed)
     with tempfile.TemporaryDirectory(prefix="calib-pin-floor-") as name:
         folder = Path(name)

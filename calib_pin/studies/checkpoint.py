@@ -56,8 +56,10 @@ def file_digest(path: str | os.PathLike[str] | None) -> str | None:
 
 
 def fingerprint(*parts: Any) -> str:
-    """A key of ``parts`` (JSON-able values: names, numbers, digests, option dicts) and the
-    calib-pin version: equal parts give equal keys, any difference another."""
+    """A key of ``parts`` and the calib-pin version: equal parts give equal keys, any difference another.
+
+    ``parts`` are JSON-able values: names, numbers, digests, option dicts.
+    """
     from ..util.version import package_version
 
     text = json.dumps([FORMAT, package_version(), *parts], sort_keys=True, default=repr)
@@ -93,6 +95,10 @@ class Checkpoint:
     def save(self, key: str, result: Any) -> None:
         """Keep ``result`` (JSON-able) under ``key``, atomically: the file is whole or absent.
 
+        Args:
+            key: The item's :func:`fingerprint`.
+            result: The item's result, a JSON-able value.
+
         Raises:
             OSError: it could not be written (a full disk); no file is then left.
         """
@@ -111,9 +117,11 @@ class Checkpoint:
         return f"{done} of {total} {self.noun}(s) kept in {self.out}; run the same command to resume"
 
     def unwritten(self, error: Exception, total: int) -> Exception:
-        """``error`` (the outputs could not be written, so none was) saying that all
-        ``total`` items are kept: ``...: cannot write: File too large; no output was
-        changed; 3 of 3 set(s) kept in OUT; run the same command to resume``."""
+        """``error`` (the outputs could not be written, so none was) saying that all ``total`` items are kept.
+
+        For example ``...: cannot write: File too large; no output was changed; 3 of 3
+        set(s) kept in OUT; run the same command to resume``.
+        """
         if not self.folder.is_dir():
             return error
         kept = self.kept(total, total)
@@ -137,8 +145,10 @@ class Checkpoint:
         scheduler: str | None = None,
         notify: Callable[[str], Any] | None = None,
     ) -> list[R]:
-        """``[fn(item) for item in items]``, in order: the kept results, and the others run
-        (:func:`~calib_pin.studies.parallel.parallel_completed`) and kept as each finishes.
+        """``[fn(item) for item in items]``, in order: the kept results, and the others run and kept.
+
+        The others run with :func:`~calib_pin.studies.parallel.parallel_completed` and are
+        kept as each finishes.
 
         Args:
             fn, items, jobs, scheduler: As :func:`calib_pin.studies.parallel.parallel_map`.

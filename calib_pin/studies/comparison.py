@@ -277,10 +277,12 @@ def _fixed(cells: list[str]) -> str:
 
 
 def truths_of(calibration: Calibration) -> list[Truth] | None:
-    """Each set's truth, when every set has one and they are of one true robot: a set's own
-    ``FILE.truth.json``, or session k of ``BASE.truth.json`` for ``BASE_k.csv`` (the files
-    ``simulate --sessions K`` writes); None otherwise, or for another parameter model than
-    the robot's default (the truth's)."""
+    """Each set's truth, when every set has one and they are of one true robot; else None.
+
+    A set's own ``FILE.truth.json``, or session k of ``BASE.truth.json`` for ``BASE_k.csv``
+    (the files ``simulate --sessions K`` writes); None otherwise, or for another parameter
+    model than the robot's default (the truth's).
+    """
     if calibration.params.name != parameter_model(calibration.chain).name:
         return None
     out: list[Truth] = []
@@ -312,10 +314,13 @@ def truths_of(calibration: Calibration) -> list[Truth] | None:
 
 def fresh_scorer(calibration: Calibration, truths: list[Truth] | None,
                  seed: int) -> Callable[[CalibrationResult, bool], float | None]:
-    """score(result, before) -> RMSE [mm] of what ``result`` predicts (at its start with
-    ``before``) at the same fresh poses for every set's sensor (each at its own points),
-    against each set's noise-free truth, the sets' values pooled; None without every
-    set's truth, or when the sets' errors are in different units."""
+    """score(result, before) -> RMSE [mm] of ``result``'s predictions at fresh poses against the truth.
+
+    What ``result`` predicts (at its start with ``before``) at the same fresh poses for
+    every set's sensor (each at its own points), against each set's noise-free truth, the
+    sets' values pooled; None without every set's truth, or when the sets' errors are in
+    different units.
+    """
     if truths is None:
         def unknown(result: CalibrationResult, before: bool = False) -> float | None:
             return None
@@ -348,9 +353,12 @@ def fresh_scorer(calibration: Calibration, truths: list[Truth] | None,
 
 def run_trial(calibration: Calibration, truths: list[Truth] | None, methods: list[str], seed: int,
            test_fraction: float, tick: Callable[[], Any] | None = None) -> Trial:
-    """One trial: every method fitted as :func:`calib_pin.solve` fits it on the split of
-    seed ``seed`` (every set by pose), scored on the held-out rows of every set (each row's
-    error in its own set's unit) and, with ``truths``, on fresh poses against them."""
+    """One trial: every method fitted on the split of seed ``seed`` and scored on the held-out rows.
+
+    Each method is fitted as :func:`calib_pin.solve` fits it (every set split by pose),
+    scored on the held-out rows of every set (each row's error in its own set's unit) and,
+    with ``truths``, on fresh poses against them.
+    """
     if not len(calibration.split(test_fraction, seed)[1]):
         raise CalibPinError(f"a comparison needs held-out rows: {len(calibration.data)} rows at test fraction "
                             f"{test_fraction:g} hold out none (use more poses or a larger test fraction)")
@@ -480,9 +488,11 @@ def compare(
 
 def _methods_for_data(calibration: Calibration, methods: list[str], default: bool,
                       notify: Callable[[str], Any] | None) -> list[str]:
-    """``methods`` less, when they are the default, those the data's sensors refuse (rows of
-    several sizes: ``unsupported_methods``), said through ``notify``; asked-for methods are
-    never dropped, but refused as :func:`calib_pin.solve` refuses them."""
+    """``methods`` less, when they are the default, those the data's sensors refuse.
+
+    Refused: rows of several sizes, ``unsupported_methods``; said through ``notify``.
+    Asked-for methods are never dropped, but refused as :func:`calib_pin.solve` refuses them.
+    """
     kinds = set(calibration.kinds)
     unsupported = {m for k in kinds for m in getattr(sensor_for(k), "unsupported_methods", ())}
     if len(calibration.sets) > 1:
@@ -504,8 +514,10 @@ def _trials(robot: str, calibration: Calibration | None, methods: list[str], tri
             test_fraction: float, simulate_noise: str | None, noise_mm: float, poses: int, options: dict[str, Any],
             where: tuple[int, str | None], tick: Callable[[], Any] | None,
             keep: tuple[str | Path | None, Callable[[str], Any] | None] = (None, None)) -> tuple[list[Trial], str]:
-    """The trials of :func:`compare` (in ``where`` = (jobs, scheduler), kept in
-    ``keep`` = (checkpoint folder, notify)) and what they ran on."""
+    """The trials of :func:`compare` and what they ran on.
+
+    Run in ``where`` = (jobs, scheduler), kept in ``keep`` = (checkpoint folder, notify).
+    """
     seeds = range(seed, seed + trials)
     settings: list[Any] = [robot, file_digest(robot), methods, test_fraction, _plain_options(options)]
     if "nominal" in options:  # the start's content, not only its name
@@ -550,8 +562,10 @@ def _plain_options(options: dict[str, Any]) -> dict[str, Any]:
 
 def _run_trials(one: Callable[[int], Trial], seeds: range, settings: list, where: tuple[int, str | None],
                 keep: tuple[str | Path | None, Callable[[str], Any] | None]) -> list[Trial]:
-    """``one(seed)`` for each seed; with a checkpoint folder, each trial kept as it finishes,
-    under the fingerprint of ``settings`` (what a trial depends on) and its seed."""
+    """``one(seed)`` for each seed; with a checkpoint folder, each trial kept as it finishes.
+
+    Kept under the fingerprint of ``settings`` (what a trial depends on) and its seed.
+    """
     folder, notify = keep
     if folder is None:
         return parallel_map(one, seeds, *where)

@@ -54,9 +54,11 @@ def residual_figure(comparison: Comparison, path: str | Path) -> Path:
 
 
 def convergence_figure(comparison: Comparison, path: str | Path) -> Path:
-    """Fig. 3: training RMSE [mm] against iterations and against evaluations for each
-    iterative method (trial 0), and wall time per method (median over trials, with the
-    range as error bar)."""
+    """Fig. 3: training RMSE [mm] against iterations and evaluations, and wall time per method.
+
+    The RMSE for each iterative method (trial 0); the wall time as the median over trials,
+    with the range as error bar.
+    """
     trial = comparison.trials[0]
     fig = Figure(figsize=(16, 5), layout="constrained")
     by_iter, by_eval, times = fig.subplots(1, 3)

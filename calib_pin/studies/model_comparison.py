@@ -1,5 +1,4 @@
-"""Models compared on held-out data: which model to trust, by the error it makes on poses
-it was not fitted on.
+"""Models compared on held-out data: which to trust, by its error on poses it was not fitted on.
 
 :func:`compare_models` fits each model (the geometry alone, the geometry plus the
 compliance of some joints, another parameter model) with one method on the same splits:
@@ -53,9 +52,12 @@ class ModelChoice:
 
 
 def parse_model(text: str, parameters: str | None = None) -> ModelChoice:
-    """A :class:`ModelChoice` from ``geometric``, ``dh|hayati|placement`` or
-    ``compliance:J+J[:cad|basis]``; ``parameters`` is the parameter model of ``geometric``
-    and ``compliance:...`` (None: the robot's default).
+    """A :class:`ModelChoice` from a model as written.
+
+    Args:
+        text: ``geometric``, ``dh|hayati|placement`` or ``compliance:J+J[:cad|basis]``.
+        parameters: The parameter model of ``geometric`` and ``compliance:...`` (None: the
+            robot's default).
 
     Raises:
         ArgumentError: ``models``: an unknown model, no joints, or an unknown deflection model.
@@ -108,9 +110,12 @@ class ModelComparison:
     data: str
 
     def rows(self) -> list[dict[str, Any]]:
-        """Per model: ``rmse_mm``, ``mean_mm``, ``max_mm`` as (mean, sd) over trials;
-        ``paired_mean_mm`` (mean difference of the held-out mean to the first model, its
-        standard error) and ``paired_percent`` (that mean difference in % of the first's)."""
+        """Per model: the held-out metrics as (mean, sd) over trials, and the paired difference.
+
+        ``rmse_mm``, ``mean_mm``, ``max_mm`` as (mean, sd) over trials; ``paired_mean_mm``
+        (mean difference of the held-out mean to the first model, its standard error) and
+        ``paired_percent`` (that mean difference in % of the first's).
+        """
         first = np.array([m.mean_mm for m in self.test[self.models[0]]])
         out = []
         for name in self.models:

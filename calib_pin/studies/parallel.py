@@ -225,8 +225,10 @@ def _dask_result(distributed: Any, future: Any, scheduler: str) -> Any:
 
 
 def _check_scheduler(scheduler: str) -> None:
-    """Refuse a malformed address, an address nothing listens on, and a server that is
-    not a Dask scheduler, each in bounded time (:data:`CONNECT_TIMEOUT_S`, :data:`ANSWER_TIMEOUT_S`)."""
+    """Refuse a malformed address, an address nothing listens on, and a server that is no Dask scheduler.
+
+    Each in bounded time (:data:`CONNECT_TIMEOUT_S`, :data:`ANSWER_TIMEOUT_S`).
+    """
     from distributed.comm import connect
     from distributed.comm.addressing import get_address_host_port, parse_address
 

@@ -1,6 +1,7 @@
-"""Checks of the public functions' arguments: each wrong argument is one
-:class:`~calib_pin.exceptions.ArgumentError` naming it, never a numpy, Pinocchio or plain
-Python error from deep inside.
+"""Checks of the public functions' arguments: each wrong argument is one error naming it.
+
+The error is an :class:`~calib_pin.exceptions.ArgumentError`, never a numpy, Pinocchio or
+plain Python error from deep inside.
 
 Every validator takes the value and the argument's name (as the caller wrote it, e.g.
 ``q`` or ``anchor_mm``) and returns the value in the form the function works with.
@@ -100,9 +101,11 @@ def as_choice(value: Any, arg: str, choices: Iterable[str]) -> str:
 
 
 def as_names(value: Any, arg: str) -> tuple[str, ...]:
-    """Names: a comma-separated str (``"anchor,offset"``) or a sequence of str; None or
-    blank gives ``()``. Blanks around names are dropped; a name given twice is refused
-    (``joint_2,joint_2`` made two compliances of one joint, a file compensate refused)."""
+    """Names: a comma-separated str (``"anchor,offset"``) or a sequence of str; None or blank gives ``()``.
+
+    Blanks around names are dropped; a name given twice is refused (``joint_2,joint_2``
+    would make two compliances of one joint, a file compensate refuses).
+    """
     if value is None:
         return ()
     if isinstance(value, str):
@@ -161,8 +164,10 @@ def as_xyz_mm(value: Any, arg: str) -> np.ndarray:
 
 def outside_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                    tolerance: float = LIMIT_TOLERANCE) -> tuple[int, ...] | None:
-    """Index of the first joint value of q (..., n_joints) outside [lower - tolerance,
-    upper + tolerance] (limits of shape (n_joints,), +-inf for none), or None."""
+    """Index of the first joint value of q (..., n_joints) outside the limits, or None.
+
+    Outside [lower - tolerance, upper + tolerance]; limits of shape (n_joints,), +-inf for none.
+    """
     outside = (q < lower - tolerance) | (q > upper + tolerance)
     if not outside.any():
         return None

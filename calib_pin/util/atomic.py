@@ -20,9 +20,15 @@ from pathlib import Path
 
 
 def write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically: a temporary file beside it (``.NAME.PID.part``),
-    fsync, then a rename over the name; a symbolic link is written through (its target is
-    replaced), and a device or pipe (``/dev/stdout``) is written to as it is.
+    """Write ``data`` to ``path`` atomically: a temporary file beside it, fsync, then a rename.
+
+    The temporary file is ``.NAME.PID.part``, renamed over the name; a symbolic link is
+    written through (its target is replaced), and a device or pipe (``/dev/stdout``) is
+    written to as it is.
+
+    Args:
+        path: The file to write.
+        data: Its bytes.
 
     Raises:
         OSError: it could not be written; the earlier file, if any, is unchanged and no
@@ -59,8 +65,15 @@ def write_text(path: str | os.PathLike[str], text: str, encoding: str = "utf-8")
 
 
 def write_all(fd: int, data: bytes, written: list[int] | None = None, name: str | None = None) -> None:
-    """Write every byte of ``data`` to the descriptor ``fd``: a short write is continued,
-    a write that makes no progress is a full disk; ``written[0]`` counts the bytes written.
+    """Write every byte of ``data`` to the descriptor ``fd``.
+
+    A short write is continued, a write that makes no progress is a full disk.
+
+    Args:
+        fd: An open file descriptor.
+        data: The bytes to write.
+        written: A one-item list; ``written[0]`` counts the bytes written.
+        name: The file's name, for the error.
 
     Raises:
         OSError: not every byte was written (``name`` in the error, if given).
@@ -76,8 +89,12 @@ def write_all(fd: int, data: bytes, written: list[int] | None = None, name: str 
 
 
 def fsync_path(path: str | os.PathLike[str], strict: bool = True) -> None:
-    """Flush a file, or a folder's entries (its renames), to the disk; with ``strict``
-    False a filesystem that cannot is left as it is.
+    """Flush a file, or a folder's entries (its renames), to the disk.
+
+    Args:
+        path: The file or folder.
+        strict: Raise when it cannot be flushed; False: a filesystem that cannot is left
+            as it is.
 
     Raises:
         OSError: with ``strict``, it could not be flushed.

@@ -1,5 +1,8 @@
-"""An input file must be a regular file: a device (``/dev/zero``), a pipe or a socket
-would be read for ever or block, and is no measurement set, profile or calibration."""
+"""An input file must be a regular file.
+
+A device (``/dev/zero``), a pipe or a socket would be read for ever or block, and is no
+measurement set, profile or calibration.
+"""
 
 from __future__ import annotations
 
@@ -14,6 +17,9 @@ def check_regular(path: str | os.PathLike[str]) -> None:
 
     A missing file or a folder is left to the caller (its own message names what it
     expected there).
+
+    Args:
+        path: The input file.
 
     Raises:
         DataError: ``path`` is a device, a pipe or a socket.

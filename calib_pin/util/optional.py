@@ -32,6 +32,9 @@ _backend_note: list[str] = []
 def require(module: str) -> ModuleType:
     """Import an optional dependency (matplotlib through :func:`import_matplotlib`).
 
+    Args:
+        module: The module's name (``matplotlib``, ``filterpy``, ...).
+
     Raises:
         CalibPinError: it is not installed (the message names the pip command), or it is
             installed but its import fails (the message gives the reason).

@@ -38,8 +38,11 @@ WRITTEN: list[Path] = []
 
 
 class OutputError(CalibPinError):
-    """An output file that must not be written: an input, a folder, or an existing file
-    without ``--force``; or one that could not be written (nothing was then changed)."""
+    """An output file that must not be written, or one that could not be written.
+
+    Must not: an input, a folder, or an existing file without ``--force``; could not:
+    nothing was then changed.
+    """
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -63,6 +66,10 @@ def input_role(path: str | os.PathLike[str], inputs: Inputs) -> str | None:
 
 def refuse_input(path: str | os.PathLike[str], inputs: Inputs) -> None:
     """Refuse an output ``path`` that is one of ``inputs`` (always, whatever ``--force``).
+
+    Args:
+        path: The output file.
+        inputs: The caller's input files by label.
 
     Raises:
         OutputError: naming the file and the input it is.
@@ -92,8 +99,12 @@ class Outputs:
         self._pending: list[tuple[Path, Callable[[Path], Any]]] = []
 
     def check(self, path: str | os.PathLike[str]) -> Path:
-        """Refuse ``path`` now (before the work that makes it): an input, a folder, or an
-        existing file without ``force``.
+        """Refuse ``path`` at once, before the work that makes it.
+
+        Refused: an input, a folder, or an existing file without ``force``.
+
+        Args:
+            path: The output file.
 
         Raises:
             OutputError: one line naming the file (and ``--force`` where it helps).
@@ -112,7 +123,7 @@ class Outputs:
         return path
 
     def add(self, path: str | os.PathLike[str], write: Callable[[Path], Any]) -> None:
-        """Write ``path`` later, through ``write(temporary_path)``; refused now as :meth:`check`."""
+        """Write ``path`` later, through ``write(temporary_path)``; refused at once as :meth:`check`."""
         self._pending.append((self.check(path), write))
 
     def commit(self) -> list[Path]:
@@ -180,8 +191,10 @@ class Outputs:
 
 
 def _special(path: Path) -> str | None:
-    """What ``path`` is when it exists but is neither a regular file nor a symbolic link
-    (a rename would replace ``/dev/null`` or a FIFO by a regular file), else None."""
+    """What ``path`` is when it exists but is neither a regular file nor a symbolic link, else None.
+
+    A rename would replace ``/dev/null`` or a FIFO by a regular file.
+    """
     try:
         mode = os.lstat(path).st_mode
     except (OSError, ValueError):
@@ -213,9 +226,11 @@ def _sibling(path: Path, kind: str) -> Path:
 
 
 def _keep(path: Path) -> Path | None:
-    """A second name for the file ``path`` replaces (a hard link; a copy where the
-    filesystem has none), to put it back if the commit fails; None if there is none (or
-    it is a folder, which the rename then refuses)."""
+    """A second name for the file ``path`` replaces, to put it back if the commit fails.
+
+    A hard link; a copy where the filesystem has none. None if there is none (or it is a
+    folder, which the rename then refuses).
+    """
     if not os.path.lexists(path) or (path.is_dir() and not path.is_symlink()):
         return None
     backup = _sibling(path, "old")
@@ -244,8 +259,11 @@ def _link_new(tmp: Path, path: Path) -> None:
 
 
 def _remove(path: Path) -> None:
-    """Remove ``path`` if it is there; a clean-up that fails (a read-only folder, where no
-    such file was made) never hides the error being reported."""
+    """Remove ``path`` if it is there.
+
+    A clean-up that fails (a read-only folder, where no such file was made) never hides
+    the error being reported.
+    """
     with contextlib.suppress(OSError):
         path.unlink()
 

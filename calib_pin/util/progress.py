@@ -75,8 +75,10 @@ def progress(
 
 
 def status(line: str, quiet: bool = False, stream: TextIO | None = None) -> None:
-    """One line on stderr (or ``stream``) saying what long work starts now (e.g. drawing
-    the report's figures), under the bars' rule: only on a terminal, never when quiet."""
+    """One line on stderr (or ``stream``) saying what long work starts (e.g. drawing the figures).
+
+    Under the bars' rule: only on a terminal, never when quiet.
+    """
     out = _terminal(quiet, stream)
     if out is not None:
         print(line, file=out, flush=True)

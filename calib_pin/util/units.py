@@ -1,5 +1,7 @@
-"""SI values for people: millimetres, degrees and microradians per newton-metre, with the
-unit in the name."""
+"""SI values for people: millimetres, degrees and microradians per newton-metre.
+
+The unit is in the name.
+"""
 
 from __future__ import annotations
 
@@ -17,8 +19,10 @@ def human_unit(unit: str) -> tuple[float, str]:
 
 
 def for_humans(x: Iterable[float], names: Iterable[str], units: Iterable[str]) -> dict[str, float]:
-    """Values keyed by name with their unit: ``a_2_mm`` for [m], ``theta_6_deg`` for [rad],
-    ``compliance_joint_2_urad_per_Nm`` for [rad/Nm]."""
+    """Values keyed by name with their unit.
+
+    ``a_2_mm`` for [m], ``theta_6_deg`` for [rad], ``compliance_joint_2_urad_per_Nm`` for [rad/Nm].
+    """
     out = {}
     for value, name, unit in zip(x, names, units, strict=True):
         factor, suffix = human_unit(unit)
@@ -28,6 +32,11 @@ def for_humans(x: Iterable[float], names: Iterable[str], units: Iterable[str]) -
 
 def from_humans(values: Mapping[str, float], names: Iterable[str], units: Iterable[str]) -> np.ndarray:
     """Inverse of :func:`for_humans`: SI values in ``names``' order.
+
+    Args:
+        values: Values keyed by name with their unit (``a_2_mm``).
+        names: The unknowns' names, in order.
+        units: Their SI units (``m``, ``rad``, ``rad/Nm``), in the same order.
 
     Raises:
         KeyError: a name missing from ``values``.

@@ -48,8 +48,14 @@ FORMATS = ("csv", *PROGRAMS)
 
 
 def program_paths(fmt: str, out: Path) -> list[Path]:
-    """The files format ``fmt`` writes for ``--out out``: ``out`` itself with its suffix
-    (added when missing), and the companions (KRL's ``.dat`` beside the ``.src``).
+    """The files format ``fmt`` writes for ``--out out``: ``out`` itself and its companions.
+
+    ``out`` with its suffix (added when missing), and the companions (KRL's ``.dat`` beside
+    the ``.src``).
+
+    Args:
+        fmt: The program format's name.
+        out: The ``--out`` path.
 
     Raises:
         CalibPinError: ``out`` has another format's suffix.

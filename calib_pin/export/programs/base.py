@@ -105,10 +105,12 @@ RESERVED = frozenset((
 
 
 def identifier(text: str, first: str = "p") -> str:
-    """``text`` as a controller identifier: ASCII letters, digits, ``_``; starts with a letter;
-    at most 24 characters (KRL's limit for names, KUKA System Software 8 "Names"; RAPID
+    """``text`` as a controller identifier: ASCII letters, digits, ``_``, starting with a letter.
+
+    At most 24 characters (KRL's limit for names, KUKA System Software 8 "Names"; RAPID
     allows 32, Technical reference manual - RAPID kernel "Identifiers"); never a reserved
-    word of RAPID, KRL or URScript (:data:`RESERVED`: ``module`` becomes ``p_module``)."""
+    word of RAPID, KRL or URScript (:data:`RESERVED`: ``module`` becomes ``p_module``).
+    """
     name = re.sub(r"[^A-Za-z0-9_]", "_", text)
     if not name or not name[0].isascii() or not name[0].isalpha():
         name = first + name
@@ -118,8 +120,11 @@ def identifier(text: str, first: str = "p") -> str:
 
 
 def point_name(prefix: str, pose: int) -> str:
-    """The name of pose ``pose``'s joint target: ``prefix`` and the pose number, a minus
-    sign written ``m`` (``jt_3``, ``XPm3``): ``jt_-3`` is no identifier in any language."""
+    """The name of pose ``pose``'s joint target: ``prefix`` and the pose number.
+
+    A minus sign is written ``m`` (``jt_3``, ``XPm3``): ``jt_-3`` is no identifier in any
+    language.
+    """
     pose = int(pose)
     return f"{prefix}{'m' if pose < 0 else ''}{abs(pose)}"
 
@@ -130,9 +135,11 @@ COMMENT_WIDTH = 78
 
 
 def comment_lines(lines: tuple[str, ...] | list[str], mark: str, indent: str = "") -> list[str]:
-    """``lines`` as comments: ``indent + mark + " "`` before each, wrapped to
-    :data:`COMMENT_WIDTH`, in ASCII (another character becomes ``?``: RAPID files are
-    ISO 8859-1, URScript "extended ASCII", KRL's editor ANSI)."""
+    """``lines`` as comments: ``indent + mark + " "`` before each, wrapped, in ASCII.
+
+    Wrapped to :data:`COMMENT_WIDTH`; another character becomes ``?`` (RAPID files are
+    ISO 8859-1, URScript "extended ASCII", KRL's editor ANSI).
+    """
     import textwrap
 
     out = []

@@ -1,4 +1,4 @@
-"""KUKA KRL: a ``.src``/``.dat`` pair, ``E6AXIS`` points in the ``.dat``, a PTP sequence in the ``.src``.
+"""KUKA KRL: a ``.src``/``.dat`` pair, ``E6AXIS`` points in the ``.dat``, PTP moves in the ``.src``.
 
 ``<name>.dat``: ``DEFDAT <name> PUBLIC`` with ``DECL E6AXIS XP<pose>={A1 ..,A6 ..,E1 0.0,...,E6 0.0}``
 in degrees; ``<name>.src``: ``DEF <name>( )``, the BAS initialisation, then ``PTP XP<pose>``
