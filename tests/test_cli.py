@@ -33,8 +33,9 @@ def test_calibrate_writes_urdf_and_report(tmp_path, capsys):
     ident = report["identifiability"]
     assert ident["rank"] == 20 and ident["unidentifiable"] == ["theta_6"]
     assert "d_2 +1 mm with d_3 -1 mm" in ident["combinations"]
-    assert abs(report["deviations"]["theta_6_deg"]) < 1e-9  # blind: left at zero in the export
-    assert "identifiable: 20 of 24 directions" in out
+    assert abs(report["deviations"]["theta_6_deg"]) < 1e-3  # blind: at zero along the direction no reading sees
+    assert "not determined (held at zero): theta_6" in out and "accuracy where the robot works" in out
+    assert report["uncertainty"]["parameters"]["theta_6_deg"]["status"] == "not determined"
 
 
 def test_simulate_then_calibrate(tmp_path, capsys):

@@ -76,7 +76,7 @@ def test_the_files_made_in_memory_are_the_files_written(exported, tmp_path):
     from calib_pin.report.bundle import render_outputs
 
     result, path = exported
-    assert calibrated_urdf(result.chain, result.deltas) == path.read_bytes()
+    assert calibrated_urdf(result.chain, result.deltas, notes=result.determination_notes()) == path.read_bytes()
     written = write_calibration(result, tmp_path / "c.json")
     assert calibration_text(result) == written.read_text(encoding="utf-8")
     rendered = render_outputs(result, html=False)

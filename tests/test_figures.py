@@ -73,10 +73,12 @@ def test_deviations_every_parameter_with_its_interval(monkeypatch, report):
     assert sorted(names) == sorted(row["name"] for row in rows)
     assert [ax.get_xlabel() for ax in fig.axes] == ["deviation [mm], bar = 95 % interval", "deviation [deg], bar = 95 % interval"]
     values = np.concatenate([c.lines[0].get_xdata() for ax in fig.axes for c in ax.containers]
-                            + [line.get_xdata() for ax in fig.axes for line in ax.lines if line.get_marker() == "s"])
+                            + [line.get_xdata() for ax in fig.axes for line in ax.lines if line.get_marker() in "sD"])
     estimated = [row["value"] for row in rows]
     assert np.allclose(np.sort(values), np.sort(estimated))
-    assert fig.texts[0].get_text().startswith("estimated deviations: blue identifiable")
+    bars = sum(len(c.lines[0].get_xdata()) for ax in fig.axes for c in ax.containers)
+    assert bars == sum(row["status"] == "identified" for row in rows)  # an interval only for what is determined
+    assert fig.texts[0].get_text().startswith("estimated deviations: blue determined by the data")
     _inside_and_apart(fig)
 
 
@@ -102,12 +104,12 @@ def test_workspace_and_sensor(monkeypatch, report):
     fig, _ = _drawn(monkeypatch, figures.workspace, report)
     top, side, bar, hist = fig.axes
     ws = report["workspace_uncertainty"]
-    assert len(top.collections[0].get_offsets()) == len(ws["sigma_mm"]) == len(side.collections[0].get_offsets())
-    assert np.allclose(np.sort(top.collections[0].get_array()), np.sort(ws["sigma_mm"]))
-    assert bar.get_ylabel() == "1-sigma position uncertainty [mm]"
-    assert sum(p.get_height() for p in hist.patches) == len(ws["sigma_mm"])
+    assert len(top.collections[0].get_offsets()) == len(ws["error_mm"]) == len(side.collections[0].get_offsets())
+    assert np.allclose(np.sort(top.collections[0].get_array()), np.sort(ws["error_mm"]))
+    assert bar.get_ylabel() == f"predicted error of the {ws['point']} [mm]"
+    assert sum(p.get_height() for p in hist.patches) == len(ws["error_mm"])
     titles = [top.get_title(), side.get_title(), hist.get_title()]
-    assert titles == ["top view", "side view", f"{len(ws['sigma_mm'])} random poses"]
+    assert titles == ["top view", "side view", f"{len(ws['error_mm'])} random poses"]
     _inside_and_apart(fig)
 
     if "device_frame" in report:

@@ -41,8 +41,9 @@ def test_summary_numbers_come_from_the_report(rendered):
     for text in (r["robot"], r["method"], r["model"], str(r["data"]), f"{fmt(r['time_s'])} s",
                  f"{r['iterations']} ({fmt(r['evaluations'])} evaluations"):
         assert text in page
-    f = r["uncertainty"]["flange_position_1sigma_mm"]
-    assert f"RMS {fmt(f['rms'])} mm, max {fmt(f['max'])} mm" in page
+    for p in r["accuracy"]["points"]:
+        assert f"predicted accuracy at {p['name']}" in page
+        assert f"RMS {fmt(p['rms_mm'])} mm, p95 {fmt(p['p95_mm'])} mm" in page
 
 
 def test_every_deviation_with_its_interval(rendered):
@@ -52,17 +53,19 @@ def test_every_deviation_with_its_interval(rendered):
     for row in rows:
         p = r["uncertainty"]["parameters"][row["key"]]
         assert f"<td>{fmt(p['value'])}</td>" in page
-        if row["status"] != "blind":
+        if row["status"] == "identified":  # an interval of its own only when the data determines it alone
             assert f"[{fmt(p['ci95'][0])}, {fmt(p['ci95'][1])}]" in page
-    for combination in r["identifiability"]["combinations"]:
-        assert f"<li>{combination}</li>" in page
+        else:
+            assert "ci95" not in p and row["low"] is None
+    for c in r["uncertainty"]["combinations"]:
+        assert f"<li>{c['combination']} = {fmt(c['value'])} {c['unit']}, 95 % [{fmt(c['ci95'][0])}, " in page
     for key in r["sensor_corrections"]:
         assert f"<td>{fmt(r['uncertainty']['parameters'][key]['value'])}</td>" in page
 
 
 def test_arrays_agree_with_the_report_metrics(rendered):
     """One source: the per-row errors give exactly the report's metrics and the workspace
-    sigmas exactly its flange RMS and max."""
+    errors exactly the first named point's predicted RMS."""
     _result, r, _, _ = rendered
     res = r["residuals"]
     split = np.asarray(res["split"])
@@ -72,13 +75,13 @@ def test_arrays_agree_with_the_report_metrics(rendered):
             m = Metrics.of(np.asarray(res[f"{stage}_mm"])[split == name] * 1e-3).as_dict()
             for key, value in m.items():
                 assert value == pytest.approx(r[name][stage][key], rel=1e-12)
-    sigma = np.asarray(r["workspace_uncertainty"]["sigma_mm"])
-    flange = r["uncertainty"]["flange_position_1sigma_mm"]
-    assert np.sqrt(np.mean(sigma**2)) == pytest.approx(flange["rms"], rel=1e-12)
-    assert sigma.max() == pytest.approx(flange["max"], rel=1e-12)
+    error = np.asarray(r["workspace_uncertainty"]["error_mm"])
+    first = r["accuracy"]["points"][0]
+    assert r["workspace_uncertainty"]["point"] == first["name"]
+    assert np.sqrt(np.mean(error**2)) == pytest.approx(first["rms_mm"], rel=1e-12)
     spec = r["identifiability_spectrum"]
     assert int(np.sum(np.asarray(spec["singular_values"]) > spec["cut"])) == r["identifiability"]["rank"]
-    assert len(r["workspace_uncertainty"]["points_mm"]) == flange["poses"]
+    assert len(r["workspace_uncertainty"]["points_mm"]) == r["accuracy"]["poses"]
 
 
 def test_self_contained_with_valid_pngs(rendered):

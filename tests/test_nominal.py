@@ -104,8 +104,8 @@ def test_start_from_a_calibration_file_and_bad_starts(tmp_path, capsys):
     assert again.start.kind == "calibration" and again.start.compliance is not None
     assert abs(again.metrics["test"]["after"].rmse_mm - first.metrics["test"]["after"].rmse_mm) < 1e-4
     assert abs(again.metrics["train"]["before"].rmse_mm - first.metrics["train"]["after"].rmse_mm) < 0.05
-    held = cp.calibrate("irb120", WU, method="lm", fix="theta_1", nominal=str(calibration_path(tmp_path, "irb120")))
-    i = held.problem.model.names.index("theta_1")
+    held = cp.calibrate("irb120", WU, method="lm", fix="a_2", nominal=str(calibration_path(tmp_path, "irb120")))
+    i = held.problem.model.names.index("a_2")
     assert held.x[i] == first.x[i] != 0.0  # --fix holds the start's value
     calibrate = command("calibrate")
     (tmp_path / "bad.yaml").write_text("kinematics:\n  shoulder: {x: 0, y: 0}\n")

@@ -10,6 +10,7 @@ import pytest
 
 import calib_pin as cp
 from calib_pin import FitSet
+from calib_pin.calibration.gauge import resolve_gauge
 from calib_pin.calibration.problem import Problem
 from calib_pin.cli.calibrate import calibrate_main
 from calib_pin.estimators.subspace import Subspace
@@ -55,13 +56,14 @@ def test_three_anchors_joint_fit_beats_each_session_and_recovers_the_anchors(cha
     assert "s2:anchor_x" in joint.problem.model.names
     names, std = joint.problem.model.names, joint.uncertainty.std
     # Drawstring data cannot see the arm (theta_1) and every anchor turned together about the
-    # base z axis: the estimators leave that blind direction at its start, and the reported
-    # uncertainty is that of the identifiable part. So the anchors are compared with the
-    # truth's identifiable part (the file's anchors are the true ones: their corrections are 0).
+    # base z axis, nor d_1 with every anchor raised: the calibration keeps the robot at its
+    # start along them and the anchors take the rest (calibration/gauge.py). So the anchors are
+    # compared with the truth moved to the same gauge (its anchors are the file's: corrections 0).
     training = joint.problem.subset(joint.train)
     space = Subspace.of(training.jacobian(joint.x), training.scale, joint.x)
     true_x = np.concatenate([truth.x, np.zeros(joint.problem.n_params - len(truth.x))])
-    seen = training.scale * (space.vt.T @ (space.vt @ (true_x / training.scale)))
+    seen, _ = resolve_gauge(training, true_x, np.zeros_like(true_x), np.arange(len(true_x)), cp.Prior(),
+                            joint.noise)
     # Blind: d_1 (up) and theta_1 (a turn about z) with every anchor; theta_6 and 3 pairs as with one set.
     assert space.rank == joint.problem.n_params - 6
     errors = []

@@ -1,30 +1,69 @@
-"""How well the data pins the estimate down: standard errors and flange uncertainty.
+"""How well the data pins each robot deviation down: intervals only for what it determines.
 
-At the estimate x, with the training Jacobian J, columns scaled by the typical sizes
-D (J D = U S V^T, the r identifiable directions kept as the estimators do) and the
-noise estimated from the residual (sigma^2 = RSS / (m - r)):
+The robot's free deviations split into what the training rows determine and what they do
+not (:mod:`calib_pin.analysis.determined`, in units of the prior). A deviation gets a
+standard error and a 95 % interval only when the data determines it alone (it carries
+less than :data:`IDENTIFIED` of its prior variance into the directions not determined).
+Deviations the data determines only together (``d_2`` and ``d_3`` of parallel joints) are
+shown once per **combination**, each combination with its value and interval: the split
+between them is the start's (the robot stays there along what the data does not see), not
+the data's. A deviation the data does not see at all is ``not determined`` (it keeps its
+start); one ``--fix`` holds is ``held``. Neither has an interval.
 
-    cov(x) = sigma^2 D V_r S_r^-2 V_r^T D.
-
-A parameter's standard error is the square root of its diagonal entry; the blind
-directions contribute nothing because they are not estimated (they stay at zero).
-The flange's predicted position uncertainty at a pose is sqrt(trace(P cov P^T)) with
-P the derivative of the end frame's origin with respect to x.
+The noise covariance of the robot's determined part is sigma^2 W V_d S_d^-2 V_d^T W; a
+sensor unknown's interval comes from the covariance of the whole problem in the estimators'
+identifiable subspace (:class:`~calib_pin.estimators.subspace.Subspace`), where the sensor
+takes whatever the robot does not explain.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..estimators.subspace import RCOND, Subspace
-from ..robot.poses import random_poses
 from ..util.units import human_unit
+from .determined import UNSEEN, Determined
 
 #: z of the two-sided 95 % normal interval.
 Z95 = 1.959964
+#: A deviation carrying less than this share of its prior variance into the directions not
+#: determined is determined alone (an interval of its own).
+IDENTIFIED = 0.01
+#: A term of a combination below this (in prior units, the leading term 1) is left out.
+TERM_TOL = 0.02
+
+#: A direction not determined belongs to a group of deviations when its part there has at least this norm.
+IN_GROUP = 0.1
+
+STATUS = ("identified", "combination", "not determined", "held")
+
+
+@dataclass(frozen=True)
+class Combination:
+    """A combination of deviations the data determines, though not each alone.
+
+    Attributes:
+        terms: (parameter index, coefficient in the unit of the leading term per the
+            parameter's unit, SI) of each term; the leading term's coefficient is 1.
+        text: For people: ``d_2 + 1.00 d_3`` (coefficients in mm/mm, mm/mrad, ...).
+        value: The combination's value at the estimate, in the leading term's SI unit.
+        std: Its standard error, same unit.
+        unit: The leading term's SI unit.
+    """
+
+    terms: tuple[tuple[int, float], ...]
+    text: str
+    value: float
+    std: float
+    unit: str
+
+    def as_dict(self) -> dict[str, Any]:
+        factor, suffix = human_unit(self.unit)
+        v, s = self.value * factor, self.std * factor
+        return {"combination": self.text, "unit": suffix, "value": v, "std": s, "ci95": [v - Z95 * s, v + Z95 * s]}
 
 
 @dataclass(frozen=True)
@@ -32,62 +71,177 @@ class Uncertainty:
     """Uncertainty of an estimate.
 
     Attributes:
-        names, units: Parameter names and SI units.
+        names, units: Every unknown's name and SI unit.
         x: The estimate, SI units.
-        std: Standard error of each parameter, SI units (0 for what is not estimated).
-        noise: Reading noise estimated from the residual, [m].
-        flange_rms, flange_max: 1-sigma position uncertainty of the end frame's origin,
-            RMS and max over ``poses`` random workspace poses, [m].
-        poses: Number of workspace poses.
-        workspace_points: The end frame's origin at each workspace pose, shape
-            (poses, 3), [m], base frame (calibrated robot).
-        flange_sigma: 1-sigma position uncertainty at each of those poses, shape
-            (poses,), [m] (``flange_rms`` and ``flange_max`` summarise it).
+        std: Standard error of each unknown, SI units; NaN for a robot deviation without an
+            interval of its own (see ``status``).
+        status: Each unknown's :data:`STATUS` (sensor unknowns: ``identified``).
+        combinations: What the data determines of the deviations in ``combination``.
+        noise: The residual's noise the intervals assume (1 sigma), [m].
     """
 
     names: tuple[str, ...]
     units: tuple[str, ...]
     x: np.ndarray
     std: np.ndarray
+    status: tuple[str, ...]
+    combinations: tuple[Combination, ...]
     noise: float
-    flange_rms: float
-    flange_max: float
-    poses: int
-    workspace_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
-    flange_sigma: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
 
     def as_dict(self) -> dict:
-        """JSON-ready: per parameter value, standard error and 95 % interval in mm/deg."""
+        """JSON-ready: each unknown's value and status, intervals where identified, the combinations.
+
+        Per unknown its value, status and (identified ones) standard error and 95 % interval,
+        in mm/deg; the combinations with theirs.
+        """
         out = {}
-        for name, unit, value, std in zip(self.names, self.units, self.x, self.std, strict=True):
+        for name, unit, value, std, status in zip(self.names, self.units, self.x, self.std, self.status, strict=True):
             f, suffix = human_unit(unit)
-            v, s = value * f, std * f
-            out[f"{name}_{suffix}"] = {"value": v, "std": s, "ci95": [v - Z95 * s, v + Z95 * s]}
-        return {
-            "parameters": out,
-            "noise_estimate_mm": self.noise * 1e3,
-            "flange_position_1sigma_mm": {"rms": self.flange_rms * 1e3, "max": self.flange_max * 1e3,
-                                          "poses": self.poses},
-        }
+            entry: dict[str, Any] = {"value": value * f, "status": status}
+            if status == "identified":
+                s = std * f
+                entry.update(std=s, ci95=[value * f - Z95 * s, value * f + Z95 * s])
+            out[f"{name}_{suffix}"] = entry
+        return {"parameters": out, "combinations": [c.as_dict() for c in self.combinations],
+                "noise_mm": self.noise * 1e3}
 
 
-def estimate_uncertainty(
-    problem: Any, x: np.ndarray, *, rcond: float = RCOND, poses: int = 500, seed: int = 0
-) -> Uncertainty:
-    """Uncertainty of the estimate x fitted to ``problem`` (the training rows)."""
+def _groups(vectors: np.ndarray, tol: float) -> list[list[int]]:
+    """Indices (rows of ``vectors`` (n, k)) linked by a shared column entry above ``tol``."""
+    n = len(vectors)
+    parent = list(range(n))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for col in vectors.T:
+        members = np.flatnonzero(np.abs(col) > tol * max(np.abs(col).max(), 1e-300))
+        for m in members[1:]:
+            parent[find(int(m))] = find(int(members[0]))
+    groups: dict[int, list[int]] = {}
+    for i in range(n):
+        groups.setdefault(find(i), []).append(i)
+    return list(groups.values())
+
+
+def _rref(a: np.ndarray, tol: float = 1e-9) -> tuple[np.ndarray, list[int]]:
+    """Rows brought to reduced row-echelon form with complete pivoting, and their pivot columns.
+
+    The rows of ``a`` (independent) brought to reduced row-echelon form with complete
+    pivoting (each pivot the largest entry left): the same span, each row led by its pivot
+    (1), no other row's entry in a pivot column, and no entry above 1 in size. Rows that
+    span a space in an arbitrary basis (a null space's) come out sparse, one small
+    combination each. Returns the rows and their pivot columns.
+    """
+    a = a.copy()
+    pivots: list[int] = []
+    for row in range(len(a)):
+        rest = np.abs(a[row:])
+        rest[:, pivots] = 0.0
+        flat = int(np.argmax(rest))
+        p, c = flat // rest.shape[1], flat % rest.shape[1]
+        if rest[p, c] < tol:
+            return a[:row], pivots
+        a[[row, row + p]] = a[[row + p, row]]
+        a[row] /= a[row, c]
+        for r in range(len(a)):
+            if r != row:
+                a[r] -= a[r, c] * a[row]
+        pivots.append(int(c))
+    return a, pivots
+
+
+def _combinations(split: Determined, members: list[int], names: tuple[str, ...], units: tuple[str, ...],
+                  x: np.ndarray, noise_cov: np.ndarray) -> list[Combination]:
+    """The combinations of the free robot unknowns ``members`` the data determines.
+
+    The combinations of the free robot unknowns ``members`` (positions in ``split.robot``)
+    the data determines: the complement of the directions not determined, within them.
+    """
+    undetermined = split.vt[split.rank:].T[members]  # (k, d), prior units
+    u, s, _ = np.linalg.svd(undetermined, full_matrices=True)
+    rank = int(np.sum(s > IN_GROUP))  # the directions are orthonormal: one of the group's has a norm near 1 here
+    complement = u[:, rank:].T  # (k - rank, k): functionals orthogonal to every direction not determined
+    if not len(complement):
+        return []
+    rows, _ = _rref(complement)
+    out = []
+    index = split.robot[members]
+    sigma = split.sigma[members]
+    for row in rows:
+        lead = int(np.argmax(np.abs(row) > TERM_TOL))
+        coef = row / row[lead]
+        coef[np.abs(coef) < TERM_TOL] = 0.0
+        physical = coef * sigma[lead] / sigma  # lead unit per unit of each term
+        terms = tuple((int(index[j]), float(physical[j])) for j in np.flatnonzero(coef))
+        value = float(sum(k * x[i] for i, k in terms))
+        idx = np.array([i for i, _ in terms])
+        k = np.array([c for _, c in terms])
+        std = float(np.sqrt(max(k @ noise_cov[np.ix_(idx, idx)] @ k, 0.0)))
+        lead_unit = units[terms[0][0]]
+        text = names[terms[0][0]]
+        for i, c in terms[1:]:
+            factor = human_unit(lead_unit)[0] / human_unit(units[i])[0]
+            ratio = _ratio_unit(lead_unit, units[i])
+            size = f"{abs(c * factor):.3g}{ratio} " if ratio or abs(abs(c * factor) - 1) > 5e-4 else ""
+            text += f" {'+' if c >= 0 else '-'} {size}{names[i]}"
+        out.append(Combination(terms, text, value, std, lead_unit))
+    return out
+
+
+def _ratio_unit(lead: str, other: str) -> str:
+    """`` mm/deg`` between unlike units of a combination's coefficient; empty for like units."""
+    if lead == other:
+        return ""
+    return f" {human_unit(lead)[1]}/{human_unit(other)[1]}"
+
+
+def estimate_uncertainty(problem: Any, x: np.ndarray, split: Determined, *, held: tuple[int, ...] = (),
+                         rcond: float = RCOND) -> Uncertainty:
+    """Uncertainty of the estimate x fitted to ``problem`` (the training rows).
+
+    Args:
+        problem: The training rows' problem (residual in units of ``split.noise``).
+        x: The estimate, shape (n_params,), SI.
+        split: What the rows determine of the robot at x.
+        held: Indices of the unknowns held at their start (``--fix``).
+    """
     model = problem.model
-    space = Subspace.of(problem.jacobian(x), model.scale, x, rcond)
-    residual = problem.residual(x)
-    dof = max(problem.n_values - space.rank, 1)
-    noise = float(np.sqrt(residual @ residual / dof))
-    cov = space.covariance(noise)
-    q = random_poses(problem.model.chain, poses, np.random.default_rng(seed))
-    points, d_points = problem.model.point_jacobian(x, q, np.zeros(3))
-    per_pose = np.einsum("nip,pk,nik->n", d_points, cov, d_points)
-    flange = np.sqrt(np.clip(per_pose, 0.0, None))
-    return Uncertainty(
-        names=tuple(model.names), units=tuple(model.units), x=np.asarray(x, dtype=float),
-        std=np.sqrt(np.clip(np.diag(cov), 0.0, None)), noise=noise,
-        flange_rms=float(np.sqrt(np.mean(flange**2))), flange_max=float(flange.max()), poses=poses,
-        workspace_points=np.asarray(points).reshape(-1, 3), flange_sigma=flange,
-    )
+    names, units = tuple(model.names), tuple(model.units)
+    n = len(names)
+    noise_cov, _ = split.covariance()
+    std = np.full(n, np.nan)
+    status = ["identified"] * n
+    for i in held:
+        status[i] = "held"
+    share = split.blind_share()
+    for j, i in enumerate(split.robot):
+        if share[j] > UNSEEN:
+            status[i] = "not determined"
+        elif share[j] > IDENTIFIED:
+            status[i] = "combination"
+        else:
+            std[i] = np.sqrt(max(noise_cov[i, i], 0.0))
+    sensor = [i for i in range(model.sensor_start, n) if i not in held]
+    if sensor:
+        free = np.array([i for i in range(n) if i not in held])
+        space = Subspace.of(problem.jacobian(x)[:, free], np.asarray(model.scale)[free], x[free], rcond)
+        cov = space.covariance(split.noise)
+        for k, i in enumerate(free):
+            if i >= model.sensor_start:
+                std[i] = np.sqrt(max(cov[k, k], 0.0))
+    position = {int(i): j for j, i in enumerate(split.robot)}
+    mixed = [position[i] for i in split.robot if status[i] == "combination"]
+    combinations: list[Combination] = []
+    if mixed:
+        sparse, _ = _rref(split.vt[split.rank:])  # the directions not determined, each a small combination
+        undetermined = sparse.T
+        for group in _groups(undetermined[mixed], TERM_TOL):
+            members = [mixed[g] for g in group]
+            combinations += _combinations(split, members, names, units, x, noise_cov)
+    combinations.sort(key=lambda c: [i for i, _ in c.terms])  # in parameter order
+    return Uncertainty(names=names, units=units, x=np.asarray(x, dtype=float), std=std, status=tuple(status),
+                       combinations=tuple(combinations), noise=split.noise)

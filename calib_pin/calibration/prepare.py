@@ -19,11 +19,12 @@ from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements import MeasurementSet, read_measurements
 from ..measurements.load import load_data
 from ..parameters import MODELS, ParameterModel, parameter_model
+from ..parameters.prior import Prior
 from ..robot import Chain, RobotDescription, load_chain, resolve_robot
 from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
 from ..robot.description import as_robot
 from ..sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for, setup_record
-from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path
+from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path, as_xyz_mm
 from .holdout import TestSet
 from .problem import Problem
 from .sets import FitSet, PreparedSet, labelled, set_overrides, set_sigma
@@ -45,6 +46,13 @@ class Calibration:
         compliance: The compliant joints and their loads, or None (a rigid arm).
         fixed: Unknowns held at their start (``fix``/``free`` of :func:`prepare`), by name.
         start: Where the estimate starts (``nominal`` of :func:`prepare`); None: zero deviations.
+        prior: What the robot's deviations are like before any measurement: the unit in
+            which the robot is kept nearest its start along what the data cannot see
+            (:mod:`calib_pin.calibration.gauge`), and the bound of that part of the
+            predicted accuracy.
+        tcp: The points of the end frame the user works with, each shape (3,), [m] (the
+            predicted accuracy is given at them); empty: the measured points, the flange
+            origin and a tool the data gives.
     """
 
     chain: Chain
@@ -53,6 +61,8 @@ class Calibration:
     compliance: ComplianceSpec | None = None
     fixed: tuple[str, ...] = ()
     start: Start | None = None
+    prior: Prior = Prior()
+    tcp: tuple[np.ndarray, ...] = ()
     _cache: dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -275,6 +285,20 @@ def _noise_of_sets(noise_mm: Any, n: int) -> list[float | None]:
     return [one] * n
 
 
+def _tcp_points(tcp_mm: Any) -> tuple[np.ndarray, ...]:
+    """``tcp_mm`` (None, one point (x, y, z) [mm], or a list of them) as points in [m].
+
+    Raises:
+        ArgumentError: not points of three finite numbers in mm.
+    """
+    if tcp_mm is None:
+        return ()
+    array = np.asarray(tcp_mm, dtype=object)
+    many = array.ndim == 2 or (array.ndim == 1 and len(array) and isinstance(array[0], list | tuple | np.ndarray))
+    points = list(tcp_mm) if many else [tcp_mm]
+    return tuple(as_xyz_mm(p, "tcp_mm") * 1e-3 for p in points)
+
+
 def prepare(
     robot: str | RobotDescription,
     data: Any = None,
@@ -287,6 +311,8 @@ def prepare(
     fix: Any = None,
     free: Any = None,
     nominal: str | Path | None = None,
+    prior: Prior | None = None,
+    tcp_mm: Any = None,
     **deprecated: Any,
 ) -> Calibration:
     """Load and check a robot and its measurement sets for calibration.
@@ -303,6 +329,8 @@ def prepare(
             argument is an :class:`~calib_pin.exceptions.ArgumentError` naming it.
     """
     setup, record = deprecated_records(deprecated, setup, compliance)
+    prior = Prior() if prior is None else as_instance(prior, "prior", Prior, "a calib_pin.Prior")
+    tcp = _tcp_points(tcp_mm)
     given = _fit_sets(data)
     end_frame = as_optional(as_instance, end_frame, "end_frame", str, "an end frame's name")
     noises = _noise_of_sets(noise_mm, len(given))
@@ -331,7 +359,7 @@ def prepare(
         sets.append(PreparedSet(d, label, s.role, sigma, origin, options, tuple(own), overridden))
     if all(s.role == "test" for s in sets):
         raise CalibPinError("every set has role 'test': nothing to fit")
-    calibration = Calibration(chain, params, tuple(sets), soft)
+    calibration = Calibration(chain, params, tuple(sets), soft, prior=prior, tcp=tcp)
     problem = calibration.problem  # refuse options a sensor does not take now; kept for --analyze and a full fit
     held: tuple[str, ...] = ()
     if fix is not None or free is not None:

@@ -57,6 +57,23 @@ def _basis_compliance(spec: ComplianceSpec, basis: Any, beta: np.ndarray) -> dic
     }
 
 
+def _determined(result: CalibrationResult) -> dict[str, Any]:
+    """What the data determines of the deviations, and the predicted accuracy at the named points."""
+    u, accuracy = result.uncertainty, result.accuracy
+    assert u is not None and accuracy is not None  # a kinematic result
+    n = result.problem.model.sensor_start
+    split = result.determined
+    noise, _ = split.covariance()
+    robot = split.robot
+    return {"status": dict(zip(u.names[:n], u.status[:n], strict=True)),
+            "combinations": u.as_dict()["combinations"], "prior": result.prior.as_dict(),
+            "accuracy_mm": [p.as_dict() for p in accuracy.points], "points_named_by_user": bool(result.tcp),
+            "unknowns": [u.names[i] for i in robot], "prior_sigma_si": split.sigma.tolist(),
+            "undetermined_prior_units": split.vt[split.rank:].tolist(),
+            "noise_covariance_si": noise[np.ix_(robot, robot)].tolist(),
+            "model_error_mm_per_coordinate": accuracy.model_error * 1e3}
+
+
 def calibration_document(result: CalibrationResult) -> dict[str, Any]:
     """The calibration file's content (JSON-ready)."""
     model, chain = result.problem.model, result.chain
@@ -82,6 +99,7 @@ def calibration_document(result: CalibrationResult) -> dict[str, Any]:
                         "train_rows": len(result.train), "test_rows": len(result.test),
                         "metrics_mm": {split: {stage: m.as_dict() for stage, m in stages.items()}
                                        for split, stages in result.metrics.items()}},
+        "determined": _determined(result),
         "versions": {"calib_pin": package_version(), "pinocchio": pin.__version__, "numpy": np.__version__},
         "note": "the URDF beside this file holds the geometry only; the joint compliances are here",
     }

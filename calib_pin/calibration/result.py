@@ -16,6 +16,7 @@ from ..exceptions import CalibPinError
 from ..export.urdf import write_calibrated_urdf
 from ..measurements import MeasurementSet
 from ..parameters import ParameterModel
+from ..parameters.prior import Prior
 from ..parameters.sanity import beyond_sanity
 from ..robot import Chain
 from ..robot.chain import as_angles_rad
@@ -23,6 +24,8 @@ from ..util.units import for_humans
 from .problem import Problem
 
 if TYPE_CHECKING:
+    from ..analysis.accuracy import Accuracy, NamedPoint
+    from ..analysis.determined import Determined
     from ..analysis.identifiability import Identifiability
     from ..analysis.uncertainty import Uncertainty
 
@@ -93,6 +96,11 @@ class CalibrationResult:
     #: The unknowns the estimate started from, shape (n_params,), SI (zero deviations, or
     #: the start's with each sensor's geometry fitted to it): the "before" of the metrics.
     x0: np.ndarray | None = None
+    #: The prior bounding what the data does not determine (:class:`~calib_pin.parameters.prior.Prior`).
+    prior: Prior = Prior()
+    #: The points of the end frame the user works with, each (3,) [m]; empty: the defaults
+    #: (:attr:`named_points`).
+    tcp: tuple[np.ndarray, ...] = ()
 
     @property
     def model_name(self) -> str:
@@ -251,19 +259,125 @@ class CalibrationResult:
                 f"method '{self.method}' learns a correction of the measured values, which a URDF cannot hold: "
                 "there is no corrected URDF to write")
         self.check_sanity()
-        return write_calibrated_urdf(self.chain, self.deltas, path)
+        return write_calibrated_urdf(self.chain, self.deltas, path, notes=self.determination_notes())
 
     @cached_property
     def uncertainty(self) -> Uncertainty | None:
-        """Standard errors and end-frame position uncertainty; None for rbf.
+        """Standard errors and 95 % intervals of what the data determines; None for rbf.
 
-        See :mod:`calib_pin.analysis.uncertainty`.
+        Also the combinations it determines only together (:mod:`calib_pin.analysis.uncertainty`).
         """
         if not self.kinematic:
             return None
         from ..analysis.uncertainty import estimate_uncertainty
 
-        return estimate_uncertainty(self.problem.subset(self.train), self.x, seed=self.seed)
+        return estimate_uncertainty(self.problem.subset(self.train), self.x, self.determined,
+                                    held=tuple(self.estimate.extras.get("fixed", ())))
+
+    @cached_property
+    def determined(self) -> Determined:
+        """What the training rows determine of the robot at the estimate, in prior units.
+
+        What the training rows determine of the robot at the estimate, in units of the
+        prior (:mod:`calib_pin.analysis.determined`).
+        """
+        from ..analysis.determined import determined
+
+        held = self.estimate.extras.get("fixed", ())
+        free = np.setdiff1d(np.arange(self.problem.n_params), np.asarray(held, dtype=int))
+        gauge = self.estimate.extras.get("gauge")
+        noise = gauge.noise if gauge is not None and gauge.noise > 0 else self.noise  # as the gauge judged them
+        return determined(self.problem.subset(self.train), self.x, free, self.prior, noise)
+
+    @property
+    def named_points(self) -> tuple[NamedPoint, ...]:
+        """The points the accuracy is given at: (name, point [m], derivative or None) each.
+
+        The points the accuracy is given at: (name, point in the end frame (3,) [m], its
+        derivative (3, n_params) when a sensor estimates it, else None) each.
+
+        The caller's ``tcp``, else every set's measured points, the flange origin (the end
+        frame's) and the tool a set's file gives.
+        """
+        if self.tcp:
+            return tuple(("tcp", p, None) for p in self.tcp)
+        named: list[NamedPoint] = []
+        model = self.problem.model
+        for k, s in enumerate(self.sets):
+            prefix = f"{s.label} " if len(self.sets) > 1 else ""
+            columns = model.columns[k] if len(self.sets) > 1 else np.arange(self.problem.n_params)
+            derivatives = _point_derivatives(s.model, s.x, columns, self.problem.n_params)
+            named += [(prefix + name, p, d) for (name, p), d in zip(s.model.measured_points(s.x), derivatives,
+                                                                     strict=True)]
+        named.append((f"{self.chain.end_frame} origin", np.zeros(3), None))
+        given = self.data.tool
+        if given is not None and not any(d is None and np.allclose(given, p, atol=1e-9) for _, p, d in named):
+            named.append(("tool", np.asarray(given, dtype=float), None))
+        return _distinct(named)
+
+    @cached_property
+    def accuracy(self) -> Accuracy | None:
+        """Predicted position error at :attr:`named_points` over the workspace (:meth:`predict_accuracy`)."""
+        return self.predict_accuracy()
+
+    def predict_accuracy(self, held_out: bool = True) -> Accuracy | None:
+        """Predicted position error at :attr:`named_points` over the workspace; None for rbf.
+
+        From the noise, what the model does not explain and what the data does not
+        determine (:mod:`calib_pin.analysis.accuracy`).
+
+        Args:
+            held_out: Estimate what the model does not explain from the held-out rows when
+                there are enough (False: from the training rows only, so that the held-out
+                rows can check the prediction).
+        """
+        if not self.kinematic:
+            return None
+        from ..analysis.accuracy import predict_accuracy, unexplained
+        from ..analysis.repeatability import repeatability
+        from ..measurements.schema import SCHEMAS
+
+        split = self.determined
+        sensor_free = sum(1 for i in range(self.problem.model.sensor_start, self.problem.n_params)
+                          if i not in set(self.estimate.extras.get("fixed", ())))
+        rank = split.rank + sensor_free
+        train_values = sum(len(_length_residual(s, s.train)) for s in self.sets)
+        sets = []
+        for s in self.sets:
+            schema = SCHEMAS.get(s.kind)
+            lengths = schema is not None and len(schema.value_columns) in (1, 3) and not s.model.noise_parts()
+            problem = s.problem.subset(s.train)
+            rep = repeatability(problem.q, np.asarray(problem.readings) if lengths else None,
+                                problem.points, s.sigma if s.sigma_origin in ("file", "caller") else None,
+                                s.sigma_origin)
+            test = _length_residual(s, s.test) if held_out and not self.test_source else np.zeros(0)
+            sets.append(unexplained(s.label, _length_residual(s, s.train), test, rank, train_values, rep))
+        return predict_accuracy(self.problem.subset(self.train), self.x, split, self.named_points, sets,
+                                self.prior, seed=self.seed)
+
+    def determination_notes(self) -> list[str]:
+        """Lines for an exported file's header: what the data determines of the deviations.
+
+        Lines for an exported file's header: which deviations the data determines, which
+        only together (with what it gives of them), which it does not (held at the start).
+        Empty for a method that learns no kinematics.
+        """
+        u = self.uncertainty
+        if u is None:
+            return []
+        start = "the start (--nominal)" if self.start is not None else "nominal"
+        robot = range(self.problem.model.sensor_start)
+        by = {status: [u.names[i] for i in robot if u.status[i] == status]
+              for status in ("identified", "combination", "not determined", "held")}
+        lines = [f"calib-pin: {len(by['identified'])} of {len(robot)} deviations determined by the data"
+                 + (f"; not determined, held at {start}: {', '.join(by['not determined'])}"
+                    if by["not determined"] else "")
+                 + (f"; held by --fix/--free: {', '.join(by['held'])}" if by["held"] else "")]
+        if by["combination"]:
+            lines.append(f"calib-pin: determined only together (their split is the one nearest {start}): "
+                         + "; ".join(f"{c['combination']} = {c['value']:.4g} +- {c['std']:.2g} {c['unit']}"
+                                     for c in u.as_dict()["combinations"]))
+        return lines
 
     @cached_property
     def identifiability(self) -> Identifiability:
@@ -276,6 +390,48 @@ class CalibrationResult:
     def fixed(self) -> tuple[str, ...]:
         """Unknowns held at their start (``calibrate --fix``/``--free``), by name; empty if none."""
         return tuple(self.problem.model.names[i] for i in self.estimate.extras.get("fixed", ()))
+
+
+def _distinct(named: list[NamedPoint]) -> tuple[NamedPoint, ...]:
+    """``named`` without a fixed point already named (the first name kept)."""
+    out: list[NamedPoint] = []
+    for name, p, d in named:
+        if d is not None or not any(e is None and np.allclose(p, q, atol=1e-9) for _, q, e in out):
+            out.append((name, np.asarray(p, dtype=float), d))
+    return tuple(out)
+
+
+def _point_derivatives(model: Any, x: np.ndarray, columns: np.ndarray, n_params: int) -> list[np.ndarray | None]:
+    """Each measured point's derivative with respect to the calibration's unknowns (3, n_params).
+
+    Each of ``model.measured_points(x)``'s derivative with respect to the calibration's
+    unknowns (3, n_params), by central differences over the set's sensor unknowns (``columns``:
+    the set's unknowns in the calibration's x); None for a point the sensor does not estimate.
+    """
+    base = model.measured_points(x)
+    out = [np.zeros((3, n_params)) for _ in base]
+    for j in range(model.sensor_start, model.n_params):
+        h = 1e-6 * float(model.scale[j])
+        up, down = np.array(x, dtype=float), np.array(x, dtype=float)
+        up[j] += h
+        down[j] -= h
+        for k, ((_, a), (_, b)) in enumerate(zip(model.measured_points(up), model.measured_points(down), strict=True)):
+            out[k][:, columns[j]] = (a - b) / (2 * h)
+    return [d if np.any(d) else None for d in out]
+
+
+def _length_residual(s: SetResult, rows: np.ndarray) -> np.ndarray:
+    """A set's residual on ``rows`` in metres, unweighted, flattened.
+
+    A set's residual on ``rows`` in metres, unweighted, flattened: its position part
+    for a sensor whose rows have parts (a 6-D pose's).
+    """
+    if not len(rows):
+        return np.zeros(0)
+    part = s.problem.subset(rows)
+    if s.model.noise_parts():
+        return np.asarray(s.model.part_residuals(s.x, part.q, part.readings)[0])
+    return np.asarray(part.residual(s.x))
 
 
 def _joint_angles(q: Any, n_joints: int) -> np.ndarray:

@@ -22,13 +22,14 @@ from ..analysis.identifiability import support_error
 from ..analysis.metrics import Metrics, pooled_unit, units_words
 from ..estimators import DEFAULT_METHOD, Method, get_method, run_method
 from ..estimators.base import EstimateResult
-from ..estimators.problem import data_row_errors
+from ..estimators.problem import data_row_errors, data_rows
 from ..exceptions import ArgumentError, CalibPinError, DataError, EstimatorError
 from ..measurements import MeasurementSet
 from ..robot import RobotDescription
 from ..robot.deflection import Compliance
 from ..sensors import SensorSetup, sensor_for
 from ..util.arguments import as_bool, as_instance, as_int
+from .gauge import resolve_gauge
 from .holdout import Folds, Fraction, Holdout, TestSet, as_holdout, fold_of_rows
 from .noise import PILOT, Noise, apply, estimate_noise
 from .prepare import Calibration, prepare
@@ -136,7 +137,34 @@ def fit(calibration: Calibration, method: Method, train: np.ndarray, *, seed: in
     else:
         estimate = run_method(method, problem.subset(train), x0, seed=seed, noise=noise.sigma, loss=loss,
                               history=history, fixed=held)
+    model = problem.model  # compliances keep the estimate's value: each is bounded at zero (active set)
+    free = np.setdiff1d(np.arange(problem.n_params), [*held, *range(model.n_robot, model.sensor_start)])
+    inliers = _inliers(problem.subset(train), estimate)
+    x, gauge = resolve_gauge(inliers, estimate.x, x0, free, calibration.prior,
+                             noise.sigma if loss == "linear" else _robust_noise(inliers, estimate.x))
+    estimate = replace(estimate, x=x, extras={**estimate.extras, "gauge": gauge})
     return Fit(problem, estimate, noise, x0)
+
+
+def _inliers(training: Problem, estimate: EstimateResult) -> Problem:
+    """The training rows less those a robust fit judged outliers.
+
+    The training rows less those a robust fit judged outliers (the gauge is a least-squares
+    question on the rows the fit trusted).
+    """
+    if not estimate.outliers:
+        return training
+    out = set(estimate.outliers)
+    keep = [k for k, row in enumerate(data_rows(training)) if int(row) not in out]
+    return training.subset(np.asarray(keep, dtype=int))
+
+
+def _robust_noise(training: Problem, x: np.ndarray) -> float:
+    """The residual's noise at x from its median absolute value (1.4826 MAD), [m]: what a robust
+    fit's gauge is judged against (a noise estimated with the outliers in would call seen
+    directions blind)."""
+    r = np.abs(training.residual(x))
+    return float(1.4826 * np.median(r)) if len(r) and np.median(r) > 0 else float(np.sqrt(np.mean(r**2)) or 1e-12)
 
 
 def _noise(calibration: Calibration, problem: Problem, train: np.ndarray, method: Method, x0: np.ndarray,
@@ -219,7 +247,7 @@ def score(calibration: Calibration, method: Method, done: Fit, train: np.ndarray
         chain=calibration.chain, params=calibration.params, method=method.name, x=estimate.x, estimate=estimate,
         problem=problem, data=calibration.data, train=train, test=test, metrics=metrics, seed=seed,
         noise=done.noise.sigma, loss=loss, warnings=tuple(warnings_), sets=tuple(results), start=calibration.start,
-        noise_from=done.noise.words, x0=x0)
+        noise_from=done.noise.words, x0=x0, prior=calibration.prior, tcp=calibration.tcp)
 
 
 def solve(calibration: Calibration, method: str | Method = DEFAULT_METHOD, *, holdout: Holdout | float = 0.2,

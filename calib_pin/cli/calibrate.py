@@ -21,9 +21,10 @@ from typing import Any
 
 from ..analysis.metrics import Metrics
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
-from ..report.build import noise_parts_line
+from ..report.build import accuracy_lines, noise_parts_line
 from ..report.bundle import EXPORTS, write_outputs
 from ..robot.description import robot_inputs
+from ..sensors.setup import xyz_mm
 from . import parse_args
 from .common import (
     add_compliance_arguments,
@@ -106,6 +107,10 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    help="formats of the corrected robot, comma-separated: urdf (default), yaml (joint origins for "
                    "xacro.load_yaml; ur_description's default_kinematics.yaml too for ur* robots), dh (DH table TOML, "
                    "dh and hayati models)")
+    p.add_argument("--tcp-mm", action="append", type=xyz_mm, metavar="X,Y,Z",
+                   help="a point of the end frame you work with (a tool centre point), mm; repeat it for several: "
+                   "the predicted accuracy is given there (default: the measured points, the end frame's origin "
+                   "and a tool the data gives)")
     p.add_argument("--no-html", action="store_true", help="do not write DIR/report.html")
     p.add_argument("--cv", type=count(1000, lower=2), metavar="K",
                    help="also K-fold cross-validate the model on the training poses (split by pose): its held-out "
@@ -336,7 +341,8 @@ def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
     from ..sensors import setup_from_args, setup_record
 
     return {"end_frame": args.end_frame, "setup": setup_record(**setup_from_args(args)), "noise_mm": args.noise_mm,
-            "parameters": args.model, **compliance_options(args), **unknowns_options(args)}
+            "parameters": args.model, **compliance_options(args), **unknowns_options(args),
+            **({"tcp_mm": args.tcp_mm} if getattr(args, "tcp_mm", None) else {})}
 
 
 def _analyze(args: argparse.Namespace) -> int:
@@ -350,9 +356,33 @@ def _analyze(args: argparse.Namespace) -> int:
     x, where = analysis_point(calibration)
     print(f"analysed at {where}")
     print(analyze(calibration.problem, x, fixed=calibration.fixed).report())
-    print("the estimators move only the identifiable directions: the deviations along the blind "
-          f"ones above stay at {'the start' if calibration.start is not None else 'zero'} in the export")
+    print(determined_line(calibration, x))
+    print("a calibration keeps the robot at "
+          f"{'the start' if calibration.start is not None else 'zero'} along the blind directions above (and along "
+          "those it sees less than the noise); the sensor's unknowns take the rest (docs: accuracy.md)")
     return 0
+
+
+def determined_line(calibration: Any, x: Any) -> str:
+    """What the poses determine of the robot's deviations at x, with the stated (or default)
+    noise and the prior: the printout's ``deviations:`` line before any fit."""
+    import numpy as np
+
+    from ..analysis.determined import determined
+    from ..analysis.uncertainty import estimate_uncertainty
+
+    problem = calibration.problem
+    held = [problem.model.names.index(n) for n in calibration.fixed]
+    free = np.setdiff1d(np.arange(problem.n_params), held)
+    split = determined(problem, x, free, calibration.prior, calibration.noise)
+    u = estimate_uncertainty(problem, x, split, held=tuple(held))
+    robot = range(problem.model.sensor_start)
+    status = [u.status[i] for i in robot]
+    unseen = [u.names[i] for i in robot if u.status[i] == "not determined"]
+    combos = "; ".join(c.text for c in u.combinations) or "none"
+    return (f"at {calibration.noise * 1e3:.3g} mm noise (stated, else the default) and the prior "
+            f"{calibration.prior.describe()}: {status.count('identified')} of {len(status)} deviations determined "
+            f"alone; only in combination: {combos}; not determined: {', '.join(unseen) or 'none'}")
 
 
 def analysis_point(calibration: Any) -> tuple[Any, str]:
@@ -480,7 +510,20 @@ def basis_cells(soft: dict[str, Any]) -> str:
     return "gravity basis model (no inertias): " + ", ".join(cells)
 
 
-def _header(result: Any) -> None:
+def part_table(errors_by_part: dict[str, dict[str, dict[str, dict[str, float]]]]) -> str:
+    """Each part of a row in its own unit, side by side (``errors_by_part`` of a report)."""
+    first = next(iter(errors_by_part.values()))
+    parts = [key.rsplit("_", 1) for key in next(iter(first.values()))]  # (name, unit) each
+    lines = [f"{'':14s}" + "".join(f"{name + ' RMSE ' + unit:>26s}{'max ' + unit:>10s}" for name, unit in parts)]
+    for split, stages in errors_by_part.items():
+        for stage, by_part in stages.items():
+            cells = [by_part[f"{name}_{unit}"] for name, unit in parts]
+            lines.append(f"{split + ' ' + stage:14s}" + "".join(
+                f"{c['rmse_' + unit]:26.4f}{c['max_' + unit]:10.4f}" for c, (_, unit) in zip(cells, parts, strict=True)))
+    return "\n".join(lines)
+
+
+def _header(result: Any, report: dict[str, Any]) -> None:
     """The run in one line, what a row's error is, and the tables.
 
     Each set's table with several sets, then every set's rows together (of one set: its own).
@@ -499,17 +542,19 @@ def _header(result: Any) -> None:
         print(f"{result.chain.name}: {result.data.describe_rows()} from {result.data.source} "
               f"({len(result.train)} train, {test}, seed {result.seed}), {result.model_name} model, "
               f"method {result.method}")
-    print(f"error per row: {result.problem.model.error_name}")
-    for s in result.sets if several else ():
+    parts = report.get("errors_by_part") if not several else None
+    print("error per row: each part in its own unit (position of the measured body, orientation)" if parts
+          else f"error per row: {result.problem.model.error_name}")
+    for s, doc in zip(result.sets, report["sets"], strict=True) if several else ():
         rows = len(s.train) + len(s.test)
         print(f"set {s.label}: {rows} rows from {s.source or 'memory'} ({len(s.train)} train, {len(s.test)} test, "
               f"role {s.role}), noise {s.sigma * 1e3:.4f} mm ({s.sigma_origin}){_override_note(s)}")
-        print(table(s.metrics, s.unit))
+        print(part_table(doc["errors_by_part"]) if "errors_by_part" in doc else table(s.metrics, s.unit))
     info = result.test_registration or {}
     if not several:
         if info.get("setup") == "new":
             print(_registration_line(info, several))
-        print(table(result.metrics, result.sets[0].unit))
+        print(part_table(parts) if parts else table(result.metrics, result.sets[0].unit))
         return
     unit = pooled_unit(result.sets)
     pooled = {split: stages for split, stages in result.metrics.items() if split != "test" or not result.test_source}
@@ -554,11 +599,7 @@ def _override_note(s: Any) -> str:
 
 
 def _summary(result: Any, report: dict[str, Any]) -> None:
-    _header(result)
-    if len(result.sets) == 1 and result.estimate.correction is None:  # rows of parts in units of their own
-        summary = getattr(result.sets[0].problem, "part_summary", None)
-        if summary is not None:
-            print(summary(result.x, {"train": result.train, "test": result.test}))
+    _header(result, report)
     if "noise_by_part" in report:  # each part's own sigma (stated, or estimated from the residual)
         print(noise_parts_line(report["noise_by_part"]))
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
@@ -582,16 +623,17 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
         print(f"{cv['folds']}-fold cross-validation on the training poses (held-out mm): {cells}")
     est = result.estimate
     print(f"estimation: {est.time_s:.3f} s, {est.iterations} iterations ({est.message})")
+    if report.get("accuracy"):
+        print("\n".join(accuracy_lines(report["accuracy"])))
     u = report["uncertainty"]
     if u:
-        sigma = u["flange_position_1sigma_mm"]
-        print(f"uncertainty: noise {u['noise_estimate_mm']:.4f} mm per value; flange position (1 sigma) over "
-              f"{sigma['poses']} workspace poses: RMS {sigma['rms']:.4f} mm, max {sigma['max']:.4f} mm")
-    ident = report["identifiability"]
-    print(f"identifiable: {ident['rank']} of {ident['unknowns']} directions on the training poses; "
-          f"not identifiable: {', '.join(ident['unidentifiable']) or 'none'}; {len(ident['combinations'])} "
-          "combination(s) only together (--analyze lists them); blind directions stay at "
-          f"{'the start' if result.start is not None else 'zero'}")
+        robot = [k for k in report["deviations"]] + [k for k in report.get("compliances", {})]
+        status = [u["parameters"][k]["status"] for k in robot if k in u["parameters"]]
+        unseen = [k.rsplit("_", 1)[0] for k in robot if u["parameters"].get(k, {}).get("status") == "not determined"]
+        start = "the start" if result.start is not None else "zero"
+        print(f"deviations: {status.count('identified')} of {len(status)} determined by the data, "
+              f"{status.count('combination')} only in {len(u['combinations'])} combination(s) (report.json), "
+              f"not determined (held at {start}): {', '.join(unseen) or 'none'}")
     if result.start is not None:
         print(f"start: {result.start.describe()}; 'before' is the start's error, the deviations "
               "(report.json) are from the catalogue URDF, deviations_from_start from the start")

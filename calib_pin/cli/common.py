@@ -312,14 +312,26 @@ def add_unknowns_arguments(p: argparse.ArgumentParser, start_note: str = "") -> 
     g.add_argument("--nominal", help="start from the robot's own calibrated kinematics instead of the catalogue "
                    "URDF: a calib-pin <robot>_calibration.json, or a UR default_kinematics.yaml (ur_description's "
                    f"layout; what --export yaml writes){start_note}")
+    g.add_argument("--prior-mm", type=positive_float(100.0), metavar="MM",
+                   help="what a length deviation of the robot is before calibration, 1 sigma, mm (default 1): the "
+                   "robot stays at its start along what the data does not determine, and this bounds the error "
+                   "left there in the predicted accuracy")
+    g.add_argument("--prior-deg", type=positive_float(10.0), metavar="DEG",
+                   help="the same for an angle deviation, deg (default 0.1)")
 
 
 def unknowns_options(args: argparse.Namespace) -> dict[str, Any]:
-    """``--fix``, ``--free`` and ``--nominal`` as keyword arguments of calibrate, compare, compare_models.
+    """``--fix``, ``--free``, ``--nominal``, ``--prior-mm``/``--prior-deg`` as keyword arguments.
 
-    Only those given.
+    Of calibrate, compare and compare_models; only those given.
     """
-    return {k: v for k, v in (("fix", args.fix), ("free", args.free), ("nominal", args.nominal)) if v is not None}
+    options = {k: v for k, v in (("fix", args.fix), ("free", args.free), ("nominal", args.nominal)) if v is not None}
+    if args.prior_mm is not None or args.prior_deg is not None:
+        from ..parameters.prior import Prior
+
+        default = Prior()
+        options["prior"] = Prior(args.prior_mm or default.length_mm, args.prior_deg or default.angle_deg)
+    return options
 
 
 def add_quiet_argument(p: argparse.ArgumentParser) -> None:

@@ -15,8 +15,10 @@ refused (the others written); 2 bad input (nothing written); 130 Ctrl-C.
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -24,6 +26,7 @@ from ..exceptions import CalibPinError, DataError
 from ..export.compensation import OK, POSITION_ONLY, REFUSED, CalibratedRobot, Compensation
 from ..export.programs import FORMATS, Program, identifier, program_files, program_paths
 from ..robot.description import robot_inputs
+from ..sensors.setup import xyz_mm
 from ..util.outputs import Outputs
 from . import parse_args
 from .common import positive_float, run
@@ -59,6 +62,9 @@ def add_compensate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPar
                    help="urscript: movej joint speed v= [rad/s] (default 1.05, UR's own)")
     p.add_argument("--accel-rad-s2", type=positive_float(100.0), default=None,
                    help="urscript: movej joint acceleration a= [rad/s^2] (default 1.4, UR's own)")
+    p.add_argument("--tcp-mm", type=xyz_mm, metavar="X,Y,Z",
+                   help="the point of the end frame the program works with, mm: each target where the calibration "
+                   "does not determine it is named (default: the points calibrate --tcp-mm named)")
     add_force_argument(p, "--out file")
     p.epilog = ("exit codes: 0 every target ok; 3 some targets position-only (position met, orientation "
                 "residual reported), none refused; 4 some targets refused (the others written); 2 bad input")
@@ -145,6 +151,7 @@ def _compensate(args: argparse.Namespace) -> int:
             out.add(path, _writer(content))
     written = out.commit()
     _summary(robot, q_nominal, result)
+    _undetermined(robot, result.q[kept], [where(int(k)) for k in np.flatnonzero(kept)], args.tcp_mm)
     if reference is not None:
         print(f"targets: poses of the model {reference.describe()}, not of the catalogue URDF")
     for k, state in enumerate(result.status):
@@ -157,6 +164,36 @@ def _compensate(args: argparse.Namespace) -> int:
     if not kept.all():
         return EXIT_REFUSED
     return EXIT_OK if all(s == OK for s in result.status) else EXIT_POSITION_ONLY
+
+
+#: A point whose predicted error at a target is more than this share (of its variance) the prior's is named.
+BLIND_SHARE = 0.5
+
+
+def _undetermined(robot: CalibratedRobot, q: np.ndarray, names: list[str], tcp_mm: Any) -> None:
+    """One warning line per target at which a point worked with is not determined.
+
+    One warning line per target at which a point the program works with (``tcp_mm``, else
+    the points named at calibration) is not determined by the calibration: most of its
+    predicted error there is the prior's, not the data's.
+    """
+    d = robot.determination
+    if d is None:
+        if tcp_mm is not None:
+            print("note: the calibration file does not say what its data determined (an older file): the --tcp-mm "
+                  "point is not checked", file=sys.stderr)
+        return
+    points = [("tcp", np.asarray(tcp_mm, dtype=float) * 1e-3)] if tcp_mm is not None else list(d.points)
+    for name, point in points:
+        parts = robot.point_accuracy(q, point) if len(q) else None
+        if parts is None:
+            continue
+        total, blind = parts
+        for k in np.flatnonzero(blind**2 > BLIND_SHARE * total**2):
+            print(f"warning: {names[k]}: the {name} ({', '.join(f'{v:g}' for v in point * 1e3)} mm) is not determined "
+                  f"by the calibration there: {total[k] * 1e3:.3f} mm RMS predicted, {blind[k] * 1e3:.3f} mm of it "
+                  "the prior's (what the data did not see); the compensation moves it by the model's guess",
+                  file=sys.stderr)
 
 
 def _writer(text: str) -> Callable[[Path], object]:

@@ -34,7 +34,7 @@ from ..robot.description import as_robot, resolve_robot
 from ..util.arguments import MAX_MM, as_bool, as_optional, as_path
 from ..util.input_files import check_regular
 from ..util.units import for_humans
-from .compensation import CalibratedRobot
+from .compensation import CalibratedRobot, Determination
 
 #: What the file says it is, and its layout's version.
 FORMAT = "calib-pin calibration"
@@ -294,10 +294,15 @@ def _robot(doc: dict[str, Any], chain: Chain, source: Path, cable: bool) -> Cali
     x = _deviations(doc, params, chain, source)
     soft = doc.get("compliance")
     if not soft:
-        return CalibratedRobot(chain, params, x)
-    soft = _field(doc, "compliance", dict, "the joint compliances or null", source)
-    spec, values, pull = _compliance_of(soft, chain, source, cable)
-    return CalibratedRobot(chain, params, x, spec, values, pull)
+        robot = CalibratedRobot(chain, params, x)
+    else:
+        soft = _field(doc, "compliance", dict, "the joint compliances or null", source)
+        spec, values, pull = _compliance_of(soft, chain, source, cable)
+        robot = CalibratedRobot(chain, params, x, spec, values, pull)
+    determined = doc.get("determined")
+    if isinstance(determined, dict):
+        robot.determination = Determination.from_dict(determined, tuple(params.names))
+    return robot
 
 
 def load_calibration(path: str | Path, robot: str | None = None, *, cable: bool = False) -> CalibratedRobot:

@@ -109,6 +109,48 @@ class Compensation:
                 raise CalibPinError(f"target {k + 1}: {status}: {reason}")
 
 
+@dataclass(frozen=True)
+class Determination:
+    """What a calibration determined of the robot, as its calibration file keeps it.
+
+    Attributes:
+        columns: Index of each of its robot unknowns among the parameter model's names, shape (n,).
+        sigma: Their prior standard deviations, SI, shape (n,).
+        undetermined: The directions the data did not determine, rows in prior units, shape (k, n).
+        noise: The noise covariance of the determined part, SI, shape (n, n).
+        model_error: What the model did not explain, 1 sigma per coordinate, [m].
+        points: The points the user named at calibration (``--tcp-mm``): (name, point in the
+            end frame (3,) [m]) each; empty when none was named.
+    """
+
+    columns: np.ndarray
+    sigma: np.ndarray
+    undetermined: np.ndarray
+    noise: np.ndarray
+    model_error: float
+    points: tuple[tuple[str, np.ndarray], ...] = ()
+
+    @classmethod
+    def from_dict(cls, doc: dict, names: tuple[str, ...]) -> Determination | None:
+        """From a calibration file's ``determined`` section; None without one.
+
+        From a calibration file's ``determined`` section; None without one (an older file)
+        or with unknowns that are not the parameter model's deviations alone.
+        """
+        try:
+            unknowns = list(doc["unknowns"])
+            keep = [k for k, u in enumerate(unknowns) if u in names]  # compliances left out
+            sigma = np.asarray(doc["prior_sigma_si"], dtype=float)[keep]
+            undetermined = np.asarray(doc["undetermined_prior_units"], dtype=float).reshape(-1, len(unknowns))[:, keep]
+            noise = np.asarray(doc["noise_covariance_si"], dtype=float)[np.ix_(keep, keep)]
+            points = tuple((str(p["name"]), np.asarray(p["point_mm"], dtype=float).reshape(3) * 1e-3)
+                           for p in doc.get("accuracy_mm", ())) if doc.get("points_named_by_user") else ()
+            return cls(np.array([names.index(unknowns[k]) for k in keep], dtype=int), sigma, undetermined, noise,
+                       float(doc.get("model_error_mm_per_coordinate", 0.0)) * 1e-3, points)
+        except (KeyError, TypeError, ValueError):
+            return None
+
+
 class CalibratedRobot:
     """A calibrated robot: geometry (a parameter model's deviations) and joint compliance.
 
@@ -149,6 +191,29 @@ class CalibratedRobot:
         self._real = Kinematics(chain)
         self._real.set_perturbation(params.delta_matrices(self.deviations))
         self._nominal = Kinematics(chain)
+        #: What the calibration determined (:class:`Determination`), when its file says.
+        self.determination: Determination | None = None
+
+    def point_accuracy(self, q: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """A point's predicted RMS error [m] at each pose, and the prior's part of it.
+
+        A point of the end frame's predicted RMS error [m] at each pose q (n, n_joints) [rad],
+        and the part of it that is the prior's (what the data did not determine), each shape
+        (n,); None when the calibration file does not say what it determined.
+        """
+        d = self.determination
+        if d is None:
+            return None
+        kin = Kinematics(self.chain)
+        kin.set_perturbation(self.params.delta_matrices(self.deviations))
+        _, d_place = kin.points(np.atleast_2d(q), np.asarray(point, dtype=float), jacobian=True)
+        assert d_place is not None
+        k = 6 * self.chain.n_joints + 6
+        jac = (d_place[:, :, :k] @ self.params.delta_jacobian(self.deviations))[:, :, d.columns]
+        blind_basis = jac @ (d.sigma[:, None] * d.undetermined.T)
+        blind = np.sum(blind_basis**2, axis=(1, 2))
+        noise = np.einsum("nip,pk,nik->n", jac, d.noise, jac)
+        return np.sqrt(blind + noise + 3 * d.model_error**2), np.sqrt(blind)
 
     def set_reference(self, deviations: np.ndarray | None) -> None:
         """Set the model the targets were computed with (:meth:`nominal`, what :meth:`solve` aims at).

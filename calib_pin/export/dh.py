@@ -7,6 +7,7 @@ model has no DH table.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +61,7 @@ def _toml_list(values: np.ndarray) -> str:
     return "[" + ", ".join(repr(float(v)) if abs(v) > 1e-12 else "0.0" for v in values) + "]"
 
 
-def write_dh_table(params: ParameterModel, x: np.ndarray, path: str | Path) -> Path:
+def write_dh_table(params: ParameterModel, x: np.ndarray, path: str | Path, notes: Sequence[str] = ()) -> Path:
     """Write the corrected DH table as a TOML ``[dh]`` table like ``robots/<name>.toml``.
 
     Columns ``a_mm``, ``alpha_deg``, ``d_mm``, ``theta_offset_deg`` (standard DH, paper eq. 1,
@@ -92,7 +93,7 @@ def write_dh_table(params: ParameterModel, x: np.ndarray, path: str | Path) -> P
     if rows:
         header.append(f"beta_deg (Hayati) tilts rows {', '.join(str(r + 1) for r in rows)} about their y axis; "
                       "a 4-column DH reader that ignores beta_deg gets a different robot")
-    lines = [f"# {h}" for h in header] + ["[dh]"]
+    lines = [f"# {h}" for h in [*header, *notes]] + ["[dh]"]
     lines += [f"{key} = {_toml_list(values)}" for key, values in columns.items()]
     end = params.end_transform
     if np.linalg.norm(pin.log6(end).vector) > 1e-12:

@@ -101,7 +101,8 @@ def corrected_origins(
     return out
 
 
-def calibrated_urdf(chain: Chain, deltas: Sequence[pin.SE3], robot_name: str | None = None) -> bytes:
+def calibrated_urdf(chain: Chain, deltas: Sequence[pin.SE3], robot_name: str | None = None,
+                    notes: Sequence[str] = ()) -> bytes:
     """The bytes :func:`write_calibrated_urdf` writes: the chain's URDF with perturbed joint origins.
 
     UTF-8.
@@ -110,6 +111,7 @@ def calibrated_urdf(chain: Chain, deltas: Sequence[pin.SE3], robot_name: str | N
         chain: The nominal robot chain.
         deltas: The perturbation of each joint placement and of the end frame.
         robot_name: The ``<robot name>`` to write; None: the URDF's own.
+        notes: Lines written as comments before the root (what the data determined).
 
     Raises:
         RobotError: the end frame has a deviation but no fixed joint to carry it.
@@ -121,6 +123,8 @@ def calibrated_urdf(chain: Chain, deltas: Sequence[pin.SE3], robot_name: str | N
         _set_origin(joints[name], placement)
     if robot_name:
         root.set("name", robot_name)
+    for note in notes:  # "--" may not appear in an XML comment
+        root.addprevious(etree.Comment(" " + note.replace("--", "- -") + " "))
     # Top-level comments one per line around the root (lxml keeps no text between them).
     nodes = [*reversed(list(root.itersiblings(preceding=True))), root, *root.itersiblings()]
     body = b"\n".join(etree.tostring(node, encoding="utf-8", with_tail=False) for node in nodes)
@@ -128,7 +132,8 @@ def calibrated_urdf(chain: Chain, deltas: Sequence[pin.SE3], robot_name: str | N
 
 
 def write_calibrated_urdf(
-    chain: Chain, deltas: Sequence[pin.SE3], path: str | Path, robot_name: str | None = None
+    chain: Chain, deltas: Sequence[pin.SE3], path: str | Path, robot_name: str | None = None,
+    notes: Sequence[str] = (),
 ) -> Path:
     """Write the chain's URDF with perturbed joint origins.
 
@@ -137,11 +142,12 @@ def write_calibrated_urdf(
         deltas: ``n_joints + 1`` transforms from a parameter model.
         path: Output file.
         robot_name: New ``<robot name>``, or None to keep the source's.
+        notes: Lines written as comments before the root (what the data determined).
 
     Raises:
         RobotError: the end frame has a deviation but no fixed joint to carry it.
     """
-    data = calibrated_urdf(chain, deltas, robot_name)
+    data = calibrated_urdf(chain, deltas, robot_name, notes)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     write_bytes(path, data)

@@ -70,7 +70,8 @@ def joint_origins(chain: Chain, deltas: Sequence[pin.SE3]) -> dict[str, pin.SE3]
     return corrected_origins(top_level_joints(root), chain, deltas)
 
 
-def write_joint_origins_yaml(chain: Chain, deltas: Sequence[pin.SE3], path: str | Path) -> Path:
+def write_joint_origins_yaml(chain: Chain, deltas: Sequence[pin.SE3], path: str | Path,
+                             notes: Sequence[str] = ()) -> Path:
     """Write the corrected joint origins as ``joint: {x, y, z, roll, pitch, yaw}``.
 
     Units [m] and [rad]; each origin is relative to the joint's parent link, as in the
@@ -90,6 +91,7 @@ def write_joint_origins_yaml(chain: Chain, deltas: Sequence[pin.SE3], path: str 
         f"(URDF {Path(chain.description.urdf).name}, end frame {chain.end_frame})"),
         "each entry: the joint's <origin> relative to its parent link; x y z [m],",
         "roll pitch yaw [rad] (URDF fixed-axis X-Y-Z). Load with xacro.load_yaml.",
+        *notes,
     ]
     return _write_yaml(path, header, {name: _pose_dict(p) for name, p in origins.items()})
 

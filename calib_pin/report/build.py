@@ -83,15 +83,72 @@ def _spectrum(result: CalibrationResult) -> dict[str, Any]:
 
 
 def _workspace(result: CalibrationResult) -> dict[str, Any] | None:
-    """End-frame origin [mm] and its predicted 1-sigma position uncertainty [mm] at workspace poses.
+    """The first named point [mm] and its predicted RMS position error [mm] at workspace poses.
 
-    At each random workspace pose of the uncertainty analysis; None without kinematic
-    parameters.
+    The point is the first of :attr:`~calib_pin.calibration.result.CalibrationResult.named_points`,
+    at each random workspace pose of the accuracy analysis; None without kinematic parameters.
     """
-    unc = result.uncertainty
-    if unc is None:
+    accuracy = result.accuracy
+    if accuracy is None:
         return None
-    return {"points_mm": (unc.workspace_points * 1e3).tolist(), "sigma_mm": (unc.flange_sigma * 1e3).tolist()}
+    error = (accuracy.workspace_error * 1e3).tolist()
+    return {"point": accuracy.points[0].name, "points_mm": (accuracy.workspace_points * 1e3).tolist(),
+            "error_mm": error, "sigma_mm": error}  # sigma_mm: the previous version's name, kept one release
+
+
+def _uncertainty(result: CalibrationResult) -> dict[str, Any] | None:
+    """The intervals, with the previous version's keys kept one release.
+
+    The intervals (:meth:`~calib_pin.analysis.uncertainty.Uncertainty.as_dict`), with the
+    previous version's ``noise_estimate_mm`` and ``flange_position_1sigma_mm`` kept one release:
+    the noise the intervals assume, and the predicted RMS error of the end frame's origin.
+    """
+    uncertainty, accuracy = result.uncertainty, result.accuracy
+    if uncertainty is None or accuracy is None:
+        return None
+    out = uncertainty.as_dict()
+    origin = next((p for p in accuracy.points if not p.point.any()), None)
+    flange = {} if origin is None else {"rms": origin.rms * 1e3, "max": origin.p95 * 1e3, "poses": accuracy.poses}
+    return {**out, "noise_estimate_mm": out["noise_mm"], "flange_position_1sigma_mm": flange,
+            "deprecated": "noise_estimate_mm (now noise_mm) and flange_position_1sigma_mm (now accuracy.points: "
+                          "the predicted error at each named point, max now the 95th percentile) go in 0.4"}
+
+
+def accuracy_lines(accuracy: dict[str, Any]) -> list[str]:
+    """The console table of a report's ``accuracy``.
+
+    The console table of a report's ``accuracy``: each named point's predicted position
+    error over the workspace and its three parts, then where each part comes from.
+    """
+    points = accuracy["points"]
+    names = [f"{p['name']} ({', '.join(f'{round(v, 1) + 0:g}' for v in p['point_mm'])})" for p in points]
+    width = max(len(n) for n in [*names, 'point (end frame, mm)']) + 2
+    lines = [f"accuracy where the robot works: predicted position error over {accuracy['poses']} workspace poses, "
+             "base frame, mm",
+             f"  {'point (end frame, mm)':{width}s}{'RMS':>8s}{'p95':>8s}{'noise':>8s}{'model':>8s}{'blind':>8s}"
+             f"{'registered':>12s}"]
+    for name, p in zip(names, points, strict=True):
+        flag = "" if p["determined"] else "  not determined by the data: mostly the prior"
+        lines.append(f"  {name:{width}s}{p['rms_mm']:8.3f}{p['p95_mm']:8.3f}{p['noise_mm']:8.3f}"
+                     f"{p['model_mm']:8.3f}{p['blind_mm']:8.3f}{p['registered_rms_mm']:12.3f}{flag}")
+    prior = accuracy["prior"]
+    lines.append(f"  blind: what the data does not determine (the robot stays at its start there), bounded by the "
+                 f"prior {prior['length_mm']:g} mm, {prior['angle_deg']:g} deg per deviation (--prior-mm, "
+                 "--prior-deg); registered: after the best rigid motion (the robot registered in its cell)")
+    for s in accuracy["sets"]:
+        rep = s["repeatability"]
+        name = f"{s['label']}: " if len(accuracy["sets"]) > 1 else ""
+        if rep["sigma_mm"] is None:
+            words = (f"the residual {s['residual_mm']:.4f} mm per value ({s['source']}); the sensor's repeatability "
+                     f"is unknown ({rep['source'].removeprefix('unknown: ')}), so the model part is not counted: "
+                     f"it may be up to {s['unexplained_bound_mm']:.4f} mm per coordinate")
+        else:
+            words = (f"the residual {s['residual_mm']:.4f} mm per value ({s['source']}) against the sensor's "
+                     f"repeatability {rep['sigma_mm']:.4f} mm ({rep['source']}): "
+                     + (f"{s['unexplained_mm']:.4f} mm per coordinate unexplained" if s["unexplained_mm"] > 0
+                        else "nothing significant unexplained"))
+        lines.append(f"  model: {name}{words}")
+    return lines
 
 
 def _in_unit(values: np.ndarray, unit: str) -> dict[str, float]:
@@ -168,7 +225,6 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
     from ..analysis.metrics import units_words
 
     kinematic = result.kinematic
-    uncertainty = result.uncertainty
     model = result.problem.model
     geometry = model.geometry_report(result.x)
     sets = _set_reports(result)
@@ -189,7 +245,8 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "kinematic_parameters": kinematic,
         "deviations": result.deviations if kinematic else {},
         "sensor_corrections": result.sensor_corrections if kinematic else {},
-        "uncertainty": uncertainty.as_dict() if uncertainty is not None else None,
+        "uncertainty": _uncertainty(result),
+        "accuracy": result.accuracy.as_dict() if result.accuracy is not None else None,
         "identifiability": result.identifiability.as_dict(),
         **geometry,
         "sensor_geometry": geometry,
@@ -232,6 +289,8 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         if spec.model == "basis" and spec.payload is not None:
             report["warnings"].append("the payload given is not used: the gravity basis already holds any load the "
                                       "end frame carries (its mass and centre of mass are fitted with the links')")
+    if result.accuracy is not None:
+        report["warnings"] += result.accuracy.warnings()
     ident = report["identifiability"]
     if kinematic and 2 * ident["rank"] < ident["unknowns"]:  # normal, but more varied poses would see more
         report["warnings"].append(rank_warning(ident["rank"], ident["unknowns"]))

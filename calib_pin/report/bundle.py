@@ -134,14 +134,15 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
     def yaml(tmp: Path) -> Any:
         from ..export.yaml import write_joint_origins_yaml  # PyYAML: imported when a YAML is written
 
-        return write_joint_origins_yaml(result.chain, result.deltas, tmp)
+        return write_joint_origins_yaml(result.chain, result.deltas, tmp, determined)
 
     def dh(tmp: Path) -> Any:
         from ..export.dh import write_dh_table
 
-        return write_dh_table(result.params, result.problem.model.robot(result.x), tmp)
+        return write_dh_table(result.params, result.problem.model.robot(result.x), tmp, determined)
 
     name = result.chain.name
+    determined = result.determination_notes()
     writers = {"urdf": lambda tmp: result.to_urdf(tmp), "yaml": yaml, "dh": dh}
     todo = [(fmt, _FILES[fmt].format(name=name)) for fmt in formats]
     if "yaml" in formats and name.startswith("ur"):
@@ -152,7 +153,7 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
         for fmt, file in todo:
             path = Path(tmp) / file
             if fmt == "urdf":  # made in memory: the bytes result.to_urdf writes (the fit is within the bound here)
-                files[file] = _as_read(calibrated_urdf(result.chain, result.deltas))
+                files[file] = _as_read(calibrated_urdf(result.chain, result.deltas, notes=determined))
                 exports[fmt] = file
                 continue
             if fmt == "ur_kinematics":

@@ -169,6 +169,7 @@ def deviations(r: dict, rows: list[dict]) -> bytes:
         rows: :func:`calib_pin.report.html.deviation_rows` (robot parameters only).
     """
     groups = [[row for row in rows if row["unit"] == unit] for unit in ("mm", "deg")]
+    start = "the start" if r.get("start") else "0"
     groups = [g for g in groups if g]
     height = max(2.5, 0.22 * max(len(g) for g in groups) + 1.2)
     fig = _figure(12, height)
@@ -178,21 +179,25 @@ def deviations(r: dict, rows: list[dict]) -> bytes:
     for ax, group in zip(axes, groups, strict=True):
         y = np.arange(len(group))[::-1]
         status = np.array([row["status"] for row in group])
-        value, low, high = (np.array([row[k] for row in group], dtype=float) for k in ("value", "low", "high"))
-        blind = status == "blind"
-        if blind.any():  # one artist per kind of row, not one per row
-            ax.plot(value[blind], y[blind], "s", mfc="white", mec="grey", ms=7, linestyle="none")
-        for kind, colour in (("identifiable", "tab:blue"), ("combination", "tab:purple")):
-            mask = status == kind
-            if mask.any():
-                ax.errorbar(value[mask], y[mask], xerr=[value[mask] - low[mask], high[mask] - value[mask]],
-                            fmt="o", color=colour, ms=4, capsize=3)
+        value = np.array([row["value"] for row in group], dtype=float)
+        held = np.isin(status, ("not determined", "held"))
+        if held.any():  # one artist per kind of row, not one per row
+            ax.plot(value[held], y[held], "s", mfc="white", mec="grey", ms=7, linestyle="none")
+        mixed = status == "combination"
+        if mixed.any():
+            ax.plot(value[mixed], y[mixed], "D", mfc="white", mec="tab:purple", ms=6, linestyle="none")
+        alone = status == "identified"
+        if alone.any():
+            low, high = (np.array([row[k] for row, a in zip(group, alone, strict=True) if a], dtype=float)
+                         for k in ("low", "high"))
+            ax.errorbar(value[alone], y[alone], xerr=[value[alone] - low, high - value[alone]],
+                        fmt="o", color="tab:blue", ms=4, capsize=3)
         ax.axvline(0.0, color="black", linewidth=0.8)
         ax.set_yticks(y, [row["name"] for row in group], fontsize=8)
         ax.set_xlabel(f"deviation [{group[0]['unit']}], bar = 95 % interval")
         ax.grid(True, axis="x", alpha=0.3)
-    fig.suptitle("estimated deviations: blue identifiable, purple only in a combination, "
-                 "white square blind (not estimated, stays 0)", fontsize=10)
+    fig.suptitle(f"estimated deviations: blue determined by the data (95 % bar), purple only combined, white held at "
+                 f"{start}", fontsize=10)
     return png(fig)
 
 
@@ -219,10 +224,11 @@ def spectrum(r: dict) -> bytes:
 
 
 def workspace(r: dict) -> bytes:
-    """Predicted 1-sigma end-frame position uncertainty over workspace poses, two views."""
+    """Predicted RMS position error of the first named point over workspace poses, two views."""
     ws = r["workspace_uncertainty"]
     p = np.asarray(ws["points_mm"])
-    sigma = np.asarray(ws["sigma_mm"])
+    sigma = np.asarray(ws["error_mm"])
+    what = f"predicted error of the {ws['point']} [mm]"  # RMS at each pose
     order = np.argsort(sigma)
     fig = _figure(12, 4.4)
     top, side, bar, hist = _row(fig, [1, 1, 0.05, 0.8], [0.75, 0.1, 1.45], left=0.75, right=0.1, bottom=0.5, top=0.3)
@@ -237,9 +243,9 @@ def workspace(r: dict) -> bytes:
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_title(title, fontsize=10)
         ax.grid(True, alpha=0.3)
-    fig.colorbar(art, cax=bar, label="1-sigma position uncertainty [mm]")
+    fig.colorbar(art, cax=bar, label=what)
     hist.hist(sigma, bins=30, color="tab:green")
-    hist.set_xlabel("1-sigma position uncertainty [mm]")
+    hist.set_xlabel(what)
     hist.set_ylabel("poses")
     hist.set_title(f"{len(sigma)} random poses", fontsize=10)
     return png(fig)

@@ -20,7 +20,7 @@ import pinocchio as pin
 
 from ..util.atomic import write_text
 from ..util.optional import require
-from .build import noise_parts_line
+from .build import accuracy_lines, noise_parts_line
 
 
 def _fig() -> ModuleType:
@@ -35,28 +35,25 @@ def _fig() -> ModuleType:
     return figures
 
 
-def fmt(value: float) -> str:
-    """How the report prints a number (4 significant digits)."""
-    return f"{value:.4g}"
+def fmt(value: float | None) -> str:
+    """How the report prints a number (4 significant digits; None as a dash)."""
+    return "&mdash;" if value is None else f"{value:.4g}"
 
 
 def deviation_rows(r: dict) -> list[dict]:
-    """Robot deviations with 95 % interval and identifiability status, from the report.
+    """Robot deviations with their status and, when identified, their 95 % interval.
 
-    Status: ``blind`` (the readings do not depend on it), ``combination`` (identifiable
-    only together with others), ``identifiable``.
+    Robot deviations with their status (:data:`calib_pin.analysis.uncertainty.STATUS`) and,
+    for those the data determines alone, their 95 % interval (None otherwise), from the report.
     """
     params = (r.get("uncertainty") or {}).get("parameters", {})
-    ident = r["identifiability"]
-    blind = set(ident["unidentifiable"])
-    in_combination = {term.strip().split(" ")[0] for c in ident["combinations"] for term in c.split(" with ")}
     out = []
     for key in r["deviations"]:
         name, unit = key.rsplit("_", 1)
         p = params[key]
-        status = "blind" if name in blind else "combination" if name in in_combination else "identifiable"
-        out.append({"key": key, "name": name, "unit": unit, "value": p["value"], "std": p["std"],
-                    "low": p["ci95"][0], "high": p["ci95"][1], "status": status})
+        low, high = p.get("ci95", (None, None))
+        out.append({"key": key, "name": name, "unit": unit, "value": p["value"], "std": p.get("std"),
+                    "low": low, "high": high, "status": p["status"]})
     return out
 
 
@@ -73,9 +70,14 @@ def _table(header: list[str], rows: list[list[str]], cls: str = "") -> str:
 
 def _summary(r: dict) -> str:
     rows = []
+    parts = r.get("errors_by_part")
     for split in ("train", "test"):
         if split in r:
             for stage in ("before", "after"):
+                if parts:  # each part in its own unit, never one mixed number
+                    rows.append([split, stage, *(fmt(m[k]) for m in parts[split][stage].values()
+                                                 for k in m if k.startswith(("rmse_", "max_")))])
+                    continue
                 m = r[split][stage]
                 rows.append([split, stage, fmt(m["rmse_mm"]), fmt(m["mean_mm"]), fmt(m["max_mm"])])
     n_train, n_test = len(r["split"]["train"]), len(r["split"]["test"])
@@ -88,40 +90,51 @@ def _summary(r: dict) -> str:
         ("iterations", f"{r['iterations']} ({fmt(r['evaluations'])} evaluations; {r['stop_reason']})"),
         ("sensor noise assumed", f"{fmt(r['noise_mm'])} mm"),
     ]
-    if r.get("uncertainty"):
-        u = r["uncertainty"]
-        f = u["flange_position_1sigma_mm"]
-        facts.append(("predicted end-frame accuracy (1 sigma)",
-                      (f"RMS {fmt(f['rms'])} mm, max {fmt(f['max'])} mm over {f['poses']} workspace poses; "
-                      f"noise estimate {fmt(u['noise_estimate_mm'])} mm")))
+    if r.get("accuracy"):
+        a = r["accuracy"]
+        facts += [(f"predicted accuracy at {p['name']}", f"RMS {fmt(p['rms_mm'])} mm, p95 {fmt(p['p95_mm'])} mm over "
+                   f"{a['poses']} workspace poses" + ("" if p["determined"] else " (not determined by the data: "
+                                                      "mostly the prior)")) for p in a["points"]]
     dl = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in facts)
     kind = r["error"]
+    if parts:
+        names = [k.rsplit("_", 1) for k in next(iter(next(iter(parts.values())).values()))]
+        header = ["split", "stage", *(f"{name} {what} [{unit}]" for name, unit in names for what in ("RMSE", "max"))]
+        title = "Errors, each part in its own unit"
+    else:
+        header, title = ["split", "stage", "RMSE", "mean", "max"], f"Errors [mm] ({kind})"
     return (f'<div class="row"><div><table class="facts">{dl}</table></div>'
-            f'<div class="fit"><h3>Errors [mm] ({kind})</h3>'
-            + _table(["split", "stage", "RMSE", "mean", "max"], rows, "num") + "</div></div>")
+            f'<div class="fit"><h3>{html.escape(title)}</h3>'
+            + _table(header, rows, "num") + "</div></div>")
 
 
 def _deviation_section(r: dict, rows: list[dict]) -> str:
     if not r.get("uncertainty"):
         return f"<p>Method {html.escape(r['method'])} estimates no kinematic parameters.</p>"
-    label = {"blind": "blind: not estimated (stays 0)", "combination": "only in a combination",
-             "identifiable": "identifiable"}
+    start = "the start" if r.get("start") else "zero"
+    label = {"identified": "determined by the data", "combination": "only in a combination (below)",
+             "not determined": f"not determined: held at {start}", "held": "held (--fix/--free)"}
+    css = {"identified": "identifiable", "combination": "combination", "not determined": "blind", "held": "blind"}
     body = [[html.escape(d["name"]), d["unit"], fmt(d["value"]),
-             "&mdash;" if d["status"] == "blind" else fmt(d["std"]),
-             "&mdash;" if d["status"] == "blind" else f"[{fmt(d['low'])}, {fmt(d['high'])}]",
-             f'<span class="{d["status"]}">{label[d["status"]]}</span>'] for d in rows]
+             fmt(d["std"]) if d["std"] is not None else "&mdash;",
+             f"[{fmt(d['low'])}, {fmt(d['high'])}]" if d["low"] is not None else "&mdash;",
+             f'<span class="{css[d["status"]]}">{label[d["status"]]}</span>'] for d in rows]
     params = r["uncertainty"]["parameters"]
-    sensor = [[html.escape(k.rsplit("_", 1)[0]), k.rsplit("_", 1)[1], fmt(params[k]["value"]), fmt(params[k]["std"]),
-               f"[{fmt(params[k]['ci95'][0])}, {fmt(params[k]['ci95'][1])}]"] for k in r["sensor_corrections"]]
+    sensor = [[html.escape(k.rsplit("_", 1)[0]), k.rsplit("_", 1)[1], fmt(params[k]["value"]),
+               fmt(params[k].get("std")), f"[{fmt(params[k]['ci95'][0])}, {fmt(params[k]['ci95'][1])}]"
+               if "ci95" in params[k] else "&mdash;"] for k in r["sensor_corrections"]]
     ident = r["identifiability"]
-    combos = "".join(f"<li>{html.escape(c)}</li>" for c in ident["combinations"]) or "<li>none</li>"
+    combos = "".join(f"<li>{html.escape(c['combination'])} = {fmt(c['value'])} {c['unit']}, 95 % "
+                     f"[{fmt(c['ci95'][0])}, {fmt(c['ci95'][1])}]</li>"
+                     for c in r["uncertainty"]["combinations"]) or "<li>none</li>"
     out = (_img(_fig().deviations(r, rows), "deviations with 95 % intervals")
            + '<div class="row"><div class="fit">'
            + _table(["parameter", "unit", "value", "std", "95 % interval", "status"], body, "num")
            + f"</div><div><p>Identifiable: {ident['rank']} of {ident['unknowns']} directions (condition "
-           f"{fmt(ident['condition'])}). Not identifiable: {html.escape(', '.join(ident['unidentifiable']) or 'none')}."
-           f"</p><p>Identifiable only in combination (moving these together changes no reading; "
-           f"the estimate leaves them at zero):</p><ul>{combos}</ul>")
+           f"{fmt(ident['condition'])}). A deviation has an interval of its own only when the data determines it "
+           f"alone; along what the data does not determine the robot stays at {start}, so the values of "
+           "deviations determined only together are the start's split, not the data's. What the data determines "
+           f"of them:</p><ul>{combos}</ul>")
     side = ""
     if r.get("compliances"):
         comp = [[html.escape(k), fmt(v["value"]), fmt(v["std"]), f"[{fmt(v['ci95'][0])}, {fmt(v['ci95'][1])}]"]
@@ -338,11 +351,11 @@ def render_html(r: dict) -> str:
         f"<p>{r['iterations']} iterations, {fmt(r['evaluations'])} evaluations, {fmt(r['time_s'])} s.</p>")
     sections.append(("spectrum", "Identifiability spectrum | Convergence",
                      f'<div class="row"><div>{spectrum}</div><div>{convergence}</div></div>'))
-    if r.get("workspace_uncertainty"):
-        f = r["uncertainty"]["flange_position_1sigma_mm"]
-        sections.append(("workspace", "Accuracy over the workspace", _img(_fig().workspace(r), "workspace uncertainty")
-                         + f"<p>Predicted 1-sigma position uncertainty of the end frame at {f['poses']} random "
-                         f"poses: RMS {fmt(f['rms'])} mm, max {fmt(f['max'])} mm.</p>"))
+    if r.get("accuracy"):
+        lines = "\n".join(accuracy_lines(r["accuracy"]))
+        sections.append(("workspace", "Accuracy where the robot works",
+                         (_img(_fig().workspace(r), "predicted accuracy over the workspace")
+                          if r.get("workspace_uncertainty") else "") + f"<pre>{html.escape(lines)}</pre>"))
     if len(r.get("sets", ())) > 1:  # one set's table is the summary's
         sections.insert(1, ("sets", "Measurement sets", _sets_section(r)))
     sections.append(("sensor", "Sensor", sensor_html(r)))

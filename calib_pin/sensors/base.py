@@ -422,6 +422,10 @@ class MeasurementModel(ABC):
         """
         return np.zeros(3)
 
+    def measured_points(self, x: np.ndarray | None) -> tuple[tuple[str, np.ndarray], ...]:
+        """The points of the end frame the sensor measured, at x: (name, point (3,) [m]) each."""
+        return (("measured point", self.reference_point),)
+
     def point_index(self, labels: Any, n_rows: int, source: str = "") -> np.ndarray | None:
         """Indices of the measured points for ``n_rows`` rows labelled ``labels``.
 

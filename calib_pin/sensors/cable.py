@@ -397,6 +397,9 @@ class CableModel(MeasurementModel):
     def reference_point(self) -> np.ndarray:
         return self.sensor.tool
 
+    def measured_points(self, x: np.ndarray | None) -> tuple[tuple[str, np.ndarray], ...]:
+        return (("hook", np.asarray(self.geometry_at(x).tool, dtype=float)),)
+
     def tool_positions(self, x: np.ndarray | None, q: np.ndarray) -> np.ndarray:
         """Tool point in the base frame, shape (n_rows, 3), [m]; x None: nominal."""
         return self.points_at(x, q, self.geometry_at(x).tool)

@@ -501,6 +501,9 @@ class ContactModel(MeasurementModel):
     def reference_point(self) -> np.ndarray:
         return np.asarray(self.fixtures.tool, dtype=float)
 
+    def measured_points(self, x: np.ndarray | None) -> tuple[tuple[str, np.ndarray], ...]:
+        return (("tool point", np.asarray(self.geometry_at(x).tool, dtype=float)),)
+
     def fresh_difference(self, predicted: np.ndarray, true: np.ndarray) -> np.ndarray:
         """Predicted tool points (n, 3) [m] moved by the best rigid motion onto the true ones, minus them.
 

@@ -383,6 +383,9 @@ class PoseModel(MeasurementModel):
     def reference_point(self) -> np.ndarray:
         return np.asarray(self.rig.body.translation, dtype=float)
 
+    def measured_points(self, x: np.ndarray | None) -> tuple[tuple[str, np.ndarray], ...]:
+        return (("measured body", np.asarray(self.geometry_at(x).body.translation, dtype=float)),)
+
     # --- predictions ----------------------------------------------------------------------
 
     def _poses(self, x: np.ndarray | None, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, PoseRig]:

@@ -388,6 +388,11 @@ class PositionModel(MeasurementModel):
     def reference_point(self) -> np.ndarray:
         return self.device.markers.mean(axis=0)
 
+    def measured_points(self, x: np.ndarray | None) -> tuple[tuple[str, np.ndarray], ...]:
+        device = self.geometry_at(x)
+        return tuple((f"marker {label}", np.asarray(m, dtype=float)) for label, m in zip(device.labels, device.markers,
+                                                                                          strict=True))
+
     def grid_points(self, n_poses: int) -> tuple[np.ndarray, np.ndarray | None]:
         k = len(self.device.labels)
         return np.repeat(np.arange(n_poses), k), np.tile(np.arange(k), n_poses)

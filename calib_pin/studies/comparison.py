@@ -36,6 +36,7 @@ from ..estimators import PAPER_LABELS, PAPER_METHODS
 from ..estimators.problem import data_row_errors
 from ..exceptions import ArgumentError, CalibPinError
 from ..parameters import ParameterModel, parameter_model
+from ..parameters.prior import Prior
 from ..robot import Chain, load_chain
 from ..robot.deflection import Compliance
 from ..robot.poses import random_poses
@@ -415,6 +416,7 @@ def compare(
     fix: Any = None,
     free: Any = None,
     nominal: str | Path | None = None,
+    prior: Prior | None = None,
     jobs: int = 1,
     scheduler: str | None = None,
     checkpoint: str | Path | None = None,
@@ -438,7 +440,7 @@ def compare(
         test_fraction: Share of each set's poses held out (the paper's 0.2).
         simulate_noise: ``gauss``, ``student`` or ``outliers``: run on simulated sets of
             ``poses`` poses with that noise of size ``noise_mm`` [mm] (1 sigma).
-        compliance, parameters, setup, fix, free, nominal: As :func:`calib_pin.calibrate`'s
+        compliance, parameters, setup, fix, free, nominal, prior: As :func:`calib_pin.calibrate`'s
             (``nominal``: measured data only).
         jobs, scheduler: Run the trials in ``jobs`` local processes, or on the Dask
             cluster at ``scheduler`` (see :func:`calib_pin.studies.parallel.parallel_map`); the
@@ -466,7 +468,7 @@ def compare(
         raise CalibPinError(f"trials must be at least 1, got {trials}")
     setup, record = deprecated_records(deprecated, setup, compliance)
     options: dict[str, Any] = {"compliance": record}
-    for key, value in (("parameters", parameters), ("setup", setup), ("fix", fix), ("free", free)):
+    for key, value in (("parameters", parameters), ("setup", setup), ("fix", fix), ("free", free), ("prior", prior)):
         if value is not None:  # only when given: the checkpoints of earlier runs stay valid
             options[key] = value
     if nominal is not None:

@@ -180,7 +180,7 @@ def _describe(calibration: Any) -> str:
 def compare_models(robot: str, data: Any = None, *, models: str | list[str], method: str = "lm",
                    trials: int = 10, seed: int = 0, test_fraction: float = 0.2, parameters: str | None = None,
                    setup: SensorSetup | None = None, fix: Any = None, free: Any = None, nominal: Any = None,
-                   jobs: int = 1, scheduler: str | None = None, **loads: Any) -> ModelComparison:
+                   prior: Any = None, jobs: int = 1, scheduler: str | None = None, **loads: Any) -> ModelComparison:
     """Fit each model on the same splits by pose and score it on the held-out poses.
 
     Args:
@@ -191,7 +191,7 @@ def compare_models(robot: str, data: Any = None, *, models: str | list[str], met
         trials: Splits of seeds ``seed`` .. ``seed + trials - 1``.
         test_fraction: Share of each set's poses held out.
         parameters: Parameter model of ``geometric`` and ``compliance:`` models.
-        setup, fix, free, nominal: As :func:`calib_pin.calibrate`'s, for every model.
+        setup, fix, free, nominal, prior: As :func:`calib_pin.calibrate`'s, for every model.
         jobs, scheduler: Where the trials run (:func:`calib_pin.studies.parallel.parallel_map`).
         loads: ``payload_kg``, ``payload_com_mm``, ``cable_tension_n`` of the compliance models
             (and the deprecated ``estimate``: give ``setup``).
@@ -216,7 +216,7 @@ def compare_models(robot: str, data: Any = None, *, models: str | list[str], met
         compliance = None if choice.compliance is None else Compliance(choice.compliance.joints, **loads,
                                                                        model=choice.compliance.model)
         calibration = prepare(robot, data, parameters=choice.parameters, setup=setup, compliance=compliance,
-                              fix=fix, free=free, nominal=nominal)
+                              fix=fix, free=free, nominal=nominal, prior=prior)
         check_method(record, calibration)
         one = partial(run_trial, calibration, None, [method], test_fraction=test_fraction)
         runs = parallel_map(one, range(seed, seed + trials), jobs, scheduler)
