@@ -45,9 +45,23 @@ def add_benchmark_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    help="also time calibrate ur5 --model placement --test-fraction 0 --no-html on 1 000 simulated "
                    "marker positions (lm, ekf-qibas) as whole processes against a process that only imports numpy, "
                    "Pinocchio and scipy.optimize, interleaved")
+    p.add_argument("--trust", action="store_true",
+                   help="instead of timing: check the gauge, the predicted accuracy and the intervals against the "
+                   "simulator's truth (IRB120, UR5, Panda; every sensor; lm, ekf-qibas, de; --repeats seeds) and the "
+                   "predicted error against the held-out error on the real IRB120 set (10 splits); long")
+    p.add_argument("--robots", type=_robot_list, default=("irb120", "ur5", "panda"),
+                   help="robots of --trust, comma-separated (irb120,ur5,panda)")
     p.add_argument("--against", choices=["figaroh"],
                    help="also race FIGAROH (when installed) on simulated UR5 positions, 100 and 1 000 samples")
     return p
+
+
+def _robot_list(text: str) -> tuple[str, ...]:
+    """``irb120,ur5``: the robots of ``--trust``."""
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise argparse.ArgumentTypeError(f"expected robot names, comma-separated, got '{text[:40]}'")
+    return names
 
 
 def _command_list(text: str) -> tuple[str, ...]:
@@ -65,7 +79,22 @@ def _command_list(text: str) -> tuple[str, ...]:
 def benchmark_main(argv: Sequence[str] | None = None) -> int:
     """``benchmark.py [--repeats 5] [--methods ekf-qibas,lm] [--seed 0] [--poses 120]``."""
     args = parse_args("benchmark", argv)
-    return run(lambda: _benchmark(args))
+    return run(lambda: _trust(args) if args.trust else _benchmark(args))
+
+
+def _trust(args: argparse.Namespace) -> int:
+    """``--trust``: the study of :mod:`calib_pin.studies.trust`, printed as Markdown tables."""
+    import sys
+
+    from ..studies.trust import study, wu_splits
+
+    methods = tuple(args.methods) if args.methods else ("lm", "ekf-qibas", "de")
+    print("\n".join(study(robots=args.robots, methods=methods, seeds=args.repeats,
+                          notify=lambda line: print(line, file=sys.stderr, flush=True))))
+    if "irb120" in args.robots:
+        print()
+        print("\n".join(wu_splits()))
+    return 0
 
 
 def _benchmark(args: argparse.Namespace) -> int:
