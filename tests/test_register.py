@@ -79,7 +79,7 @@ def test_re_anchored_cable_re_registered(chain, params):
 def test_registration_rows_by_role_and_by_poses(tracker):
     """register=role takes the rows marked 'register' (whatever their order); register=k the
     first k poses in file order; nothing left to score, or no marked row, is refused."""
-    (_, _, moved), _ = tracker
+    (train, _, moved), _ = tracker
     role = np.array(["score"] * len(moved), dtype=object)
     role[[3, 4, 5, 60, 61, 62]] = "register"
     marked = dataclasses.replace(moved, extra={"role": role})
@@ -94,7 +94,7 @@ def test_registration_rows_by_role_and_by_poses(tracker):
         TestSet(moved, register=0)
     one_marker = moved.subset(np.flatnonzero(moved.point_ids == 1)[:4])  # 1 pose: 3 values for a frame
     with pytest.raises(cp.DataError, match="1 registration rows give 3 values, fewer than the 6 set-up unknowns"):
-        cp.calibrate("irb120", moved, method="lm", test_data=TestSet(one_marker, register=1))
+        cp.calibrate("irb120", train, method="lm", test_data=TestSet(one_marker, register=1))
 
 
 def test_cli_test_data_choice(tracker, tmp_path, capsys):

@@ -26,7 +26,7 @@ from ..sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for, setup_record
 from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path
 from .holdout import TestSet
 from .problem import Problem
-from .sets import FitSet, PreparedSet, labelled, set_overrides, set_sigma
+from .sets import FitSet, PreparedSet, labelled, refuse_repeats, set_overrides, set_sigma
 from .start import Start
 
 #: The problems of this many splits (besides every row's) a calibration keeps for reuse.
@@ -141,9 +141,11 @@ class Calibration:
         Raises:
             CalibPinError: a set with role ``test`` beside it, a session of a kind no set
                 has, no or a wrong ``same``, a set-up that disagrees with the named set's,
-                the training rows themselves.
+                training rows (a training file again, or rows of one repeated:
+                :mod:`calib_pin.calibration.repeats`).
         """
-        from .validation import check_same_setup, choose_training_set, same_rows
+        from .repeats import repeat_error
+        from .validation import check_same_setup, choose_training_set
 
         roles = [s.role for s in self.sets]
         if "test" in roles:
@@ -154,11 +156,13 @@ class Calibration:
                                 [s.data.source for s in self.sets])
         if test.register is None:
             check_same_setup(session, self.sets[k].data, self.sets[k].options)
-        for s in self.sets:
-            if same_rows(session, s.data):  # its score would be the training fit's, shown as a test
-                whose = "the training set's" if len(self.sets) == 1 else "a training set's"
-                raise DataError(session.source or "test_data", f"holds {whose} own rows: a validation session must "
-                                "be another one (or leave it out to hold out a test fraction)")
+        for s in self.sets:  # its score would be the training fit's, shown as a test
+            twice = repeat_error(s.data, s.label, session, "test_data")
+            if twice:
+                whose = "the training set's" if len(self.sets) == 1 else f"training set {s.label}'s"
+                raise DataError(session.source or "test_data", f"holds {whose} own rows: {twice}; scored as "
+                                "held out they would be training rows: a validation session must be another one (or "
+                                "leave it out to hold out a test fraction)")
         from dataclasses import replace
 
         return replace(test, data=session, same=self.labels[k] if test.register is None else ""), k
@@ -306,6 +310,7 @@ def prepare(
         sets.append(PreparedSet(d, label, s.role, sigma, origin, options, tuple(own), overridden))
     if all(s.role == "test" for s in sets):
         raise CalibPinError("every set has role 'test': nothing to fit")
+    refuse_repeats(sets)  # one measurement in two sets: its rows would be fitted twice
     calibration = Calibration(chain, params, tuple(sets), soft)
     problem = calibration.problem  # refuse options a sensor does not take now; kept for --analyze and a full fit
     held: tuple[str, ...] = ()

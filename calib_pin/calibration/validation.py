@@ -224,15 +224,3 @@ def session_notes(test: TestSet) -> tuple[str, ...]:
         return ()
     return (f"ignored columns: {', '.join(extra)} (in {Path(session.source).name or 'test_data'}; read and kept, "
             "not used)",)
-
-
-def same_rows(a: MeasurementSet, b: MeasurementSet) -> bool:
-    """Both sets are one file, or hold the same joint angles and values."""
-    if a.source and b.source:
-        try:
-            if Path(a.source).samefile(b.source):
-                return True
-        except OSError:
-            pass
-    return (np.shape(a.q) == np.shape(b.q) and np.shape(a.values) == np.shape(b.values)
-            and np.array_equal(a.q, b.q) and np.array_equal(a.values, b.values, equal_nan=True))
