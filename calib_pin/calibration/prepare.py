@@ -23,6 +23,7 @@ from ..robot import Chain, RobotDescription, load_chain, resolve_robot
 from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
 from ..robot.description import as_robot
 from ..sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for, setup_record
+from ..sensors.base import FIT_ROWS_KEY
 from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path
 from .holdout import TestSet
 from .problem import Problem
@@ -100,18 +101,20 @@ class Calibration:
         test = np.concatenate([offsets[k] + te for k, (_, te) in enumerate(pairs)]).astype(int)
         return train, test
 
-    def problem_on(self, fit_rows: np.ndarray, reuse: bool = True) -> Problem:
+    def problem_on(self, fit_rows: np.ndarray, reuse: bool = True, rows: str = "training rows") -> Problem:
         """Every row of every set, each set's starting sensor geometry fitted on its rows
         among ``fit_rows`` (rows of :attr:`data`: the training rows; nothing is fitted on a
         test row). Made once for the same rows (every method of a split shares it; the
         last :data:`KEPT_PROBLEMS` splits and every row's are kept); ``reuse`` False: fitted
-        anew all the same (a benchmark timing the whole fit)."""
+        anew all the same (a benchmark timing the whole fit). ``rows``: what a refusal calls
+        ``fit_rows`` (a cross-validation fold's)."""
         fit_rows = np.asarray(fit_rows, dtype=int)
         made: dict[bytes, Problem] = self._cache.setdefault("problems", {})
         key = fit_rows.tobytes()
         if reuse and key in made:
             return made[key]
-        problems = [sensor_for(s.kind).problem_for(self.chain, self.params, s.data, self.rows(k, fit_rows), s.options)
+        problems = [sensor_for(s.kind).problem_for(self.chain, self.params, s.data, self.rows(k, fit_rows),
+                                                   {**s.options, FIT_ROWS_KEY: rows})
                     for k, s in enumerate(self.sets)]
         problem = Problem.of(problems, self.labels, [s.sigma or self.noise for s in self.sets])
         if reuse:

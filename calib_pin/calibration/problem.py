@@ -458,3 +458,27 @@ class Problem(RowProblem):
                 label = name if self.model.one is not None else f"{self.model.labels[self.sets[k]]}: {name}"
                 out[label] = (full, hint)
         return out
+
+
+def values_error(training: Problem, x0: np.ndarray, held: tuple[int, ...], n_rows: int,
+                 rows: str = "training rows") -> str | None:
+    """Why ``training`` (``n_rows`` rows, called ``rows``) has too few values to fit, or None.
+
+    An estimate moves only the directions its rows identify (the rank r of the Jacobian's
+    free columns at ``x0``: the unknowns not ``held``), so its values are counted against
+    r, not against every unknown: they must be more than r, or every value is fitted
+    exactly and nothing is left to check the fit (or to estimate the noise). The rank is
+    computed only when the values are no more than the free unknowns.
+    """
+    free = np.array([i not in held for i in range(training.n_params)], dtype=bool)
+    n_free, n_values = int(free.sum()), training.n_values
+    if n_values > n_free:
+        return None
+    from ..estimators.subspace import Subspace
+
+    rank = Subspace.of(training.jacobian(x0)[:, free], np.asarray(training.scale)[free], x0[free]).rank
+    if n_values > rank:
+        return None
+    unknowns = f"{n_free} free unknowns, {len(held)} held" if held else f"{n_free} unknowns"
+    return (f"{n_rows} {rows} give {n_values} values, no more than the {rank} directions they identify (of the "
+            f"{unknowns}): every value would be fitted exactly, none left to check the fit: measure more poses")

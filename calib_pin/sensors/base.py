@@ -77,6 +77,33 @@ def check_rows(n_rows: int) -> np.ndarray:
     return np.unique(np.linspace(0, n_rows - 1, min(n_rows, CHECK_ROWS)).astype(int))
 
 
+#: The key of a set's sensor options that names the rows its set-up is fitted on, in what a
+#: refusal says (:func:`fit_rows_name`): a calibration's ``training rows``, a validation
+#: session's ``registration rows``, a cross-validation fold's.
+FIT_ROWS_KEY = "fit_rows"
+
+
+def fit_rows_name(options: Mapping[str, Any]) -> str:
+    """What the rows a set-up is fitted on are called (``training rows`` unless the options say)."""
+    return str(options.get(FIT_ROWS_KEY) or "training rows")
+
+
+def refuse_too_few(source: str, n_rows: int, n_values: int, n_unknowns: int, what: str, rows: str,
+                   field: str | None = None) -> None:
+    """Refuse a set-up pre-fit of ``n_unknowns`` (``what`` they are) on ``n_rows`` rows of
+    ``n_values`` values (``rows``: what those rows are called): a least-squares fit needs
+    at least as many values as unknowns.
+
+    Raises:
+        DataError: naming ``source`` and ``field``.
+    """
+    from ..exceptions import DataError
+
+    if n_values < n_unknowns:
+        raise DataError(source or "the measurement set", f"{n_rows} {rows} give {n_values} values, fewer than the "
+                        f"{n_unknowns} set-up unknowns ({what}) to fit on them: give more rows", None, field)
+
+
 def frame_unknowns(prefix: str, metres: float, radians: float) -> list[tuple[str, str, float]]:
     """The six unknowns (name, unit, typical size) of a frame correction: ``PREFIX_x/y/z``
     [m], typical ``metres``, then ``PREFIX_rx/ry/rz`` [rad], typical ``radians``."""
@@ -234,7 +261,8 @@ class MeasurementModel(ABC):
         calibration's model and estimate (a sensor may take from them what the session does
         not say). Default: :meth:`problem_for` with the caller's compliance only (a sensor
         whose set-up is always fitted, e.g. a device frame and markers)."""
-        return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance")})
+        return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance"),
+                                                              FIT_ROWS_KEY: options.get(FIT_ROWS_KEY)})
 
     @classmethod
     def refuse_foreign(cls, options: Mapping[str, Any], data: MeasurementSet) -> None:

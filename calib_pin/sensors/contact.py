@@ -45,7 +45,7 @@ from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..util.arguments import as_optional, as_xyz_mm
-from .base import DEFAULT_NOISE_MM, SETUP_MISFIT_M, MeasurementModel, check_rows
+from .base import DEFAULT_NOISE_MM, SETUP_MISFIT_M, MeasurementModel, check_rows, fit_rows_name
 from .problem import SetProblem
 from .setup import SensorSetup, option, xyz_mm
 
@@ -429,7 +429,7 @@ class ContactModel(MeasurementModel):
             if distinct < need:
                 what = f"contact_id {label}" if k < len(points) else f"plane_id {label}"
                 raise DataError(data.source, f"{what} is touched at {distinct} distinct configuration(s) of the "
-                                f"training rows: {'a plane needs 3 or more' if need > 1 else 'nothing locates it'}",
+                                f"{fit_rows_name(options)}: {'a plane needs 3 or more' if need > 1 else 'nothing locates it'}",
                                 None, "plane_id" if k >= len(points) else "contact_id")
         fixtures = fit_fixtures(chain, params, data.q[fit_rows], rows[fit_rows], points, planes, tool, distances)
         model = cls(chain, params, fixtures, options.get("compliance"))
