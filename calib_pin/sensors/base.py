@@ -192,6 +192,9 @@ class MeasurementModel(ABC):
     #: set of this sensor cannot be all-test.
     fits_setup: ClassVar[bool] = False
     fitted_setup: ClassVar[str] = ""
+    #: What a validation session measured from another placement has moved, for the refusal
+    #: of a sensor whose model measures it (``session_frame_shift``): its name, and the hint.
+    moved_setup: ClassVar[tuple[str, str]] = ("device frame", "the device was moved between the sessions?")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """A sensor that declares its ``schema`` takes its ``kind`` and ``data_name`` from it."""
@@ -250,6 +253,14 @@ class MeasurementModel(ABC):
             DataError: naming the session's file and the key.
         """
         return None
+
+    @classmethod
+    def row_targets(cls, data: MeasurementSet) -> np.ndarray | None:
+        """What each row of ``data`` measures, shape (n_rows,): its marker (``point_ids``), or
+        None when every row measures the same thing; a sensor of other targets (a contact
+        set's fixtures) says so. A validation session's ``register=K`` takes its poses from
+        each target in turn (:func:`calib_pin.calibration.validation.registration_rows`)."""
+        return None if data.point_ids is None else np.asarray(data.point_ids)
 
     @classmethod
     def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,

@@ -373,6 +373,7 @@ class ContactModel(MeasurementModel):
     setup_type = ContactSetup
     fits_setup = True
     fitted_setup = "fixture points and planes"
+    moved_setup = ("fixtures", "the fixtures (a plate, a cube) were moved between the sessions?")
 
     def __init__(self, chain: Chain, params: ParameterModel, fixtures: Fixtures,
                  compliance: ComplianceSpec | None = None, estimate: tuple[str, ...] | None = None) -> None:
@@ -582,6 +583,30 @@ class ContactModel(MeasurementModel):
         sizes = np.where(mapped < len(fx.points), 3, 1)
         offsets = np.concatenate([[0], np.cumsum(sizes)])
         return np.array([np.linalg.norm(residual[offsets[k] : offsets[k + 1]]) for k in range(len(mapped))])
+
+    def session_frame_shift(self, x: np.ndarray | None, data: MeasurementSet) -> float | None:
+        """How far a separate session's own fixtures are from the calibration's, [m]: the
+        RMS, over the session's fixtures this calibration knows, of the distance between
+        where its touches put each (the model at x; a point: their mean tool point, a plane:
+        their mean distance from it along its normal) and where the calibration has it. The
+        rows' play averages out, a moved plate does not. None: no fixture known."""
+        fx = self.geometry_at(x)
+        points, planes, rows = fixture_rows(data)
+        tips = self.points_at(x, data.q, fx.tool)
+        shifts = []
+        for k, label in enumerate(points + planes):
+            these = tips[rows == k]
+            if k < len(points) and label in fx.point_labels:
+                shifts.append(float(np.linalg.norm(these.mean(axis=0) - fx.points[fx.point_labels.index(label)])))
+            elif k >= len(points) and label in fx.plane_labels:
+                m = fx.plane_labels.index(label)
+                shifts.append(abs(float(np.mean(these @ fx.normals[m] - fx.offsets[m]))))
+        return float(np.sqrt(np.mean(np.square(shifts)))) if shifts else None
+
+    @classmethod
+    def row_targets(cls, data: MeasurementSet) -> np.ndarray:
+        """Each row's fixture (index, as :func:`fixture_rows`')."""
+        return fixture_rows(data)[2]
 
     # --- simulation -----------------------------------------------------------------------
 
