@@ -154,10 +154,10 @@ def score(calibration: Calibration, method: Method, done: Fit, train: np.ndarray
     model = problem.model
     warnings_ = [note for note in (s.data.ignored_note() for s in calibration.sets) if note] + list(notes)
     several = len(calibration.sets) > 1
-    if several and done.noise.fits > 1:
-        guessed = [s.label for s, origin in zip(calibration.sets, done.noise.origins, strict=True)
-                   if origin[0] == "estimate"]
+    guessed = [s.label for s, origin in zip(calibration.sets, done.noise.origins, strict=True) if origin[0] == "estimate"]
+    if several and done.noise.fits > 1 and guessed:
         warnings_.append(f"noise of {', '.join(guessed)} estimated from the residual ({done.noise.fits} fits)")
+    warnings_ += done.noise.notes  # a set too small to estimate its own noise; an estimate that did not settle
     results: list[SetResult] = []
     pooled: dict[str, dict[str, list[np.ndarray]]] = {}
     offsets = calibration.offsets

@@ -345,6 +345,11 @@ class MeasurementModel(ABC):
         units (m, rad): what its sigma is estimated from (default: none)."""
         return ()
 
+    def part_entries(self, n_rows: int) -> tuple[np.ndarray, ...]:
+        """Where each of :meth:`noise_parts`' entries sits among the set's residual entries
+        (``n_rows`` rows, flattened), in the order of :meth:`part_residuals`' (default: none)."""
+        return ()
+
     def with_part_noise(self, sigmas: tuple[float, ...], origin: str) -> MeasurementModel:
         """A copy of this model whose parts are weighted by ``sigmas`` (SI, in the order of
         :meth:`noise_parts`; ``origin``: where they came from, e.g. ``estimate``).

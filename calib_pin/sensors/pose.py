@@ -350,6 +350,11 @@ class PoseModel(MeasurementModel):
         e = self.errors(x, q, readings)
         return e[:, :3].reshape(-1), e[:, 3:].reshape(-1)
 
+    def part_entries(self, n_rows: int) -> tuple[np.ndarray, ...]:
+        """The position's and the orientation's entries of the (n_rows, 6) residual, flattened."""
+        entries = np.arange(6 * n_rows).reshape(n_rows, 6)
+        return entries[:, :3].reshape(-1), entries[:, 3:].reshape(-1)
+
     def with_part_noise(self, sigmas: tuple[float, ...], origin: str) -> PoseModel:
         """A copy weighted by position noise ``sigmas[0]`` [m] and orientation noise
         ``sigmas[1]`` [rad]; the parts whose noise was stated keep their origin."""
