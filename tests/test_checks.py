@@ -151,3 +151,16 @@ def test_a_validation_session_from_another_device_placement_is_refused(positions
     with pytest.raises(cp.DataError, match=r"v\.csv: device frame: the session's own is 10 mm \(RMS over its points\) "
                                            "from the calibration's"):
         cp.calibrate("irb120", train, method="lm", test_data=moved)
+
+
+def test_a_nan_quaternion_component_of_a_6d_set_is_named(chain):
+    """A NaN in a hand-made 6-D set's quaternion is refused naming its column (an index past
+    the position columns raised IndexError)."""
+    from calib_pin.simulation import simulate_poses
+
+    data, _ = simulate_poses(chain, cp.parameter_model(chain), 5, seed=2)
+    values = np.array(data.values, dtype=float)
+    values[2, 4] = np.nan
+    with pytest.raises(cp.DataError, match=r"row 2 \(0-based\): nan is not a finite pose reading") as refused:
+        check_measurements(chain, dataclasses.replace(data, values=values, lines=None))
+    assert refused.value.field == "qx"

@@ -242,9 +242,16 @@ class Problem(RowProblem):
     _only: SetProblem | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        """Raises: CalibPinError: no part, or parts, weights and ``sets`` of different lengths."""
+        if not isinstance(self.model, ProblemModel) or not isinstance(self.parts, tuple | list) or not self.parts:
+            raise CalibPinError("a calibration problem needs at least one measurement set's rows (parts: a "
+                                "SetProblem per set; build it with Problem.of)")
         if not self.sets:
             object.__setattr__(self, "sets", tuple(range(len(self.parts))))
         object.__setattr__(self, "weights", np.asarray(self.weights, dtype=float))
+        if len(self.sets) != len(self.parts) or self.weights.shape != (len(self.parts),):
+            raise CalibPinError(f"a calibration problem of {len(self.parts)} part(s) with {len(self.sets)} set "
+                                f"index(es) and weights of shape {self.weights.shape}: one of each per part")
         object.__setattr__(self, "_offsets", np.cumsum([0] + [p.n_rows for p in self.parts]))
         # One set, weight 1, every unknown its own: every call is the set's own problem's.
         only = self.parts[0] if (len(self.parts) == 1 and self.model.one is not None
@@ -253,7 +260,16 @@ class Problem(RowProblem):
 
     @classmethod
     def of(cls, problems: Sequence[SetProblem], labels: Sequence[str], sigmas: Sequence[float]) -> Problem:
-        """Every row of each set's problem, set k weighted by sigmas[0] / sigmas[k] [m]."""
+        """Every row of each set's problem, set k weighted by sigmas[0] / sigmas[k] [m].
+
+        Raises:
+            CalibPinError: no set, or problems, labels and sigmas of different lengths.
+        """
+        if not isinstance(problems, Sequence) or not problems:
+            raise CalibPinError("a calibration problem needs at least one measurement set")
+        if len(labels) != len(problems) or len(sigmas) != len(problems):
+            raise CalibPinError(f"{len(problems)} set problem(s), {len(labels)} label(s) and {len(sigmas)} sigma(s): "
+                                "give one of each per set")
         model = ProblemModel(tuple(p.model for p in problems), tuple(labels))
         sigma = np.asarray(sigmas, dtype=float)
         return cls(model, tuple(problems), sigma[0] / sigma)
