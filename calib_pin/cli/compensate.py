@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,6 +29,9 @@ from ..util.outputs import Outputs
 from . import parse_args
 from .common import positive_float, run
 from .outputs import add_force_argument
+
+if TYPE_CHECKING:
+    from ..measurements import MeasurementSet
 
 
 def compensate_parser() -> argparse.ArgumentParser:
@@ -104,6 +108,7 @@ def _compensate(args: argparse.Namespace) -> int:
         reference = load_start(Path(args.nominal), chain, robot.params)
         robot.set_reference(reference.robot_x)
     targets = read_pose_list(args.targets, chain)
+    _refuse_compensated(targets)
     if targets.end_frame and targets.end_frame != chain.end_frame:
         raise DataError(targets.source, f"targets of end frame '{targets.end_frame}', the calibration's is "
                         f"'{chain.end_frame}'", None, "end_frame")
@@ -157,6 +162,36 @@ def _compensate(args: argparse.Namespace) -> int:
     if not kept.all():
         return EXIT_REFUSED
     return EXIT_OK if all(s == OK for s in result.status) else EXIT_POSITION_ONLY
+
+
+def _refuse_compensated(targets: MeasurementSet) -> None:
+    """Refuse targets that are compensate's own output (its ``# compensated:`` line): they
+    are corrected already, and corrected again every joint would be corrected twice.
+
+    Raises:
+        DataError: naming the file and the line.
+    """
+    made = targets.notes.get("compensated")
+    if made is None:
+        return
+    raise DataError(targets.source, f"'{made}': these targets are compensate's own output, already corrected "
+                    "(compensated again, every joint would be corrected twice): give the program's nominal "
+                    "targets", _metadata_line(targets.source, "compensated"), "compensated")
+
+
+def _metadata_line(path: str, key: str) -> int | None:
+    """The 1-based line of metadata ``# key:`` in the file ``path`` (before its header), or None."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace") as f:
+            for number, raw in enumerate(f, 1):
+                line = raw.strip()
+                if line and not line.startswith("#"):
+                    return None
+                if line.lstrip("#").strip().startswith(f"{key}:"):
+                    return number
+    except OSError:
+        return None
+    return None
 
 
 def _writer(text: str) -> Callable[[Path], object]:
