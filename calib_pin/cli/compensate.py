@@ -23,7 +23,7 @@ import numpy as np
 
 from ..exceptions import CalibPinError, DataError
 from ..export.compensation import OK, POSITION_ONLY, REFUSED, CalibratedRobot, Compensation
-from ..export.programs import FORMATS, Program, identifier, program_files, program_paths
+from ..export.programs import FORMATS, PROGRAMS, Program, identifier, program_files, program_paths
 from ..robot.description import robot_inputs
 from ..util.outputs import Outputs
 from . import parse_args
@@ -114,6 +114,11 @@ def _compensate(args: argparse.Namespace) -> int:
                         f"'{chain.end_frame}'", None, "end_frame")
     pose_ids = targets.pose_ids if targets.pose_ids is not None else np.arange(1, len(targets) + 1)
     rows = np.sort(np.unique(pose_ids, return_index=True)[1])  # one row per pose
+    if args.format != "csv":  # a program named like a target of its own, or a built-in it calls
+        try:
+            PROGRAMS[args.format].check(name, pose_ids[rows])
+        except CalibPinError as e:
+            raise CalibPinError(f"--out {args.out}: {e}") from e
     q_nominal = targets.q[rows]
     result = robot.solve(q_nominal)
     kept = np.array([s != REFUSED for s in result.status], dtype=bool)
