@@ -404,9 +404,9 @@ def _calibrate(args: argparse.Namespace) -> int:
         done = write_outputs(result, Path(args.out), args.export, html=not args.no_html, inputs=inputs,
                              silence="--no-html silences this")
     report = done.report
+    _summary(result, report)  # a refused fit still shows what was computed, then the refusal
     if done.refused:
         return fail(f"{done.refused} (report: {done.folder / 'report.json'})")
-    _summary(result, report)
     for note in done.notes:
         print(f"note: {note}")
     for path in done.files:
