@@ -66,10 +66,11 @@ CONTACT_HEAD = next(k for k, line in enumerate(CONTACT_SHIPPED) if not line.star
 CONTACT_ROWS = CONTACT_SHIPPED[CONTACT_HEAD + 1 :]
 
 
-def contact_set(*meta: str, planes: int = 0, label: str | None = None) -> str:
+def contact_set(*meta: str, planes: int = 0, label: str | None = None, half: slice = slice(None)) -> str:
     """The shipped contact example (its metadata, then ``meta``); ``planes``: that many of
-    socket A's rows touch plane W instead; ``label``: the 2nd row's two ids (file line 8)."""
-    rows = list(CONTACT_ROWS)
+    socket A's rows touch plane W instead; ``label``: the 2nd row's two ids (file line 8);
+    ``half``: its rows of this slice only (``slice(1, None, 2)``: another session's touches)."""
+    rows = list(CONTACT_ROWS)[half]
     for k in range(planes):
         rows[k] = rows[k].rsplit(",", 2)[0] + ",,W"
     if label is not None:
@@ -555,11 +556,13 @@ R3_WRONG: list[Case] = [
     (CAL, ["irb120", "--data", "a.csv", "--data", "a.csv", "--analyze"], {"a.csv": data()}, 2,
      "a.csv: given twice (sets a and 2): a row is fitted once"),
     # ... a validation session of several training sets: same=LABEL or register=K (issue 22)
-    (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--test-data", "a.csv"], {"a.csv": data(), "b.csv": data()},
+    (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--test-data", "a.csv"],
+     {"a.csv": data(), "b.csv": csv(*ROWS[60:100])},
      2, "argument same: 2 training sets of cable data (a, b): name the one whose set-up the session shares"),
     (CAL, [*TWO_SETS, "--test-data", "t.csv:same=c"], TWO_FILES, 2,
      "argument same: 'c' is not a training set's label (labels: a, b)"),
-    (CAL, [*TWO_SETS, "--test-data", "a.csv:same=a"], TWO_FILES, 2, "a.csv: holds a training set's own rows"),
+    (CAL, [*TWO_SETS, "--test-data", "a.csv:same=a"], TWO_FILES, 2,
+     "a.csv: holds training set a's own rows: it is a.csv again (the same file)"),
     (CAL, [*TWO_SETS[:4], "b.csv:role=test", *TWO_SETS[5:], "--test-data", "t.csv:same=a"], TWO_FILES, 2,
      "test_data and set b with role 'test': give the validation session one way"),
     (CAL, [*TWO_SETS, "--test-data", "t.csv:same=a"], {**TWO_FILES, "t.csv": _test_csv(*META[:2], SHIFTED, *META[3:])},
@@ -586,7 +589,7 @@ R3_WRONG: list[Case] = [
      "method 'rbf' learns a correction of one sensor set-up's readings, not the robot"),
     # ... per-set options after the file: FILE:key=value:key=value (a key wins over the file's)
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=600,200,-100:noise_mm=0.05", "--data", "b.csv", "--analyze"],
-     {"a.csv": data(), "b.csv": data()}, 0, "rank"),
+     {"a.csv": data(), "b.csv": csv(*ROWS[60:100])}, 0, "rank"),
     (CAL, ["irb120", "--data", "a.csv:colour=red", "--data", "b.csv", "--analyze"], {"a.csv": data(), "b.csv": data()},
      2, "--data 'a.csv:colour=red': unknown key 'colour' (valid: anchor_mm, tool_mm, length_offset_mm, noise_deg, noise_mm"),
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=600,200", "--data", "b.csv", "--analyze"],
@@ -816,10 +819,11 @@ R3_FILES: list[Case] = [
     (CAL, ["irb120", "--data", "c.csv", "--method", "ukf"], {"c.csv": contact_set()}, 2,
      "method 'ukf' needs rows of one size, and contact fixtures rows differ in size: use ekf, bas, pso, lm"),
     # several contact sets fit together now (each its own fixtures); what cannot: rows of one size, a bad layout
-    (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--no-html"], {"a.csv": contact_set(), "b.csv": contact_set()},
-     0, "2 sets"),
+    (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--no-html"],
+     {"a.csv": contact_set(half=slice(0, None, 2)), "b.csv": contact_set(half=slice(1, None, 2))}, 0, "2 sets"),
     (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--method", "ukf"],
-     {"a.csv": contact_set(), "b.csv": contact_set()}, 2, "method 'ukf' needs rows of one size, and contact fixtures"),
+     {"a.csv": contact_set(half=slice(0, None, 2)), "b.csv": contact_set(half=slice(1, None, 2))}, 2,
+     "method 'ukf' needs rows of one size, and contact fixtures"),
     (SIM, ["irb120", "--kinds", "contact", "--geometry", "g.json", "--out", "s.csv"], {"g.json": "{"}, 2,
      "g.json: not JSON"),
     (SIM, ["irb120", "--kinds", "contact", "--geometry", "g.json", "--out", "s.csv"],
@@ -951,6 +955,99 @@ def test_every_data_key_has_an_out_of_range_row():
     assert typed == set(data_keys())
 
 
+def _again(rows: list[str], mm: float = 0.004) -> list[str]:
+    """``rows`` read again at the same poses: each drawstring reading ``mm`` longer."""
+    return [f"{r.rsplit(',', 1)[0]},{float(r.rsplit(',', 1)[1]) + mm:.6f}" for r in rows]
+
+
+def _swapped(text: str) -> str:
+    """A contact session whose sockets A and B were swapped (the fixtures moved)."""
+    return text.replace(",A,", ",X,").replace(",B,", ",A,").replace(",X,", ",B,")
+
+
+POSE_OTHER = "\n".join([*POSE_SHIPPED[: POSE_HEAD + 1], *POSE_ROWS[40:]]) + "\n"
+CONTACT_EVEN, CONTACT_ODD = contact_set(half=slice(0, None, 2)), contact_set(half=slice(1, None, 2))
+COMPENSATED = ("# robot: irb120\n# compensated: c.json (calib-pin 0.3.0), targets p.csv\n"
+               "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,status,position_error_mm,orientation_error_urad\n"
+               "1,0.1,0.2,0.3,0.1,30.5,0.2,ok,0.000001,0.0005\n2,10,10,10,10,10,10,ok,0,0\n")
+B_MOVED = csv(*ROWS[60:100], meta=(*META[:2], META[2].replace("-100.000000", "-200.000000"), *META[3:]))
+
+#: Issue 34 (part B): one measurement fitted twice, variance components of a thin set,
+#: tracebacks, compensate's own output, program names that collide, a moved contact
+#: plate, registration rows, counts against the identifiable directions, which set
+#: misfits, what rows are called.
+I34B: list[Case] = [
+    # one measurement in two sets, or in a set and the validation session
+    (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--analyze"], {"a.csv": data(), "b.csv": data()}, 2,
+     "b.csv: it is a.csv again (a file of identical contents): a row is fitted once"),
+    (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--analyze"], {"a.csv": data(), "b.csv": csv(*ROWS[30:70])},
+     2, "b.csv: its lines 8-17 repeat a.csv's lines 38-47 (the same joint angles and readings, to the files' precision)"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": csv(*ROWS[30:60])}, 2,
+     "t.csv: holds the training set's own rows: its lines 8-17 repeat d.csv's lines 38-47"),
+    (CAL, TEST_ARGS, {"d.csv": data(), "t.csv": data()}, 2,
+     "t.csv: holds the training set's own rows: it is d.csv again (a file of identical contents)"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(*ROWS[:40], *ROWS[:5])}, 0, "rank"),
+    (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--analyze"],
+     {"a.csv": data(), "b.csv": csv(*_again(ROWS[:40]))}, 0, "rank"),
+    # a set too small to estimate its own noise beside a good one; one row of 6-D: counted first
+    (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--method", "lm", "--no-html", "--out", "out"],
+     {"a.csv": data(), "b.csv": csv(*_again(ROWS[50:51]))}, 0,
+     "noise of set b: its training values leave fewer than 2 degrees of freedom"),
+    (CAL, ["irb120", "--data", "p.csv", "--analyze"], {"p.csv": pose_set().rsplit("\n", 40)[0] + "\n"}, 2,
+     "p.csv: 1 training rows give 6 values, fewer than the 12 set-up unknowns (the device frame and the body)"),
+    (CAL, ["irb120", "--data", "p.csv", "--test-data", "t.csv:register=1", "--method", "lm", "--no-html", "--out",
+           "out"], {"p.csv": pose_set(), "t.csv": POSE_OTHER}, 2,
+     "t.csv: 1 registration rows give 6 values, fewer than the 12 set-up unknowns"),
+    # --fix/--free on a contact set, alone or beside another, and --analyze --fix
+    (CAL, ["irb120", "--data", "c.csv", "--fix", "theta_1", "--analyze"], {"c.csv": contact_set()}, 0,
+     "held at their start (--fix/--free), left out: theta_1"),
+    (CAL, ["irb120", "--data", "c.csv", "--fix", "theta_1", "--method", "lm", "--no-html", "--out", "out"],
+     {"c.csv": contact_set()}, 0, "fixed (held at their nominal value, --fix/--free): theta_1"),
+    (CAL, ["irb120", "--data", "c.csv", "--data", "d.csv", "--free", "theta_2,d_2", "--method", "lm", "--no-html",
+           "--out", "out"], {"c.csv": contact_set(), "d.csv": data()}, 0, "2 sets"),
+    # compensate's own output as targets
+    (COMPENSATE, CAL_ARGS, {"c.json": _calibration_file(), "p.csv": COMPENSATED}, 2,
+     "p.csv:2: compensated: 'c.json (calib-pin 0.3.0), targets p.csv': these targets are compensate's own output"),
+    # a program named like what it defines or calls
+    (COMPENSATE, [*CAL_ARGS[:-1], "movej.script", "--format", "urscript"], {"c.json": _calibration_file(),
+                                                                          "p.csv": POSES}, 2,
+     "--out movej.script: a URScript function named 'movej' collides with the built-in function it calls, 'movej'"),
+    (COMPENSATE, [*CAL_ARGS[:-1], "jt_1.mod", "--format", "rapid"], {"c.json": _calibration_file(), "p.csv": POSES},
+     2, "a RAPID module named 'jt_1' collides with a joint target it defines, 'jt_1'"),
+    (COMPENSATE, [*CAL_ARGS[:-1], "Tool0.mod", "--format", "rapid"], {"c.json": _calibration_file(), "p.csv": POSES},
+     2, "a RAPID module named 'Tool0' collides with the predefined tool it moves, 'tool0'"),
+    (COMPENSATE, [*CAL_ARGS[:-1], "XP2.src", "--format", "krl"], {"c.json": _calibration_file(), "p.csv": POSES},
+     2, "a KRL program named 'XP2' collides with a point it declares, 'XP2'"),
+    # a contact session from moved fixtures; registration rows of a file recorded fixture by fixture
+    (CAL, ["irb120", "--data", "a.csv", "--test-data", "b.csv", "--method", "lm", "--no-html", "--out", "out"],
+     {"a.csv": CONTACT_EVEN, "b.csv": _swapped(CONTACT_ODD)}, 2,
+     "b.csv: fixtures: the session's own are "),
+    (CAL, ["irb120", "--data", "a.csv", "--test-data", "b.csv:register=12", "--method", "lm", "--no-html", "--out",
+           "out"], {"a.csv": CONTACT_EVEN, "b.csv": _swapped(CONTACT_ODD)}, 0,
+     "12 poses, one of each fixture or point in turn"),
+    (CAL, ["irb120", "--data", "a.csv", "--test-data", "b.csv:register=2", "--method", "lm", "--no-html", "--out",
+           "out"], {"a.csv": CONTACT_EVEN, "b.csv": CONTACT_ODD}, 2,
+     "of the registration rows: nothing locates it (register=2 took 2 poses, one of each fixture or point in turn"),
+    # too few values: counted against the directions the rows identify (or the free unknowns)
+    (CAL, ["irb120", "--data", "d.csv", "--test-fraction", "0", "--method", "lm", "--no-html", "--out", "out"],
+     {"d.csv": csv(*ROWS[:23])}, 0, "identifiable: 20 of 24"),
+    (CAL, ["irb120", "--data", "d.csv", "--test-fraction", "0", "--free", "theta_2,theta_3", "--method", "lm",
+           "--no-html", "--out", "out"], {"d.csv": csv(*ROWS[:10])}, 0, "fixed (held at their nominal value"),
+    (CAL, ["irb120", "--data", "d.csv", "--test-fraction", "0", "--method", "lm", "--no-html", "--out", "out"],
+     {"d.csv": csv(*ROWS[:19])}, 2,
+     "d.csv: 19 training rows give 19 values, no more than the 19 directions they identify (of the 24 unknowns)"),
+    # which set misfits; what a cross-validation fold's and a registration's rows are called
+    (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv", "--method", "lm", "--no-html", "--out", "out"],
+     {"a.csv": data(), "b.csv": B_MOVED}, 2, "set b misfits most: the start misses its training rows by 71.3 mm RMS"),
+    (CAL, ["irb120", "--data", "d.csv", "--cv", "3", "--test-fraction", "0", "--method", "lm", "--no-html", "--out",
+           "out"], {"d.csv": csv(*ROWS[:29])}, 2,
+     "19 fitting rows of cross-validation fold 1 of 3 (the other folds') give 19 values"),
+    (CAL, [*TEST_ARGS[:4], "t.csv:register=3", *TEST_ARGS[5:]],
+     {"d.csv": data(), "t.csv": csv(*ROWS[40:60], meta=(*META[:2], *META[3:]))}, 2,
+     "t.csv: anchor_mm: 3 registration rows cannot locate the drawstring's anchor"),
+]
+
+
 #: The rows of the earlier rounds, then round 3's by class (docs/bad_input.md lists them all).
 BASE_CASES = list(CASES)
 SECTIONS: list[tuple[str, list[Case]]] = [
@@ -961,6 +1058,7 @@ SECTIONS: list[tuple[str, list[Case]]] = [
     ("Round 3: real files (extra columns, string labels, ';' and decimal comma)", R3_FILES),
     ("Issue 25: parameters held fixed, a start file, controller programs", I25_CONTROLLER),
     ("Round 26: per-set options name their own key; a set-up that misses the readings", I26_PERSET),
+    ("Issue 34 (B): rows fitted twice, thin sets' noise, collisions, moved fixtures, counts, messages", I34B),
 ]
 CASES += [row for _, rows in SECTIONS for row in rows]
 

@@ -108,8 +108,10 @@ def test_validation_session_with_another_setup_is_refused(cable, tmp_path):
         check_same_setup(cable, cable, {"anchor_mm": (610.0, 200.0, -100.0)})
     check_same_setup(dataclasses.replace(cable, anchor=None, tool=None), cable, {})  # the session does not say
     check_same_setup(dataclasses.replace(cable, anchor=cable.anchor + 4e-10), cable, {})  # within rounding
+    first = cable.subset(np.arange(10))  # read again at the same poses, with the same set-up
+    again = first.values + np.random.default_rng(0).normal(0.0, 5e-5, len(first))
     result = cp.calibrate("irb120", cable, method="lm",
-                          test_data=dataclasses.replace(cable.subset(np.arange(10)), source="same"))
+                          test_data=dataclasses.replace(first, values=again, source="same"))
     assert result.test_source == "same" and result.metrics["test"]["after"].rmse_mm < 0.2
 
 
@@ -149,3 +151,16 @@ def test_a_validation_session_from_another_device_placement_is_refused(positions
     with pytest.raises(cp.DataError, match=r"v\.csv: device frame: the session's own is 10 mm \(RMS over its points\) "
                                            "from the calibration's"):
         cp.calibrate("irb120", train, method="lm", test_data=moved)
+
+
+def test_a_nan_quaternion_component_of_a_6d_set_is_named(chain):
+    """A NaN in a hand-made 6-D set's quaternion is refused naming its column (an index past
+    the position columns raised IndexError)."""
+    from calib_pin.simulation import simulate_poses
+
+    data, _ = simulate_poses(chain, cp.parameter_model(chain), 5, seed=2)
+    values = np.array(data.values, dtype=float)
+    values[2, 4] = np.nan
+    with pytest.raises(cp.DataError, match=r"row 2 \(0-based\): nan is not a finite pose reading") as refused:
+        check_measurements(chain, dataclasses.replace(data, values=values, lines=None))
+    assert refused.value.field == "qx"

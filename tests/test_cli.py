@@ -183,6 +183,25 @@ def test_runaway_deviation_exit_2_report_kept(tmp_path, capsys):
     assert (tmp_path / "o" / "report.json").is_file() and not list((tmp_path / "o").glob("*.urdf"))
 
 
+def test_a_refused_fit_prints_its_table_then_the_set_that_misfits(tmp_path, capsys):
+    """Two sessions, the second's anchor 100 mm off in its file: the fit runs away beyond
+    the sanity bound. The table of what was computed is printed (it was not), then the one
+    refusal line, which names the set the start misses most (it named none); exit 2."""
+    lines = (ROOT / "robots" / "irb120_default.csv").read_text().splitlines()
+    meta, head, rows = lines[:6], lines[6], lines[7:]
+    (tmp_path / "a.csv").write_text("\n".join([*meta, head, *rows[:40]]) + "\n")
+    moved = [meta[0], meta[1], meta[2].replace("-100.000000", "-200.000000"), *meta[3:]]
+    (tmp_path / "b.csv").write_text("\n".join([*moved, head, *rows[60:100]]) + "\n")
+    code = calibrate_main(["irb120", "--data", str(tmp_path / "a.csv"), "--data", str(tmp_path / "b.csv"), "--method",
+                           "lm", "--no-html", "--out", str(tmp_path / "o")])
+    out, err = capsys.readouterr()
+    err_lines = err.strip().splitlines()
+    assert code == 2 and len(err_lines) == 1 and "is beyond the sanity bound" in err_lines[0]
+    assert "set b misfits most: the start misses its training rows by 71.3 mm RMS (the other sets: a 1.8" in err_lines[0]
+    assert "set a: 40 rows" in out and "set b: 40 rows" in out and "train after" in out and "identifiable:" in out
+    assert "wrote" not in out
+
+
 def test_models_and_sensor_unknowns_from_the_command_line(tmp_path, capsys):
     """--model hayati and --estimate anchor,offset reach the report and the analysis."""
     out = tmp_path / "o"

@@ -288,6 +288,24 @@ def test_cli(calibrated, chain, tmp_path, capsys):
     assert not (tmp_path / "bad.csv").exists()
 
 
+def test_cli_refuses_its_own_output_as_targets(calibrated, chain, tmp_path, capsys):
+    """compensate's output (its '# compensated:' line) given back as targets was corrected a
+    second time, exit 0: refused naming the file and that line; nothing written."""
+    _, _, folder = calibrated
+    program, once = tmp_path / "program.csv", tmp_path / "once.csv"
+    write_poses(program, _regular_targets(chain, 4, 5), robot="irb120")
+    compensate = command("compensate")
+    assert compensate(["irb120", "--calibration", str(folder), "--targets", str(program), "--out", str(once)]) == 0
+    line = next(k for k, text in enumerate(once.read_text().splitlines(), 1) if text.startswith("# compensated:"))
+    capsys.readouterr()
+    assert compensate(["irb120", "--calibration", str(folder), "--targets", str(once),
+                       "--out", str(tmp_path / "twice.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"once.csv:{line}: compensated: 'irb120_calibration.json" in err[0]
+    assert "these targets are compensate's own output, already corrected" in err[0]
+    assert not (tmp_path / "twice.csv").exists()
+
+
 def test_cli_status_per_target_and_exit_codes(calibrated, chain, tmp_path, capsys):
     """A target held at a joint limit is written position-only (exit 3); a target the
     arm cannot reach is refused, named in the output and left out, and the others are

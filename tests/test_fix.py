@@ -106,3 +106,18 @@ def test_bad_names_are_refused(tmp_path, capsys):
                       "--out", str(tmp_path / "o")]) == 0
     assert "fixed (held at their nominal value, --fix/--free): theta_1" in capsys.readouterr().out
     assert json.loads((tmp_path / "o" / "report.json").read_text())["fixed"] == ["theta_1"]
+
+
+def test_fix_and_free_on_a_contact_set_alone_or_beside_another(chain, params):
+    """--fix/--free on a contact set (alone, beside a cable set, and --analyze --fix): the
+    contact set's named directions (scale, base motions) are tested on the unknowns kept
+    (they raised numpy's ValueError: 39 is different from 37)."""
+    contact = cp.read_measurements(Path(__file__).resolve().parents[1] / "robots" / "irb120_contact_example.csv")
+    fixed = cp.prepare("irb120", contact, fix="theta_1")
+    report = analyze(fixed.problem, fixed=fixed.fixed)
+    assert report.fixed == ("theta_1",) and any(name.startswith("scale") for name, _, _ in report.directions)
+    result = cp.calibrate("irb120", contact, method="lm", fix="theta_1")
+    assert result.metrics["train"]["after"].rmse_mm < result.metrics["train"]["before"].rmse_mm
+    cable, _ = cp.simulate(chain, params, 40, seed=3)
+    both = cp.calibrate("irb120", [contact, cable], method="lm", free="theta_2,d_2")
+    assert len(both.sets) == 2

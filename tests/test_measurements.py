@@ -87,9 +87,11 @@ def test_missing_file(tmp_path, chain):
 
 
 def test_too_few_rows_for_the_parameters(tmp_path):
-    """Fewer training rows than parameters is refused before estimating."""
+    """Rows that identify (nearly) nothing are refused before estimating: 16 readings of
+    one pose identify 1 direction (counted against the directions, not the 24 unknowns)."""
     path = _write(tmp_path, META + HEADER + "\n" + "\n".join([ROW] * 20) + "\n")
-    with pytest.raises(cp.DataError, match=r"s.csv: 16 training rows give 16 values, fewer than the 24 unknowns"):
+    with pytest.raises(cp.DataError, match=r"s.csv: the training poses identify only 1 of 24 directions: all 16 rows "
+                                           "are at 1 distinct pose"):
         cp.calibrate("irb120", path)
 
 

@@ -43,3 +43,59 @@ def test_kalman_filter_gets_the_estimate_only_when_no_noise_is_stated():
     assert told.noise == 0.05e-3 and not np.allclose(told.x, estimated.x)
     lm = cp.solve(prepare("irb120", data), "lm", seed=0)
     assert lm.noise_from == "default"
+
+
+def _sessions(n_poses, kinds=("cable", "cable"), seed=7):
+    """Sessions of one true robot stating no noise."""
+    chain = load_chain("irb120")
+    sets, _ = cp.simulate_sessions(chain, parameter_model(chain), list(n_poses), seed=seed, kinds=list(kinds))
+    return [dataclasses.replace(s, noise=None, notes={k: v for k, v in s.notes.items() if k != "noise_deg"})
+            for s in sets]
+
+
+def test_a_set_too_small_to_estimate_its_noise_takes_the_pooled_one():
+    """A one-row set beside a good one: its value leaves no degree of freedom beyond what
+    the fit takes from it, so its noise is not estimated (it was driven towards zero and its
+    weight swamped the rest): it takes the good set's, pooled, and a warning says so; the
+    good set fits as it does alone."""
+    sets = _sessions([60, 1])
+    result = cp.calibrate("irb120", sets, method="lm")
+    alone = cp.calibrate("irb120", sets[0], method="lm")
+    good, thin = result.sets
+    assert (good.sigma_origin, thin.sigma_origin) == ("estimate", "pooled") and thin.sigma == good.sigma
+    assert any(w.startswith(f"noise of set {thin.label}: its training values leave fewer than 2 degrees of freedom")
+               and "the pooled noise of the other sets in mm" in w for w in result.warnings)
+    assert good.metrics["test"]["after"].rmse_mm < 1.05 * alone.metrics["test"]["after"].rmse_mm
+
+
+def test_a_thin_6d_set_does_not_swamp_a_cable_set():
+    """Two 6-D poses (12 values for the 12 unknowns of their device frame and body) beside
+    a cable session: their noise went to 0 mm, the fit followed them alone (the cable set's
+    error stayed the nominal robot's, 'identifiable: 12 of 36'); now both parts take a
+    pooled or default noise and the cable set is calibrated."""
+    sets = _sessions([60, 2], kinds=("cable", "pose"))
+    result = cp.calibrate("irb120", sets, method="ekf-qibas")
+    cable, pose = result.sets
+    assert [pose.sigma_origin] == ["pooled"] and pose.sigma > 0.02e-3
+    assert cable.metrics["train"]["after"].rmse_mm < 0.1 < cable.metrics["train"]["before"].rmse_mm
+
+
+def test_variance_components_that_do_not_settle_say_so_and_refit(monkeypatch):
+    """Stopped before they settle (here after 2 fits), the sigmas are not the last fit's
+    weights: each is the geometric mean of those and its residual's, the method is fitted
+    with them (no pilot reused), and one warning says so."""
+    from calib_pin.calibration import noise as noise_module
+
+    monkeypatch.setattr(noise_module, "MAX_FITS", 2)
+    sets = _sessions([60, 40], seed=9)
+    sets[1] = dataclasses.replace(sets[1], values=sets[1].values + np.random.default_rng(1).normal(0, 0.5e-3, len(sets[1])))
+    calibration = prepare("irb120", sets)
+    train = calibration.split(0.2, 0)[0]
+    method = cp.estimators.get_method("lm")
+    problem = calibration.problem_on(train)
+    found = noise_module.estimate_noise(problem, train, [None, None], ["estimate", "estimate"], method,
+                                        np.zeros(problem.n_params), seed=0, loss="linear", fixed=(), default=5e-5)
+    assert found.fits == 2 and found.pilot is None
+    assert any(n.startswith("the sets' noise did not settle in 2 fits") for n in found.notes)
+    result = cp.solve(calibration, "lm")
+    assert any("did not settle in 2 fits" in w for w in result.warnings)

@@ -129,3 +129,22 @@ def test_problem_on_without_reuse_fits_anew(device_fits):
     fresh = setup.problem_on(rows, reuse=False)
     assert len(calls) == 2 and fresh is not setup.problem
     assert fresh.residual(None).tobytes() == setup.problem.residual(None).tobytes()
+
+
+def test_values_are_counted_against_the_directions_the_rows_identify(session):
+    """23 readings for 24 unknowns (20 of them identifiable) calibrate: the count is against
+    the identifiable directions, not every unknown (refused before); 10 readings with 2 free
+    unknowns calibrate too; 19 readings that identify 19 directions (every value fitted
+    exactly) are refused saying which count; a cross-validation fold's rows are named so."""
+    data, _ = session
+    result = cp.calibrate("irb120", data.subset(np.arange(23)), method="lm", test_fraction=0)
+    assert result.metrics["train"]["after"].rmse_mm < result.metrics["train"]["before"].rmse_mm
+    free = cp.calibrate("irb120", data.subset(np.arange(10)), method="lm", test_fraction=0, free="theta_2,theta_3")
+    assert free.metrics["train"]["after"].rmse_mm < free.metrics["train"]["before"].rmse_mm
+    with pytest.raises(cp.DataError, match=r"19 training rows give 19 values, no more than the 19 directions they "
+                                           r"identify \(of the 24 unknowns\): every value would be fitted exactly"):
+        cp.calibrate("irb120", data.subset(np.arange(19)), method="lm", test_fraction=0)
+    with pytest.raises(cp.DataError, match=r"of the 3 free unknowns, 21 held"):
+        cp.calibrate("irb120", data.subset(np.arange(3)), method="lm", test_fraction=0, free="theta_2,theta_3,d_1")
+    with pytest.raises(cp.DataError, match=r"19 fitting rows of cross-validation fold 1 of 3 \(the other folds'\) give"):
+        cp.solve(cp.prepare("irb120", data.subset(np.arange(29))), "lm", holdout=cp.Folds(3))

@@ -194,3 +194,33 @@ def test_controller_syntax_negative_poses_long_notes_and_reserved_names(tmp_path
             values = np.rad2deg(radians)
         assert read == [-3, 0, 12] and np.abs(values - np.rad2deg(q)).max() < 1e-6
         assert "?t?" in next(iter(files.values()))  # the accented letters, as ASCII
+
+
+@pytest.mark.parametrize(("fmt", "name", "poses", "message"), [
+    ("urscript", "movej", [1, 2], "a URScript function named 'movej' collides with the built-in function it calls, 'movej'"),
+    ("urscript", "sleep", [1], "collides with the built-in function it would hide, 'sleep'"),
+    ("rapid", "jt_1", [1, 2], "a RAPID module named 'jt_1' collides with a joint target it defines, 'jt_1'"),
+    ("rapid", "JT_m3", [-3], "a RAPID module named 'JT_m3' collides with a joint target it defines, 'jt_m3'"),
+    ("rapid", "tool0", [1], "a RAPID module named 'tool0' collides with the predefined tool it moves, 'tool0'"),
+    ("rapid", "v100", [1], "collides with the predefined speed data it moves at, 'v100'"),
+    ("krl", "xp2", [1, 2], "a KRL program named 'xp2' collides with a point it declares, 'XP2'"),
+    ("krl", "bas", [1], "a KRL program named 'bas' collides with the system subprogram it calls, 'BAS'"),
+])
+def test_a_program_named_like_what_it_defines_or_calls_is_refused(fmt, name, poses, message):
+    """A URScript function that calls (or hides) a built-in of its name, a RAPID module named
+    like a joint target it defines or a predefined datum it uses, a KRL program named like a
+    point it declares or the subprogram it calls (RAPID and KRL without case): refused,
+    naming both, by the writer and by the format's check (compensate's, before the work)."""
+    program = Program(name, np.zeros((len(poses), 6)), np.array(poses), "irb120", tuple(f"joint_{k}" for k in range(1, 7)))
+    with pytest.raises(cp.CalibPinError, match=re.escape(message)):
+        PROGRAMS[fmt].write(program)
+    with pytest.raises(cp.CalibPinError, match=re.escape(message)):
+        PROGRAMS[fmt].check(name, np.array(poses))
+
+
+def test_names_that_only_resemble_what_a_program_uses_are_kept():
+    """URScript compares with case (Movej is not movej); a RAPID module jt (its routine
+    jt_run) and a KRL program XP are no target or point."""
+    joints = tuple(f"joint_{k}" for k in range(1, 7))
+    for fmt, name in (("urscript", "Movej"), ("rapid", "jt"), ("krl", "XP")):
+        PROGRAMS[fmt].write(Program(name, np.zeros((2, 6)), np.array([1, 2]), "irb120", joints))

@@ -79,7 +79,7 @@ def test_re_anchored_cable_re_registered(chain, params):
 def test_registration_rows_by_role_and_by_poses(tracker):
     """register=role takes the rows marked 'register' (whatever their order); register=k the
     first k poses in file order; nothing left to score, or no marked row, is refused."""
-    (_, _, moved), _ = tracker
+    (train, _, moved), _ = tracker
     role = np.array(["score"] * len(moved), dtype=object)
     role[[3, 4, 5, 60, 61, 62]] = "register"
     marked = dataclasses.replace(moved, extra={"role": role})
@@ -94,7 +94,7 @@ def test_registration_rows_by_role_and_by_poses(tracker):
         TestSet(moved, register=0)
     one_marker = moved.subset(np.flatnonzero(moved.point_ids == 1)[:4])  # 1 pose: 3 values for a frame
     with pytest.raises(cp.DataError, match="1 registration rows give 3 values, fewer than the 6 set-up unknowns"):
-        cp.calibrate("irb120", moved, method="lm", test_data=TestSet(one_marker, register=1))
+        cp.calibrate("irb120", train, method="lm", test_data=TestSet(one_marker, register=1))
 
 
 def test_cli_test_data_choice(tracker, tmp_path, capsys):
@@ -116,3 +116,51 @@ def test_cli_test_data_choice(tracker, tmp_path, capsys):
     with pytest.raises(cp.ArgumentError, match="'other' is not the training set"):
         cp.calibrate("irb120", str(tmp_path / "train.csv"), method="lm",
                      test_data=TestSet(str(tmp_path / "moved.csv"), same="other"))
+
+
+@pytest.fixture(scope="module")
+def plates(chain, params):
+    """One robot, three contact sessions: training, the same fixtures, and the fixtures
+    moved 30 mm (a plate re-clamped); each recorded fixture by fixture (A's touches first)."""
+    from calib_pin.sensors.contact import default_fixtures
+
+    home = default_fixtures()
+    moved = dataclasses.replace(home, points=home.points + [0.02, -0.015, 0.015], offsets=home.offsets + 0.02)
+    sets, _ = simulate_sessions(chain, params, [60, 40, 40], seed=5, kinds=["contact"] * 3,
+                                geometries=[home, home, moved])
+    return [s.subset(np.argsort(_fixture_of(s), kind="stable")) for s in sets]
+
+
+def _fixture_of(data: cp.MeasurementSet) -> np.ndarray:
+    from calib_pin.sensors.contact import fixture_rows
+
+    return fixture_rows(data)[2]
+
+
+def test_a_contact_session_of_moved_fixtures_is_refused_unless_re_registered(plates):
+    """Scored against the calibration's fixtures, a session of a moved plate gave a test
+    error of the move (exit 0); its fixtures, located by its own touches, are refused 5 mm
+    off; the same plate is scored; re-registered, the moved one scores like it."""
+    train, same, moved = plates
+    with pytest.raises(cp.DataError, match=r"fixtures: the session's own are 2\d\.?\d* mm \(RMS over its fixtures\) from the "
+                                           r"calibration's: the fixtures \(a plate, a cube\) were moved .*register=K"):
+        cp.calibrate("irb120", train, method="lm", test_data=moved)
+    same_error = cp.calibrate("irb120", train, method="lm", test_data=same).metrics["test"]["after"].rmse_mm
+    registered = cp.calibrate("irb120", train, method="lm", test_data=TestSet(moved, register=16))
+    assert registered.metrics["test"]["after"].rmse_mm < 1.5 * same_error < 0.5
+
+
+def test_register_k_takes_each_fixture_in_turn(plates):
+    """A file recorded fixture by fixture: register=K took its first K rows (all of one
+    socket: 'contact_id B is touched at 0 ... training rows'); now K poses one of each
+    fixture in turn, file order within each; one target (a cable file): the first K."""
+    _, _, moved = plates
+    fixtures = _fixture_of(moved)
+    rows, scored = registration_rows(moved, 8, fixtures)
+    assert sorted(fixtures[rows].tolist()) == [0, 0, 1, 1, 2, 2, 3, 3] and len(scored) == len(moved) - 8
+    assert rows.tolist() == sorted(rows.tolist()) and rows[0] == 0
+    assert registration_rows(moved, 3)[0].tolist() == [0, 1, 2]
+    with pytest.raises(cp.DataError, match=r"plane_id F is touched at 1 distinct configuration\(s\) of the "
+                                           r"registration rows: a plane needs 3 or more \(register=4 took 4 poses, one "
+                                           "of each fixture or point in turn"):
+        cp.calibrate("irb120", plates[0], method="lm", test_data=TestSet(moved, register=4))

@@ -4,6 +4,8 @@ round trip and refusals, and a 60-pose calibration against an oracle on fresh po
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -176,3 +178,15 @@ def test_the_simulate_seam_draws_a_pose_set_its_truth_predicts(robot):
     assert 0.02 < np.sqrt(np.mean(mm**2)) < 0.15 and 0.005 < np.sqrt(np.mean(deg**2)) < 0.03  # the noise, 3 axes
     result = cp.calibrate("irb120", data, method="lm", test_fraction=0.25)
     assert result.metrics["test"]["after"].rmse_mm < 0.05 * np.sqrt(6) * 1.5 < result.metrics["test"]["before"].rmse_mm
+
+
+def test_too_few_rows_for_the_rig_are_refused_before_the_fit(robot):
+    """One 6-D pose (6 values) cannot fit the 12 unknowns of the device frame and body:
+    refused naming the file and what the rows are called (scipy's 'lm' raised ValueError)."""
+    chain, params = robot
+    data, _ = simulate_poses(chain, params, 3, seed=3)
+    with pytest.raises(cp.DataError, match=r"p\.csv: 1 registration rows give 6 values, fewer than the 12 set-up "
+                                           r"unknowns \(the device frame and the body\)"):
+        fit_rig(chain, params, data.q[:1], data.values[:1], 1.0, "p.csv", "registration rows")
+    with pytest.raises(cp.DataError, match=r"p\.csv: 1 training rows give 6 values"):
+        cp.calibrate("irb120", dataclasses.replace(data.subset(np.arange(1)), source="p.csv"), method="lm")

@@ -241,3 +241,12 @@ def test_hand_made_sets_may_use_text_labels_but_not_mixed(chain, params, positio
     mixed = dataclasses.replace(data, point_ids=np.array([v if v < 3 else "P3" for v in data.point_ids], dtype=object))
     with pytest.raises(cp.DataError, match=r"point_id: mixes whole numbers \(1\) and text labels \(P3\)"):
         cp.calibrate("irb120", mixed, method="lm")
+
+
+def test_too_few_positions_for_the_device_are_refused_before_the_fit(chain, params):
+    """One pose of 3 markers (9 values) cannot fit a device frame and 3 markers (15
+    unknowns): refused naming the file (scipy's 'lm' raised ValueError)."""
+    data, _ = cp.simulate_positions(chain, params, 2, seed=1)
+    with pytest.raises(cp.DataError, match=r"t\.csv: 3 training rows give 9 values, fewer than the 15 set-up unknowns "
+                                           r"\(the device frame and 3 marker\(s\)\)"):
+        fit_device(chain, params, data.q[:3], data.positions[:3], data.point_ids[:3] - 1, (1, 2, 3), "t.csv")

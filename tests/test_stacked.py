@@ -266,3 +266,15 @@ def test_a_set_no_robot_fits_is_refused_naming_the_data_not_the_noise_argument(m
         cp.calibrate("irb120", [FitSet(m12, "m12"), FitSet(wrong, "m3")], method=method)
     assert "argument noise" not in str(refused.value)
     assert "m3_in_um.csv" in str(refused.value) or "also m3" in str(refused.value)
+
+
+def test_a_problem_of_no_sets_is_refused(three):
+    """A calibration problem of no sets (no parts), or of parts, labels and sigmas that do
+    not pair up, is one CalibPinError (its residual raised numpy's ValueError)."""
+    problem = cp.prepare("irb120", three[1][:2]).problem
+    with pytest.raises(cp.CalibPinError, match="at least one measurement set"):
+        Problem(problem.model, (), np.zeros(0))
+    with pytest.raises(cp.CalibPinError, match="at least one measurement set"):
+        Problem.of([], [], [])
+    with pytest.raises(cp.CalibPinError, match="2 set problem"):
+        Problem.of(list(problem.parts), ["a"], [1e-4, 1e-4])

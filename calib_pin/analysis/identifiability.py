@@ -286,7 +286,7 @@ def analyze(problem: Any, x: np.ndarray | None = None, rcond: float = RCOND,
     directions = []
     named = getattr(problem, "named_directions", None)  # the sensor's own, if it names any
     for name, (v, hint) in (named(x) if named is not None else {}).items():
-        u = np.asarray(v, dtype=float) / model.scale
+        u = (np.asarray(v, dtype=float) / model.scale)[keep]  # the held unknowns' columns are left out
         seen = bool(np.linalg.norm(scaled @ u) > rcond * s[0] * np.linalg.norm(u))
         directions.append((name, seen, hint))
     return Identifiability(

@@ -70,7 +70,9 @@ class TestSet:
     Attributes:
         data: The session: a measurement CSV or a :class:`~calib_pin.measurements.MeasurementSet`.
         register: None: a training set's set-up (checked, never fitted); an int k >= 1:
-            a new set-up, re-registered on the session's first k poses (in file order);
+            a new set-up, re-registered on k of the session's poses (its first k in file
+            order; of a session of several fixtures or points, one of each in turn:
+            :func:`~calib_pin.calibration.validation.registration_rows`);
             ``"role"``: re-registered on its rows whose ``role`` column is ``register``.
         same: With ``register`` None, the label of the training set whose set-up the session
             shares (its file's stem, or file name); "" the only training set of its kind.
@@ -101,7 +103,7 @@ class TestSet:
             return "the training set's set-up"
         if self.register == "role":
             return f"a new set-up, re-registered on its rows with role={REGISTER_ROLE}"
-        return f"a new set-up, re-registered on its first {self.register} poses"
+        return f"a new set-up, re-registered on {self.register} of its poses"
 
 
 #: How rows are held out: a fraction, folds, or a session.

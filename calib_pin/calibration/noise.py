@@ -9,14 +9,23 @@ matter (several components, or a method that weighs rows by the noise) by
 variance-component estimation on a pilot Levenberg-Marquardt fit of the training rows:
 fit, then for each unknown component
 
-    sigma_k^2 = r_k . r_k / (n_k - p_k),    p_k = rank * n_k / N,
+    sigma_k^2 = r_k . r_k / dof_k,    dof_k = n_k - h_k,
 
-(r_k: its unweighted training residual, n_k its values, N every component's, rank: the
-identifiable directions of the training Jacobian at the fit, shared out by each
-component's share of the values), refit with the new weights, until no sigma moves by more
-than :data:`TOLERANCE` (at most :data:`MAX_FITS` fits). Of one component (one set, rows of
-one part) this is sqrt(RSS / (m - r)) of one fit: a blind direction fits nothing, so it
-takes no degree of freedom. Every method of a calibration is given the same noise.
+(r_k: its unweighted training residual, n_k its values, h_k their leverages summed: the
+diagonal of the weighted fit's hat matrix over the identifiable directions of the
+training Jacobian at the fit, which add up to its rank; a set's own sensor unknowns, or a
+weight that makes the fit follow it, are taken up by its own values), refit with the new
+weights, until no sigma moves by more than :data:`TOLERANCE` (at most :data:`MAX_FITS` fits).
+
+A component of fewer than :data:`MIN_DOF` degrees of freedom (a set of one row, or of no
+more values than its own unknowns) cannot estimate its noise: its sigma would go to zero
+and its weight swamp every other set. It takes the pooled sigma of the estimated
+components in its unit (sum r.r / sum dof), else its default, and a warning says so.
+Estimates that have not settled after :data:`MAX_FITS` fits keep the geometric mean of the
+last fit's sigmas and its residual's (the centre of an oscillation), the method is fitted
+with those, and a warning says so. Of one component (one set, rows of one part) this is
+sqrt(RSS / (m - r)) of one fit: a blind direction fits nothing, so it takes no degree of
+freedom. Every method of a calibration is given the same noise.
 """
 
 from __future__ import annotations
@@ -60,7 +69,10 @@ class Noise:
             ``default`` (not stated and not needed: the assumed default).
         fits: Pilot fits it took (0: nothing estimated).
         words: Where sigma_0 came from, for people (``stated``, ``default``, ``estimated: ...``).
-        pilot: The last pilot fit's estimate (for a method that is the pilot, its estimate), or None.
+        pilot: The last pilot fit's estimate (for a method that is the pilot, its estimate), or None
+            (none made, or the sigmas did not settle: the method is fitted with the final ones).
+        notes: Lines for the printout: a set whose noise its values cannot estimate (it got a
+            pooled or default one), an estimation that did not settle.
     """
 
     sigmas: tuple[tuple[float, ...], ...]
@@ -68,6 +80,7 @@ class Noise:
     fits: int = 0
     words: str = "stated"
     pilot: Any = None
+    notes: tuple[str, ...] = ()
 
     @property
     def set_sigmas(self) -> list[float]:
@@ -142,33 +155,37 @@ def estimate_noise(problem: Problem, train: np.ndarray, sigmas: list[float | Non
     if not unknown or (len(flat) == 1 and not method.weighs_noise):
         return Noise(tuple(map(tuple, now)), tuple(map(tuple, where)), 0, "default" if unknown else "stated")
     pilot = _method(PILOT)
-    fits = 0
+    defaults = [list(s) for s in now]
+    fits, moved = 0, 0.0
+    thin: dict[tuple[int, int], str] = {}
     while True:
         noise = Noise(tuple(map(tuple, now)), tuple(map(tuple, where)))
         training = apply(problem, noise).subset(train)
         estimate = run_method(pilot, training, x0, seed=seed, noise=noise.sigma, loss=loss, fixed=fixed,
                               history=history)
         fits += 1
-        if len(flat) > 1 and fits >= MAX_FITS:  # the sigmas this fit was weighted by
-            break
-        rank = Subspace.of(training.jacobian(estimate.x), training.scale, estimate.x).rank
         residuals = _residuals(training, estimate.x)
-        n_total = sum(r.size for by_part in residuals.values() for r in by_part)
         new = [list(s) for s in now]
-        for k, j in unknown:
-            if k not in residuals:
-                continue
+        if len(flat) == 1:
+            (k, j), = unknown
             r = residuals[k][j]
-            dof = max(r.size - rank, 1) if len(flat) == 1 else r.size - rank * r.size / n_total
-            if dof > 0 and r @ r > 0:
-                new[k][j] = max(float(np.sqrt(r @ r / dof)), FLOOR_M)
-        moved = max(abs(new[k][j] / now[k][j] - 1.0) for k, j in unknown)
+            rank = Subspace.of(training.jacobian(estimate.x), training.scale, estimate.x).rank
+            if r @ r > 0:
+                new[k][j] = max(float(np.sqrt(r @ r / max(r.size - rank, 1))), FLOOR_M)
+        else:
+            thin = _components_of(problem, training, estimate.x, fixed, residuals, unknown, new, defaults)
+        moved = max((abs(new[k][j] / now[k][j] - 1.0) for k, j in unknown if (k, j) not in thin), default=0.0)
         now = new
         _refuse_misfit(problem, now, unknown, method.name, source)
-        if len(flat) == 1 or moved < TOLERANCE:
+        if len(flat) == 1 or moved < TOLERANCE or fits >= MAX_FITS:
             break
+    settled = len(flat) == 1 or moved < TOLERANCE
+    if not settled:  # the centre of an oscillation: the geometric mean of the last fit's sigmas and its residual's
+        now = [[float(np.sqrt(a * b)) for a, b in zip(used, got, strict=True)] for used, got in zip(noise.sigmas, now,
+                                                                                                   strict=True)]
     for k, j in unknown:
-        where[k][j] = "estimate"
+        where[k][j] = thin.get((k, j), "estimate")
+    notes = _notes(problem, now, where, fits, moved, settled)
     stated = where[0][0] in ("caller", "file")
     plural = "s" if fits > 1 else ""
     if stated:
@@ -180,7 +197,103 @@ def estimate_noise(problem: Problem, train: np.ndarray, sigmas: list[float | Non
         words = f"estimated per part from the residual ({fits} fit{plural}; noise_by_part)"
     else:
         words = f"estimated from the residual ({fits} fit{plural})"
-    return Noise(tuple(map(tuple, now)), tuple(map(tuple, where)), fits, words, estimate)
+    # the last pilot fit was weighted by the sigmas before its own estimate: it is the
+    # method's fit only when they settled (of one component, the weights do not matter)
+    return Noise(tuple(map(tuple, now)), tuple(map(tuple, where)), fits, words,
+                 estimate if settled else None, tuple(notes))
+
+
+#: A component's residual of fewer degrees of freedom than this does not estimate its noise
+#: (with several components): its sigma^2 would be a chi-square of so few degrees of freedom
+#: divided by them, which is below a tenth of the truth's square once in a hundred draws at 2,
+#: and its weight would swamp the other sets'. Such a set takes the pooled noise of the
+#: others in its unit (or the default), and the printout says so.
+MIN_DOF = 2.0
+
+
+def _components_of(problem: Problem, training: Problem, x: np.ndarray, fixed: tuple[int, ...],
+                   residuals: dict[int, list[np.ndarray]], unknown: list[tuple[int, int]], new: list[list[float]],
+                   defaults: list[list[float]]) -> dict[tuple[int, int], str]:
+    """Each unknown component's sigma from its residual, into ``new``: r.r / dof, dof its
+    values less their leverage in the weighted fit at x (:func:`_leverages`: the
+    identifiable directions its values take up; of one component, the rank). A component
+    of fewer than :data:`MIN_DOF` takes the pooled sigma of the estimated ones in its unit
+    (sum r.r / sum dof), else its default. Returns those thin components, each with where
+    its sigma came from (``pooled``, ``default``)."""
+    leverage = _leverages(training, x, fixed)
+    dof: dict[tuple[int, int], float] = {}
+    for k, j in unknown:
+        if k in residuals:
+            dof[(k, j)] = residuals[k][j].size - leverage[k][j]
+    thin = {(k, j): "default" for k, j in unknown if dof.get((k, j), 0.0) < MIN_DOF}
+    pooled: dict[str, list[float]] = {}
+    for (k, j), d in dof.items():
+        if (k, j) in thin:
+            continue
+        r = residuals[k][j]
+        if r @ r > 0:
+            new[k][j] = max(float(np.sqrt(r @ r / d)), FLOOR_M)
+        rss, total = pooled.get(_unit(problem, k, j), [0.0, 0.0])
+        pooled[_unit(problem, k, j)] = [rss + float(r @ r), total + d]
+    for k, j in thin:
+        rss, total = pooled.get(_unit(problem, k, j), [0.0, 0.0])
+        if rss > 0 and total > 0:
+            new[k][j], thin[(k, j)] = max(float(np.sqrt(rss / total)), FLOOR_M), "pooled"
+        else:
+            new[k][j] = defaults[k][j]
+    return thin
+
+
+def _leverages(training: Problem, x: np.ndarray, fixed: tuple[int, ...]) -> dict[int, list[float]]:
+    """Each set's (and part's) share of the weighted fit's identifiable directions at x:
+    the sum of its entries' leverages, the diagonal of the hat matrix J (J^T J)^+ J^T over
+    the kept directions of the unknowns not ``fixed``
+    (:class:`~calib_pin.estimators.subspace.Subspace`: U_r = J D V_r S_r^-1, row norms
+    squared). They add up to the rank: a set whose rows alone fit directions (its own
+    sensor unknowns, or a weight that makes the fit follow it) takes them up, and is left
+    that many fewer degrees of freedom."""
+    free = np.array([i not in fixed for i in range(training.n_params)], dtype=bool)
+    jacobian = training.jacobian(x)[:, free]
+    space = Subspace.of(jacobian, np.asarray(training.scale)[free], np.asarray(x)[free])
+    h = np.sum((jacobian @ space.basis) ** 2, axis=1)
+    out: dict[int, list[float]] = {}
+    start = 0
+    for part, k in zip(training.parts, training.sets, strict=True):
+        mine = h[start : start + part.n_values]
+        start += part.n_values
+        entries = part.model.part_entries(part.n_rows)
+        out[k] = [float(mine[e].sum()) for e in entries] if entries else [float(mine.sum())]
+    return out
+
+
+def _unit(problem: Problem, k: int, j: int) -> str:
+    """The unit of set k's component j (``mm`` of a set of one part; its part's own)."""
+    own = problem.model.parts[k].noise_parts()
+    return own[j].unit if own else "mm"
+
+
+def _notes(problem: Problem, sigmas: list[list[float]], origins: list[list[str]], fits: int, moved: float,
+           settled: bool) -> list[str]:
+    """The printout's lines on the estimate: each thin component (the noise it got, and
+    how to state it), and a variance-component estimation that did not settle."""
+    labels = problem.model.labels
+    notes = []
+    for k, j in ((a, b) for a, by_part in enumerate(origins) for b, origin in enumerate(by_part)
+                 if origin in ("pooled", "default")):
+        own = problem.model.parts[k].noise_parts()
+        unit, per_si = (own[j].unit, own[j].per_si) if own else ("mm", 1e3)
+        part = f" ({own[j].name})" if own else ""
+        whose = f"the pooled noise of the other sets in {unit}" if origins[k][j] == "pooled" else "the default"
+        key = f"noise_{unit}"
+        notes.append(f"noise of set {labels[k]}{part}: its training values leave fewer than {MIN_DOF:g} degrees of "
+                     "freedom beyond the unknowns they fit, too few to estimate it: "
+                     f"{whose}, {sigmas[k][j] * per_si:.4g} {unit}, is used (state it: '# {key}: ...' in its file, "
+                     f"or FILE:{key}=...)")
+    if not settled:
+        notes.append(f"the sets' noise did not settle in {fits} fits (the last moved a sigma by {moved:.0%}): each "
+                     "set's is the geometric mean of the last fit's and its residual's, and the method was fitted "
+                     "with those (state the noises, '# noise_mm: ...' in each file, to fix them)")
+    return notes
 
 
 def _method(name: str) -> Method:

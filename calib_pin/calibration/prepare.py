@@ -24,10 +24,11 @@ from ..robot import Chain, RobotDescription, load_chain, resolve_robot
 from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
 from ..robot.description import as_robot
 from ..sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for, setup_record
+from ..sensors.base import FIT_ROWS_KEY
 from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path, as_xyz_mm
 from .holdout import TestSet
 from .problem import Problem
-from .sets import FitSet, PreparedSet, labelled, set_overrides, set_sigma
+from .sets import FitSet, PreparedSet, labelled, refuse_repeats, set_overrides, set_sigma
 from .start import Start
 
 #: The problems of this many splits (besides every row's) a calibration keeps for reuse.
@@ -113,20 +114,22 @@ class Calibration:
         test = np.concatenate([offsets[k] + te for k, (_, te) in enumerate(pairs)]).astype(int)
         return train, test
 
-    def problem_on(self, fit_rows: np.ndarray, reuse: bool = True) -> Problem:
+    def problem_on(self, fit_rows: np.ndarray, reuse: bool = True, rows: str = "training rows") -> Problem:
         """Every row of every set, each set's starting sensor geometry fitted on ``fit_rows``.
 
         ``fit_rows`` are rows of :attr:`data`: the training rows; nothing is fitted on a
         test row. Made once for the same rows (every method of a split shares it; the
         last :data:`KEPT_PROBLEMS` splits and every row's are kept); ``reuse`` False: fitted
-        anew all the same (a benchmark timing the whole fit).
+        anew all the same (a benchmark timing the whole fit). ``rows``: what a refusal calls
+        ``fit_rows`` (a cross-validation fold's).
         """
         fit_rows = np.asarray(fit_rows, dtype=int)
         made: dict[bytes, Problem] = self._cache.setdefault("problems", {})
         key = fit_rows.tobytes()
         if reuse and key in made:
             return made[key]
-        problems = [sensor_for(s.kind).problem_for(self.chain, self.params, s.data, self.rows(k, fit_rows), s.options)
+        problems = [sensor_for(s.kind).problem_for(self.chain, self.params, s.data, self.rows(k, fit_rows),
+                                                   {**s.options, FIT_ROWS_KEY: rows})
                     for k, s in enumerate(self.sets)]
         problem = Problem.of(problems, self.labels, [s.sigma or self.noise for s in self.sets])
         if reuse:
@@ -165,9 +168,11 @@ class Calibration:
         Raises:
             CalibPinError: a set with role ``test`` beside it, a session of a kind no set
                 has, no or a wrong ``same``, a set-up that disagrees with the named set's,
-                the training rows themselves.
+                training rows (a training file again, or rows of one repeated:
+                :mod:`calib_pin.calibration.repeats`).
         """
-        from .validation import check_same_setup, choose_training_set, same_rows
+        from .repeats import repeat_error
+        from .validation import check_same_setup, choose_training_set
 
         roles = [s.role for s in self.sets]
         if "test" in roles:
@@ -178,11 +183,13 @@ class Calibration:
                                 [s.data.source for s in self.sets])
         if test.register is None:
             check_same_setup(session, self.sets[k].data, self.sets[k].options)
-        for s in self.sets:
-            if same_rows(session, s.data):  # its score would be the training fit's, shown as a test
-                whose = "the training set's" if len(self.sets) == 1 else "a training set's"
-                raise DataError(session.source or "test_data", f"holds {whose} own rows: a validation session must "
-                                "be another one (or leave it out to hold out a test fraction)")
+        for s in self.sets:  # its score would be the training fit's, shown as a test
+            twice = repeat_error(s.data, s.label, session, "test_data")
+            if twice:
+                whose = "the training set's" if len(self.sets) == 1 else f"training set {s.label}'s"
+                raise DataError(session.source or "test_data", f"holds {whose} own rows: {twice}; scored as "
+                                "held out they would be training rows: a validation session must be another one (or "
+                                "leave it out to hold out a test fraction)")
         from dataclasses import replace
 
         return replace(test, data=session, same=self.labels[k] if test.register is None else ""), k
@@ -359,6 +366,7 @@ def prepare(
         sets.append(PreparedSet(d, label, s.role, sigma, origin, options, tuple(own), overridden))
     if all(s.role == "test" for s in sets):
         raise CalibPinError("every set has role 'test': nothing to fit")
+    refuse_repeats(sets)  # one measurement in two sets: its rows would be fitted twice
     calibration = Calibration(chain, params, tuple(sets), soft, prior=prior, tcp=tcp)
     problem = calibration.problem  # refuse options a sensor does not take now; kept for --analyze and a full fit
     held: tuple[str, ...] = ()

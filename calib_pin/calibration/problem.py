@@ -253,9 +253,16 @@ class Problem(RowProblem):
     _only: SetProblem | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        """Raises: CalibPinError: no part, or parts, weights and ``sets`` of different lengths."""
+        if not isinstance(self.model, ProblemModel) or not isinstance(self.parts, tuple | list) or not self.parts:
+            raise CalibPinError("a calibration problem needs at least one measurement set's rows (parts: a "
+                                "SetProblem per set; build it with Problem.of)")
         if not self.sets:
             object.__setattr__(self, "sets", tuple(range(len(self.parts))))
         object.__setattr__(self, "weights", np.asarray(self.weights, dtype=float))
+        if len(self.sets) != len(self.parts) or self.weights.shape != (len(self.parts),):
+            raise CalibPinError(f"a calibration problem of {len(self.parts)} part(s) with {len(self.sets)} set "
+                                f"index(es) and weights of shape {self.weights.shape}: one of each per part")
         object.__setattr__(self, "_offsets", np.cumsum([0] + [p.n_rows for p in self.parts]))
         # One set, weight 1, every unknown its own: every call is the set's own problem's.
         only = self.parts[0] if (len(self.parts) == 1 and self.model.one is not None
@@ -264,7 +271,16 @@ class Problem(RowProblem):
 
     @classmethod
     def of(cls, problems: Sequence[SetProblem], labels: Sequence[str], sigmas: Sequence[float]) -> Problem:
-        """Every row of each set's problem, set k weighted by sigmas[0] / sigmas[k] [m]."""
+        """Every row of each set's problem, set k weighted by sigmas[0] / sigmas[k] [m].
+
+        Raises:
+            CalibPinError: no set, or problems, labels and sigmas of different lengths.
+        """
+        if not isinstance(problems, Sequence) or not problems:
+            raise CalibPinError("a calibration problem needs at least one measurement set")
+        if len(labels) != len(problems) or len(sigmas) != len(problems):
+            raise CalibPinError(f"{len(problems)} set problem(s), {len(labels)} label(s) and {len(sigmas)} sigma(s): "
+                                "give one of each per set")
         model = ProblemModel(tuple(p.model for p in problems), tuple(labels))
         sigma = np.asarray(sigmas, dtype=float)
         return cls(model, tuple(problems), sigma[0] / sigma)
@@ -495,3 +511,27 @@ class Problem(RowProblem):
                 label = name if self.model.one is not None else f"{self.model.labels[self.sets[k]]}: {name}"
                 out[label] = (full, hint)
         return out
+
+
+def values_error(training: Problem, x0: np.ndarray, held: tuple[int, ...], n_rows: int,
+                 rows: str = "training rows") -> str | None:
+    """Why ``training`` (``n_rows`` rows, called ``rows``) has too few values to fit, or None.
+
+    An estimate moves only the directions its rows identify (the rank r of the Jacobian's
+    free columns at ``x0``: the unknowns not ``held``), so its values are counted against
+    r, not against every unknown: they must be more than r, or every value is fitted
+    exactly and nothing is left to check the fit (or to estimate the noise). The rank is
+    computed only when the values are no more than the free unknowns.
+    """
+    free = np.array([i not in held for i in range(training.n_params)], dtype=bool)
+    n_free, n_values = int(free.sum()), training.n_values
+    if n_values > n_free:
+        return None
+    from ..estimators.subspace import Subspace
+
+    rank = Subspace.of(training.jacobian(x0)[:, free], np.asarray(training.scale)[free], x0[free]).rank
+    if n_values > rank:
+        return None
+    unknowns = f"{n_free} free unknowns, {len(held)} held" if held else f"{n_free} unknowns"
+    return (f"{n_rows} {rows} give {n_values} values, no more than the {rank} directions they identify (of the "
+            f"{unknowns}): every value would be fitted exactly, none left to check the fit: measure more poses")

@@ -235,8 +235,23 @@ class CalibrationResult:
             beyond = beyond_sanity(value, unit)  # compliances: see report.json's compliance section
             if beyond:
                 return (f"{name} = {beyond}: the data cannot support it (a parameter the poses barely see, see "
-                        "--analyze; a wrong anchor_mm/tool_mm or unit; or outliers, see --loss); no URDF written")
+                        f"--analyze; a wrong anchor_mm/tool_mm or unit; or outliers, see --loss){self._misfits()}; "
+                        "no URDF written")
         return None
+
+    def _misfits(self) -> str:
+        """With several sets, which one the nominal robot misses most (a unit or set-up
+        mistake shows there first): each set's training RMSE at the start, largest first."""
+        if len(self.sets) < 2:
+            return ""
+        cells = sorted(((s.metrics["train"]["before"].rmse_mm, s.label, s.unit) for s in self.sets
+                        if "train" in s.metrics), key=lambda c: -c[0])
+        if not cells:
+            return ""
+        (worst, label, unit), others = cells[0], cells[1:]
+        shown = ", ".join(f"{other} {rmse:.3g} {u}" for rmse, other, u in others)
+        return (f"; set {label} misfits most: the start misses its training rows by {worst:.3g} {unit} RMS "
+                f"(the other sets: {shown})")
 
     def check_sanity(self) -> None:
         """Raises CalibPinError when :meth:`sanity_error` finds a runaway deviation."""

@@ -25,6 +25,7 @@ from ..measurements import MeasurementSet
 from ..sensors import SensorSetup, sensor_for
 from ..sensors.setup import given as given_value
 from ..util.arguments import MAX_MM, as_choice, as_float, as_instance
+from .repeats import repeat_error, shares_lines
 
 #: A set's role: split by pose (default), all training rows, or all test rows.
 ROLES = ("split", "train", "test")
@@ -164,16 +165,12 @@ def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...
             whose sensor fits its set-up on training rows.
     """
     labels: list[str] = []
-    files: dict[str, list[tuple[str, set[int] | None]]] = {}
     for k, (s, data) in enumerate(zip(sets, loaded, strict=True)):
         label = s.label or (Path(data.source).stem if data.source else f"s{k + 1}")
-        if data.source:  # rows of one file in two sets (the file twice; subsets of it may share no line)
-            lines = None if data.lines is None else {int(n) for n in data.lines}
-            seen = files.setdefault(str(Path(data.source).resolve()), [])
-            for other, other_lines in seen:
-                if lines is None or other_lines is None or lines & other_lines:
-                    raise DataError(data.source, f"given twice (sets {other} and {k + 1}): a row is fitted once")
-            seen.append((label, lines))
+        for other, earlier in zip(labels, loaded[:k], strict=True):  # one file in two sets (its path twice)
+            if data.source and earlier.source and Path(data.source).resolve() == Path(earlier.source).resolve() \
+                    and shares_lines(data, earlier):  # subsets of one file may share no line
+                raise DataError(data.source, f"given twice (sets {other} and {k + 1}): a row is fitted once")
         if label in labels:
             raise CalibPinError(f"two sets are labelled '{label}': give each set its own label (or file name)")
         labels.append(label)
@@ -182,6 +179,25 @@ def labelled(sets: list[FitSet], loaded: list[MeasurementSet]) -> tuple[str, ...
             raise DataError(data.source or label, f"a {data.kind} set with role 'test' has no training rows to fit "
                             f"its {sensor_for(data.kind).fitted_setup} on: give it role 'split'")
     return tuple(labels)
+
+
+def refuse_repeats(sets: list[PreparedSet] | tuple[PreparedSet, ...]) -> None:
+    """Refuse one measurement in two sets: a file again under another name (a hard link, a
+    copy), or rows of one set repeated in another (:mod:`calib_pin.calibration.repeats`);
+    subsets of one file that share no line are two sets.
+
+    Raises:
+        DataError: naming both files (or sets) and the rows.
+    """
+    for k, s in enumerate(sets):
+        for earlier in sets[:k]:
+            if s.data.source and earlier.data.source and not shares_lines(s.data, earlier.data) \
+                    and Path(s.data.source).resolve() == Path(earlier.data.source).resolve():
+                continue
+            twice = repeat_error(earlier.data, earlier.label, s.data, s.label)
+            if twice:
+                raise DataError(s.data.source or f"set {s.label}", f"{twice}: a row is fitted once; give each "
+                                "measurement in one set")
 
 
 #: A set whose training RMSE after the fit exceeds this many noise sigmas, and whose rows a

@@ -33,7 +33,7 @@ from .gauge import resolve_gauge
 from .holdout import Folds, Fraction, Holdout, TestSet, as_holdout, fold_of_rows
 from .noise import PILOT, Noise, apply, estimate_noise
 from .prepare import Calibration, prepare
-from .problem import Problem
+from .problem import Problem, values_error
 from .result import CalibrationResult, SetResult
 from .sets import mixed_setups_warning
 from .validation import register_session, score_session, session_notes
@@ -99,7 +99,7 @@ def check_method(record: Method, calibration: Calibration) -> None:
 
 
 def fit(calibration: Calibration, method: Method, train: np.ndarray, *, seed: int, loss: str,
-        history: bool = True, reuse: bool = True) -> Fit:
+        history: bool = True, reuse: bool = True, rows: str = "training rows") -> Fit:
     """Fit ``method`` on the ``train`` rows (of ``calibration.data``) of every set.
 
     Each set's sensor start is fitted on its training rows only; the estimate starts at zero
@@ -117,19 +117,20 @@ def fit(calibration: Calibration, method: Method, train: np.ndarray, *, seed: in
         reuse: Share the problem made for the same rows (False: make it anew).
 
     Raises:
-        DataError: fewer training values than unknowns, training rows that cannot calibrate
-            anything, a noise estimate that is a misfit.
+        DataError: no more training values than the directions they identify, training rows
+            that cannot calibrate anything, a noise estimate that is a misfit; ``rows`` is
+            what the messages call the training rows (a cross-validation fold's).
     """
     source = calibration.data.source or "the measurement set"
-    problem = calibration.problem_on(train, reuse=reuse)
+    problem = calibration.problem_on(train, reuse=reuse, rows=rows)
     training = problem.subset(train)
-    if training.n_values < problem.n_params:
-        raise DataError(source, f"{len(train)} training rows give {training.n_values} values, "
-                        f"fewer than the {problem.n_params} unknowns to estimate")
+    x0, held = calibration.start_on(problem, training)
+    few = values_error(training, x0, held, len(train), rows)  # counted against the identifiable directions
+    if few:
+        raise DataError(source, few)
     unsupported = support_error(training)  # rank deficiency is normal; a set that calibrates nothing is not
     if unsupported:
         raise DataError(source, unsupported)
-    x0, held = calibration.start_on(problem, training)
     noise = _noise(calibration, problem, train, method, x0, seed, loss, held, history)
     problem = apply(problem, noise)
     if noise.pilot is not None and method.name == PILOT:  # the pilot was this very fit
@@ -204,10 +205,10 @@ def score(calibration: Calibration, method: Method, done: Fit, train: np.ndarray
     model = problem.model
     warnings_ = [note for note in (s.data.ignored_note() for s in calibration.sets) if note] + list(notes)
     several = len(calibration.sets) > 1
-    if several and done.noise.fits > 1:
-        guessed = [s.label for s, origin in zip(calibration.sets, done.noise.origins, strict=True)
-                   if origin[0] == "estimate"]
+    guessed = [s.label for s, origin in zip(calibration.sets, done.noise.origins, strict=True) if origin[0] == "estimate"]
+    if several and done.noise.fits > 1 and guessed:
         warnings_.append(f"noise of {', '.join(guessed)} estimated from the residual ({done.noise.fits} fits)")
+    warnings_ += done.noise.notes  # a set too small to estimate its own noise; an estimate that did not settle
     results: list[SetResult] = []
     pooled: dict[str, dict[str, list[np.ndarray]]] = {}
     offsets = calibration.offsets
@@ -382,7 +383,8 @@ def cross_validate(calibration: Calibration, method: str | Method, rows: np.ndar
     out = []
     for k in range(folds):
         train, test = rows[fold != k], rows[fold == k]
-        done = fit(calibration, method, train, seed=seed, loss=loss, history=False)
+        done = fit(calibration, method, train, seed=seed, loss=loss, history=False,
+                   rows=f"fitting rows of cross-validation fold {k + 1} of {folds} (the other folds')")
         held_out = done.problem.subset(test)
         out.append(Metrics.of(data_row_errors(held_out, _after(held_out, done.estimate.x, done.estimate))))
     return CrossValidation(folds, seed, tuple(out))

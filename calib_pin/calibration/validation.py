@@ -7,7 +7,8 @@ drawstring re-anchored. :class:`TestSet` says which, per session:
   label). The session's own set-up must agree with the calibration's, else it is refused
   (:func:`check_same_setup`: a drawstring's ``# anchor_mm``; a device frame more than 5 mm
   from the calibration's); nothing is fitted on it (:func:`score_session`).
-- ``register=k`` (the session's first k poses) or ``register="role"`` (its rows whose
+- ``register=k`` (k of the session's poses: its first k, or one of each fixture or point
+  in turn, :func:`registration_rows`) or ``register="role"`` (its rows whose
   ``role`` column says ``register``): a new set-up, re-registered first. Only the session's
   own sensor unknowns (a device frame and markers, a drawstring's anchor and offset) are
   fitted on those rows with the calibrated robot fixed (:func:`register_session`); the
@@ -34,6 +35,7 @@ from ..estimators.problem import data_row_errors
 from ..exceptions import ArgumentError, DataError
 from ..measurements import MeasurementSet
 from ..sensors import SENSORS, sensor_for
+from ..sensors.base import FIT_ROWS_KEY
 from ..sensors.problem import SetProblem
 from .holdout import REGISTER_ROLE, TestSet
 
@@ -99,12 +101,20 @@ def choose_training_set(test: TestSet, session: MeasurementSet, labels: tuple[st
     return of_kind[0]
 
 
-def registration_rows(session: MeasurementSet, register: int | str) -> tuple[np.ndarray, np.ndarray]:
+def registration_rows(session: MeasurementSet, register: int | str,
+                      targets: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The session's registration rows and scored rows (0-based, disjoint, every row in one).
+
+    ``register=k``: k poses, taken from each target in turn (``targets``: what each row
+    measures, a marker or a fixture, :meth:`~calib_pin.sensors.base.MeasurementModel.row_targets`;
+    a pose's target is its first row's), in file order within each; with one target (or
+    None), the session's first k poses. So a file recorded fixture by fixture registers
+    on every fixture it touches.
 
     Args:
         session: The validation session's measurements.
-        register: k (its first k poses register) or ``"role"`` (its rows of role ``register``).
+        register: k poses, or ``"role"`` (its rows of role ``register``).
+        targets: What each row measures, or None.
 
     Raises:
         DataError: no ``role`` column or no row marked ``register``; k poses that leave
@@ -123,14 +133,32 @@ def registration_rows(session: MeasurementSet, register: int | str) -> tuple[np.
     else:
         groups = np.asarray(session.groups)
         _, first = np.unique(groups, return_index=True)
-        in_order = groups[np.sort(first)]
+        first = np.sort(first)
+        in_order = groups[first if targets is None else first[_in_turn(np.asarray(targets)[first])]]
         if int(register) >= len(in_order):
             raise DataError(source, f"register={register} poses of its {len(in_order)}: nothing left to score "
                             "(register on fewer poses)", None, "register")
+
         marked = np.isin(groups, in_order[: int(register)])
     if marked.all():
         raise DataError(source, "every row registers the session: nothing left to score", None, "role")
     return np.flatnonzero(marked), np.flatnonzero(~marked)
+
+
+def _in_turn(targets: np.ndarray) -> np.ndarray:
+    """An order of items (poses, in file order) that takes one of each target in turn
+    (targets in the order they first appear; within a target, file order): ``A A B B C``
+    gives ``A B C A B``; of one target, file order."""
+    labels = [str(t) for t in targets]
+    done: dict[str, int] = {}  # items of each target so far
+    first: dict[str, int] = {}  # each target's place in the order of first appearance
+    turn = np.empty(len(labels), dtype=int)
+    appearance = np.empty(len(labels), dtype=int)
+    for k, label in enumerate(labels):
+        turn[k] = done.get(label, 0)
+        done[label] = turn[k] + 1
+        appearance[k] = first.setdefault(label, len(first))
+    return np.lexsort((np.arange(len(labels)), appearance, turn))
 
 
 def _fit_sensor(problem: SetProblem, fixed: np.ndarray) -> np.ndarray:
@@ -176,9 +204,18 @@ def register_session(test: TestSet, calibrated: Any, x: np.ndarray, options: dic
     session = test.data
     assert isinstance(session, MeasurementSet) and test.register is not None
     source = session.source or "test_data"
-    register, scored = registration_rows(session, test.register)
-    problem = sensor_for(session.kind).registration_problem(calibrated.chain, calibrated.params, session, register,
-                                                            calibrated, x, options)
+    sensor = sensor_for(session.kind)
+    targets = sensor.row_targets(session)
+    register, scored = registration_rows(session, test.register, targets)
+    try:
+        problem = sensor.registration_problem(calibrated.chain, calibrated.params, session, register, calibrated, x,
+                                              {**options, FIT_ROWS_KEY: "registration rows"})
+    except DataError as e:  # too few rows, or a fixture or point none of them locates: say how to choose them
+        if test.register == "role":
+            raise
+        raise DataError(e.path, f"{e.reason} (register={test.register} took {_how(session, register, test.register)}: "
+                        "register on more poses, or mark the rows with a role column and register=role)", e.line,
+                        e.field) from e
     model = problem.model
     start = model.sensor_start
     n_sensor = model.n_params - start
@@ -195,7 +232,7 @@ def register_session(test: TestSet, calibrated: Any, x: np.ndarray, options: dic
     metrics = {"before": Metrics.of(data_row_errors(part, part.residual(before))),
                "after": Metrics.of(data_row_errors(part, part.residual(after)))}
     lines = None if session.lines is None else np.asarray(session.lines)
-    how = f"rows with role={REGISTER_ROLE}" if test.register == "role" else f"first {test.register} poses"
+    how = f"rows with role={REGISTER_ROLE}" if test.register == "role" else _how(session, register, test.register)
     info = {
         "data": session.source, "setup": "new", "registered_on": how,
         "registered_rows": register.tolist(), "scored_rows": scored.tolist(),
@@ -208,9 +245,20 @@ def register_session(test: TestSet, calibrated: Any, x: np.ndarray, options: dic
     return metrics, info
 
 
+def _how(session: MeasurementSet, rows: np.ndarray, register: int | str) -> str:
+    """``first 12 poses``, or ``12 poses, one of each fixture or point in turn`` when they are not the first."""
+    k = int(register)
+    groups = np.asarray(session.groups)
+    _, first = np.unique(groups, return_index=True)
+    if set(np.unique(groups[rows]).tolist()) == set(groups[np.sort(first)[:k]].tolist()):
+        return f"first {k} poses"
+    return f"{k} poses, one of each fixture or point in turn (file order within each)"
+
+
 #: A validation session whose own device frame puts its points farther than this from
-#: where the calibration's frame puts them was measured from another placement, [m]
-#: (a refit on the same placement moves them by the calibration's residual, < 1 mm).
+#: where the calibration's frame puts them (or whose touches put its fixtures that far
+#: from the calibration's) was measured from another placement, [m] (a refit on the same
+#: placement moves them by the calibration's residual, < 1 mm).
 DEVICE_SHIFT_M = 5e-3
 
 
@@ -228,14 +276,17 @@ def score_session(model: Any, x: np.ndarray, correction: Any, session: Measureme
         session: The validation session's measurements.
 
     Raises:
-        DataError: the session's own device frame is far from the calibration's (moved).
+        DataError: the session's own device frame (or fixtures) is far from the calibration's
+            (moved): :data:`DEVICE_SHIFT_M`.
     """
     shift = getattr(model, "session_frame_shift", lambda x, data: None)(x, session)
-    if shift is not None and shift > DEVICE_SHIFT_M:  # scored with the calibration's frame, every row would be off
-        raise DataError(session.source or "test_data", f"the session's own is {shift * 1e3:.3g} mm (RMS over its "
-                        "points) from the calibration's: the device was moved between the sessions? Measure both "
-                        "from the same placement, or re-register the session on its own first poses "
-                        "(--test-data FILE:register=K)", None, "device frame")
+    if shift is not None and shift > DEVICE_SHIFT_M:  # scored with the calibration's set-up, every row would be off
+        what, hint = model.moved_setup  # a device frame, or fixtures
+        verb, over, poses = ("are", "fixtures", "K poses, one of each fixture in turn") if what.endswith("s") else \
+            ("is", "points", "its first K poses")
+        raise DataError(session.source or "test_data", f"the session's own {verb} {shift * 1e3:.3g} mm (RMS over its "
+                        f"{over}) from the calibration's: {hint} Measure both from the same placement, or re-register "
+                        f"the session on its own poses (--test-data FILE:register=K: {poses})", None, what)
     before = model.session_errors(None, session)
     after = model.session_errors(x, session, correction)
     return {"before": Metrics.of(before), "after": Metrics.of(after)}
@@ -250,15 +301,3 @@ def session_notes(test: TestSet) -> tuple[str, ...]:
         return ()
     return (f"ignored columns: {', '.join(extra)} (in {Path(session.source).name or 'test_data'}; read and kept, "
             "not used)",)
-
-
-def same_rows(a: MeasurementSet, b: MeasurementSet) -> bool:
-    """Both sets are one file, or hold the same joint angles and values."""
-    if a.source and b.source:
-        try:
-            if Path(a.source).samefile(b.source):
-                return True
-        except OSError:
-            pass
-    return (np.shape(a.q) == np.shape(b.q) and np.shape(a.values) == np.shape(b.values)
-            and np.array_equal(a.q, b.q) and np.array_equal(a.values, b.values, equal_nan=True))

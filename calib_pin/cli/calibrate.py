@@ -90,9 +90,10 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    "e.g. s2.csv:anchor_mm=600,200,-100:noise_mm=0.3")
     p.add_argument("--test-data", help="a separate validation session CSV: train on all of --data, test on this; "
                    "FILE (or FILE:same=LABEL): measured with the training set's sensor set-up (checked); "
-                   "FILE:register=K: a new set-up (tracker moved, cable re-anchored), re-registered on its first K "
-                   "poses with the calibrated robot fixed, the other poses scored; FILE:register=role: on its rows "
-                   "whose role column says 'register'")
+                   "FILE:register=K: a new set-up (tracker moved, cable re-anchored), re-registered on K of its "
+                   "poses (its first K; of a contact or marker file, one of each fixture or point in turn) with the "
+                   "calibrated robot fixed, the other poses scored; FILE:register=role: on its rows whose role "
+                   "column says 'register'")
     p.add_argument("--method", default=DEFAULT_METHOD, help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})")
     add_test_fraction_argument(p)
     p.add_argument("--out", default="out", help="output folder (default ./out)")
@@ -451,9 +452,9 @@ def _calibrate(args: argparse.Namespace) -> int:
         done = write_outputs(result, Path(args.out), args.export, html=not args.no_html, inputs=inputs,
                              silence="--no-html silences this")
     report = done.report
+    _summary(result, report)  # a refused fit still shows what was computed, then the refusal
     if done.refused:
         return fail(f"{done.refused} (report: {done.folder / 'report.json'})")
-    _summary(result, report)
     for note in done.notes:
         print(f"note: {note}")
     for path in done.files:

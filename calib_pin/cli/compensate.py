@@ -18,19 +18,22 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..exceptions import CalibPinError, DataError
 from ..export.compensation import OK, POSITION_ONLY, REFUSED, CalibratedRobot, Compensation
-from ..export.programs import FORMATS, Program, identifier, program_files, program_paths
+from ..export.programs import FORMATS, PROGRAMS, Program, identifier, program_files, program_paths
 from ..robot.description import robot_inputs
 from ..sensors.setup import xyz_mm
 from ..util.outputs import Outputs
 from . import parse_args
 from .common import positive_float, run
 from .outputs import add_force_argument
+
+if TYPE_CHECKING:
+    from ..measurements import MeasurementSet
 
 
 def compensate_parser() -> argparse.ArgumentParser:
@@ -110,11 +113,17 @@ def _compensate(args: argparse.Namespace) -> int:
         reference = load_start(Path(args.nominal), chain, robot.params)
         robot.set_reference(reference.robot_x)
     targets = read_pose_list(args.targets, chain)
+    _refuse_compensated(targets)
     if targets.end_frame and targets.end_frame != chain.end_frame:
         raise DataError(targets.source, f"targets of end frame '{targets.end_frame}', the calibration's is "
                         f"'{chain.end_frame}'", None, "end_frame")
     pose_ids = targets.pose_ids if targets.pose_ids is not None else np.arange(1, len(targets) + 1)
     rows = np.sort(np.unique(pose_ids, return_index=True)[1])  # one row per pose
+    if args.format != "csv":  # a program named like a target of its own, or a built-in it calls
+        try:
+            PROGRAMS[args.format].check(name, pose_ids[rows])
+        except CalibPinError as e:
+            raise CalibPinError(f"--out {args.out}: {e}") from e
     q_nominal = targets.q[rows]
     result = robot.solve(q_nominal)
     kept = np.array([s != REFUSED for s in result.status], dtype=bool)
@@ -194,6 +203,36 @@ def _undetermined(robot: CalibratedRobot, q: np.ndarray, names: list[str], tcp_m
                   f"by the calibration there: {total[k] * 1e3:.3f} mm RMS predicted, {blind[k] * 1e3:.3f} mm of it "
                   "the prior's (what the data did not see); the compensation moves it by the model's guess",
                   file=sys.stderr)
+
+
+def _refuse_compensated(targets: MeasurementSet) -> None:
+    """Refuse targets that are compensate's own output (its ``# compensated:`` line): they
+    are corrected already, and corrected again every joint would be corrected twice.
+
+    Raises:
+        DataError: naming the file and the line.
+    """
+    made = targets.notes.get("compensated")
+    if made is None:
+        return
+    raise DataError(targets.source, f"'{made}': these targets are compensate's own output, already corrected "
+                    "(compensated again, every joint would be corrected twice): give the program's nominal "
+                    "targets", _metadata_line(targets.source, "compensated"), "compensated")
+
+
+def _metadata_line(path: str, key: str) -> int | None:
+    """The 1-based line of metadata ``# key:`` in the file ``path`` (before its header), or None."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace") as f:
+            for number, raw in enumerate(f, 1):
+                line = raw.strip()
+                if line and not line.startswith("#"):
+                    return None
+                if line.lstrip("#").strip().startswith(f"{key}:"):
+                    return number
+    except OSError:
+        return None
+    return None
 
 
 def _writer(text: str) -> Callable[[Path], object]:

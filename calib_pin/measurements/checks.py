@@ -111,7 +111,7 @@ def _check_values(data: MeasurementSet) -> None:
         return
     values = np.asarray(data.values, dtype=float)
     bad = np.argwhere(~np.isfinite(values))
-    columns = schema.value_columns
+    columns = schema.value_columns + schema.plain_columns  # a 6-D pose's quaternion after its position
     name = columns[0] if len(columns) == 1 else data.kind
     if len(bad):
         row = int(bad[0][0])

@@ -79,6 +79,33 @@ def check_rows(n_rows: int) -> np.ndarray:
     return np.unique(np.linspace(0, n_rows - 1, min(n_rows, CHECK_ROWS)).astype(int))
 
 
+#: The key of a set's sensor options that names the rows its set-up is fitted on, in what a
+#: refusal says (:func:`fit_rows_name`): a calibration's ``training rows``, a validation
+#: session's ``registration rows``, a cross-validation fold's.
+FIT_ROWS_KEY = "fit_rows"
+
+
+def fit_rows_name(options: Mapping[str, Any]) -> str:
+    """What the rows a set-up is fitted on are called (``training rows`` unless the options say)."""
+    return str(options.get(FIT_ROWS_KEY) or "training rows")
+
+
+def refuse_too_few(source: str, n_rows: int, n_values: int, n_unknowns: int, what: str, rows: str,
+                   field: str | None = None) -> None:
+    """Refuse a set-up pre-fit of ``n_unknowns`` (``what`` they are) on ``n_rows`` rows of
+    ``n_values`` values (``rows``: what those rows are called): a least-squares fit needs
+    at least as many values as unknowns.
+
+    Raises:
+        DataError: naming ``source`` and ``field``.
+    """
+    from ..exceptions import DataError
+
+    if n_values < n_unknowns:
+        raise DataError(source or "the measurement set", f"{n_rows} {rows} give {n_values} values, fewer than the "
+                        f"{n_unknowns} set-up unknowns ({what}) to fit on them: give more rows", None, field)
+
+
 def frame_unknowns(prefix: str, metres: float, radians: float) -> list[tuple[str, str, float]]:
     """The six unknowns (name, unit, typical size) of a frame correction.
 
@@ -175,6 +202,9 @@ class MeasurementModel(ABC):
     #: set of this sensor cannot be all-test.
     fits_setup: ClassVar[bool] = False
     fitted_setup: ClassVar[str] = ""
+    #: What a validation session measured from another placement has moved, for the refusal
+    #: of a sensor whose model measures it (``session_frame_shift``): its name, and the hint.
+    moved_setup: ClassVar[tuple[str, str]] = ("device frame", "the device was moved between the sessions?")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """A sensor that declares its ``schema`` takes its ``kind`` and ``data_name`` from it."""
@@ -247,6 +277,14 @@ class MeasurementModel(ABC):
         return None
 
     @classmethod
+    def row_targets(cls, data: MeasurementSet) -> np.ndarray | None:
+        """What each row of ``data`` measures, shape (n_rows,): its marker (``point_ids``), or
+        None when every row measures the same thing; a sensor of other targets (a contact
+        set's fixtures) says so. A validation session's ``register=K`` takes its poses from
+        each target in turn (:func:`calib_pin.calibration.validation.registration_rows`)."""
+        return None if data.point_ids is None else np.asarray(data.point_ids)
+
+    @classmethod
     def registration_problem(cls, chain: Chain, params: ParameterModel, session: MeasurementSet, rows: np.ndarray,
                              calibrated: MeasurementModel, x: np.ndarray,
                              options: Mapping[str, Any]) -> SetProblem:
@@ -258,7 +296,8 @@ class MeasurementModel(ABC):
         session does not say). Default: :meth:`problem_for` with the caller's compliance
         only (a sensor whose set-up is always fitted, e.g. a device frame and markers).
         """
-        return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance")})
+        return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance"),
+                                                              FIT_ROWS_KEY: options.get(FIT_ROWS_KEY)})
 
     @classmethod
     def refuse_foreign(cls, options: Mapping[str, Any], data: MeasurementSet) -> None:
@@ -344,6 +383,11 @@ class MeasurementModel(ABC):
 
         What its sigma is estimated from (default: none).
         """
+        return ()
+
+    def part_entries(self, n_rows: int) -> tuple[np.ndarray, ...]:
+        """Where each of :meth:`noise_parts`' entries sits among the set's residual entries
+        (``n_rows`` rows, flattened), in the order of :meth:`part_residuals`' (default: none)."""
         return ()
 
     def with_part_noise(self, sigmas: tuple[float, ...], origin: str) -> MeasurementModel:

@@ -19,7 +19,7 @@ from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..util.arguments import MAX_MM, as_array, as_float, as_optional, as_xyz_mm
-from .base import SETUP_MISFIT_M, MeasurementModel, check_rows, chosen
+from .base import SETUP_MISFIT_M, MeasurementModel, check_rows, chosen, fit_rows_name
 from .problem import SetProblem
 from .registry import check_estimate
 from .setup import SensorSetup, estimate_names, finite, option, xyz_mm
@@ -251,11 +251,13 @@ class CableModel(MeasurementModel):
         prefit = None
         if anchor is None:  # no anchor known: fit the set-up on the training rows first, then estimate it
             prefit = fit_drawstring(chain, params, data.q[fit_rows], data.values[fit_rows],
-                                    np.zeros(3) if tool is None else tool, "tool" in estimate, data.source)
+                                    np.zeros(3) if tool is None else tool, "tool" in estimate, data.source,
+                                    rows=fit_rows_name(options))
             anchor, tool, offset = prefit.sensor.anchor, prefit.sensor.tool, prefit.sensor.length_offset
             estimate = tuple(dict.fromkeys(("anchor", "offset") + estimate))
         if tool is None:  # estimated, the anchor known: its start fitted on the nominal robot
-            tool = fit_tool_point(chain, params, data.q[fit_rows], data.values[fit_rows], anchor, offset, data.source)
+            tool = fit_tool_point(chain, params, data.q[fit_rows], data.values[fit_rows], anchor, offset, data.source,
+                                  fit_rows_name(options))
         model = cls(chain, params, Drawstring(anchor, tool, offset), estimate, get("compliance"))
         model.prefit = prefit
         if prefit is None:
@@ -315,7 +317,7 @@ class CableModel(MeasurementModel):
         anchor, prefit = session.anchor, None
         if anchor is None:
             prefit = fit_drawstring(chain, params, session.q[rows], session.values[rows], tool, source=session.source,
-                                    offset=offset)
+                                    offset=offset, rows=fit_rows_name(options))
             anchor = prefit.sensor.anchor
         model = cls(chain, params, Drawstring(anchor, tool, offset), ("anchor",), options.get("compliance"))
         model.prefit = prefit
@@ -496,7 +498,7 @@ def _cables(origin: np.ndarray, end_rot: np.ndarray, tool: np.ndarray,
 
 
 def fit_tool_point(chain: Chain, params: ParameterModel, q: np.ndarray, readings: np.ndarray, anchor: np.ndarray,
-                   offset: float, source: str = "") -> np.ndarray:
+                   offset: float, source: str = "", rows: str = "training rows") -> np.ndarray:
     """Best-fit tool point [m, end frame] for the nominal robot with the anchor and zero offset known.
 
     The start of an estimated tool point that no file or flag gives (from the flange
@@ -511,6 +513,7 @@ def fit_tool_point(chain: Chain, params: ParameterModel, q: np.ndarray, readings
         anchor: The anchor P0, shape (3,), [m], base frame.
         offset: The zero offset, [m].
         source: The file, for messages.
+        rows: What messages call the rows (a cross-validation fold's).
 
     Raises:
         DataError: fewer rows than the 3 unknowns, naming ``source``.
@@ -518,7 +521,7 @@ def fit_tool_point(chain: Chain, params: ParameterModel, q: np.ndarray, readings
     from scipy.optimize import least_squares  # imported here: scipy.optimize is slow to import
 
     if len(q) <= 3:
-        raise DataError(source, f"{len(q)} training rows cannot locate the tool point (3 unknowns to pre-fit): add "
+        raise DataError(source, f"{len(q)} {rows} cannot locate the tool point (3 unknowns to pre-fit): add "
                         "'# tool_mm: x, y, z' or more rows", None, "tool_mm")
     model = CableModel(chain, params, Drawstring(np.zeros(3), np.zeros(3)))
     end_rot, origin = model.end_frames(None, q)
@@ -533,7 +536,8 @@ def fit_tool_point(chain: Chain, params: ParameterModel, q: np.ndarray, readings
 
 
 def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings: np.ndarray, tool: np.ndarray,
-                   fit_tool: bool = False, source: str = "", offset: float | None = None) -> DrawstringPrefit:
+                   fit_tool: bool = False, source: str = "", offset: float | None = None,
+                   rows: str = "training rows") -> DrawstringPrefit:
     """Best-fit anchor P0 [m, base frame] and zero offset [m] for the nominal robot, with no guess.
 
     With ``fit_tool``, the tool point [m, end frame] is fitted too; no guess of the anchor
@@ -555,6 +559,7 @@ def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings
         fit_tool: Fit the tool point too.
         source: The file, for messages.
         offset: The zero offset [m] held fixed (a re-anchored instrument's, known), or None: fitted.
+        source, rows: The data's name and what its rows are called, for a refusal.
 
     Raises:
         DataError: fewer rows than unknowns, naming ``source``.
@@ -564,7 +569,7 @@ def fit_drawstring(chain: Chain, params: ParameterModel, q: np.ndarray, readings
     fixed = offset is not None
     n_unknowns = 3 + (not fixed) + 3 * fit_tool
     if len(q) <= n_unknowns:
-        raise DataError(source, f"{len(q)} training rows cannot locate the drawstring's anchor ({n_unknowns} unknowns "
+        raise DataError(source, f"{len(q)} {rows} cannot locate the drawstring's anchor ({n_unknowns} unknowns "
                         "to pre-fit): add '# anchor_mm: x, y, z' or more rows", None, "anchor_mm")
     model = CableModel(chain, params, Drawstring(np.zeros(3), np.zeros(3)))
     end_rot, origin = model.end_frames(None, q)

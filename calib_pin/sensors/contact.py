@@ -45,7 +45,7 @@ from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..util.arguments import as_optional, as_xyz_mm
-from .base import DEFAULT_NOISE_MM, SETUP_MISFIT_M, MeasurementModel, check_rows
+from .base import DEFAULT_NOISE_MM, SETUP_MISFIT_M, MeasurementModel, check_rows, fit_rows_name
 from .problem import SetProblem
 from .setup import SensorSetup, option, xyz_mm
 
@@ -396,6 +396,7 @@ class ContactModel(MeasurementModel):
     setup_type = ContactSetup
     fits_setup = True
     fitted_setup = "fixture points and planes"
+    moved_setup = ("fixtures", "the fixtures (a plate, a cube) were moved between the sessions?")
 
     def __init__(self, chain: Chain, params: ParameterModel, fixtures: Fixtures,
                  compliance: ComplianceSpec | None = None, estimate: tuple[str, ...] | None = None) -> None:
@@ -457,7 +458,7 @@ class ContactModel(MeasurementModel):
             if distinct < need:
                 what = f"contact_id {label}" if k < len(points) else f"plane_id {label}"
                 raise DataError(data.source, f"{what} is touched at {distinct} distinct configuration(s) of the "
-                                f"training rows: {'a plane needs 3 or more' if need > 1 else 'nothing locates it'}",
+                                f"{fit_rows_name(options)}: {'a plane needs 3 or more' if need > 1 else 'nothing locates it'}",
                                 None, "plane_id" if k >= len(points) else "contact_id")
         fixtures = fit_fixtures(chain, params, data.q[fit_rows], rows[fit_rows], points, planes, tool, distances)
         model = cls(chain, params, fixtures, options.get("compliance"))
@@ -626,6 +627,30 @@ class ContactModel(MeasurementModel):
         sizes = np.where(mapped < len(fx.points), 3, 1)
         offsets = np.concatenate([[0], np.cumsum(sizes)])
         return np.array([np.linalg.norm(residual[offsets[k] : offsets[k + 1]]) for k in range(len(mapped))])
+
+    def session_frame_shift(self, x: np.ndarray | None, data: MeasurementSet) -> float | None:
+        """How far a separate session's own fixtures are from the calibration's, [m]: the
+        RMS, over the session's fixtures this calibration knows, of the distance between
+        where its touches put each (the model at x; a point: their mean tool point, a plane:
+        their mean distance from it along its normal) and where the calibration has it. The
+        rows' play averages out, a moved plate does not. None: no fixture known."""
+        fx = self.geometry_at(x)
+        points, planes, rows = fixture_rows(data)
+        tips = self.points_at(x, data.q, fx.tool)
+        shifts = []
+        for k, label in enumerate(points + planes):
+            these = tips[rows == k]
+            if k < len(points) and label in fx.point_labels:
+                shifts.append(float(np.linalg.norm(these.mean(axis=0) - fx.points[fx.point_labels.index(label)])))
+            elif k >= len(points) and label in fx.plane_labels:
+                m = fx.plane_labels.index(label)
+                shifts.append(abs(float(np.mean(these @ fx.normals[m] - fx.offsets[m]))))
+        return float(np.sqrt(np.mean(np.square(shifts)))) if shifts else None
+
+    @classmethod
+    def row_targets(cls, data: MeasurementSet) -> np.ndarray:
+        """Each row's fixture (index, as :func:`fixture_rows`')."""
+        return fixture_rows(data)[2]
 
     # --- simulation -----------------------------------------------------------------------
 

@@ -45,7 +45,15 @@ from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
 from ..util.arguments import as_optional
-from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart, chosen, frame_unknowns
+from .base import (
+    DEFAULT_NOISE_MM,
+    MeasurementModel,
+    NoisePart,
+    chosen,
+    fit_rows_name,
+    frame_unknowns,
+    refuse_too_few,
+)
 from .problem import SetProblem
 from .setup import SensorSetup, option
 
@@ -315,7 +323,8 @@ class PoseModel(MeasurementModel):
                                 f"({data.source}) the device frame and the body are always estimated")
         noise_m, noise_rad = noise_of(data, options)
         fit_rows = np.asarray(fit_rows, dtype=int)
-        rig = fit_rig(chain, params, data.q[fit_rows], data.values[fit_rows], noise_m / noise_rad)
+        rig = fit_rig(chain, params, data.q[fit_rows], data.values[fit_rows], noise_m / noise_rad, data.source,
+                      fit_rows_name(options))
         model = cls(chain, params, rig, noise_m, noise_rad, options.get("compliance"))
         model.noise_from = noise_origins(data, options)
         return PoseProblem(model, data.q, np.asarray(data.values, dtype=float))
@@ -359,6 +368,11 @@ class PoseModel(MeasurementModel):
         """
         e = self.errors(x, q, readings)
         return e[:, :3].reshape(-1), e[:, 3:].reshape(-1)
+
+    def part_entries(self, n_rows: int) -> tuple[np.ndarray, ...]:
+        """The position's and the orientation's entries of the (n_rows, 6) residual, flattened."""
+        entries = np.arange(6 * n_rows).reshape(n_rows, 6)
+        return entries[:, :3].reshape(-1), entries[:, 3:].reshape(-1)
 
     def with_part_noise(self, sigmas: tuple[float, ...], origin: str) -> PoseModel:
         """A copy weighted by position noise ``sigmas[0]`` [m] and orientation noise ``sigmas[1]`` [rad].
@@ -578,7 +592,12 @@ def default_rig() -> PoseRig:
                    pin.SE3(pin.rpy.rpyToMatrix(0.3, -0.2, 0.5), np.array([0.02, -0.01, 0.08])))
 
 
-def fit_rig(chain: Chain, params: ParameterModel, q: np.ndarray, poses: np.ndarray, weight: float) -> PoseRig:
+#: The unknowns of :func:`fit_rig`: the device frame's and the body's 6 each.
+RIG_UNKNOWNS = 12
+
+
+def fit_rig(chain: Chain, params: ParameterModel, q: np.ndarray, poses: np.ndarray, weight: float,
+            source: str = "", rows: str = "training rows") -> PoseRig:
     """Best-fit device frame T_DB and body T_EK for the nominal robot.
 
     A hand-eye fit, T_DB T_BE(q) T_EK = T_DK.
@@ -593,8 +612,13 @@ def fit_rig(chain: Chain, params: ParameterModel, q: np.ndarray, poses: np.ndarr
         q: Joint angles, shape (n_rows, n_joints), [rad].
         poses: Measured poses, shape (n_rows, 7): position [m], quaternion (w, x, y, z).
         weight: Metres of residual per radian of orientation error (noise_m / noise_rad).
+        source, rows: The data's name and what its rows are called, for a refusal.
+
+    Raises:
+        DataError: fewer than 12 values (2 rows), naming ``source``.
     """
     poses = np.asarray(poses, dtype=float).reshape(-1, 7)
+    refuse_too_few(source, len(poses), 6 * len(poses), RIG_UNKNOWNS, "the device frame and the body", rows)
     model = PoseModel(chain, params, PoseRig(pin.SE3.Identity(), pin.SE3.Identity()), weight, 1.0)
     rot_be, p_be = model.end_frames(None, q)
     rot_dk, p_dk = quaternion_matrices(poses[:, 3:]), poses[:, :3]
@@ -629,5 +653,5 @@ def fit_rig(chain: Chain, params: ParameterModel, q: np.ndarray, poses: np.ndarr
 
     from scipy.optimize import least_squares  # imported here: scipy.optimize is slow to import
 
-    fit = least_squares(residual, np.zeros(12), jac=jacobian, method="lm")
+    fit = least_squares(residual, np.zeros(RIG_UNKNOWNS), jac=jacobian, method="lm")
     return model.geometry_at(np.concatenate([zero, fit.x]))

@@ -33,7 +33,7 @@ from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
-from .base import MeasurementModel, chosen, frame_unknowns
+from .base import FIT_ROWS_KEY, MeasurementModel, chosen, fit_rows_name, frame_unknowns, refuse_too_few
 from .problem import SetProblem
 from .setup import SensorSetup
 
@@ -182,9 +182,12 @@ class PositionModel(MeasurementModel):
         fit_rows = np.asarray(fit_rows, dtype=int)
         seen = set(points[fit_rows].tolist())
         missing = [label for k, label in enumerate(labels) if k not in seen]
+        rows = fit_rows_name(options)
         if missing:
-            raise DataError(data.source, f"point_id {missing[0]} is only in held-out rows: nothing locates it", None, "point_id")
-        device = fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels)
+            raise DataError(data.source, f"point_id {missing[0]} is in none of the {rows}: nothing locates it", None,
+                            "point_id")
+        device = fit_device(chain, params, data.q[fit_rows], data.values[fit_rows], points[fit_rows], labels,
+                            data.source, rows)
         model = cls(chain, params, device, compliance=options.get("compliance"))
         return SetProblem(model, data.q, data.values, points)
 
@@ -277,7 +280,8 @@ class PositionModel(MeasurementModel):
                             f"{n_unknowns} set-up unknowns (the device frame{'' if index is not None else ' and markers'})"
                             ": register on more poses", None, "register")
         if index is None:
-            return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance")})
+            return cls.problem_for(chain, params, session, rows, {"compliance": options.get("compliance"),
+                                                                  FIT_ROWS_KEY: options.get(FIT_ROWS_KEY)})
         markers = known.markers[index]
         base = calibrated.points_at(x, session.q[rows], markers[points[rows]])
         device = PositionDevice(_kabsch(base, session.values[rows]), markers, labels)
@@ -566,7 +570,8 @@ def _kabsch(source: np.ndarray, target: np.ndarray) -> pin.SE3:
 
 
 def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: np.ndarray,
-               markers: np.ndarray, labels: tuple[PointLabel, ...]) -> PositionDevice:
+               markers: np.ndarray, labels: tuple[PointLabel, ...], source: str = "",
+               rows: str = "training rows") -> PositionDevice:
     """Best-fit device frame and marker points for the nominal robot.
 
     Alternates a rigid (Kabsch) fit of the frame with a linear fit of the markers until
@@ -578,8 +583,13 @@ def fit_device(chain: Chain, params: ParameterModel, q: np.ndarray, positions: n
         q: Joint angles, shape (n_poses, n_joints), [rad].
         positions: Measured positions, shape (n_poses, 3), [m], device frame.
         markers: Each row's marker index into ``labels``, shape (n_poses,).
+        source, rows: The data's name and what its rows are called, for a refusal.
+
+    Raises:
+        DataError: fewer values than the frame's 6 and the markers' 3 unknowns each, naming ``source``.
     """
     n_markers = len(labels)
+    refuse_too_few(source, len(q), 3 * len(q), 6 + 3 * n_markers, f"the device frame and {n_markers} marker(s)", rows)
     model = PositionModel(chain, params, PositionDevice(pin.SE3.Identity(), np.zeros((n_markers, 3)), labels))
     end_rot, origin = model.end_frames(None, q)
     points = np.zeros((n_markers, 3))

@@ -28,6 +28,7 @@ from .base import (
     identifier,
     note,
     point_name,
+    refuse_collisions,
     same_convention,
     six_axes,
 )
@@ -35,9 +36,11 @@ from .base import (
 
 def _registry() -> dict[str, ProgramFormat]:
     return {
-        "rapid": ProgramFormat((".mod",), rapid.write, "ABB RAPID module: CONST jointtarget + MoveAbsJ routine"),
-        "krl": ProgramFormat((".src", ".dat"), krl.write, "KUKA KRL .src/.dat pair: E6AXIS points + PTP"),
-        "urscript": ProgramFormat((".script",), urscript.write, "URScript function of movej([...], a=, v=)"),
+        "rapid": ProgramFormat((".mod",), rapid.write, "ABB RAPID module: CONST jointtarget + MoveAbsJ routine",
+                               rapid.check),
+        "krl": ProgramFormat((".src", ".dat"), krl.write, "KUKA KRL .src/.dat pair: E6AXIS points + PTP", krl.check),
+        "urscript": ProgramFormat((".script",), urscript.write, "URScript function of movej([...], a=, v=)",
+                                  urscript.check),
     }
 
 
@@ -74,4 +77,5 @@ def program_files(fmt: str, program: Program, out: Path) -> dict[Path, str]:
 
 
 __all__ = ["COMMENT_WIDTH", "FORMATS", "PROGRAMS", "RESERVED", "Convention", "Program", "ProgramFormat", "comment_lines",
-           "identifier", "note", "point_name", "program_files", "program_paths", "same_convention", "six_axes"]
+           "identifier", "note", "point_name", "program_files", "program_paths", "refuse_collisions", "same_convention",
+           "six_axes"]

@@ -74,17 +74,41 @@ class Program:
 
 @dataclass(frozen=True)
 class ProgramFormat:
-    """One controller language: file suffixes and the writer.
+    """One controller language: file suffixes, the writer, and the check of its names.
 
     Attributes:
         suffixes: The files it writes, by suffix (``.mod``; ``.src`` and ``.dat``).
         write: Program -> {suffix: text}.
         description: For help texts.
+        check: (program name, pose numbers) -> None; refuses a program name that collides
+            with a name the program defines or calls (:func:`refuse_collisions`).
     """
 
     suffixes: tuple[str, ...]
     write: Callable[[Program], dict[str, str]]
     description: str
+    check: Callable[[str, np.ndarray], None] = lambda name, poses: None
+
+
+def refuse_collisions(language: str, names: dict[str, str], others: dict[str, str], case: bool) -> None:
+    """Refuse a program whose own names (``names``: its module's, routine's; name -> what it
+    is) are also names it defines or calls (``others``: name -> what it is to the program:
+    ``the joint target it defines``, ``the built-in function it calls``), compared with
+    case when ``case`` (URScript), without (RAPID, KRL): such a program would call itself,
+    or a target or tool of its would be the module.
+
+    Raises:
+        CalibPinError: naming both, and how to avoid it (another --out file name).
+    """
+    def fold(text: str) -> str:
+        return text if case else text.lower()
+
+    theirs = {fold(name): (name, what) for name, what in others.items()}
+    for name, what in names.items():
+        clash = theirs.get(fold(name))
+        if clash is not None:
+            raise CalibPinError(f"a {language} {what} named '{name}' collides with {clash[1]}, '{clash[0]}': "
+                                "name the program otherwise (another --out file name)")
 
 
 #: Words the three languages reserve (compared without case; RAPID and KRL ignore case), that

@@ -23,7 +23,18 @@ here for a KUKA URDF whose joints differ from the controller's.
 
 from __future__ import annotations
 
-from .base import Convention, Program, comment_lines, convention_of, note, point_name, six_axes
+import numpy as np
+
+from .base import (
+    Convention,
+    Program,
+    comment_lines,
+    convention_of,
+    note,
+    point_name,
+    refuse_collisions,
+    six_axes,
+)
 
 #: Robot name -> the controller's joint convention against the URDF's.
 CONVENTIONS: dict[str, Convention] = {}
@@ -34,8 +45,20 @@ def convention(robot: str) -> Convention:
     return convention_of(CONVENTIONS, robot, "KUKA")
 
 
+#: The subprogram the .src calls (the KSS's BAS.SRC), a name the program must not take.
+CALLED = {"BAS": "the system subprogram it calls"}
+
+
+def check(name: str, poses: np.ndarray) -> None:
+    """Refuse a program (its DEF and DEFDAT) named like a point it declares (``XP1``) or
+    the subprogram it calls (``BAS``), without case as KRL compares."""
+    points = {point_name("XP", pose): "a point it declares" for pose in np.asarray(poses).reshape(-1)}
+    refuse_collisions("KRL", {name: "program"}, {**points, **CALLED}, case=False)
+
+
 def write(program: Program) -> dict[str, str]:
     """The KRL pair of ``program``: {".src": text, ".dat": text}."""
+    check(program.name, program.pose_ids)
     six_axes(program, "KRL")
     conv = convention(program.robot)
     values = conv.to_controller_deg(program.q)

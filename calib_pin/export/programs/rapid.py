@@ -26,7 +26,19 @@ file says so.
 
 from __future__ import annotations
 
-from .base import Convention, Program, comment_lines, convention_of, note, point_name, same_convention, six_axes
+import numpy as np
+
+from .base import (
+    Convention,
+    Program,
+    comment_lines,
+    convention_of,
+    note,
+    point_name,
+    refuse_collisions,
+    same_convention,
+    six_axes,
+)
 
 #: Robot name -> the controller's joint convention against the URDF's.
 CONVENTIONS: dict[str, Convention] = {
@@ -43,8 +55,24 @@ def convention(robot: str) -> Convention:
     return convention_of(CONVENTIONS, robot, "ABB")
 
 
+#: RAPID's predefined data and instructions a module or routine name must not take: those
+#: the module uses (its speed, zone and tool; MoveAbsJ) and the other system data a module
+#: most often meets (wobj0, load0).
+PREDEFINED = {SPEED: "the predefined speed data it moves at", ZONE: "the predefined zone data it stops with",
+              TOOL: "the predefined tool it moves", "wobj0": "the predefined work object",
+              "load0": "the predefined load", "MoveAbsJ": "the instruction it calls"}
+
+
+def check(name: str, poses: np.ndarray) -> None:
+    """Refuse a module (or its routine ``<name>_run``) named like a joint target it defines
+    (``jt_1``) or a predefined name it uses (``tool0``), without case as RAPID compares."""
+    targets = {point_name("jt_", pose): "a joint target it defines" for pose in np.asarray(poses).reshape(-1)}
+    refuse_collisions("RAPID", {name: "module", f"{name}_run": "routine"}, {**targets, **PREDEFINED}, case=False)
+
+
 def write(program: Program) -> dict[str, str]:
     """The RAPID module of ``program``: {".mod": text}."""
+    check(program.name, program.pose_ids)
     six_axes(program, "RAPID")
     conv = convention(program.robot)
     values = conv.to_controller_deg(program.q)

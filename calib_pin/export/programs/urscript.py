@@ -23,7 +23,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Convention, Program, comment_lines, convention_of, note, same_convention, six_axes
+from .base import (
+    Convention,
+    Program,
+    comment_lines,
+    convention_of,
+    note,
+    refuse_collisions,
+    same_convention,
+    six_axes,
+)
 
 #: UR's default joint acceleration [rad/s^2] and speed [rad/s] of movej.
 DEFAULT_ACCEL_RAD_S2, DEFAULT_SPEED_RAD_S = 1.4, 1.05
@@ -37,8 +46,24 @@ def convention(robot: str) -> Convention:
     return convention_of(CONVENTIONS, robot, "UR")
 
 
+#: URScript's built-in functions a program's name must not take (a ``def`` of one hides it:
+#: ``def movej():`` would call itself): the motion and common ones of the script manual.
+BUILT_INS = ("movej", "movel", "movep", "movec", "servoj", "servoc", "speedj", "speedl", "stopj", "stopl",
+             "sleep", "sync", "textmsg", "popup", "halt", "get_actual_joint_positions", "get_actual_tcp_pose",
+             "get_inverse_kin", "get_forward_kin", "set_tcp", "set_payload", "set_digital_out", "socket_open",
+             "socket_send_string", "force_mode", "end_force_mode", "freedrive_mode", "end_freedrive_mode")
+
+
+def check(name: str, poses: np.ndarray) -> None:
+    """Refuse a function name that is a built-in it calls or hides (:data:`BUILT_INS`)."""
+    refuse_collisions("URScript", {name: "function"},
+                      {b: f"the built-in function {'it calls' if b == 'movej' else 'it would hide'}" for b in BUILT_INS},
+                      case=True)
+
+
 def write(program: Program) -> dict[str, str]:
     """The URScript of ``program``: {".script": text}."""
+    check(program.name, program.pose_ids)
     six_axes(program, "URScript")
     conv = convention(program.robot)
     q = np.deg2rad(conv.to_controller_deg(program.q))  # the controller's joint values [rad]
