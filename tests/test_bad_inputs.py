@@ -943,6 +943,20 @@ I26_PERSET: list[Case] = [
 ]
 
 
+#: Issue 34, part A: broken promises of the round on several sets, new sensors and real
+#: lab files, one block of rows per class (docs/bad_input.md, "Classes and decisions").
+I34_CLASSES: list[Case] = [
+    # another robot's file is named by its robot line, not by its joints or limits
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"],
+     {"d.csv": csv(swap(ROWS[0], 0, "200"), *ROWS[1:40], meta=("# robot: ur5", *META[1:]))}, 2,
+     "d.csv: robot: is for robot 'ur5', not 'irb120'"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"],
+     {"d.csv": csv(*(",".join([*r.split(",")[:6], "0", r.split(",")[6]]) for r in ROWS[:40]),
+                   meta=("# robot: panda", *META[1:]), head=HEAD.replace("q6_deg", "q6_deg,q7_deg"))}, 2,
+     "d.csv: robot: is for robot 'panda', not 'irb120'"),
+]
+
+
 def test_every_data_key_has_an_out_of_range_row():
     from calib_pin.cli.calibrate import data_keys
 
@@ -961,6 +975,7 @@ SECTIONS: list[tuple[str, list[Case]]] = [
     ("Round 3: real files (extra columns, string labels, ';' and decimal comma)", R3_FILES),
     ("Issue 25: parameters held fixed, a start file, controller programs", I25_CONTROLLER),
     ("Round 26: per-set options name their own key; a set-up that misses the readings", I26_PERSET),
+    ("Issue 34: several sets, new sensors and real lab files (part A)", I34_CLASSES),
 ]
 CASES += [row for _, rows in SECTIONS for row in rows]
 

@@ -72,6 +72,14 @@ def test_check_measurements(chain, cable, positions):
         check_measurements(chain, {"q": cable.q})
 
 
+def test_another_robots_set_is_named_before_its_angles(chain, cable):
+    """A set of another robot whose angles are also outside this robot's limits is refused
+    for its robot, not for a joint limit."""
+    other = changed(cable, robot="ur5", q=(3, 0, chain.upper[0] + 1.0))
+    with pytest.raises(cp.DataError, match=re.escape("robot: is for robot 'ur5', not 'irb120'")):
+        check_measurements(chain, other)
+
+
 def test_entry_points_refuse_a_bad_set_in_memory(chain, params, cable, positions):
     """calibrate, prepare and a test_data session all check the set (once, where it
     enters): the checks are the library's, the CLI goes through them."""

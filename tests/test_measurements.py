@@ -80,6 +80,22 @@ def test_bad_files_and_metadata(tmp_path, chain, text, message):
         cp.read_measurements(_write(tmp_path, text), chain)
 
 
+@pytest.mark.parametrize(
+    "header, row",
+    [
+        (HEADER, "200,20,-30,40,-50,60,812.5"),  # joint_1 of irb120 stops at 165 deg
+        (HEADER.replace("q6_deg", "q6_deg,q7_deg"), "10,20,-30,40,-50,60,0,812.5"),  # a 7-joint arm
+    ],
+    ids=["outside-the-limits", "seven-joints"],
+)
+def test_another_robots_file_is_named_by_its_robot_line(tmp_path, chain, header, row):
+    """A file of another robot is refused for its robot line, before its joints are read as
+    this robot's (a joint-limit breach, a joint too many)."""
+    path = _write(tmp_path, "# robot: panda\n" + header + "\n" + row + "\n")
+    with pytest.raises(cp.DataError, match=r"^.*s\.csv: robot: is for robot 'panda', not 'irb120'"):
+        cp.read_measurements(path, chain)
+
+
 def test_missing_file(tmp_path, chain):
     """A missing file is named."""
     with pytest.raises(cp.DataError, match="nope.csv: no such file"):

@@ -48,14 +48,28 @@ def _row_line(data: MeasurementSet, row: int) -> tuple[int | None, str]:
     return None, f"row {row} (0-based): "
 
 
-def _robot_matches(label: str, chain: Chain, robot_label: str | None) -> bool:
-    """The set's ``robot`` is the chain's name, what the caller called it, or its URDF's path."""
+def robot_matches(label: str, chain: Chain, robot_label: str | None = None) -> bool:
+    """A set's ``robot`` names ``chain``: its name, what the caller called it
+    (``robot_label``), or its URDF's path."""
     if label in (chain.name, robot_label):
         return True
     try:
         return Path(label).resolve() == Path(chain.description.urdf).resolve()
     except (OSError, ValueError):
         return False
+
+
+def check_robot(label: str | None, chain: Chain, robot_label: str | None, where: str) -> None:
+    """Refuse a set whose ``robot`` (None: not stated) is another robot than ``chain``
+    (:func:`robot_matches`); checked before anything of its rows, whose joints and limits
+    are another robot's.
+
+    Raises:
+        DataError: naming ``where`` and the field ``robot``.
+    """
+    if label is None or robot_matches(str(label), chain, robot_label):
+        return
+    raise DataError(where, f"is for robot '{label}', not '{chain.name}'", None, "robot")
 
 
 def _check_shapes(chain: Chain, data: MeasurementSet) -> None:
@@ -125,8 +139,6 @@ def _check_values(data: MeasurementSet) -> None:
 
 def _check_metadata(chain: Chain, data: MeasurementSet, robot_label: str | None) -> None:
     where = _where(data)
-    if data.robot is not None and not _robot_matches(str(data.robot), chain, robot_label):
-        raise DataError(where, f"is for robot '{data.robot}', not '{chain.name}'", None, "robot")
     if data.end_frame and data.end_frame != chain.end_frame:
         raise DataError(where, f"was measured at end frame '{data.end_frame}', not '{chain.end_frame}'",
                         None, "end_frame")
@@ -145,10 +157,10 @@ def _check_metadata(chain: Chain, data: MeasurementSet, robot_label: str | None)
 def check_measurements(chain: Chain, data: Any, robot_label: str | None = None) -> MeasurementSet:
     """Check a measurement set against the robot chain it is for.
 
-    The checks: its kind; the joint angles' shape (n_rows, n_joints), every angle finite
-    and within the URDF limits (the CSV reader's tolerance); the values' shape, finite,
-    drawstring readings >= 0; one label per row; the robot it names (the chain's name,
-    ``robot_label`` or its URDF path), its end frame, and finite sensor metadata.
+    The checks: first the robot it names (the chain's name, ``robot_label`` or its URDF
+    path); its kind; the joint angles' shape (n_rows, n_joints), every angle finite and
+    within the URDF limits (the CSV reader's tolerance); the values' shape, finite,
+    drawstring readings >= 0; one label per row; its end frame, and finite sensor metadata.
 
     Args:
         chain: The robot chain the set is for (joints, limits, end frame).
@@ -166,6 +178,7 @@ def check_measurements(chain: Chain, data: Any, robot_label: str | None = None) 
     """
     as_instance(chain, "chain", Chain, "a Chain (calib_pin.load_chain)")
     as_instance(data, "data", MeasurementSet, "a MeasurementSet (calib_pin.read_measurements or simulate)")
+    check_robot(data.robot, chain, robot_label, _where(data))  # another robot's joints and limits: named as such
     _check_shapes(chain, data)
     _check_angles(chain, data)
     _check_values(data)

@@ -49,6 +49,7 @@ from ..exceptions import DataError
 from ..robot.chain import Chain, as_chain
 from ..util.arguments import as_bool, as_optional, as_path
 from ..util.input_files import check_regular
+from .checks import check_robot
 from .columns import (
     ANNOTATIONS,
     Columns,
@@ -486,7 +487,8 @@ def read_measurements(
             kind is ``poses`` and its values NaN.
         allow_empty: Accept a header with no data rows (a session not yet started).
         robot_label: What the user called the robot (a name or a URDF path); the file's
-            ``# robot:`` may be either that or the robot's name.
+            ``# robot:`` may be either that or the robot's name (checked first: another
+            robot's file is named as such, not by its joints).
         content: The file's bytes when already read (they are checked as ``path``'s).
 
     Raises:
@@ -497,6 +499,9 @@ def read_measurements(
     chain = as_optional(as_chain, chain, "chain")
     readings, allow_empty = as_bool(readings, "readings"), as_bool(allow_empty, "allow_empty")
     parsed = _split(_read_text(path, content), path)
+    if chain is not None:  # another robot's file is named as such, not by its joints or limits
+        robot = next((value.strip() for _, key, value in parsed.raw_meta if key == "robot"), None)
+        check_robot(robot, chain, robot_label, str(path))
     if parsed.header is None:
         raise DataError(str(path), "no header line (q1_deg, ..., length_mm) and no data")
     header, line = _tokenize_header(parsed, path), parsed.header_line
@@ -539,8 +544,6 @@ def read_measurements(
     if cols.pose is not None:
         _check_unique(pose_ids, point_ids if cols.position and not cols.plain_kind else None, lines, path)
     meta = parsed.meta
-    if chain is not None and meta.get("robot") not in (None, chain.name, robot_label):
-        raise DataError(str(path), f"is for robot '{meta['robot']}', not '{chain.name}'", None, "robot")
     kind = cols.label_kind or cols.plain_kind or cols.sensor_kind or (kind_of_columns(("x", "y", "z")) if cols.position else (
         kind_of_columns(("length",)) if cols.length is not None else "poses"))
     schema = SCHEMAS.get(kind)
