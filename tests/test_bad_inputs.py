@@ -943,6 +943,9 @@ I26_PERSET: list[Case] = [
 ]
 
 
+#: A URDF whose file stem (gen3lite) is not its <robot name> (kinova).
+KINOVA = urdf('name="abb_irb120"', 'name="kinova"')
+
 #: Issue 34, part A: broken promises of the round on several sets, new sensors and real
 #: lab files, one block of rows per class (docs/bad_input.md, "Classes and decisions").
 I34_CLASSES: list[Case] = [
@@ -954,6 +957,13 @@ I34_CLASSES: list[Case] = [
      {"d.csv": csv(*(",".join([*r.split(",")[:6], "0", r.split(",")[6]]) for r in ROWS[:40]),
                    meta=("# robot: panda", *META[1:]), head=HEAD.replace("q6_deg", "q6_deg,q7_deg"))}, 2,
      "d.csv: robot: is for robot 'panda', not 'irb120'"),
+    # a URDF robot is named by its file stem or by its <robot name>
+    (CAL, ["gen3lite.urdf", "--data", "d.csv", "--analyze"],
+     {"gen3lite.urdf": KINOVA, "d.csv": csv(*ROWS[:40], meta=("# robot: kinova", *META[1:]))}, 0,
+     "gen3lite: 40 poses from d.csv"),
+    (CAL, ["gen3lite.urdf", "--data", "d.csv", "--analyze"],
+     {"gen3lite.urdf": KINOVA, "d.csv": csv(*ROWS[:40], meta=("# robot: kinova2", *META[1:]))}, 2,
+     "d.csv: robot: is for robot 'kinova2', not 'gen3lite' (nor 'kinova', its URDF's <robot name>)"),
 ]
 
 

@@ -80,6 +80,12 @@ def test_another_robots_set_is_named_before_its_angles(chain, cable):
         check_measurements(chain, other)
 
 
+def test_a_set_may_name_its_robot_by_the_urdfs_robot_name(chain, cable):
+    """The URDF's <robot name> (abb_irb120 for irb120) names the robot as its own name does."""
+    assert chain.full_model.name == "abb_irb120"
+    assert check_measurements(chain, changed(cable, robot="abb_irb120")).robot == "abb_irb120"
+
+
 def test_entry_points_refuse_a_bad_set_in_memory(chain, params, cable, positions):
     """calibrate, prepare and a test_data session all check the set (once, where it
     enters): the checks are the library's, the CLI goes through them."""

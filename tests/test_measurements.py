@@ -96,6 +96,18 @@ def test_another_robots_file_is_named_by_its_robot_line(tmp_path, chain, header,
         cp.read_measurements(path, chain)
 
 
+def test_a_urdfs_robot_name_names_its_robot(tmp_path):
+    """A file's robot line may give a URDF's <robot name> as well as its file stem."""
+    urdf = tmp_path / "gen3lite.urdf"
+    urdf.write_text(cp.load_chain("irb120").description.urdf.read_text().replace('name="abb_irb120"', 'name="kinova"'))
+    chain = cp.load_chain(str(urdf))
+    for name in ("kinova", "gen3lite", str(urdf)):
+        data = cp.read_measurements(_write(tmp_path, f"# robot: {name}\n" + HEADER + "\n" + ROW + "\n"), chain)
+        assert data.robot == name
+    with pytest.raises(cp.DataError, match=r"is for robot 'kinova2', not 'gen3lite' \(nor 'kinova', its URDF's"):
+        cp.read_measurements(_write(tmp_path, "# robot: kinova2\n" + HEADER + "\n" + ROW + "\n"), chain)
+
+
 def test_missing_file(tmp_path, chain):
     """A missing file is named."""
     with pytest.raises(cp.DataError, match="nope.csv: no such file"):

@@ -49,9 +49,9 @@ def _row_line(data: MeasurementSet, row: int) -> tuple[int | None, str]:
 
 
 def robot_matches(label: str, chain: Chain, robot_label: str | None = None) -> bool:
-    """A set's ``robot`` names ``chain``: its name, what the caller called it
-    (``robot_label``), or its URDF's path."""
-    if label in (chain.name, robot_label):
+    """A set's ``robot`` names ``chain``: its name (a URDF's file stem), its URDF's
+    ``<robot name>``, what the caller called it (``robot_label``), or its URDF's path."""
+    if label in (chain.name, chain.full_model.name, robot_label):
         return True
     try:
         return Path(label).resolve() == Path(chain.description.urdf).resolve()
@@ -69,7 +69,9 @@ def check_robot(label: str | None, chain: Chain, robot_label: str | None, where:
     """
     if label is None or robot_matches(str(label), chain, robot_label):
         return
-    raise DataError(where, f"is for robot '{label}', not '{chain.name}'", None, "robot")
+    urdf = chain.full_model.name
+    named = f" (nor '{urdf}', its URDF's <robot name>)" if urdf and urdf != chain.name else ""
+    raise DataError(where, f"is for robot '{label}', not '{chain.name}'{named}", None, "robot")
 
 
 def _check_shapes(chain: Chain, data: MeasurementSet) -> None:
@@ -157,8 +159,8 @@ def _check_metadata(chain: Chain, data: MeasurementSet, robot_label: str | None)
 def check_measurements(chain: Chain, data: Any, robot_label: str | None = None) -> MeasurementSet:
     """Check a measurement set against the robot chain it is for.
 
-    The checks: first the robot it names (the chain's name, ``robot_label`` or its URDF
-    path); its kind; the joint angles' shape (n_rows, n_joints), every angle finite and
+    The checks: first the robot it names (the chain's name, its URDF's ``<robot name>``,
+    ``robot_label`` or its URDF path); its kind; the joint angles' shape (n_rows, n_joints), every angle finite and
     within the URDF limits (the CSV reader's tolerance); the values' shape, finite,
     drawstring readings >= 0; one label per row; its end frame, and finite sensor metadata.
 

@@ -10,7 +10,8 @@ Format (one row a pose, or a marker at a pose)::
     12.5,-30.0,10.0,45.0,-20.0,90.0,612.345
 
 - Leading ``# key: value`` lines are metadata, each key once. Known keys: ``robot``
-  (a name or the URDF path given to the command), ``end_frame``, ``anchor_mm`` /
+  (a name or the URDF path given to the command, the URDF's file stem or its ``<robot
+  name>``), ``end_frame``, ``anchor_mm`` /
   ``anchor_m`` (P0 in the base frame), ``tool_mm`` / ``tool_m`` (the tool point in the end
   frame), ``length_offset_mm`` / ``length_offset_m`` (sensor zero offset), ``noise_mm`` /
   ``noise_m`` (the sensor's noise, 1 sigma), ``csv`` (the dialect, below). Other keys are
@@ -487,8 +488,8 @@ def read_measurements(
             kind is ``poses`` and its values NaN.
         allow_empty: Accept a header with no data rows (a session not yet started).
         robot_label: What the user called the robot (a name or a URDF path); the file's
-            ``# robot:`` may be either that or the robot's name (checked first: another
-            robot's file is named as such, not by its joints).
+            ``# robot:`` may be that, the robot's name or its URDF's ``<robot name>``
+            (checked first: another robot's file is named as such, not by its joints).
         content: The file's bytes when already read (they are checked as ``path``'s).
 
     Raises:
