@@ -964,6 +964,12 @@ I34_CLASSES: list[Case] = [
     (CAL, ["gen3lite.urdf", "--data", "d.csv", "--analyze"],
      {"gen3lite.urdf": KINOVA, "d.csv": csv(*ROWS[:40], meta=("# robot: kinova2", *META[1:]))}, 2,
      "d.csv: robot: is for robot 'kinova2', not 'gen3lite' (nor 'kinova', its URDF's <robot name>)"),
+    # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
+    (CAL, ["irb120", "--data", "p.csv", "--analyze"],
+     {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),
+    (CAL, ["irb120", "--data", "p.csv", "--analyze"],
+     {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0.01")}, 2,
+     "p.csv:4: noise_deg: decimal point in '0.01', but line 3 has a decimal comma"),
 ]
 
 

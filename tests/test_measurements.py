@@ -1,5 +1,7 @@
 """Measurement CSVs: round trip, units, and one clear error per kind of bad input."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -243,6 +245,24 @@ def test_ambiguous_dialects_are_refused(tmp_path, chain, text, message):
     """Mixed decimal marks, mixed separators and a bad ``# csv:`` line are one error each."""
     with pytest.raises(cp.DataError, match=message):
         cp.read_measurements(_write(tmp_path, text), chain)
+
+
+def test_every_numeric_metadata_value_follows_the_files_dialect(tmp_path, chain):
+    """A 6-D pose set with decimal commas gives its noise_deg as it gives its noise_mm, and
+    reads as the standard file does; a noise_deg that is no number names its line."""
+    shipped = (Path(__file__).parent.parent / "robots" / "irb120_pose_example.csv").read_text()
+    meta = [line.replace(".", ",") if line.startswith(("# noise_mm", "# noise_deg")) else line
+            for line in shipped.splitlines() if line.startswith("#")]
+    assert "# noise_deg: 0,01" in meta and "# noise_mm: 0,050000" in meta
+    rows = [line for line in shipped.splitlines() if not line.startswith("#")]
+    standard = cp.read_measurements(_write(tmp_path, shipped, "p.csv"), chain)
+    other = cp.read_measurements(_write(tmp_path, "\n".join(meta) + "\n" + _dialect("\n".join(rows), ";", ","),
+                                        "e.csv"), chain)
+    assert other.notes["noise_deg"] == standard.notes["noise_deg"] == "0.01" and other.noise == standard.noise
+    np.testing.assert_array_equal(other.values, standard.values)
+    with pytest.raises(cp.DataError, match=r"e\.csv:4: noise_deg: '0,01x' is not a number"):
+        cp.read_measurements(_write(tmp_path, "\n".join(meta).replace("0,01", "0,01x") + "\n"
+                                    + _dialect("\n".join(rows), ";", ","), "e.csv"), chain)
 
 
 def test_csv_line_overrides_the_detection(tmp_path, chain):

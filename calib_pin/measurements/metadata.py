@@ -7,9 +7,13 @@ and their values in SI.
   ``<key>_m``, one number or three (``x, y, z``), read in [m]; each once, in one unit.
 - A pair key (:attr:`~calib_pin.measurements.schema.Schema.pair_metadata`: a contact
   set's ``distance``) is ``label, label, length``, in mm or m, one line a pair.
+- A schema's numeric notes (:attr:`~calib_pin.measurements.schema.Schema.numeric_notes`:
+  a 6-D pose set's ``noise_deg``) are one number each, which the sensor reads itself: kept
+  as text, in the standard dialect (``.`` as the decimal mark).
 - Every other key is a note, kept as text (:attr:`MeasurementSet.notes`).
 
-Numbers are written in the file's dialect (:mod:`calib_pin.measurements.dialect`).
+Every number is written in the file's dialect (:mod:`calib_pin.measurements.dialect`):
+``# noise_mm: 0,05`` and ``# noise_deg: 0,01`` in a file of decimal commas.
 """
 
 from __future__ import annotations
@@ -90,12 +94,27 @@ def _value(key: str, text: str, path: Path, line: int, decimal: str) -> tuple[st
     return None
 
 
+def numeric_notes() -> tuple[str, ...]:
+    """The registered schemas' numeric notes (``noise_deg``)."""
+    return tuple(dict.fromkeys(k for s in SCHEMAS.values() for k in s.numeric_notes))
+
+
 def scalar_samples(raw: Iterable[RawLine]) -> Iterator[tuple[str, int, str]]:
     """(text, file line, key) of each scalar number among the metadata lines ``raw`` (what,
     besides the rows, tells a file's decimal mark)."""
     for line, key, value in raw:
-        if meta_name(key) in keys_of_size(1):
+        if meta_name(key) in keys_of_size(1) or key in numeric_notes():
             yield value, line, key
+
+
+def _numeric_note(key: str, text: str, path: Path, line: int, decimal: str) -> str:
+    """A numeric note's text in the standard dialect (``0,01`` with decimal commas: ``0.01``).
+
+    Raises:
+        DataError: not a number in the file's dialect.
+    """
+    number(text, path, line, key, decimal)
+    return text.strip().replace(",", ".") if decimal == "," else text.strip()
 
 
 def read_metadata(raw: Iterable[RawLine], path: Path, decimal: str) -> tuple[dict[str, Any], dict[str, str]]:
@@ -118,7 +137,9 @@ def read_metadata(raw: Iterable[RawLine], path: Path, decimal: str) -> tuple[dic
             meta.setdefault(pair[0], []).append(_pair_value(key, value, path, line, decimal))
             continue
         converted = _value(key, value, path, line, decimal)
-        if converted is None:
+        if key in numeric_notes():
+            notes[key] = _numeric_note(key, value, path, line, decimal)
+        elif converted is None:
             notes[key] = value.strip()
         else:
             meta[converted[0]] = converted[1]
