@@ -964,6 +964,15 @@ I34_CLASSES: list[Case] = [
     (CAL, ["gen3lite.urdf", "--data", "d.csv", "--analyze"],
      {"gen3lite.urdf": KINOVA, "d.csv": csv(*ROWS[:40], meta=("# robot: kinova2", *META[1:]))}, 2,
      "d.csv: robot: is for robot 'kinova2', not 'gen3lite' (nor 'kinova', its URDF's <robot name>)"),
+    # a metadata key that looks like one calib-pin reads is refused as a column is; free text stays a note
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": anchor("# anchor_mn: 600, 200, -100")}, 2,
+     "d.csv:3: anchor_mn: unknown metadata key; did you mean anchor_mm?"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": anchor("# Anchor_mm: 600, 200, -100")}, 2,
+     "d.csv:3: Anchor_mm: unknown metadata key; did you mean anchor_mm? (keys are case-sensitive"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": anchor("# anchor_cm: 60, 20, -10")}, 2,
+     "d.csv:3: anchor_cm: unknown metadata key; did you mean anchor_mm? (unit 'cm' is not read"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(*ROWS[:40], meta=(*META, "# tool: Schunk EGP 40"))},
+     0, "40 poses from d.csv"),
     # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
     (CAL, ["irb120", "--data", "p.csv", "--analyze"],
      {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),

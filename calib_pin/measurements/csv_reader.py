@@ -15,8 +15,9 @@ Format (one row a pose, or a marker at a pose)::
   ``anchor_m`` (P0 in the base frame), ``tool_mm`` / ``tool_m`` (the tool point in the end
   frame), ``length_offset_mm`` / ``length_offset_m`` (sensor zero offset), ``noise_mm`` /
   ``noise_m`` (the sensor's noise, 1 sigma), ``csv`` (the dialect, below). Other keys are
-  kept as notes. A ``# key:`` line after the header is refused (it would be ignored); other
-  ``#`` lines are comments.
+  kept as notes, but one that looks like a key calib-pin reads is refused (the rule:
+  :mod:`calib_pin.measurements.metadata`). A ``# key:`` line after the header is refused
+  (it would be ignored); other ``#`` lines are comments.
 - Every column names its unit: ``q<i>_deg`` or ``q<i>_rad`` for each revolute joint of the
   chain (``q<i>_mm`` or ``q<i>_m`` for a prismatic one), ``length_mm`` or ``length_m``; an
   optional integer ``pose`` column labels rows.
@@ -75,7 +76,7 @@ from .dialect import (
     separator,
     shown_separator,
 )
-from .metadata import meta_name, pair_key, read_metadata, scalar_samples
+from .metadata import pair_key, read_metadata, scalar_samples, sets
 from .schema import SCHEMAS
 
 __all__ = ["ANNOTATIONS", "number", "quote", "read_measurements"]
@@ -136,7 +137,7 @@ def _metadata_line(parsed: _Parsed, stripped: str, path: Path, number_: int) -> 
             raise DataError(str(path), "metadata given twice", number_, key)
         parsed.override = parse_override(value, path, number_)
         return
-    if pair_key(key) is None and meta_name(key) in {meta_name(seen) for _, seen, _ in parsed.raw_meta}:
+    if pair_key(key) is None and sets(key) in {sets(seen) for _, seen, _ in parsed.raw_meta}:
         # anchor_mm and anchor_m too; a pair key (# distance_mm: A, B, 300) may be given once a pair
         raise DataError(str(path), "metadata given twice", number_, key)
     parsed.raw_meta.append((number_, key, value))
