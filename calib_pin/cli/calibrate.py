@@ -38,6 +38,7 @@ from .common import (
     positive_float,
     run,
     unknowns_options,
+    warn,
 )
 from .process import collecting
 
@@ -328,6 +329,9 @@ def _analyze(args: argparse.Namespace) -> int:
     from ..calibration.prepare import prepare
 
     calibration = prepare(args.robot, _data(args), **_setup_options(args))
+    for note in (s.data.ignored_note() for s in calibration.sets):
+        if note:
+            warn(note)
     data = calibration.data
     print(f"{calibration.chain.name}: {data.describe_rows()} from {data.source}, "
           f"{calibration.params.name} model, {calibration.problem.model.describe()}")
@@ -407,7 +411,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         return fail(f"{done.refused} (report: {done.folder / 'report.json'})")
     _summary(result, report)
     for note in done.notes:
-        print(f"note: {note}")
+        warn(note, "note")
     for path in done.files:
         print(f"wrote {path}")
     return 0
@@ -580,9 +584,9 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     after, before = (result.metrics["train"][stage] if "train" in result.metrics else None
                      for stage in ("after", "before"))
     if after is not None and before is not None and after.rmse_mm > before.rmse_mm:
-        print("warning: the calibrated model fits the training poses worse than the nominal one")
+        warn("the calibrated model fits the training poses worse than the nominal one")
     for warning in report["warnings"]:  # the result's own, and the report's (rank, bounded compliances)
-        print(f"warning: {warning}")
+        warn(warning)
     if not result.kinematic:
         print(f"no URDF written: {result.method} learns a correction of the measured values, which a URDF cannot hold")
 

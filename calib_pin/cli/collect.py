@@ -30,6 +30,7 @@ from .common import (
     non_negative,
     one_line,
     run,
+    warn,
     xyz_mm,
 )
 from .outputs import add_force_argument
@@ -201,7 +202,7 @@ def _start(session: Session, outputs: Outputs, args: argparse.Namespace) -> None
             session.discard()
         raise
     if session.dropped:
-        print(f"dropped an incomplete last line of {args.out} (a write cut short): {session.dropped!r}")
+        warn(f"dropped an incomplete last line of {args.out} (a write cut short): {session.dropped!r}")
 
 
 def _collect(args: argparse.Namespace) -> int:

@@ -8,6 +8,9 @@ This module imports no numpy, scipy or Pinocchio (``calib-pin --help`` and the p
 skeleton stay quick): a group that needs a registry (the parameter models, the sensors'
 set-up records) imports it when it is added to a command's parser.
 
+stdout carries a command's results (its tables, the files written); a warning or a note
+about the inputs or the run is one line on stderr (:func:`warn`).
+
 Exit status: 0 done; 2 bad input, one line on stderr naming the file, line or field
 (never a traceback for a user's mistake); 3 a sensor fault (collect); 130 stopped by
 Ctrl-C, with one line.
@@ -103,6 +106,12 @@ def fail(message: str) -> int:
     """Print one error line on stderr (control characters escaped); the bad-input exit status."""
     print(f"error: {one_line(message)}", file=sys.stderr)
     return BAD_INPUT_EXIT
+
+
+def warn(message: str, kind: str = "warning") -> None:
+    """Print one ``warning: ...`` (or ``note: ...``) line on stderr, control characters
+    escaped: stdout carries a command's results only, which scripts parse."""
+    print(f"{kind}: {one_line(message)}", file=sys.stderr)
 
 
 #: run()'s Ctrl-C line when the command says nothing else.

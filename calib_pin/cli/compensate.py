@@ -26,7 +26,7 @@ from ..export.programs import FORMATS, Program, identifier, program_files, progr
 from ..robot.description import robot_inputs
 from ..util.outputs import Outputs
 from . import parse_args
-from .common import positive_float, run
+from .common import positive_float, run, warn
 from .outputs import add_force_argument
 
 
@@ -151,7 +151,7 @@ def _compensate(args: argparse.Namespace) -> int:
         if state != OK:
             print(f"{where(k)}: {state}: {result.reasons[k]}")
     if extra and args.format == "csv":
-        print(f"columns {', '.join(extra)} of {Path(targets.source).name}: copied to the output as they were")
+        warn(f"columns {', '.join(extra)} of {Path(targets.source).name}: copied to the output as they were", "note")
     for path in written:
         print(f"wrote {path}")
     if not kept.all():
