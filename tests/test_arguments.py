@@ -326,3 +326,11 @@ def test_a_negative_zero_is_zero(chain, params):
     assert str(as_float(-0.0, "noise_mm", 0.0)) == "0.0"
     data, _ = cp.simulate(chain, params, 5, seed=0, noise_mm=-0.0)
     assert len(data) == 5
+
+
+@pytest.mark.parametrize("text", ["", ",,", " , "])
+def test_names_that_name_nothing_are_refused(text):
+    """Text given for names but naming none is a mistake (an empty shell variable, a
+    stray comma), never "no names": --free '' meant every unknown free."""
+    with pytest.raises(ArgumentError, match="names nothing"):
+        as_names(text, "free")

@@ -973,6 +973,17 @@ I34_CLASSES: list[Case] = [
      "d.csv:3: anchor_cm: unknown metadata key; did you mean anchor_mm? (unit 'cm' is not read"),
     (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(*ROWS[:40], meta=(*META, "# tool: Schunk EGP 40"))},
      0, "40 poses from d.csv"),
+    # a list option that names nothing is refused, not read as "none" or "every one"
+    (CAL, ["irb120", "--data", "d.csv", "--free", "", "--analyze"], {"d.csv": data()}, 2,
+     "argument --free: '' names nothing: give comma-separated names, or leave the option out"),
+    (CAL, ["irb120", "--data", "d.csv", "--free", ",,", "--analyze"], {"d.csv": data()}, 2,
+     "argument --free: ',,' names nothing"),
+    (CAL, ["irb120", "--data", "d.csv", "--fix", " , ", "--analyze"], {"d.csv": data()}, 2,
+     "argument --fix: ' , ' names nothing"),
+    (CMP, ["irb120", "--data", "d.csv", "--free", "", "--methods", "lm", "--trials", "1"], {"d.csv": data()}, 2,
+     "argument --free: '' names nothing"),
+    (CMP, ["irb120", "--data", "d.csv", "--models", "", "--trials", "1"], {"d.csv": data()}, 2,
+     "argument models: give comma-separated models"),
     # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
     (CAL, ["irb120", "--data", "p.csv", "--analyze"],
      {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),

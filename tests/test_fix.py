@@ -103,3 +103,13 @@ def test_bad_names_are_refused(tmp_path, capsys):
                       "--out", str(tmp_path / "o")]) == 0
     assert "fixed (held at their nominal value, --fix/--free): theta_1" in capsys.readouterr().out
     assert json.loads((tmp_path / "o" / "report.json").read_text())["fixed"] == ["theta_1"]
+
+
+@pytest.mark.parametrize("free", ["", ",,", [], ()])
+def test_an_empty_list_of_unknowns_is_refused(free):
+    """free='' (or an empty list) is not "every unknown free", and fix='' not "none held":
+    both are refused, as the command line's --free '' and --fix ',,' are."""
+    with pytest.raises(cp.ArgumentError, match="names nothing"):
+        cp.prepare("irb120", WU, free=free)
+    with pytest.raises(cp.ArgumentError, match="names nothing"):
+        cp.prepare("irb120", WU, fix=free)

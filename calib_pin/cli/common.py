@@ -227,13 +227,24 @@ def joint_names(text: str) -> tuple[str, ...]:
     """Comma-separated joint names (or ``all``), each once."""
     from ..util.arguments import as_names
 
+    if not text.replace(",", "").strip():
+        raise argparse.ArgumentTypeError(f"expected joint names, comma-separated (joint_2,joint_3) or all, got '{text[:40]}'")
     try:
-        names = as_names(text, "compliance")
+        return as_names(text, "compliance")
     except ArgumentError as e:
         raise argparse.ArgumentTypeError(e.reason) from None
-    if not names:
-        raise argparse.ArgumentTypeError(f"expected joint names, comma-separated (joint_2,joint_3) or all, got '{text[:40]}'")
-    return names
+
+
+def unknown_names(text: str) -> str:
+    """``--fix`` / ``--free``: comma-separated unknowns, at least one, each once (the text
+    as given: the library reads it, :func:`calib_pin.calibration.held.held_names`)."""
+    from ..util.arguments import as_names
+
+    try:
+        as_names(text, "names")
+    except ArgumentError as e:
+        raise argparse.ArgumentTypeError(e.reason.replace("leave names out", "leave the option out")) from None
+    return text
 
 
 #: The titles of the shared argument groups: a section of each command's ``--help``.
@@ -303,9 +314,9 @@ def add_model_argument(p: argparse.ArgumentParser) -> None:
 def add_unknowns_arguments(p: argparse.ArgumentParser, start_note: str = "") -> None:
     """``--fix``, ``--free`` and ``--nominal``: the unknowns held, and where the estimate starts."""
     g = group(p, FIT_GROUP)
-    g.add_argument("--fix", help="unknowns held at their nominal value, comma-separated: robot deviations "
+    g.add_argument("--fix", type=unknown_names, help="unknowns held at their nominal value, comma-separated: robot deviations "
                    "(theta_1,d_1), compliances (compliance_joint_2) or sensor unknowns (device_rz)")
-    g.add_argument("--free", help="the robot deviations and compliances to estimate, comma-separated; every "
+    g.add_argument("--free", type=unknown_names, help="the robot deviations and compliances to estimate, comma-separated; every "
                    "other one is held at its nominal value (the sensor's unknowns stay free)")
     g.add_argument("--nominal", help="start from the robot's own calibrated kinematics instead of the catalogue "
                    "URDF: a calib-pin <robot>_calibration.json, or a UR default_kinematics.yaml (ur_description's "

@@ -100,12 +100,16 @@ def as_choice(value: Any, arg: str, choices: Iterable[str]) -> str:
 
 
 def as_names(value: Any, arg: str) -> tuple[str, ...]:
-    """Names: a comma-separated str (``"anchor,offset"``) or a sequence of str; None or
-    blank gives ``()``. Blanks around names are dropped; a name given twice is refused
-    (``joint_2,joint_2`` made two compliances of one joint, a file compensate refused)."""
+    """Names: a comma-separated str (``"anchor,offset"``) or a sequence of str; None gives
+    ``()``. Blanks around names are dropped; a name given twice is refused (``joint_2,joint_2``
+    made two compliances of one joint, a file compensate refused), and so is text that
+    names nothing (``""``, ``",,"``: ``--free ''`` meant every unknown free, silently)."""
     if value is None:
         return ()
     if isinstance(value, str):
+        if not value.replace(",", "").strip():
+            raise ArgumentError(arg, f"{shown_value(value)} names nothing: give comma-separated names, or leave "
+                                f"{arg} out")
         items: Sequence[Any] = value.split(",")
     elif isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1):
         items = list(value)
