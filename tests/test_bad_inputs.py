@@ -984,6 +984,13 @@ I34_CLASSES: list[Case] = [
      "argument --free: '' names nothing"),
     (CMP, ["irb120", "--data", "d.csv", "--models", "", "--trials", "1"], {"d.csv": data()}, 2,
      "argument models: give comma-separated models"),
+    # a per-set option and the global flag for the same set: refused naming both
+    (CAL, ["irb120", "--data", "d.csv:anchor_mm=600,200,-100", "--anchor-mm", "650,200,-100", "--analyze"],
+     {"d.csv": data()}, 2, "--data 'd.csv:anchor_mm=600,200,-100' and --anchor-mm both give anchor_mm of d.csv: give one"),
+    (CAL, ["irb120", "--data", "p.csv:noise_deg=0.01", "--noise-deg", "0.02", "--analyze"], {"p.csv": pose_set()}, 2,
+     "--data 'p.csv:noise_deg=0.01' and --noise-deg both give noise_deg of p.csv: give one"),
+    (CAL, ["irb120", "--data", "d.csv:noise_mm=0.05", "--data", "p.csv", "--noise-mm", "0.1", "--analyze"],
+     {"d.csv": data(), "p.csv": pose_set()}, 2, "--data 'd.csv:noise_mm=0.05' and --noise-mm both give noise_mm of d.csv"),
     # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
     (CAL, ["irb120", "--data", "p.csv", "--analyze"],
      {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),

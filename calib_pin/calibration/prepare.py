@@ -256,6 +256,31 @@ def _noise_of_sets(noise_mm: Any, n: int) -> list[float | None]:
     return [one] * n
 
 
+def _refuse_given_twice(given: list[FitSet], shared: dict[str, Any], noises: list[float | None]) -> None:
+    """Refuse a set-up value or noise given both for a set (its FitSet) and for every set
+    (``setup`` / ``noise_mm``): one of them would be dropped without a word.
+
+    Raises:
+        ArgumentError: naming the field, the set and both values.
+    """
+    for k, s in enumerate(given):
+        own = {name: v for name, v in (s.setup.given() if s.setup is not None else {}).items() if name != "estimate"}
+        if s.noise_mm is not None:
+            own["noise_mm"] = s.noise_mm
+        for name, value in own.items():
+            other = noises[k] if name == "noise_mm" else shared.get(name)
+            if other is not None:
+                data = s.data.source if isinstance(s.data, MeasurementSet) else s.data
+                where = s.label or (Path(data).name if data else f"{k + 1}")
+                raise ArgumentError(name, f"set {where}: given for the set ({_shown(value)}) and for every set "
+                                    f"({_shown(other)}): give one")
+
+
+def _shown(value: Any) -> str:
+    """A set-up value for a message (``600,200,-100``)."""
+    return ",".join(f"{v:g}" for v in np.atleast_1d(np.asarray(value, dtype=float)))
+
+
 def prepare(
     robot: str | RobotDescription,
     data: Any = None,
@@ -289,6 +314,7 @@ def prepare(
         name = next(iter(one_for_all))
         raise ArgumentError(name, f"one value for several sets: put each set's in its file ('# {name}: ...') or its "
                             "FitSet's setup")
+    _refuse_given_twice(given, one_for_all, noises)
     chain = _load_robot(robot, given[0].data, end_frame)
     parameter_model(chain, parameters)  # a robot that cannot be calibrated says so first
     chain, first = load_data(chain, given[0].data, str(robot), end_frame)

@@ -305,10 +305,15 @@ def _data(args: argparse.Namespace) -> Any:
     from ..sensors import setup_from_args
     from ..sensors.setup import flag_of
 
-    for name, value in setup_from_args(args).items():
-        if len(parsed) > 1 and name != "estimate" and value is not None:  # each set has its own
+    shared = {**setup_from_args(args), "noise_mm": args.noise_mm}
+    for name, value in shared.items():
+        if len(parsed) > 1 and name not in ("estimate", "noise_mm") and value is not None:  # each set has its own
             raise CalibPinError(f"{flag_of(name)} with several --data files: put each set's in its file "
                                 f"('# {name}: ...') or its --data argument (FILE:{name}=...)")
+    for text, (path, options) in zip(args.data, parsed, strict=True):
+        both = [name for name in options if shared.get(name) is not None]
+        if both:  # one would be dropped without a word
+            raise CalibPinError(f"--data '{text}' and {flag_of(both[0])} both give {both[0]} of {path}: give one")
     return [_fit_set(path, options) for path, options in parsed]
 
 
