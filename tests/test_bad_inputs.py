@@ -991,6 +991,17 @@ I34_CLASSES: list[Case] = [
      "--data 'p.csv:noise_deg=0.01' and --noise-deg both give noise_deg of p.csv: give one"),
     (CAL, ["irb120", "--data", "d.csv:noise_mm=0.05", "--data", "p.csv", "--noise-mm", "0.1", "--analyze"],
      {"d.csv": data(), "p.csv": pose_set()}, 2, "--data 'd.csv:noise_mm=0.05' and --noise-mm both give noise_mm of d.csv"),
+    # one length a pair of contact points: the pair again with another length (either order) refused
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# distance_mm: B, A, 300")}, 2,
+     "c.csv:6: distance_mm: B, A: 300 mm here, 391.535 mm on line 3 (A, B): one length a pair"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# distance_mm: A, B, 391.0")}, 2,
+     "c.csv:6: distance_mm: A, B: 391 mm here, 391.535 mm on line 3 (A, B): one length a pair"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# distance_mm: B, A, 391.535439")}, 0,
+     "1 known distance(s)"),
+    (SIM, ["irb120", "--kinds", "contact", "--geometry", "g.json", "--out", "s.csv"],
+     {"g.json": '{"data_kind": "contact", "points_mm": {"A": [380, 120, 250], "B": [300, -250, 150]}, '
+                '"distances_mm": [["A", "B", 400], ["B", "A", 410]]}'}, 2,
+     "g.json: not a set-up of contact fixtures: distance B, A: 410 mm, and 400 mm as A, B: one length a pair"),
     # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
     (CAL, ["irb120", "--data", "p.csv", "--analyze"],
      {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),
