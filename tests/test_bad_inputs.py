@@ -1002,6 +1002,13 @@ I34_CLASSES: list[Case] = [
      {"g.json": '{"data_kind": "contact", "points_mm": {"A": [380, 120, 250], "B": [300, -250, 150]}, '
                 '"distances_mm": [["A", "B", 400], ["B", "A", 410]]}'}, 2,
      "g.json: not a set-up of contact fixtures: distance B, A: 410 mm, and 400 mm as A, B: one length a pair"),
+    # an end frame that is the last joint's own link: refused where it enters, before the fit
+    (CAL, ["irb120", "--data", "d.csv", "--method", "lm", "--no-html", "--out", "o"],
+     {"d.csv": csv(*ROWS[:40], meta=(META[0], "# end_frame: link_6", *META[2:]))}, 2,
+     "end frame 'link_6' is the link of joint 'joint_6': a calibration moves the end frame"),
+    (CAL, ["irb120", "--data", "d.csv", "--end-frame", "link_6", "--export", "yaml", "--method", "lm", "--no-html",
+           "--out", "o"], {"d.csv": csv(*ROWS[:40], meta=(META[0], *META[2:]))}, 2,
+     "end frame 'link_6' is the link of joint 'joint_6'"),
     # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
     (CAL, ["irb120", "--data", "p.csv", "--analyze"],
      {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),

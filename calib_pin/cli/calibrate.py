@@ -22,7 +22,7 @@ from typing import Any
 from ..analysis.metrics import Metrics
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..report.build import noise_parts_line
-from ..report.bundle import EXPORTS, write_outputs
+from ..report.bundle import EXPORTS, check_exportable, write_outputs
 from ..robot.description import robot_inputs
 from . import parse_args
 from .common import (
@@ -391,9 +391,10 @@ def _calibrate(args: argparse.Namespace) -> int:
     from ..exceptions import CalibPinError
 
     _check_dh_export(args)
-    method_record(args.method, args.loss)  # a bad method or loss before the data is read
+    record = method_record(args.method, args.loss)  # a bad method or loss before the data is read
     holdout = as_holdout(args.test_fraction, validation_argument(args.test_data))
     calibration = prepare(args.robot, _data(args), **_setup_options(args))
+    check_exportable(args.export, calibration.chain, record.kinematic)  # where the end frame entered, not after the fit
     if args.cv:
         if not isinstance(holdout, Fraction):
             raise CalibPinError("--cv cross-validates the training poses of a split: leave --test-data out")

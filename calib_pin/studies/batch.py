@@ -125,14 +125,22 @@ def run_task(task: BatchTask) -> TaskOutcome:
 
     Never raises for a bad set: the error becomes ``status=failed`` and one line.
     """
-    from ..calibration.solve import calibrate
-    from ..report.bundle import render_outputs
+    from ..calibration.holdout import as_holdout
+    from ..calibration.prepare import prepare
+    from ..calibration.solve import method_record, solve
+    from ..report.bundle import check_exportable, render_outputs
 
     start = time.perf_counter()
     row: dict[str, Any] = {"set": task.name, "method": task.method, "seed": task.seed}
     try:
         data = task.data if isinstance(task.data, str) else list(task.data)
-        result = calibrate(_robot(task), data, method=task.method, seed=task.seed, **task.options)
+        options = dict(task.options)  # calibrate()'s: prepare's, the holdout's and the loss
+        loss = options.pop("loss", "linear")
+        record = method_record(task.method, loss)
+        holdout = as_holdout(options.pop("test_fraction", 0.2), options.pop("test_data", None))
+        calibration = prepare(_robot(task), data, **options)
+        check_exportable(("urdf",), calibration.chain, record.kinematic)  # before the fit, not after it
+        result = solve(calibration, record, holdout=holdout, seed=task.seed, loss=loss)
         rendered = render_outputs(result, ("urdf",), html=False)
         report = rendered.report
         row["rows"] = len(result.data)
