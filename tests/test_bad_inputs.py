@@ -884,23 +884,23 @@ def scaled_wu(factor: float) -> str:
 #: unit, whether the parse, the set-up record or the check of the set-up against the
 #: readings refuses it (an anchor 100 m away named 'argument noise' before).
 I26_PERSET: list[Case] = [
-    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
-     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: the set-up (anchor_mm 100000,0,0 mm (given), tool_mm 0,0,50 mm "
+    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e4,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:anchor_mm=1e4,0,0': anchor_mm: the set-up (anchor_mm 10000,0,0 mm (given), tool_mm 0,0,50 mm "
      "(the file's), length_offset_mm 0 mm (the file's)) does not fit the readings"),
-    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e5,0,0", "--no-html", "--out", "out"], {"a.csv": data()}, 2,
-     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: the set-up (anchor_mm 100000,0,0 mm"),
+    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e4,0,0", "--no-html", "--out", "out"], {"a.csv": data()}, 2,
+     "--data 'a.csv:anchor_mm=1e4,0,0': anchor_mm: the set-up (anchor_mm 10000,0,0 mm"),
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=2e6,0,0", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:anchor_mm=2e6,0,0': anchor_mm: expected 3 numbers 'x,y,z' in mm, each of magnitude below 1000000"),
-    (CAL, ["irb120", "--data", "a.csv:tool_mm=1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
-     "--data 'a.csv:tool_mm=1e5,0,0': tool_mm: the set-up (anchor_mm 600,200,-100 mm (the file's), tool_mm "
-     "100000,0,0 mm (given), length_offset_mm 0 mm (the file's)) does not fit the readings"),
+    (CAL, ["irb120", "--data", "a.csv:tool_mm=1500,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:tool_mm=1500,0,0': tool_mm: the set-up (anchor_mm 600,200,-100 mm (the file's), tool_mm "
+     "1500,0,0 mm (given), length_offset_mm 0 mm (the file's)) does not fit the readings"),
     (CAL, ["irb120", "--data", "a.csv:length_offset_mm=1e5", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:length_offset_mm=1e5': length_offset_mm: 100000 mm (given) does not fit the readings: they "
      "miss the cable lengths at the nominal robot by the same "),
     (CAL, ["irb120", "--data", "a.csv:length_offset_mm=2e6", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:length_offset_mm=2e6': length_offset_mm: expected a number of magnitude below 1000000"),
-    (CAL, ["irb120", "--data", "c.csv:tool_mm=1e5,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
-     "--data 'c.csv:tool_mm=1e5,0,0': tool_mm: 100000,0,0 mm (given; the tool point in the end frame) does not fit "
+    (CAL, ["irb120", "--data", "c.csv:tool_mm=1500,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
+     "--data 'c.csv:tool_mm=1500,0,0': tool_mm: 1500,0,0 mm (given; the tool point in the end frame) does not fit "
      "the touches"),
     (CAL, ["irb120", "--data", "c.csv:tool_mm=2e6,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
      "--data 'c.csv:tool_mm=2e6,0,0': tool_mm: expected 3 numbers 'x,y,z' in mm, each of magnitude below 1000000"),
@@ -915,13 +915,13 @@ I26_PERSET: list[Case] = [
     (CAL, ["irb120", "--data", "a.csv:label=", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:label=': label: an empty label"),
     # the same set-up checks for the global flags and the file's own metadata
-    (CAL, ["irb120", "--data", "a.csv", "--anchor-mm", "1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
-     "a.csv: anchor_mm: the set-up (anchor_mm 100000,0,0 mm (given), tool_mm 0,0,50 mm (the file's)"),
-    (CAL, ["irb120", "--data", "a.csv", "--analyze"], {"a.csv": anchor("# anchor_mm: 600000, 200, -100")}, 2,
-     "a.csv: the set-up (anchor_mm 600000,200,-100 mm (the file's), tool_mm 0,0,50 mm (the file's), "
+    (CAL, ["irb120", "--data", "a.csv", "--anchor-mm", "1e4,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "a.csv: anchor_mm: the set-up (anchor_mm 10000,0,0 mm (given), tool_mm 0,0,50 mm (the file's)"),
+    (CAL, ["irb120", "--data", "a.csv", "--analyze"], {"a.csv": anchor("# anchor_mm: 15000, 200, -100")}, 2,
+     "a.csv: the set-up (anchor_mm 15000,200,-100 mm (the file's), tool_mm 0,0,50 mm (the file's), "
      "length_offset_mm 0 mm (the file's)) does not fit the readings"),
-    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# tool_mm: 0, 0, 50000")}, 2,
-     "c.csv: tool_mm: 0,0,50000 mm (the file's; the tool point in the end frame) does not fit the touches"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# tool_mm: 0, 0, 1500")}, 2,
+     "c.csv: tool_mm: 0,0,1500 mm (the file's; the tool point in the end frame) does not fit the touches"),
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=650,200,-100", "--analyze"], {"a.csv": data()}, 0, "rank"),
     # the file's offset wrong: the same miss on every row names the offset, not the anchor
     (CAL, ["irb120", "--data", "a.csv", "--analyze"],
@@ -1009,6 +1009,28 @@ I34_CLASSES: list[Case] = [
     (CAL, ["irb120", "--data", "d.csv", "--end-frame", "link_6", "--export", "yaml", "--method", "lm", "--no-html",
            "--out", "o"], {"d.csv": csv(*ROWS[:40], meta=(META[0], *META[2:]))}, 2,
      "end frame 'link_6' is the link of joint 'joint_6'"),
+    # a tool point or anchor beyond reach (a unit mistake) is refused where it enters, with the bound
+    (SIM, ["irb120", "--tool-mm", "0,0,-5000", "--out", "s.csv"], {}, 2,
+     "--tool-mm: 0,0,-5000 mm is 5000 mm from the end frame, beyond the 2000 mm a point may be (a unit mistake?)"),
+    (SIM, ["irb120", "--anchor-mm", "90000,0,0", "--out", "s.csv"], {}, 2,
+     "--anchor-mm: 90000,0,0 mm is 90000 mm from the base, beyond the 20000 mm a point may be"),
+    (SIM, ["irb120", "--kinds", "contact", "--tool-mm", "0,0,-5000", "--out", "s.csv"], {}, 2,
+     "--tool-mm: 0,0,-5000 mm is 5000 mm from the end frame"),
+    (SIM, ["irb120", "--compliance", "joint_2", "--true-compliance-urad-per-nm", "20", "--payload-kg", "1",
+           "--payload-com-mm", "0,0,5000", "--out", "s.csv"], {}, 2, "--payload-com-mm: 0,0,5000 mm is 5000 mm"),
+    (PLAN, ["irb120", "--tool-mm", "0,0,-5000", "--out", "p.csv"], {}, 2, "--tool-mm: 0,0,-5000 mm is 5000 mm"),
+    (COL, [*COLLECT, "--anchor-mm", "1e5,0,0"], {"p.csv": POSES}, 2, "--anchor-mm: 100000,0,0 mm is 100000 mm"),
+    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: 100000,0,0 mm is 100000 mm from the base, beyond the 20000 mm"),
+    (CAL, ["irb120", "--data", "c.csv:tool_mm=1e5,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
+     "--data 'c.csv:tool_mm=1e5,0,0': tool_mm: 100000,0,0 mm is 100000 mm from the end frame, beyond the 2000 mm"),
+    (CAL, ["irb120", "--data", "a.csv", "--analyze"], {"a.csv": anchor("# anchor_mm: 600000, 200, -100")}, 2,
+     "a.csv: anchor_mm: 600000,200,-100 mm is 600000 mm from the base, beyond the 20000 mm a point may be"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# tool_mm: 0, 0, 50000")}, 2,
+     "c.csv: tool_mm: 0,0,50000 mm is 50000 mm from the end frame, beyond the 2000 mm a point may be"),
+    (SIM, ["irb120", "--kinds", "contact", "--geometry", "g.json", "--out", "s.csv"],
+     {"g.json": '{"data_kind": "contact", "points_mm": {"A": [380, 120, 250]}, "tool_mm": [0, 0, 5000]}'}, 2,
+     "g.json: not a set-up of contact fixtures: tool_mm: 0,0,5000 mm is 5000 mm from the end frame"),
     # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
     (CAL, ["irb120", "--data", "p.csv", "--analyze"],
      {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),

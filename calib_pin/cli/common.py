@@ -361,14 +361,15 @@ def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_de
 
 def add_compliance_arguments(p: argparse.ArgumentParser, what: str = "estimate") -> None:
     """Joint compliance and its loads (see :mod:`calib_pin.robot.deflection`)."""
-    from ..sensors.setup import xyz_mm
+    from ..sensors.setup import point_mm
 
     g = group(p, COMPLIANCE_GROUP)
     g.add_argument("--compliance", metavar="JOINTS", type=joint_names,
                    help=f"{what} the compliance [rad/Nm] of these joints under gravity (and payload, cable pull): "
                    "joint names comma-separated (joint_2,joint_3) or all (see --compliance-model)")
     g.add_argument("--payload-kg", type=LOAD_TYPE, help="payload mass carried by the end frame, kg")
-    g.add_argument("--payload-com-mm", type=xyz_mm, help="payload centre of mass in the end frame, 'x,y,z' mm (default 0,0,0)")
+    g.add_argument("--payload-com-mm", type=point_mm("end frame"),
+                   help="payload centre of mass in the end frame, 'x,y,z' mm (default 0,0,0)")
     g.add_argument("--cable-tension-n", type=LOAD_TYPE, help="the drawstring's pull on the tool point, N")
     g.add_argument("--compliance-model", choices=("cad", "basis"),
                    help="cad: compliances on the URDF's inertias; basis: the gravity torque patterns of the "
@@ -398,7 +399,7 @@ def compliance_options(args: argparse.Namespace) -> dict[str, Any]:
 
 #: The sensors' flag parsers, re-exported from :mod:`calib_pin.sensors.setup` on first use
 #: (importing it loads numpy: this module stays light).
-_SENSOR_PARSERS = ("estimate_names", "finite", "xyz_mm")
+_SENSOR_PARSERS = ("estimate_names", "finite", "point_mm", "xyz_mm")
 
 
 def __getattr__(name: str) -> Any:

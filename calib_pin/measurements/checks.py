@@ -18,7 +18,7 @@ import numpy as np
 
 from ..exceptions import DataError
 from ..robot.chain import Chain
-from ..util.arguments import LIMIT_TOLERANCE, as_instance, outside_limits
+from ..util.arguments import LIMIT_TOLERANCE, as_instance, outside_limits, too_far
 from .dataset import MeasurementSet
 from .schema import SCHEMAS
 
@@ -144,10 +144,13 @@ def _check_metadata(chain: Chain, data: MeasurementSet, robot_label: str | None)
     if data.end_frame and data.end_frame != chain.end_frame:
         raise DataError(where, f"was measured at end frame '{data.end_frame}', not '{chain.end_frame}'",
                         None, "end_frame")
-    for name in ("anchor", "tool"):
+    for name, frame in (("anchor", "base"), ("tool", "end frame")):
         point = getattr(data, name)
         if point is not None and (np.shape(point) != (3,) or not np.all(np.isfinite(point))):
             raise DataError(where, f"{name} must be 3 finite numbers (x, y, z in m), got {point!r:.60}", None, name)
+        why = None if point is None else too_far(np.asarray(point) * 1e3, frame)
+        if why is not None:  # a unit or frame mistake: a 5 m tool
+            raise DataError(where, why, None, f"{name}_mm")
     if not (isinstance(data.length_offset, (int, float, np.floating)) and math.isfinite(data.length_offset)):
         raise DataError(where, f"length_offset must be a finite number in m, got {data.length_offset!r:.40}",
                         None, "length_offset")

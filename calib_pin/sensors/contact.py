@@ -45,10 +45,10 @@ from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
-from ..util.arguments import as_optional, as_xyz_mm
+from ..util.arguments import as_optional, as_point_mm, too_far
 from .base import DEFAULT_NOISE_MM, SETUP_MISFIT_M, MeasurementModel, check_rows
 from .problem import SetProblem
-from .setup import SensorSetup, option, xyz_mm
+from .setup import SensorSetup, option, point_mm
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
@@ -114,7 +114,8 @@ class Fixtures:
 
         Raises:
             ValueError: no points or planes, a point or normal not 3 numbers, a distance
-                naming an unknown point or a point to itself, a pair given two lengths.
+                naming an unknown point or a point to itself, a pair given two lengths, a
+                tool point beyond :data:`~calib_pin.util.arguments.POINT_REACH_MM`.
         """
         points = {str(k): np.asarray(v, dtype=float) for k, v in doc["points_mm"].items()}
         planes = {str(k): (np.asarray(v["normal"], dtype=float), float(v["offset_mm"]))
@@ -124,7 +125,11 @@ class Fixtures:
         for label, p in [*points.items(), *((k, n) for k, (n, _) in planes.items())]:
             if p.shape != (3,) or not np.all(np.isfinite(p)) or not np.any(p):
                 raise ValueError(f"{label}: expected 3 finite numbers (a point [mm], or a plane's non-zero normal)")
-        fx = layout(points, planes, (), doc.get("tool_mm", DEFAULT_CONTACT_TOOL_MM), doc.get("tool") == "given")
+        tool = np.asarray(doc.get("tool_mm", DEFAULT_CONTACT_TOOL_MM), dtype=float)
+        why = too_far(tool, "end frame") if tool.shape == (3,) else None
+        if why is not None:
+            raise ValueError(f"tool_mm: {why}")
+        fx = layout(points, planes, (), tool, doc.get("tool") == "given")
         index = {label: k for k, label in enumerate(fx.point_labels)}
         given = []
         for pair in doc.get("distances_mm", ()):
@@ -153,10 +158,10 @@ class ContactSetup(SensorSetup):
 
     title: ClassVar[str] = "contact fixtures"
 
-    tool_mm: Any = option(help="tool point in the end frame, 'x,y,z'", unit="mm", parser=xyz_mm)
+    tool_mm: Any = option(help="tool point in the end frame, 'x,y,z'", unit="mm", parser=point_mm("end frame"))
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "tool_mm", as_optional(as_xyz_mm, self.tool_mm, "tool_mm"))
+        object.__setattr__(self, "tool_mm", as_optional(as_point_mm, self.tool_mm, "tool_mm", "end frame"))
 
 
 def _label_rows(data: MeasurementSet) -> tuple[np.ndarray, np.ndarray]:
