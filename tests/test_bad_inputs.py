@@ -1031,6 +1031,13 @@ I34_CLASSES: list[Case] = [
     (SIM, ["irb120", "--kinds", "contact", "--geometry", "g.json", "--out", "s.csv"],
      {"g.json": '{"data_kind": "contact", "points_mm": {"A": [380, 120, 250]}, "tool_mm": [0, 0, 5000]}'}, 2,
      "g.json: not a set-up of contact fixtures: tool_mm: 0,0,5000 mm is 5000 mm from the end frame"),
+    # --nominal takes a calibrate output folder as compensate --calibration does, or says what to give
+    (CAL, ["irb120", "--data", "d.csv", "--nominal", "o", "--method", "lm", "--no-html", "--out", "o2"],
+     {"d.csv": data(), "o/irb120_calibration.json": _calibration_file()}, 0, "start: irb120_calibration.json"),
+    (CAL, ["irb120", "--data", "d.csv", "--nominal", "o", "--analyze"], {"d.csv": data(), "o/x.txt": ""}, 2,
+     "o: no *_calibration.json in this folder (--nominal: a calibrate output folder, a calib-pin calibration .json"),
+    (CMP, ["irb120", "--data", "d.csv", "--nominal", "o", "--methods", "lm", "--trials", "1", "--out", "c"],
+     {"d.csv": data(), "o/irb120_calibration.json": _calibration_file()}, 0, "wrote c/table1.csv"),
     # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
     (CAL, ["irb120", "--data", "p.csv", "--analyze"],
      {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),

@@ -388,6 +388,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     from ..calibration.holdout import Folds, Fraction, as_holdout
     from ..calibration.prepare import prepare
     from ..calibration.solve import method_record, solve
+    from ..calibration.start import start_file
     from ..exceptions import CalibPinError
 
     _check_dh_export(args)
@@ -405,7 +406,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
     test_file = validation_argument(args.test_data)
     inputs = {**robot_inputs(args.robot), **sets, "--test-data": getattr(test_file, "data", test_file),
-              "--nominal": args.nominal}
+              "--nominal": start_file(args.nominal) if args.nominal is not None else None}  # a folder's file
     # an input in --out is never replaced, nor removed as stale; all files together or none
     # report.html draws figures per set, which only the collector frees: on for several sets
     # (one set's are a bounded 15 MB, and the collector's passes over matplotlib 0.1 s)

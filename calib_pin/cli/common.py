@@ -319,7 +319,8 @@ def add_unknowns_arguments(p: argparse.ArgumentParser, start_note: str = "") -> 
     g.add_argument("--free", type=unknown_names, help="the robot deviations and compliances to estimate, comma-separated; every "
                    "other one is held at its nominal value (the sensor's unknowns stay free)")
     g.add_argument("--nominal", help="start from the robot's own calibrated kinematics instead of the catalogue "
-                   "URDF: a calib-pin <robot>_calibration.json, or a UR default_kinematics.yaml (ur_description's "
+                   "URDF: a calib-pin <robot>_calibration.json (or the calibrate --out folder holding it), or a UR "
+                   "default_kinematics.yaml (ur_description's "
                    f"layout; what --export yaml writes){start_note}")
 
 

@@ -50,7 +50,8 @@ def add_compensate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPar
     p.add_argument("--with-cable", action="store_true",
                    help="keep the drawstring's pull of the calibration in the deflection (default: the arm without it)")
     p.add_argument("--nominal", help="the model the targets were computed with, if not the catalogue URDF: a "
-                   "calib-pin calibration file or a UR default_kinematics.yaml (e.g. the controller's factory "
+                   "calib-pin calibration file (or the calibrate --out folder holding it) or a UR "
+                   "default_kinematics.yaml (e.g. the controller's factory "
                    "calibration); its geometry only")
     p.add_argument("--format", choices=FORMATS, default="csv",
                    help="csv (calib-pin's pose list, default), rapid (ABB .mod), krl (KUKA .src + .dat), "
