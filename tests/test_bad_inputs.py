@@ -946,6 +946,9 @@ I26_PERSET: list[Case] = [
 #: A URDF whose file stem (gen3lite) is not its <robot name> (kinova).
 KINOVA = urdf('name="abb_irb120"', 'name="kinova"')
 
+#: A session file's stem as a lab names it: four of them joined are over 255 bytes.
+LONG_STEM = "kinova_gen3lite_ball_in_socket_session_recorded_2024_03_01_station_b"
+
 #: Issue 34, part A: broken promises of the round on several sets, new sensors and real
 #: lab files, one block of rows per class (docs/bad_input.md, "Classes and decisions").
 I34_CLASSES: list[Case] = [
@@ -1038,6 +1041,12 @@ I34_CLASSES: list[Case] = [
      "o: no *_calibration.json in this folder (--nominal: a calibrate output folder, a calib-pin calibration .json"),
     (CMP, ["irb120", "--data", "d.csv", "--nominal", "o", "--methods", "lm", "--trials", "1", "--out", "c"],
      {"d.csv": data(), "o/irb120_calibration.json": _calibration_file()}, 0, "wrote c/table1.csv"),
+    # batch: set folder names safe and unique; a file name holding '+' joins
+    ("batch", ["...csv", "--out", "o/p", "--method", "lm"], {"...csv": data()}, 0, "set-"),
+    ("batch", ["a+b.csv+c.csv", "--out", "o", "--method", "lm"], {"a+b.csv": data(), "c.csv": csv(*ROWS[60:100])},
+     0, "a+b+c  ok"),
+    ("batch", ["+".join(f"{LONG_STEM}_{k}.csv" for k in range(4)), "--out", "o", "--method", "lm"],
+     {f"{LONG_STEM}_{k}.csv": csv(*ROWS[30 * k:30 * k + 30]) for k in range(4)}, 0, f"{LONG_STEM}_0+3-more-"),
     # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
     (CAL, ["irb120", "--data", "p.csv", "--analyze"],
      {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),

@@ -39,8 +39,8 @@ from ..util.outputs import Outputs
 from .checkpoint import Checkpoint, Interrupted, file_digest, fingerprint
 from .parallel import ParallelFault, error_line, limited, parallel_completed, parallel_map
 
-__all__ = ["SUMMARY_COLUMNS", "BatchTask", "ParallelFault", "TaskOutcome", "parallel_completed", "parallel_map",
-           "run_batch", "run_task", "task_key", "write_outcome", "write_summary"]
+__all__ = ["NAME_LIMIT", "SUMMARY_COLUMNS", "BatchTask", "ParallelFault", "TaskOutcome", "folder_name",
+           "parallel_completed", "parallel_map", "run_batch", "run_task", "task_key", "write_outcome", "write_summary"]
 
 #: Columns of ``summary.csv``; errors in [mm], time in [s].
 SUMMARY_COLUMNS = (
@@ -49,6 +49,30 @@ SUMMARY_COLUMNS = (
       for stage in ("before", "after")),
     "time_s",
 )
+
+
+#: Longest name of a set's output folder, bytes of UTF-8 (a file system's limit is 255).
+NAME_LIMIT = 100
+
+
+def folder_name(stems: Sequence[str]) -> str:
+    """The output folder's name of a calibration of files with these stems: joined by ``+``
+    when that is a safe folder name (not empty, not hidden, ``.`` or ``..``, at most
+    :data:`NAME_LIMIT` bytes), else a safe short form that stays unique: the first stem
+    without its leading dots (``set`` if nothing is left), ``+N-more`` for the others, and
+    8 hex digits of the joined stems (``session_01+11-more-3fa2c1d0``, ``set-9c1e07aa`` for
+    a file ``...csv``)."""
+    import hashlib
+
+    joined = "+".join(stems)
+    if joined and not joined.startswith(".") and len(joined.encode()) <= NAME_LIMIT:
+        return joined
+    digest = hashlib.sha256(joined.encode()).hexdigest()[:8]
+    head = (stems[0].lstrip(".") if stems else "") or "set"
+    more = f"+{len(stems) - 1}-more" if len(stems) > 1 else ""
+    room = NAME_LIMIT - len(f"{more}-{digest}".encode())
+    head = head.encode()[:room].decode(errors="ignore")  # whole characters only
+    return f"{head}{more}-{digest}"
 
 
 @dataclass(frozen=True)
@@ -80,9 +104,10 @@ class BatchTask:
 
     @property
     def name(self) -> str:
-        """The calibration's name: the data file's stem (``session_03``); with several
-        sets, their stems joined by ``+`` (``a+b+c``)."""
-        return "+".join(Path(f).name.removesuffix(".csv") for f in self.files)
+        """The calibration's name, and its output folder's (:func:`folder_name`): the data
+        file's stem (``session_03``); with several sets, their stems joined by ``+``
+        (``a+b+c``)."""
+        return folder_name([Path(f).name.removesuffix(".csv") for f in self.files])
 
 
 @dataclass
