@@ -1047,6 +1047,18 @@ I34_CLASSES: list[Case] = [
      0, "a+b+c  ok"),
     ("batch", ["+".join(f"{LONG_STEM}_{k}.csv" for k in range(4)), "--out", "o", "--method", "lm"],
      {f"{LONG_STEM}_{k}.csv": csv(*ROWS[30 * k:30 * k + 30]) for k in range(4)}, 0, f"{LONG_STEM}_0+3-more-"),
+    # a row beyond the URDF's joint limits (a controller that allows more): refused pointing at the margin,
+    # accepted with --limit-margin-deg, the rows named
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(swap(ROWS[0], 0, "165.4"), *ROWS[1:40])}, 2,
+     "d.csv:8: q1_deg: 165.4 is outside the limits of joint_1 [-165, 165] deg (the URDF's; a controller that allows "
+     "more: calibrate --limit-margin-deg)"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze", "--limit-margin-deg", "1"],
+     {"d.csv": csv(swap(ROWS[0], 0, "165.4"), *ROWS[1:40])}, 0,
+     "note: 1 row(s) of d.csv beyond the URDF's joint limits, accepted by --limit-margin-deg 1: line 8: joint_1 165.4"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze", "--limit-margin-deg", "0.2"],
+     {"d.csv": csv(swap(ROWS[0], 0, "165.4"), *ROWS[1:40])}, 2, "[-165.2, 165.2] deg (the URDF's, widened by 0.2 deg)"),
+    (CAL, ["irb120", "--analyze", "--limit-margin-deg", "45"], {}, 2,
+     "argument --limit-margin-deg: expected a number of degrees in [0, 30], got '45'"),
     # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
     (CAL, ["irb120", "--data", "p.csv", "--analyze"],
      {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),

@@ -163,3 +163,21 @@ def test_a_validation_session_from_another_device_placement_is_refused(positions
     with pytest.raises(cp.DataError, match=r"v\.csv: device frame: the session's own is 10 mm \(RMS over its points\) "
                                            "from the calibration's"):
         cp.calibrate("irb120", train, method="lm", test_data=moved)
+
+
+def test_a_limit_margin_accepts_a_row_beyond_the_urdf_and_names_it(chain, cable, tmp_path):
+    """A row 0.5 deg beyond joint_1's URDF limit: refused, pointing at the margin; accepted
+    with limit_margin_deg, which names the row; still refused beyond the margin."""
+    from calib_pin.measurements.checks import beyond_urdf_limits
+
+    over = changed(cable, q=(4, 0, chain.upper[0] + np.radians(0.5)), source="s.csv", lines=np.arange(10, 40))
+    with pytest.raises(cp.DataError, match=re.escape("s.csv:14: q1: 165.5 deg is outside the limits of joint_1 "
+                                                     "[-165, 165] deg (the URDF's; a controller that allows more: "
+                                                     "calibrate --limit-margin-deg)")):
+        cp.prepare("irb120", over)
+    calibration = cp.prepare("irb120", over, limit_margin_deg=1.0)
+    assert beyond_urdf_limits(calibration.chain, calibration.data) == ["line 14: joint_1 165.5 deg"]
+    with pytest.raises(cp.DataError, match=re.escape("[-165.2, 165.2] deg (the URDF's, widened by 0.2 deg)")):
+        cp.prepare("irb120", over, limit_margin_deg=0.2)
+    with pytest.raises(cp.ArgumentError, match="limit_margin_deg"):
+        cp.prepare("irb120", over, limit_margin_deg=45)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +21,7 @@ from ..measurements.load import load_data
 from ..parameters import MODELS, ParameterModel, parameter_model
 from ..robot import Chain, RobotDescription, load_chain, resolve_robot
 from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
-from ..robot.description import as_robot
+from ..robot.description import MAX_LIMIT_MARGIN_DEG, as_robot
 from ..sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for, setup_record
 from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path
 from .holdout import TestSet
@@ -159,8 +159,6 @@ class Calibration:
                 whose = "the training set's" if len(self.sets) == 1 else "a training set's"
                 raise DataError(session.source or "test_data", f"holds {whose} own rows: a validation session must "
                                 "be another one (or leave it out to hold out a test fraction)")
-        from dataclasses import replace
-
         return replace(test, data=session, same=self.labels[k] if test.register is None else ""), k
 
 
@@ -211,9 +209,12 @@ def deprecated_records(loose: dict[str, Any], setup: SensorSetup | None,
                                  cable_tension_n=loose.get("cable_tension_n"), stacklevel=5)
 
 
-def _load_robot(robot: str | RobotDescription, first: Any, end_frame: str | None) -> Chain:
+def _load_robot(robot: str | RobotDescription, first: Any, end_frame: str | None,
+                limit_margin_deg: float | None = None) -> Chain:
     robot = as_robot(robot, "robot")
     description = robot if isinstance(robot, RobotDescription) else resolve_robot(robot)
+    if limit_margin_deg is not None:  # the chain's limits, so every check of an angle takes them
+        description = replace(description, limit_margin=float(np.radians(limit_margin_deg)))
     if end_frame is None and description.end_frame is None and first is not None:
         # No tool0 in the URDF: the data file may name the end frame.
         end_frame = (first if isinstance(first, MeasurementSet) else read_measurements(first)).end_frame
@@ -293,10 +294,13 @@ def prepare(
     fix: Any = None,
     free: Any = None,
     nominal: str | Path | None = None,
+    limit_margin_deg: float | None = None,
     **deprecated: Any,
 ) -> Calibration:
     """Load and check a robot and its measurement sets for calibration (arguments as
-    :func:`calib_pin.calibrate`).
+    :func:`calib_pin.calibrate`, and ``limit_margin_deg``: how far beyond its URDF limits
+    each revolute joint's measured angle is accepted, [deg] in [0, 30]; a controller
+    whose limits are wider than its URDF's).
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message; a bad
@@ -315,7 +319,8 @@ def prepare(
         raise ArgumentError(name, f"one value for several sets: put each set's in its file ('# {name}: ...') or its "
                             "FitSet's setup")
     _refuse_given_twice(given, one_for_all, noises)
-    chain = _load_robot(robot, given[0].data, end_frame)
+    margin = as_optional(as_float, limit_margin_deg, "limit_margin_deg", 0.0, MAX_LIMIT_MARGIN_DEG, unit="deg")
+    chain = _load_robot(robot, given[0].data, end_frame, margin)
     parameter_model(chain, parameters)  # a robot that cannot be calibrated says so first
     chain, first = load_data(chain, given[0].data, str(robot), end_frame)
     params = parameter_model(chain, parameters)  # of the set's own end frame
@@ -345,7 +350,5 @@ def prepare(
 
         start = load_start(as_path(nominal, "nominal"), chain, params, soft.joints if soft else ())
     if held or start is not None:
-        from dataclasses import replace
-
         calibration = replace(calibration, fixed=held, start=start, _cache=calibration._cache)
     return calibration

@@ -23,9 +23,10 @@ from ..analysis.metrics import Metrics
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..report.build import noise_parts_line
 from ..report.bundle import EXPORTS, check_exportable, write_outputs
-from ..robot.description import robot_inputs
+from ..robot.description import MAX_LIMIT_MARGIN_DEG, robot_inputs
 from . import parse_args
 from .common import (
+    ROBOT_GROUP,
     add_compliance_arguments,
     add_loss_argument,
     add_model_argument,
@@ -35,6 +36,7 @@ from .common import (
     compliance_options,
     count,
     fail,
+    group,
     positive_float,
     run,
     unknowns_options,
@@ -51,6 +53,18 @@ def export_formats(text: str) -> tuple[str, ...]:
         raise argparse.ArgumentTypeError(
             f"unknown export format '{unknown[0] if unknown else text}' (valid: {', '.join(EXPORTS)}, comma-separated)")
     return names
+
+
+def limit_margin(text: str) -> float:
+    """``--limit-margin-deg``: a number of degrees in [0, 30]."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0.0 <= value <= MAX_LIMIT_MARGIN_DEG:
+        raise argparse.ArgumentTypeError(f"expected a number of degrees in [0, {MAX_LIMIT_MARGIN_DEG:g}], got "
+                                         f"'{text[:40]}'")
+    return value + 0.0
 
 
 def assumed_noise(text: str) -> float:
@@ -79,6 +93,10 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
     p.description = ("Calibrate a robot's kinematics from drawstring readings or marker positions and "
                      "write the corrected URDF and a JSON report.")
     add_robot_arguments(p, "default: the file's", "default: the file's")
+    group(p, ROBOT_GROUP).add_argument(
+        "--limit-margin-deg", type=limit_margin, metavar="DEG",
+        help="accept measured angles up to DEG beyond each revolute joint's URDF limits (a controller that allows "
+        f"more than its URDF says), in [0, {MAX_LIMIT_MARGIN_DEG:g}]; default 0: a row beyond them is refused")
     keys = ", ".join(f"{key} ({words})" for key, (_, words) in data_keys().items())
     p.add_argument("--data", action="append",
                    help="measurement set CSV (default: the robot's shipped set); repeat it to fit several sets "
@@ -326,7 +344,8 @@ def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
     from ..sensors import setup_from_args, setup_record
 
     return {"end_frame": args.end_frame, "setup": setup_record(**setup_from_args(args)), "noise_mm": args.noise_mm,
-            "parameters": args.model, **compliance_options(args), **unknowns_options(args)}
+            "parameters": args.model, "limit_margin_deg": args.limit_margin_deg, **compliance_options(args),
+            **unknowns_options(args)}
 
 
 def _analyze(args: argparse.Namespace) -> int:
@@ -334,9 +353,7 @@ def _analyze(args: argparse.Namespace) -> int:
     from ..calibration.prepare import prepare
 
     calibration = prepare(args.robot, _data(args), **_setup_options(args))
-    for note in (s.data.ignored_note() for s in calibration.sets):
-        if note:
-            warn(note)
+    _notes_of_sets(calibration, args)
     data = calibration.data
     print(f"{calibration.chain.name}: {data.describe_rows()} from {data.source}, "
           f"{calibration.params.name} model, {calibration.problem.model.describe()}")
@@ -346,6 +363,22 @@ def _analyze(args: argparse.Namespace) -> int:
     print("the estimators move only the identifiable directions: the deviations along the blind "
           f"ones above stay at {'the start' if calibration.start is not None else 'zero'} in the export")
     return 0
+
+
+def _notes_of_sets(calibration: Any, args: argparse.Namespace, ignored: bool = True) -> None:
+    """Warn of what was read of each set but is not as its file says: its ignored columns
+    (``ignored``), the rows --limit-margin-deg accepted beyond the URDF's joint limits."""
+    from ..measurements.checks import beyond_urdf_limits
+
+    for s in calibration.sets:
+        note = s.data.ignored_note() if ignored else None
+        if note:
+            warn(note)
+        rows = beyond_urdf_limits(calibration.chain, s.data)
+        if rows:
+            shown = "; ".join(rows[:5]) + (f"; and {len(rows) - 5} more" if len(rows) > 5 else "")
+            warn(f"{len(rows)} row(s) of {Path(s.data.source or s.label).name} beyond the URDF's joint limits, "
+                 f"accepted by --limit-margin-deg {args.limit_margin_deg:g}: {shown}", "note")
 
 
 def analysis_point(calibration: Any) -> tuple[Any, str]:
@@ -396,6 +429,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     holdout = as_holdout(args.test_fraction, validation_argument(args.test_data))
     calibration = prepare(args.robot, _data(args), **_setup_options(args))
     check_exportable(args.export, calibration.chain, record.kinematic)  # where the end frame entered, not after the fit
+    _notes_of_sets(calibration, args, ignored=False)  # the ignored columns: with the result's warnings
     if args.cv:
         if not isinstance(holdout, Fraction):
             raise CalibPinError("--cv cross-validates the training poses of a split: leave --test-data out")

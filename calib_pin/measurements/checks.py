@@ -74,6 +74,35 @@ def check_robot(label: str | None, chain: Chain, robot_label: str | None, where:
     raise DataError(where, f"is for robot '{label}', not '{chain.name}'{named}", None, "robot")
 
 
+def limits_of(chain: Chain, joint: int) -> str:
+    """Whose limits a refusal of joint ``joint`` (0-based) beyond them names: the URDF's,
+    and how to accept a controller's wider ones, or the URDF's widened by the margin."""
+    if chain.joint_kinds[joint].startswith("JointModelP"):
+        return " (the URDF's)"
+    margin = chain.description.limit_margin
+    if margin:
+        return f" (the URDF's, widened by {math.degrees(margin):g} deg)"
+    return " (the URDF's; a controller that allows more: calibrate --limit-margin-deg)"
+
+
+def beyond_urdf_limits(chain: Chain, data: MeasurementSet) -> list[str]:
+    """The rows of ``data`` that only the chain's limit margin accepts (a revolute joint
+    beyond its URDF limits, within :attr:`~calib_pin.robot.RobotDescription.limit_margin`),
+    each as ``line 12: joint_1 165.8 deg`` (``row 3`` for a set in memory)."""
+    margin = chain.description.limit_margin
+    if not margin:
+        return []
+    revolute = np.array([not kind.startswith("JointModelP") for kind in chain.joint_kinds])
+    q = np.asarray(data.q, dtype=float)
+    lower, upper = chain.lower + margin * revolute, chain.upper - margin * revolute
+    out = []
+    for row, j in zip(*np.nonzero((q < lower - LIMIT_TOLERANCE) | (q > upper + LIMIT_TOLERANCE)), strict=True):
+        line, _ = _row_line(data, int(row))
+        where = f"line {line}" if line is not None else f"row {int(row)}"
+        out.append(f"{where}: {chain.joint_names[j]} {math.degrees(q[row, j]):g} deg")
+    return out
+
+
 def _check_shapes(chain: Chain, data: MeasurementSet) -> None:
     where = _where(data)
     if data.kind not in kinds():
@@ -115,8 +144,8 @@ def _check_angles(chain: Chain, data: MeasurementSet) -> None:
         prismatic = chain.joint_kinds[j].startswith("JointModelP")
         factor, unit = (1e3, "mm") if prismatic else (math.degrees(1.0), "deg")
         raise DataError(_where(data), f"{prefix}{q[row, j] * factor:g} {unit} is outside the limits of "
-                        f"{chain.joint_names[j]} [{chain.lower[j] * factor:g}, {chain.upper[j] * factor:g}] {unit}",
-                        line, f"q{j + 1}")
+                        f"{chain.joint_names[j]} [{chain.lower[j] * factor:g}, {chain.upper[j] * factor:g}] {unit}"
+                        f"{limits_of(chain, j)}", line, f"q{j + 1}")
 
 
 def _check_values(data: MeasurementSet) -> None:

@@ -51,7 +51,7 @@ from ..exceptions import DataError
 from ..robot.chain import Chain, as_chain
 from ..util.arguments import as_bool, as_optional, as_path
 from ..util.input_files import check_regular
-from .checks import check_robot
+from .checks import check_robot, limits_of
 from .columns import (
     ANNOTATIONS,
     Columns,
@@ -234,7 +234,8 @@ def _angles(fields: list[str], header: list[str], cols: Columns, chain: Chain | 
             if not lo - 1e-9 <= q[i - 1] <= hi + 1e-9:
                 to_unit = {"deg": math.degrees, "mm": lambda v: v * 1e3}.get(unit, float)
                 raise DataError(str(path), f"{value:g} is outside the limits of {chain.joint_names[i - 1]} "
-                                f"[{to_unit(lo):g}, {to_unit(hi):g}] {unit}", line, header[col])
+                                f"[{to_unit(lo):g}, {to_unit(hi):g}] {unit}{limits_of(chain, i - 1)}", line,
+                                header[col])
     return q
 
 

@@ -245,7 +245,7 @@ def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> C
     _check_joints(full, chain_ids, description)
     locked = [j for j in range(1, full.njoints) if j not in chain_ids]
     model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full.copy()
-    continuous, lower, upper = _limits(model)
+    continuous, lower, upper = _limits(model, description.limit_margin)
     return Chain(
         description=description,
         end_frame=end,
@@ -259,17 +259,18 @@ def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> C
     )
 
 
-def _limits(model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _limits(model: pin.Model, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each joint of a chain model: continuous or not, and its limits ([rad] or [m];
-    +-inf for a continuous joint)."""
+    +-inf for a continuous joint), a revolute joint's widened by ``margin`` [rad] each way."""
     n = model.njoints - 1
     continuous = np.array([model.joints[j].nq == 2 for j in range(1, model.njoints)])
     lower, upper = np.full(n, -np.inf), np.full(n, np.inf)
     for k in range(n):
         if not continuous[k]:
             iq = model.joints[k + 1].idx_q
-            lower[k] = model.lowerPositionLimit[iq]
-            upper[k] = model.upperPositionLimit[iq]
+            widen = margin if not model.joints[k + 1].shortname().startswith("JointModelP") else 0.0
+            lower[k] = model.lowerPositionLimit[iq] - widen
+            upper[k] = model.upperPositionLimit[iq] + widen
     return continuous, lower, upper
 
 
