@@ -128,7 +128,7 @@ def test_calibrate_cli_compliance_all_writes_no_negative_compliance(tmp_path, ca
                            "--no-html", "--out", str(out)]) == 0
     printed = capfd.readouterr()
     assert "Traceback" not in printed.err
-    assert "bounded at zero: joint_5" in printed.out
+    assert "warning: compliance bounded at zero: joint_5" in printed.err
     report = json.loads((out / "report.json").read_text())
     assert report["compliance"]["bounded_at_zero"] == ["joint_5"]
     stored = json.loads((out / "irb120_calibration.json").read_text())["compliance"]["compliance_rad_per_Nm"]

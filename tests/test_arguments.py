@@ -8,6 +8,7 @@ an ArgumentError also carries the name as ``.argument``.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -330,3 +331,32 @@ def test_a_negative_zero_is_zero(chain, params):
     assert str(as_float(-0.0, "noise_mm", 0.0)) == "0.0"
     data, _ = cp.simulate(chain, params, 5, seed=0, noise_mm=-0.0)
     assert len(data) == 5
+
+
+@pytest.mark.parametrize("text", ["", ",,", " , "])
+def test_names_that_name_nothing_are_refused(text):
+    """Text given for names but naming none is a mistake (an empty shell variable, a
+    stray comma), never "no names": --free '' meant every unknown free."""
+    with pytest.raises(ArgumentError, match="names nothing"):
+        as_names(text, "free")
+
+
+IRB120 = cp.load_chain("irb120")
+
+
+@pytest.mark.parametrize(("make", "arg", "says"), [
+    (lambda: cp.CableSetup(tool_mm=(0, 0, -5000)), "tool_mm", "0,0,-5000 mm is 5000 mm from the end frame, beyond "
+     "the 2000 mm a point may be (a unit mistake?)"),
+    (lambda: cp.CableSetup(anchor_mm=(90000, 0, 0)), "anchor_mm", "90000,0,0 mm is 90000 mm from the base, beyond "
+     "the 20000 mm"),
+    (lambda: cp.ContactSetup(tool_mm=(0, 3000, 0)), "tool_mm", "3000 mm from the end frame"),
+    (lambda: cp.Compliance("joint_2", payload_kg=1.0, payload_com_mm=(0, 0, 5000)), "payload_com_mm", "5000 mm"),
+    (lambda: cp.simulate(IRB120, cp.parameter_model(IRB120), 5, 0, tool_mm=(0, 0, -5000)), "tool_mm", "5000 mm"),
+])
+def test_a_point_beyond_reach_is_refused_with_its_bound(make, arg, says):
+    """A tool point (or a payload's centre of mass) over 2 m from the end frame, or an anchor
+    over 20 m from the base, is a unit mistake: refused where it enters, naming the bound."""
+    with pytest.raises(ArgumentError, match=re.escape(says)) as caught:
+        make()
+    assert caught.value.argument == arg
+    assert cp.CableSetup(tool_mm=(0, 0, 1999), anchor_mm=(19000, 0, 0)).tool_mm.tolist() == [0, 0, 1999]

@@ -888,23 +888,23 @@ def scaled_wu(factor: float) -> str:
 #: unit, whether the parse, the set-up record or the check of the set-up against the
 #: readings refuses it (an anchor 100 m away named 'argument noise' before).
 I26_PERSET: list[Case] = [
-    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
-     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: the set-up (anchor_mm 100000,0,0 mm (given), tool_mm 0,0,50 mm "
+    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e4,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:anchor_mm=1e4,0,0': anchor_mm: the set-up (anchor_mm 10000,0,0 mm (given), tool_mm 0,0,50 mm "
      "(the file's), length_offset_mm 0 mm (the file's)) does not fit the readings"),
-    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e5,0,0", "--no-html", "--out", "out"], {"a.csv": data()}, 2,
-     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: the set-up (anchor_mm 100000,0,0 mm"),
+    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e4,0,0", "--no-html", "--out", "out"], {"a.csv": data()}, 2,
+     "--data 'a.csv:anchor_mm=1e4,0,0': anchor_mm: the set-up (anchor_mm 10000,0,0 mm"),
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=2e6,0,0", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:anchor_mm=2e6,0,0': anchor_mm: expected 3 numbers 'x,y,z' in mm, each of magnitude below 1000000"),
-    (CAL, ["irb120", "--data", "a.csv:tool_mm=1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
-     "--data 'a.csv:tool_mm=1e5,0,0': tool_mm: the set-up (anchor_mm 600,200,-100 mm (the file's), tool_mm "
-     "100000,0,0 mm (given), length_offset_mm 0 mm (the file's)) does not fit the readings"),
+    (CAL, ["irb120", "--data", "a.csv:tool_mm=1500,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:tool_mm=1500,0,0': tool_mm: the set-up (anchor_mm 600,200,-100 mm (the file's), tool_mm "
+     "1500,0,0 mm (given), length_offset_mm 0 mm (the file's)) does not fit the readings"),
     (CAL, ["irb120", "--data", "a.csv:length_offset_mm=1e5", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:length_offset_mm=1e5': length_offset_mm: 100000 mm (given) does not fit the readings: they "
      "miss the cable lengths at the nominal robot by the same "),
     (CAL, ["irb120", "--data", "a.csv:length_offset_mm=2e6", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:length_offset_mm=2e6': length_offset_mm: expected a number of magnitude below 1000000"),
-    (CAL, ["irb120", "--data", "c.csv:tool_mm=1e5,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
-     "--data 'c.csv:tool_mm=1e5,0,0': tool_mm: 100000,0,0 mm (given; the tool point in the end frame) does not fit "
+    (CAL, ["irb120", "--data", "c.csv:tool_mm=1500,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
+     "--data 'c.csv:tool_mm=1500,0,0': tool_mm: 1500,0,0 mm (given; the tool point in the end frame) does not fit "
      "the touches"),
     (CAL, ["irb120", "--data", "c.csv:tool_mm=2e6,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
      "--data 'c.csv:tool_mm=2e6,0,0': tool_mm: expected 3 numbers 'x,y,z' in mm, each of magnitude below 1000000"),
@@ -919,13 +919,13 @@ I26_PERSET: list[Case] = [
     (CAL, ["irb120", "--data", "a.csv:label=", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:label=': label: an empty label"),
     # the same set-up checks for the global flags and the file's own metadata
-    (CAL, ["irb120", "--data", "a.csv", "--anchor-mm", "1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
-     "a.csv: anchor_mm: the set-up (anchor_mm 100000,0,0 mm (given), tool_mm 0,0,50 mm (the file's)"),
-    (CAL, ["irb120", "--data", "a.csv", "--analyze"], {"a.csv": anchor("# anchor_mm: 600000, 200, -100")}, 2,
-     "a.csv: the set-up (anchor_mm 600000,200,-100 mm (the file's), tool_mm 0,0,50 mm (the file's), "
+    (CAL, ["irb120", "--data", "a.csv", "--anchor-mm", "1e4,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "a.csv: anchor_mm: the set-up (anchor_mm 10000,0,0 mm (given), tool_mm 0,0,50 mm (the file's)"),
+    (CAL, ["irb120", "--data", "a.csv", "--analyze"], {"a.csv": anchor("# anchor_mm: 15000, 200, -100")}, 2,
+     "a.csv: the set-up (anchor_mm 15000,200,-100 mm (the file's), tool_mm 0,0,50 mm (the file's), "
      "length_offset_mm 0 mm (the file's)) does not fit the readings"),
-    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# tool_mm: 0, 0, 50000")}, 2,
-     "c.csv: tool_mm: 0,0,50000 mm (the file's; the tool point in the end frame) does not fit the touches"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# tool_mm: 0, 0, 1500")}, 2,
+     "c.csv: tool_mm: 0,0,1500 mm (the file's; the tool point in the end frame) does not fit the touches"),
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=650,200,-100", "--analyze"], {"a.csv": data()}, 0, "rank"),
     # the file's offset wrong: the same miss on every row names the offset, not the anchor
     (CAL, ["irb120", "--data", "a.csv", "--analyze"],
@@ -944,6 +944,131 @@ I26_PERSET: list[Case] = [
      "--tool-mm: expected 3 numbers 'x,y,z' in mm, each of magnitude below 1000000"),
     (CAL, ["irb120", "--length-offset-mm", "2e6", "--analyze"], {}, 2,
      "--length-offset-mm: expected a number of magnitude below 1000000"),
+]
+
+
+#: A URDF whose file stem (gen3lite) is not its <robot name> (kinova).
+KINOVA = urdf('name="abb_irb120"', 'name="kinova"')
+
+#: A session file's stem as a lab names it: four of them joined are over 255 bytes.
+LONG_STEM = "kinova_gen3lite_ball_in_socket_session_recorded_2024_03_01_station_b"
+
+#: Issue 34, part A: broken promises of the round on several sets, new sensors and real
+#: lab files, one block of rows per class (docs/bad_input.md, "Classes and decisions").
+I34_CLASSES: list[Case] = [
+    # another robot's file is named by its robot line, not by its joints or limits
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"],
+     {"d.csv": csv(swap(ROWS[0], 0, "200"), *ROWS[1:40], meta=("# robot: ur5", *META[1:]))}, 2,
+     "d.csv: robot: is for robot 'ur5', not 'irb120'"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"],
+     {"d.csv": csv(*(",".join([*r.split(",")[:6], "0", r.split(",")[6]]) for r in ROWS[:40]),
+                   meta=("# robot: panda", *META[1:]), head=HEAD.replace("q6_deg", "q6_deg,q7_deg"))}, 2,
+     "d.csv: robot: is for robot 'panda', not 'irb120'"),
+    # a URDF robot is named by its file stem or by its <robot name>
+    (CAL, ["gen3lite.urdf", "--data", "d.csv", "--analyze"],
+     {"gen3lite.urdf": KINOVA, "d.csv": csv(*ROWS[:40], meta=("# robot: kinova", *META[1:]))}, 0,
+     "gen3lite: 40 poses from d.csv"),
+    (CAL, ["gen3lite.urdf", "--data", "d.csv", "--analyze"],
+     {"gen3lite.urdf": KINOVA, "d.csv": csv(*ROWS[:40], meta=("# robot: kinova2", *META[1:]))}, 2,
+     "d.csv: robot: is for robot 'kinova2', not 'gen3lite' (nor 'kinova', its URDF's <robot name>)"),
+    # a metadata key that looks like one calib-pin reads is refused as a column is; free text stays a note
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": anchor("# anchor_mn: 600, 200, -100")}, 2,
+     "d.csv:3: anchor_mn: unknown metadata key; did you mean anchor_mm?"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": anchor("# Anchor_mm: 600, 200, -100")}, 2,
+     "d.csv:3: Anchor_mm: unknown metadata key; did you mean anchor_mm? (keys are case-sensitive"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": anchor("# anchor_cm: 60, 20, -10")}, 2,
+     "d.csv:3: anchor_cm: unknown metadata key; did you mean anchor_mm? (unit 'cm' is not read"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(*ROWS[:40], meta=(*META, "# tool: Schunk EGP 40"))},
+     0, "40 poses from d.csv"),
+    # a list option that names nothing is refused, not read as "none" or "every one"
+    (CAL, ["irb120", "--data", "d.csv", "--free", "", "--analyze"], {"d.csv": data()}, 2,
+     "argument --free: '' names nothing: give comma-separated names, or leave the option out"),
+    (CAL, ["irb120", "--data", "d.csv", "--free", ",,", "--analyze"], {"d.csv": data()}, 2,
+     "argument --free: ',,' names nothing"),
+    (CAL, ["irb120", "--data", "d.csv", "--fix", " , ", "--analyze"], {"d.csv": data()}, 2,
+     "argument --fix: ' , ' names nothing"),
+    (CMP, ["irb120", "--data", "d.csv", "--free", "", "--methods", "lm", "--trials", "1"], {"d.csv": data()}, 2,
+     "argument --free: '' names nothing"),
+    (CMP, ["irb120", "--data", "d.csv", "--models", "", "--trials", "1"], {"d.csv": data()}, 2,
+     "argument models: give comma-separated models"),
+    # a per-set option and the global flag for the same set: refused naming both
+    (CAL, ["irb120", "--data", "d.csv:anchor_mm=600,200,-100", "--anchor-mm", "650,200,-100", "--analyze"],
+     {"d.csv": data()}, 2, "--data 'd.csv:anchor_mm=600,200,-100' and --anchor-mm both give anchor_mm of d.csv: give one"),
+    (CAL, ["irb120", "--data", "p.csv:noise_deg=0.01", "--noise-deg", "0.02", "--analyze"], {"p.csv": pose_set()}, 2,
+     "--data 'p.csv:noise_deg=0.01' and --noise-deg both give noise_deg of p.csv: give one"),
+    (CAL, ["irb120", "--data", "d.csv:noise_mm=0.05", "--data", "p.csv", "--noise-mm", "0.1", "--analyze"],
+     {"d.csv": data(), "p.csv": pose_set()}, 2, "--data 'd.csv:noise_mm=0.05' and --noise-mm both give noise_mm of d.csv"),
+    # one length a pair of contact points: the pair again with another length (either order) refused
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# distance_mm: B, A, 300")}, 2,
+     "c.csv:6: distance_mm: B, A: 300 mm here, 391.535 mm on line 3 (A, B): one length a pair"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# distance_mm: A, B, 391.0")}, 2,
+     "c.csv:6: distance_mm: A, B: 391 mm here, 391.535 mm on line 3 (A, B): one length a pair"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# distance_mm: B, A, 391.535439")}, 0,
+     "1 known distance(s)"),
+    (SIM, ["irb120", "--kinds", "contact", "--geometry", "g.json", "--out", "s.csv"],
+     {"g.json": '{"data_kind": "contact", "points_mm": {"A": [380, 120, 250], "B": [300, -250, 150]}, '
+                '"distances_mm": [["A", "B", 400], ["B", "A", 410]]}'}, 2,
+     "g.json: not a set-up of contact fixtures: distance B, A: 410 mm, and 400 mm as A, B: one length a pair"),
+    # an end frame that is the last joint's own link: refused where it enters, before the fit
+    (CAL, ["irb120", "--data", "d.csv", "--method", "lm", "--no-html", "--out", "o"],
+     {"d.csv": csv(*ROWS[:40], meta=(META[0], "# end_frame: link_6", *META[2:]))}, 2,
+     "end frame 'link_6' is the link of joint 'joint_6': a calibration moves the end frame"),
+    (CAL, ["irb120", "--data", "d.csv", "--end-frame", "link_6", "--export", "yaml", "--method", "lm", "--no-html",
+           "--out", "o"], {"d.csv": csv(*ROWS[:40], meta=(META[0], *META[2:]))}, 2,
+     "end frame 'link_6' is the link of joint 'joint_6'"),
+    # a tool point or anchor beyond reach (a unit mistake) is refused where it enters, with the bound
+    (SIM, ["irb120", "--tool-mm", "0,0,-5000", "--out", "s.csv"], {}, 2,
+     "--tool-mm: 0,0,-5000 mm is 5000 mm from the end frame, beyond the 2000 mm a point may be (a unit mistake?)"),
+    (SIM, ["irb120", "--anchor-mm", "90000,0,0", "--out", "s.csv"], {}, 2,
+     "--anchor-mm: 90000,0,0 mm is 90000 mm from the base, beyond the 20000 mm a point may be"),
+    (SIM, ["irb120", "--kinds", "contact", "--tool-mm", "0,0,-5000", "--out", "s.csv"], {}, 2,
+     "--tool-mm: 0,0,-5000 mm is 5000 mm from the end frame"),
+    (SIM, ["irb120", "--compliance", "joint_2", "--true-compliance-urad-per-nm", "20", "--payload-kg", "1",
+           "--payload-com-mm", "0,0,5000", "--out", "s.csv"], {}, 2, "--payload-com-mm: 0,0,5000 mm is 5000 mm"),
+    (PLAN, ["irb120", "--tool-mm", "0,0,-5000", "--out", "p.csv"], {}, 2, "--tool-mm: 0,0,-5000 mm is 5000 mm"),
+    (COL, [*COLLECT, "--anchor-mm", "1e5,0,0"], {"p.csv": POSES}, 2, "--anchor-mm: 100000,0,0 mm is 100000 mm"),
+    (CAL, ["irb120", "--data", "a.csv:anchor_mm=1e5,0,0", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:anchor_mm=1e5,0,0': anchor_mm: 100000,0,0 mm is 100000 mm from the base, beyond the 20000 mm"),
+    (CAL, ["irb120", "--data", "c.csv:tool_mm=1e5,0,0", "--analyze"], {"c.csv": contact_set()}, 2,
+     "--data 'c.csv:tool_mm=1e5,0,0': tool_mm: 100000,0,0 mm is 100000 mm from the end frame, beyond the 2000 mm"),
+    (CAL, ["irb120", "--data", "a.csv", "--analyze"], {"a.csv": anchor("# anchor_mm: 600000, 200, -100")}, 2,
+     "a.csv: anchor_mm: 600000,200,-100 mm is 600000 mm from the base, beyond the 20000 mm a point may be"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": contact_set("# tool_mm: 0, 0, 50000")}, 2,
+     "c.csv: tool_mm: 0,0,50000 mm is 50000 mm from the end frame, beyond the 2000 mm a point may be"),
+    (SIM, ["irb120", "--kinds", "contact", "--geometry", "g.json", "--out", "s.csv"],
+     {"g.json": '{"data_kind": "contact", "points_mm": {"A": [380, 120, 250]}, "tool_mm": [0, 0, 5000]}'}, 2,
+     "g.json: not a set-up of contact fixtures: tool_mm: 0,0,5000 mm is 5000 mm from the end frame"),
+    # --nominal takes a calibrate output folder as compensate --calibration does, or says what to give
+    (CAL, ["irb120", "--data", "d.csv", "--nominal", "o", "--method", "lm", "--no-html", "--out", "o2"],
+     {"d.csv": data(), "o/irb120_calibration.json": _calibration_file()}, 0, "start: irb120_calibration.json"),
+    (CAL, ["irb120", "--data", "d.csv", "--nominal", "o", "--analyze"], {"d.csv": data(), "o/x.txt": ""}, 2,
+     "o: no *_calibration.json in this folder (--nominal: a calibrate output folder, a calib-pin calibration .json"),
+    (CMP, ["irb120", "--data", "d.csv", "--nominal", "o", "--methods", "lm", "--trials", "1", "--out", "c"],
+     {"d.csv": data(), "o/irb120_calibration.json": _calibration_file()}, 0, "wrote c/table1.csv"),
+    # batch: set folder names safe and unique; a file name holding '+' joins
+    ("batch", ["...csv", "--out", "o/p", "--method", "lm"], {"...csv": data()}, 0, "set-"),
+    ("batch", ["a+b.csv+c.csv", "--out", "o", "--method", "lm"], {"a+b.csv": data(), "c.csv": csv(*ROWS[60:100])},
+     0, "a+b+c  ok"),
+    ("batch", ["+".join(f"{LONG_STEM}_{k}.csv" for k in range(4)), "--out", "o", "--method", "lm"],
+     {f"{LONG_STEM}_{k}.csv": csv(*ROWS[30 * k:30 * k + 30]) for k in range(4)}, 0, f"{LONG_STEM}_0+3-more-"),
+    # a row beyond the URDF's joint limits (a controller that allows more): refused pointing at the margin,
+    # accepted with --limit-margin-deg, the rows named
+    (CAL, ["irb120", "--data", "d.csv", "--analyze"], {"d.csv": csv(swap(ROWS[0], 0, "165.4"), *ROWS[1:40])}, 2,
+     "d.csv:8: q1_deg: 165.4 is outside the limits of joint_1 [-165, 165] deg (the URDF's; a controller that allows "
+     "more: calibrate --limit-margin-deg)"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze", "--limit-margin-deg", "1"],
+     {"d.csv": csv(swap(ROWS[0], 0, "165.4"), *ROWS[1:40])}, 0,
+     "note: 1 row(s) of d.csv beyond the URDF's joint limits, accepted by --limit-margin-deg 1: line 8: joint_1 165.4"),
+    (CAL, ["irb120", "--data", "d.csv", "--analyze", "--limit-margin-deg", "0.2"],
+     {"d.csv": csv(swap(ROWS[0], 0, "165.4"), *ROWS[1:40])}, 2, "[-165.2, 165.2] deg (the URDF's, widened by 0.2 deg)"),
+    (CAL, ["irb120", "--analyze", "--limit-margin-deg", "45"], {}, 2,
+     "argument --limit-margin-deg: expected a number of degrees in [0, 30], got '45'"),
+    # every numeric metadata value in the file's dialect: a 6-D set with decimal commas
+    (CAL, ["irb120", "--data", "p.csv", "--analyze"],
+     {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0,01")}, 0, "(noise 0.05 mm, 0.01 deg)"),
+    (CAL, ["irb120", "--data", "p.csv", "--analyze"],
+     {"p.csv": european(pose_set()).replace("# noise_deg: 0.01", "# noise_deg: 0.01")}, 2,
+     "p.csv:4: noise_deg: decimal point in '0.01', but line 3 has a decimal comma"),
 ]
 
 
@@ -1030,7 +1155,7 @@ I34B: list[Case] = [
      "of the registration rows: nothing locates it (register=2 took 2 poses, one of each fixture or point in turn"),
     # too few values: counted against the directions the rows identify (or the free unknowns)
     (CAL, ["irb120", "--data", "d.csv", "--test-fraction", "0", "--method", "lm", "--no-html", "--out", "out"],
-     {"d.csv": csv(*ROWS[:23])}, 0, "identifiable: 20 of 24"),
+     {"d.csv": csv(*ROWS[:23])}, 0, "of 24 determined by the data"),
     (CAL, ["irb120", "--data", "d.csv", "--test-fraction", "0", "--free", "theta_2,theta_3", "--method", "lm",
            "--no-html", "--out", "out"], {"d.csv": csv(*ROWS[:10])}, 0, "fixed (held at their nominal value"),
     (CAL, ["irb120", "--data", "d.csv", "--test-fraction", "0", "--method", "lm", "--no-html", "--out", "out"],
@@ -1059,6 +1184,7 @@ SECTIONS: list[tuple[str, list[Case]]] = [
     ("Issue 25: parameters held fixed, a start file, controller programs", I25_CONTROLLER),
     ("Round 26: per-set options name their own key; a set-up that misses the readings", I26_PERSET),
     ("Issue 34 (B): rows fitted twice, thin sets' noise, collisions, moved fixtures, counts, messages", I34B),
+    ("Issue 34: several sets, new sensors and real lab files (part A)", I34_CLASSES),
 ]
 CASES += [row for _, rows in SECTIONS for row in rows]
 

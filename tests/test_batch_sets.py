@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -82,3 +83,48 @@ def test_compare_on_stacked_sets(sessions, tmp_path, capsys):
     assert compare_main(["irb120", "--data", paths[0], "--data", paths[1], "--methods", "lm",
                          "--out", paths[0], "--quiet"]) == 2
     capsys.readouterr()
+
+
+def test_a_set_folder_name_is_safe_and_unique():
+    """Many sessions joined stay under the file system's 255 bytes, a stem '..', '.' or a
+    hidden one never names a folder outside --out or the checkpoint's, and different sets
+    keep different names."""
+    from calib_pin.studies.batch import NAME_LIMIT, folder_name
+
+    long = [f"session_recorded_on_2024_03_{k:02d}_station_long_name" for k in range(1, 13)]
+    name = folder_name(long)
+    assert name.startswith("session_recorded_on_2024_03_01_station_long_name+11-more-")
+    assert len(name.encode()) <= NAME_LIMIT and folder_name(long[:11] + ["other"]) != name
+    for stems in (["..", "x"], [".."], ["."], [".calib-pin-checkpoint"], [""], ["é" * 200]):
+        made = folder_name(stems)
+        assert made and not made.startswith(".") and "/" not in made and len(made.encode()) <= NAME_LIMIT, made
+    assert folder_name([".."]) != folder_name(["."]) and folder_name(["a", "b"]) == "a+b"
+    assert BatchTask("irb120", "x/...csv").name.startswith("set-")
+
+
+def test_a_file_name_holding_plus_can_be_joined(tmp_path, monkeypatch):
+    """a+b.csv+c.csv: the '+' that leave existing files cut it; two such ways are refused,
+    and where none does the missing file is the one named (a name beyond the file system's
+    limit is no file, not an error)."""
+    monkeypatch.chdir(tmp_path)
+    for name in ("a+b.csv", "c.csv"):
+        (tmp_path / name).write_text("x")
+    assert calibration_files("a+b.csv+c.csv") == ("a+b.csv", "c.csv")
+    assert calibration_files("a+b.csv+d.csv") == ("a+b.csv", "d.csv")  # d.csv then named as missing
+    assert calibration_files("+".join(["s" * 60 + ".csv"] * 6)) == ("s" * 60 + ".csv",) * 6
+    for name in ("a", "b.csv"):
+        (tmp_path / name).write_text("x")
+    with pytest.raises(CalibPinError, match="two readings of existing files, 'a' \\+ 'b.csv' \\+ 'c.csv' and"):
+        calibration_files("a+b.csv+c.csv")
+
+
+def test_batch_writes_a_dot_dot_stem_inside_out(sessions, tmp_path, capsys):
+    """A set file named '...csv' (stem '..') writes its report inside --out, not beside it."""
+    paths, _ = sessions
+    odd = tmp_path / "...csv"
+    odd.write_bytes(Path(paths[0]).read_bytes())
+    out = tmp_path / "deep" / "out"
+    assert batch_main([str(odd), "--robot", "irb120", "--out", str(out)]) == 0
+    assert sorted(p.name for p in (tmp_path / "deep").iterdir()) == ["out"]
+    (folder,) = [p for p in out.iterdir() if p.is_dir()]
+    assert folder.name.startswith("set-") and (folder / "report.json").is_file()

@@ -72,6 +72,20 @@ def test_check_measurements(chain, cable, positions):
         check_measurements(chain, {"q": cable.q})
 
 
+def test_another_robots_set_is_named_before_its_angles(chain, cable):
+    """A set of another robot whose angles are also outside this robot's limits is refused
+    for its robot, not for a joint limit."""
+    other = changed(cable, robot="ur5", q=(3, 0, chain.upper[0] + 1.0))
+    with pytest.raises(cp.DataError, match=re.escape("robot: is for robot 'ur5', not 'irb120'")):
+        check_measurements(chain, other)
+
+
+def test_a_set_may_name_its_robot_by_the_urdfs_robot_name(chain, cable):
+    """The URDF's <robot name> (abb_irb120 for irb120) names the robot as its own name does."""
+    assert chain.full_model.name == "abb_irb120"
+    assert check_measurements(chain, changed(cable, robot="abb_irb120")).robot == "abb_irb120"
+
+
 def test_entry_points_refuse_a_bad_set_in_memory(chain, params, cable, positions):
     """calibrate, prepare and a test_data session all check the set (once, where it
     enters): the checks are the library's, the CLI goes through them."""
@@ -164,3 +178,21 @@ def test_a_nan_quaternion_component_of_a_6d_set_is_named(chain):
     with pytest.raises(cp.DataError, match=r"row 2 \(0-based\): nan is not a finite pose reading") as refused:
         check_measurements(chain, dataclasses.replace(data, values=values, lines=None))
     assert refused.value.field == "qx"
+
+
+def test_a_limit_margin_accepts_a_row_beyond_the_urdf_and_names_it(chain, cable, tmp_path):
+    """A row 0.5 deg beyond joint_1's URDF limit: refused, pointing at the margin; accepted
+    with limit_margin_deg, which names the row; still refused beyond the margin."""
+    from calib_pin.measurements.checks import beyond_urdf_limits
+
+    over = changed(cable, q=(4, 0, chain.upper[0] + np.radians(0.5)), source="s.csv", lines=np.arange(10, 40))
+    with pytest.raises(cp.DataError, match=re.escape("s.csv:14: q1: 165.5 deg is outside the limits of joint_1 "
+                                                     "[-165, 165] deg (the URDF's; a controller that allows more: "
+                                                     "calibrate --limit-margin-deg)")):
+        cp.prepare("irb120", over)
+    calibration = cp.prepare("irb120", over, limit_margin_deg=1.0)
+    assert beyond_urdf_limits(calibration.chain, calibration.data) == ["line 14: joint_1 165.5 deg"]
+    with pytest.raises(cp.DataError, match=re.escape("[-165.2, 165.2] deg (the URDF's, widened by 0.2 deg)")):
+        cp.prepare("irb120", over, limit_margin_deg=0.2)
+    with pytest.raises(cp.ArgumentError, match="limit_margin_deg"):
+        cp.prepare("irb120", over, limit_margin_deg=45)

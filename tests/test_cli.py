@@ -288,3 +288,37 @@ def test_every_help_names_the_calib_pin_command(name, capsys):
         command(name)(["--help"])
     assert done.value.code == 0
     assert capsys.readouterr().out.startswith(f"usage: calib-pin {name} ")
+
+
+def _with_temperature(text: str) -> str:
+    """A measurement set with a temp_C column after its others (ignored, with a warning)."""
+    lines = text.splitlines()
+    head = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    return "\n".join([*lines[:head], lines[head] + ",temp_C", *(line + ",21.5" for line in lines[head + 1:])]) + "\n"
+
+
+@pytest.mark.parametrize("analyze", [False, True], ids=["calibrate", "analyze"])
+def test_warnings_go_to_stderr_and_stdout_keeps_the_results(tmp_path, capsys, analyze):
+    """An ignored column is a warning line on stderr, for a calibration and for --analyze;
+    stdout, which scripts parse, holds no warning or note."""
+    data = tmp_path / "d.csv"
+    data.write_text(_with_temperature((ROOT / "robots" / "irb120_default.csv").read_text()))
+    tail = ["--analyze"] if analyze else ["--method", "lm", "--no-html", "--out", str(tmp_path / "out")]
+    assert calibrate_main(["irb120", "--data", str(data), *tail]) == 0
+    printed = capsys.readouterr()
+    assert "warning: ignored columns: temp_C (in d.csv; read and kept, not used)" in printed.err.splitlines()
+    assert not [line for line in printed.out.splitlines() if line.startswith(("warning:", "note:"))], printed.out
+    assert ("rank" if analyze else "test after") in printed.out
+
+
+def test_no_command_prints_a_warning_or_note_on_stdout():
+    """Every 'warning:' or 'note:' line of the commands goes through cli.common.warn (stderr):
+    none is printed to stdout."""
+    import re
+
+    found = []
+    for path in sorted((ROOT / "calib_pin" / "cli").glob("*.py")):
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            if re.search(r"""print\(f?["'](warning|note):""", line) and "sys.stderr" not in line:
+                found.append(f"{path.name}:{number}")
+    assert not found

@@ -63,3 +63,26 @@ def test_export_refusals_one_line_nothing_written(tmp_path, capsys, args, messag
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0]
     assert not (tmp_path / "o").exists()
+
+
+def test_an_end_frame_no_urdf_can_hold_is_refused_before_the_fit(tmp_path, capsys, monkeypatch):
+    """calibrate and batch at an end frame that is the last joint's own link refuse before
+    any fit (it was refused at the export, after it), and write nothing."""
+    from pathlib import Path
+
+    import calib_pin.calibration.solve as solve_module
+    from calib_pin.cli import command
+
+    def no_fit(*args, **kwargs):
+        raise AssertionError("fitted before the refusal")
+
+    monkeypatch.setattr(solve_module, "solve", no_fit)
+    shipped = (Path(__file__).resolve().parent.parent / "robots" / "irb120_default.csv").read_text()
+    data = tmp_path / "l6.csv"
+    data.write_text(shipped.replace("# end_frame: tool0", "# end_frame: link_6"))
+    assert _exit_code(["irb120", "--data", str(data), "--method", "lm", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "end frame 'link_6' is the link of joint 'joint_6'" in err[0]
+    assert not (tmp_path / "o").exists()
+    assert command("batch")([str(data), "--out", str(tmp_path / "b")]) == 2
+    assert "l6: end frame 'link_6' is the link of joint 'joint_6'" in capsys.readouterr().err

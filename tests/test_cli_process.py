@@ -142,3 +142,17 @@ def test_a_report_of_several_sets_is_drawn_with_the_collector_on(monkeypatch, tm
     two = ["--data", str(tmp_path / "s0.csv"), "--data", str(tmp_path / "s1.csv")]
     code = calibrate_cli.calibrate_main(["irb120", *two, "--method", "lm", "--no-html", "--out", str(tmp_path / "two")])
     assert code == 0 and entered == [1]
+
+
+def test_python_m_calib_pin_cli_is_the_console_script(tmp_path):
+    """``python -m calib_pin.cli simulate ...`` runs the command as ``calib-pin`` does."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "s.csv"
+    done = subprocess.run([sys.executable, "-m", "calib_pin.cli", "simulate", "irb120", "--poses", "5", "--out",
+                           str(out)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and out.is_file(), done.stderr
+    bad = subprocess.run([sys.executable, "-m", "calib_pin.cli", "frobnicate"], capture_output=True, text=True,
+                         timeout=120)
+    assert bad.returncode == 2 and "frobnicate" in bad.stderr

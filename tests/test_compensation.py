@@ -361,7 +361,7 @@ def test_cli_keeps_the_programs_other_columns(calibrated, chain, tmp_path, capsy
     out = tmp_path / "corrected.csv"
     assert command("compensate")(["irb120", "--calibration", str(folder), "--targets", str(program),
                                   "--out", str(out)]) == 0
-    assert "columns speed, name of program.csv: copied to the output" in capsys.readouterr().out
+    assert "note: columns speed, name of program.csv: copied to the output" in capsys.readouterr().err
     corrected = read_pose_list(out, chain)
     assert np.abs(corrected.q - robot.compensate(q)).max() < 1e-9
     np.testing.assert_array_equal(corrected.extra["speed"], [100.0, np.nan, 25.5])

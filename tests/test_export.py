@@ -82,3 +82,19 @@ def test_the_files_made_in_memory_are_the_files_written(exported, tmp_path):
     rendered = render_outputs(result, html=False)
     assert rendered.files["irb120_calibrated.urdf"] == path.read_text(encoding="utf-8")
     assert rendered.files["irb120_calibration.json"] == written.read_text(encoding="utf-8")
+
+
+def test_an_end_frame_without_a_fixed_joint_is_refused_before_a_fit():
+    """link_6 is joint_6's own link: no URDF or yaml can hold its correction, which the
+    check says up front; tool0 (fixed joints after joint_6) passes."""
+    from calib_pin.export.urdf import check_end_frame_writable
+    from calib_pin.report.bundle import check_exportable
+
+    check_end_frame_writable(cp.load_chain("irb120"))
+    link6 = cp.load_chain("irb120", "link_6")
+    with pytest.raises(cp.RobotError, match="end frame 'link_6' is the link of joint 'joint_6'"):
+        check_end_frame_writable(link6)
+    with pytest.raises(cp.RobotError, match="link_6"):
+        check_exportable(("urdf",), link6)
+    check_exportable(("dh",), link6)  # a DH table holds it
+    check_exportable(("urdf",), link6, kinematic=False)  # rbf writes no robot

@@ -121,3 +121,13 @@ def test_fix_and_free_on_a_contact_set_alone_or_beside_another(chain, params):
     cable, _ = cp.simulate(chain, params, 40, seed=3)
     both = cp.calibrate("irb120", [contact, cable], method="lm", free="theta_2,d_2")
     assert len(both.sets) == 2
+
+
+@pytest.mark.parametrize("free", ["", ",,", [], ()])
+def test_an_empty_list_of_unknowns_is_refused(free):
+    """free='' (or an empty list) is not "every unknown free", and fix='' not "none held":
+    both are refused, as the command line's --free '' and --fix ',,' are."""
+    with pytest.raises(cp.ArgumentError, match="names nothing"):
+        cp.prepare("irb120", WU, free=free)
+    with pytest.raises(cp.ArgumentError, match="names nothing"):
+        cp.prepare("irb120", WU, fix=free)

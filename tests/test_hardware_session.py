@@ -135,7 +135,7 @@ def test_incomplete_last_line_is_dropped_on_resume(poses, tmp_path, capsys):
         text = out.read_text().splitlines(keepends=True)
         out.write_text("".join(text[:-3]) + text[-3][:17])  # two rows lost, one cut mid-write
         assert _collect(fake, path, out) == 0
-    assert "dropped an incomplete last line" in capsys.readouterr().out
+    assert "warning: dropped an incomplete last line" in capsys.readouterr().err
     ids, lengths = _rows(out)
     assert ids == list(range(1, N + 1))
     np.testing.assert_allclose(lengths, values, atol=0.0006)

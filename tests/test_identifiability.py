@@ -72,7 +72,7 @@ def test_rank_deficient_sets_calibrate_near_the_noise_floor(tmp_path, capfd, rob
     code, printed, report, out = _calibrate_cli(tmp_path, capfd, "d.csv", getattr(simulated_sets, maker)(),
                                                 robot, *args)
     assert code == 0, printed.err
-    warning = [line for line in printed.out.splitlines() if "identify only" in line]
+    warning = [line for line in printed.err.splitlines() if "identify only" in line]  # a warning: on stderr
     assert warning == [f"warning: the training poses identify only {rank} of {unknowns} directions: "
                        "the blind directions stay at zero (--analyze lists them)"]
     assert report["identifiability"]["rank"] == rank and report["identifiability"]["unknowns"] == unknowns

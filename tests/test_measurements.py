@@ -1,5 +1,7 @@
 """Measurement CSVs: round trip, units, and one clear error per kind of bad input."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -78,6 +80,34 @@ def test_bad_files_and_metadata(tmp_path, chain, text, message):
     """Empty files, bad metadata and a file for another robot are refused."""
     with pytest.raises(cp.DataError, match=message):
         cp.read_measurements(_write(tmp_path, text), chain)
+
+
+@pytest.mark.parametrize(
+    "header, row",
+    [
+        (HEADER, "200,20,-30,40,-50,60,812.5"),  # joint_1 of irb120 stops at 165 deg
+        (HEADER.replace("q6_deg", "q6_deg,q7_deg"), "10,20,-30,40,-50,60,0,812.5"),  # a 7-joint arm
+    ],
+    ids=["outside-the-limits", "seven-joints"],
+)
+def test_another_robots_file_is_named_by_its_robot_line(tmp_path, chain, header, row):
+    """A file of another robot is refused for its robot line, before its joints are read as
+    this robot's (a joint-limit breach, a joint too many)."""
+    path = _write(tmp_path, "# robot: panda\n" + header + "\n" + row + "\n")
+    with pytest.raises(cp.DataError, match=r"^.*s\.csv: robot: is for robot 'panda', not 'irb120'"):
+        cp.read_measurements(path, chain)
+
+
+def test_a_urdfs_robot_name_names_its_robot(tmp_path):
+    """A file's robot line may give a URDF's <robot name> as well as its file stem."""
+    urdf = tmp_path / "gen3lite.urdf"
+    urdf.write_text(cp.load_chain("irb120").description.urdf.read_text().replace('name="abb_irb120"', 'name="kinova"'))
+    chain = cp.load_chain(str(urdf))
+    for name in ("kinova", "gen3lite", str(urdf)):
+        data = cp.read_measurements(_write(tmp_path, f"# robot: {name}\n" + HEADER + "\n" + ROW + "\n"), chain)
+        assert data.robot == name
+    with pytest.raises(cp.DataError, match=r"is for robot 'kinova2', not 'gen3lite' \(nor 'kinova', its URDF's"):
+        cp.read_measurements(_write(tmp_path, "# robot: kinova2\n" + HEADER + "\n" + ROW + "\n"), chain)
 
 
 def test_missing_file(tmp_path, chain):
@@ -217,6 +247,24 @@ def test_ambiguous_dialects_are_refused(tmp_path, chain, text, message):
     """Mixed decimal marks, mixed separators and a bad ``# csv:`` line are one error each."""
     with pytest.raises(cp.DataError, match=message):
         cp.read_measurements(_write(tmp_path, text), chain)
+
+
+def test_every_numeric_metadata_value_follows_the_files_dialect(tmp_path, chain):
+    """A 6-D pose set with decimal commas gives its noise_deg as it gives its noise_mm, and
+    reads as the standard file does; a noise_deg that is no number names its line."""
+    shipped = (Path(__file__).parent.parent / "robots" / "irb120_pose_example.csv").read_text()
+    meta = [line.replace(".", ",") if line.startswith(("# noise_mm", "# noise_deg")) else line
+            for line in shipped.splitlines() if line.startswith("#")]
+    assert "# noise_deg: 0,01" in meta and "# noise_mm: 0,050000" in meta
+    rows = [line for line in shipped.splitlines() if not line.startswith("#")]
+    standard = cp.read_measurements(_write(tmp_path, shipped, "p.csv"), chain)
+    other = cp.read_measurements(_write(tmp_path, "\n".join(meta) + "\n" + _dialect("\n".join(rows), ";", ","),
+                                        "e.csv"), chain)
+    assert other.notes["noise_deg"] == standard.notes["noise_deg"] == "0.01" and other.noise == standard.noise
+    np.testing.assert_array_equal(other.values, standard.values)
+    with pytest.raises(cp.DataError, match=r"e\.csv:4: noise_deg: '0,01x' is not a number"):
+        cp.read_measurements(_write(tmp_path, "\n".join(meta).replace("0,01", "0,01x") + "\n"
+                                    + _dialect("\n".join(rows), ";", ","), "e.csv"), chain)
 
 
 def test_csv_line_overrides_the_detection(tmp_path, chain):

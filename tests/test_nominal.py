@@ -143,3 +143,26 @@ def test_compensate_against_the_robots_own_model(chain, params, tmp_path, capsys
     for command_q, target in zip(own, targets, strict=True):
         assert np.linalg.norm(robot.forward(command_q).translation - robot.nominal(target).translation) < 1e-6
     assert 1e-4 < np.rad2deg(np.abs(own - targets)).max() < 1.0  # the sag only, not the 2 deg of geometry
+
+
+def test_a_calibrate_output_folder_is_a_start(tmp_path, capsys):
+    """--nominal takes the calibrate --out folder as compensate --calibration does (its
+    calibration file); a folder without one is refused saying what to give, and that folder
+    as --out is refused: its calibration file is an input."""
+    calibrate = command("calibrate")
+    first = tmp_path / "first"
+    assert calibrate(["irb120", "--data", WU, "--method", "lm", "--no-html", "--out", str(first)]) == 0
+    assert calibrate(["irb120", "--data", WU, "--method", "lm", "--no-html", "--nominal", str(first),
+                      "--out", str(tmp_path / "again")]) == 0
+    assert "start: irb120_calibration.json (calib-pin calibration file)" in capsys.readouterr().out
+    report = json.loads((tmp_path / "again" / "report.json").read_text())
+    assert report["start"]["source"] == str(first / "irb120_calibration.json")
+    (tmp_path / "empty").mkdir()
+    for folder, message in ((tmp_path / "empty", "empty: no *_calibration.json in this folder (--nominal: a calibrate "
+                                                 "output folder, a calib-pin calibration .json or a UR"),
+                            (first, "irb120_calibration.json is an input of this command (--nominal)")):
+        code = calibrate(["irb120", "--data", WU, "--method", "lm", "--no-html", "--nominal", str(folder),
+                          "--out", str(first)])
+        err = capsys.readouterr().err
+        assert code == 2 and len(err.strip().splitlines()) == 1 and message in err, err
+    assert load_start(first, cp.load_chain("irb120"), cp.parameter_model(cp.load_chain("irb120"))).kind == "calibration"

@@ -34,8 +34,8 @@ ROOT = Path(__file__).resolve().parent.parent
 #: Set names whose calibration the hook slows down (30 s) or whose worker it kills.
 HOOK_BATCH = """
     import glob, os, time
-    import calib_pin.calibration.solve as _pipeline
-    _calibrate = _pipeline.calibrate
+    import calib_pin.calibration.prepare as _pipeline  # a batch task prepares its set, then fits it
+    _calibrate = _pipeline.prepare
     def calibrate(robot, data, *args, **kwargs):
         name = os.path.basename(str(data))
         if name.startswith("slow"):
@@ -46,7 +46,7 @@ HOOK_BATCH = """
                 time.sleep(0.02)
             os.kill(os.getpid(), 9)
         return _calibrate(robot, data, *args, **kwargs)
-    _pipeline.calibrate = calibrate
+    _pipeline.prepare = calibrate
 """
 
 #: Trials of seed > 0 take 30 s.

@@ -140,3 +140,27 @@ def test_a_global_flag_refused_still_names_the_flag(capsys):
     assert calibrate_main(["irb120", "--data", "robots/irb120_default.csv:noise_mm=0.1", "--noise-deg", "2",
                            "--analyze"]) == 2
     assert capsys.readouterr().err == "error: --noise-deg is for 6-D data; robots/irb120_default.csv holds drawstring readings\n"
+
+
+@pytest.mark.parametrize(("own", "shared", "field"), [
+    ({"setup": CableSetup(anchor_mm=(600, 200, -100))}, {"setup": CableSetup(anchor_mm=(650, 200, -100))}, "anchor_mm"),
+    ({"setup": CableSetup(tool_mm=(0, 0, 50))}, {"setup": CableSetup(tool_mm=(0, 0, 50))}, "tool_mm"),
+    ({"noise_mm": 0.05}, {"noise_mm": 0.1}, "noise_mm"),
+])
+def test_a_value_given_for_the_set_and_for_every_set_is_refused(own, shared, field):
+    """A set's own set-up value or noise beside the one given for every set: refused naming
+    both (one of them was dropped without a word), even when they agree."""
+    with pytest.raises(cp.ArgumentError, match=rf"argument {field}: set irb120_default.csv: given for the set "
+                                               r"\(.*\) and for every set \(.*\): give one"):
+        cp.prepare("irb120", [FitSet("robots/irb120_default.csv", **own)], **shared)
+
+
+@pytest.mark.parametrize(("typed", "flag"), [
+    ("anchor_mm=600,200,-100", ["--anchor-mm", "650,200,-100"]),
+    ("noise_mm=0.05", ["--noise-mm", "0.1"]),
+])
+def test_a_per_set_option_and_its_global_flag_are_refused_together(typed, flag, capsys):
+    code = calibrate_main(["irb120", "--data", f"robots/irb120_default.csv:{typed}", *flag, "--analyze"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err == (f"error: --data 'robots/irb120_default.csv:{typed}' and {flag[0]} both give "
+                                 f"{typed.split('=')[0]} of robots/irb120_default.csv: give one")

@@ -259,3 +259,14 @@ def test_points_many_of_no_perturbation_is_empty(chain):
         many = kin.points_many(deltas, q, [])
         assert many.shape == (0, 5, 3) and many.dtype == float
     assert kin.points_many([], q[0], []).shape == (0, 1, 3)
+
+
+def test_a_limit_margin_widens_the_revolute_joints_of_every_chain_of_the_robot(chain):
+    """A description's limit_margin [rad] widens each revolute joint's limits both ways, in
+    every chain loaded from it (another end frame too)."""
+    wide = dataclasses.replace(chain.description, limit_margin=np.radians(2.0))
+    for end in ("tool0", "link_6"):
+        widened = cp.load_chain(wide, end)
+        n = widened.n_joints
+        np.testing.assert_allclose(widened.lower, chain.lower[:n] - np.radians(2.0))
+        np.testing.assert_allclose(widened.upper, chain.upper[:n] + np.radians(2.0))

@@ -129,6 +129,28 @@ def test_bad_fixtures_are_refused_naming_the_row(robot, tmp_path):
             "Z is no contact_id of this set")
 
 
+def test_one_length_a_pair(robot, sockets):
+    """A pair of points given twice (in either order) with two lengths is refused naming both
+    lines; the same length twice is one distance; a layout file follows the same rule."""
+    from calib_pin.sensors.contact import Fixtures, known_distances
+
+    data, truth = sockets
+    (a, b, length, _), = data.sensor_meta["distance"]
+    points = ("A", "B", "C")
+    twice = dataclasses.replace(data, source="c.csv", sensor_meta={"distance": ((a, b, length, 3), (b, a, 0.3, 4))})
+    with pytest.raises(cp.DataError, match=rf"^c\.csv:4: distance_mm: {b}, {a}: 300 mm here, {length * 1e3:g} mm on "
+                                           rf"line 3 \({a}, {b}\): one length a pair"):
+        known_distances(twice, points)
+    again = dataclasses.replace(data, sensor_meta={"distance": ((a, b, length, 3), (b, a, length + 1e-7, 4))})
+    assert known_distances(again, points) == ((0, 1, length),)
+    layout = truth.sensor.to_dict()
+    layout["distances_mm"] = [["A", "B", 300.0], ["B", "A", 301.0]]
+    with pytest.raises(ValueError, match="distance B, A: 301 mm, and 300 mm as A, B: one length a pair"):
+        Fixtures.from_dict(layout)
+    layout["distances_mm"] = [["A", "B", 300.0], ["B", "A", 300.0]]
+    assert len(Fixtures.from_dict(layout).distances) == 1
+
+
 def test_analyze_says_what_the_fixtures_see(robot, sockets):
     chain, params = robot
     data, _ = sockets

@@ -33,10 +33,14 @@ def held_names(names: Sequence[str], n_robot_side: int, fix: Any = None, free: A
         fix, free: Names, a comma-separated str or a sequence (None: none).
 
     Raises:
-        ArgumentError: an unknown name (with the valid ones), a name in both, or every
-            robot unknown held.
+        ArgumentError: an unknown name (with the valid ones), a name in both, an empty
+            list (or text that names nothing), or every robot unknown held.
     """
+    given = {"fix": fix, "free": free}
     fix, free = as_names(fix, "fix"), as_names(free, "free")
+    for arg, held in (("fix", fix), ("free", free)):
+        if given[arg] is not None and not held:  # free=[]: not "every unknown free", a list that lost its names
+            raise ArgumentError(arg, f"an empty list names nothing: give the unknowns, or {arg}=None")
     robot = tuple(names[:n_robot_side])
     for arg, given, valid in (("fix", fix, tuple(names)), ("free", free, robot)):
         unknown = [n for n in given if n not in valid]

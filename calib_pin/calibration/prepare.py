@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +22,7 @@ from ..parameters import MODELS, ParameterModel, parameter_model
 from ..parameters.prior import Prior
 from ..robot import Chain, RobotDescription, load_chain, resolve_robot
 from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
-from ..robot.description import as_robot
+from ..robot.description import MAX_LIMIT_MARGIN_DEG, as_robot
 from ..sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for, setup_record
 from ..sensors.base import FIT_ROWS_KEY
 from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path, as_xyz_mm
@@ -247,9 +247,12 @@ def deprecated_records(loose: dict[str, Any], setup: SensorSetup | None,
                                  cable_tension_n=loose.get("cable_tension_n"), stacklevel=5)
 
 
-def _load_robot(robot: str | RobotDescription, first: Any, end_frame: str | None) -> Chain:
+def _load_robot(robot: str | RobotDescription, first: Any, end_frame: str | None,
+                limit_margin_deg: float | None = None) -> Chain:
     robot = as_robot(robot, "robot")
     description = robot if isinstance(robot, RobotDescription) else resolve_robot(robot)
+    if limit_margin_deg is not None:  # the chain's limits, so every check of an angle takes them
+        description = replace(description, limit_margin=float(np.radians(limit_margin_deg)))
     if end_frame is None and description.end_frame is None and first is not None:
         # No tool0 in the URDF: the data file may name the end frame.
         end_frame = (first if isinstance(first, MeasurementSet) else read_measurements(first)).end_frame
@@ -306,6 +309,31 @@ def _tcp_points(tcp_mm: Any) -> tuple[np.ndarray, ...]:
     return tuple(as_xyz_mm(p, "tcp_mm") * 1e-3 for p in points)
 
 
+def _refuse_given_twice(given: list[FitSet], shared: dict[str, Any], noises: list[float | None]) -> None:
+    """Refuse a set-up value or noise given both for a set (its FitSet) and for every set
+    (``setup`` / ``noise_mm``): one of them would be dropped without a word.
+
+    Raises:
+        ArgumentError: naming the field, the set and both values.
+    """
+    for k, s in enumerate(given):
+        own = {name: v for name, v in (s.setup.given() if s.setup is not None else {}).items() if name != "estimate"}
+        if s.noise_mm is not None:
+            own["noise_mm"] = s.noise_mm
+        for name, value in own.items():
+            other = noises[k] if name == "noise_mm" else shared.get(name)
+            if other is not None:
+                data = s.data.source if isinstance(s.data, MeasurementSet) else s.data
+                where = s.label or (Path(data).name if data else f"{k + 1}")
+                raise ArgumentError(name, f"set {where}: given for the set ({_shown(value)}) and for every set "
+                                    f"({_shown(other)}): give one")
+
+
+def _shown(value: Any) -> str:
+    """A set-up value for a message (``600,200,-100``)."""
+    return ",".join(f"{v:g}" for v in np.atleast_1d(np.asarray(value, dtype=float)))
+
+
 def prepare(
     robot: str | RobotDescription,
     data: Any = None,
@@ -320,6 +348,7 @@ def prepare(
     nominal: str | Path | None = None,
     prior: Prior | None = None,
     tcp_mm: Any = None,
+    limit_margin_deg: float | None = None,
     **deprecated: Any,
 ) -> Calibration:
     """Load and check a robot and its measurement sets for calibration.
@@ -328,8 +357,10 @@ def prepare(
         robot: Robot name or URDF path (``irb120``).
         data: A measurement CSV or set, or a list of them (or of
             :class:`~calib_pin.calibration.sets.FitSet`); None: the robot's shipped set.
-        end_frame, noise_mm, parameters, setup, compliance, fix, free, nominal, deprecated: As
+        end_frame, noise_mm, parameters, setup, compliance, fix, free, nominal, prior, tcp_mm, deprecated: As
             :func:`calib_pin.calibrate` (``noise_mm``: 1 sigma [mm]).
+        limit_margin_deg: How far beyond its URDF limits each revolute joint's measured angle
+            is accepted, [deg] in [0, 30] (a controller whose limits are wider than its URDF's).
 
     Raises:
         CalibPinError: any bad input (robot, file, option), with a one-line message; a bad
@@ -349,7 +380,9 @@ def prepare(
         name = next(iter(one_for_all))
         raise ArgumentError(name, f"one value for several sets: put each set's in its file ('# {name}: ...') or its "
                             "FitSet's setup")
-    chain = _load_robot(robot, given[0].data, end_frame)
+    _refuse_given_twice(given, one_for_all, noises)
+    margin = as_optional(as_float, limit_margin_deg, "limit_margin_deg", 0.0, MAX_LIMIT_MARGIN_DEG, unit="deg")
+    chain = _load_robot(robot, given[0].data, end_frame, margin)
     parameter_model(chain, parameters)  # a robot that cannot be calibrated says so first
     chain, first = load_data(chain, given[0].data, str(robot), end_frame)
     params = parameter_model(chain, parameters)  # of the set's own end frame
@@ -380,7 +413,5 @@ def prepare(
 
         start = load_start(as_path(nominal, "nominal"), chain, params, soft.joints if soft else ())
     if held or start is not None:
-        from dataclasses import replace
-
         calibration = replace(calibration, fixed=held, start=start, _cache=calibration._cache)
     return calibration

@@ -124,8 +124,31 @@ def fit_deltas(params: ParameterModel, deltas: list[pin.SE3], iterations: int = 
     return x, float(np.abs(r).max())
 
 
+def start_file(path: str | Path) -> Path:
+    """The file of ``--nominal path``: the file, or the one ``*_calibration.json`` of a
+    calibrate output folder (as ``compensate --calibration`` takes it).
+
+    Raises:
+        CalibPinError: no such file, or a folder without exactly one calibration file.
+    """
+    path = Path(path)
+    if path.is_dir():
+        from ..export.calibration_file import find_calibration
+
+        try:
+            return find_calibration(path)
+        except CalibPinError as e:
+            raise DataError(str(path), f"{str(e).removeprefix(f'{path}: ')} (--nominal: a calibrate output folder, "
+                            "a calib-pin calibration .json or a UR default_kinematics.yaml)") from None
+    if not path.is_file():
+        raise DataError(str(path), "no such start file (--nominal: a calib-pin calibration .json, a calibrate output "
+                        "folder, or a UR default_kinematics.yaml)")
+    return path
+
+
 def load_start(path: str | Path, chain: Chain, params: ParameterModel, compliant: tuple[str, ...] = ()) -> Start:
-    """The start of ``--nominal path`` for a calibration of ``chain`` in ``params``.
+    """The start of ``--nominal path`` (a file, or a calibrate output folder:
+    :func:`start_file`) for a calibration of ``chain`` in ``params``.
 
     Args:
         compliant: The run's compliant joints (their start compliances come from a
@@ -135,10 +158,7 @@ def load_start(path: str | Path, chain: Chain, params: ParameterModel, compliant
         CalibPinError: unreadable or another robot's file, another parameter model, a
             start the model cannot hold.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise DataError(str(path), "no such start file (--nominal: a calib-pin calibration .json or a UR "
-                        "default_kinematics.yaml)")
+    path = start_file(path)
     if path.suffix.lower() in (".yaml", ".yml"):
         from ..export.yaml import read_ur_kinematics_yaml
 

@@ -68,22 +68,67 @@ def batch_main(argv: Sequence[str] | None = None) -> int:
 def calibration_files(argument: str) -> str | tuple[str, ...]:
     """One SESSION argument: a CSV, or several joined by ``+`` (one calibration of those sets).
 
-    An existing file is taken whole, '+' in its name or not.
+    An existing file is taken whole, '+' in its name or not; otherwise the argument is cut
+    at the '+' that leave existing files (``a+b.csv+c.csv`` with a file ``a+b.csv``: two
+    sets), and where no cut does, at every '+' but inside the longest existing names (the
+    files missing are then named).
 
     Args:
         argument: The SESSION argument as typed.
 
     Raises:
-        CalibPinError: an empty part (``a.csv++b.csv``, a leading or trailing ``+``).
+        CalibPinError: an empty part (``a.csv++b.csv``, a leading or trailing ``+``); two
+            ways to cut it into existing files.
     """
     from ..exceptions import CalibPinError
 
-    if "+" not in argument or Path(argument).is_file():
+    if "+" not in argument or _is_file(argument):
         return argument
     parts = argument.split("+")
     if not all(p.strip() for p in parts):
         raise CalibPinError(f"SESSION '{argument}': an empty set between '+' (join sets as a.csv+b.csv)")
-    return tuple(parts) if len(parts) > 1 else parts[0]
+    cuts = _file_cuts(parts, 0, {})
+    if len(cuts) > 1:
+        raise CalibPinError(f"SESSION '{argument}': two readings of existing files, "
+                            f"{' and '.join(' + '.join(repr(f) for f in cut) for cut in cuts[:2])}: rename one")
+    files = cuts[0] if cuts else _longest_files(parts)
+    return tuple(files) if len(files) > 1 else files[0]
+
+
+def _file_cuts(parts: list[str], start: int, memo: dict[int, list[list[str]]]) -> list[list[str]]:
+    """Up to two ways to join ``parts[start:]`` into existing files (each a run of parts
+    joined by '+')."""
+    if start == len(parts):
+        return [[]]
+    if start not in memo:
+        found: list[list[str]] = []
+        for end in range(start + 1, len(parts) + 1):
+            name = "+".join(parts[start:end])
+            if _is_file(name):
+                found += [[name, *rest] for rest in _file_cuts(parts, end, memo)][:2 - len(found)]
+            if len(found) == 2:
+                break
+        memo[start] = found
+    return memo[start]
+
+
+def _is_file(name: str) -> bool:
+    """``name`` is an existing file (a name too long for the file system is none)."""
+    try:
+        return Path(name).is_file()
+    except OSError:  # ENAMETOOLONG: sessions joined by '+' beyond 255 bytes
+        return False
+
+
+def _longest_files(parts: list[str]) -> list[str]:
+    """``parts`` joined where they make an existing file (the longest run first), the
+    others alone."""
+    files, k = [], 0
+    while k < len(parts):
+        end = next((e for e in range(len(parts), k, -1) if _is_file("+".join(parts[k:e]))), k + 1)
+        files.append("+".join(parts[k:end]))
+        k = end
+    return files
 
 
 def _batch(args: argparse.Namespace) -> int:

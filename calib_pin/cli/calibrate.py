@@ -22,11 +22,12 @@ from typing import Any
 from ..analysis.metrics import Metrics
 from ..estimators import DEFAULT_METHOD, ESTIMATORS
 from ..report.build import accuracy_lines, noise_parts_line
-from ..report.bundle import EXPORTS, write_outputs
-from ..robot.description import robot_inputs
+from ..report.bundle import EXPORTS, check_exportable, write_outputs
+from ..robot.description import MAX_LIMIT_MARGIN_DEG, robot_inputs
 from ..sensors.setup import xyz_mm
 from . import parse_args
 from .common import (
+    ROBOT_GROUP,
     add_compliance_arguments,
     add_loss_argument,
     add_model_argument,
@@ -36,9 +37,11 @@ from .common import (
     compliance_options,
     count,
     fail,
+    group,
     positive_float,
     run,
     unknowns_options,
+    warn,
 )
 from .process import collecting
 
@@ -51,6 +54,18 @@ def export_formats(text: str) -> tuple[str, ...]:
         raise argparse.ArgumentTypeError(
             f"unknown export format '{unknown[0] if unknown else text}' (valid: {', '.join(EXPORTS)}, comma-separated)")
     return names
+
+
+def limit_margin(text: str) -> float:
+    """``--limit-margin-deg``: a number of degrees in [0, 30]."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0.0 <= value <= MAX_LIMIT_MARGIN_DEG:
+        raise argparse.ArgumentTypeError(f"expected a number of degrees in [0, {MAX_LIMIT_MARGIN_DEG:g}], got "
+                                         f"'{text[:40]}'")
+    return value + 0.0
 
 
 def assumed_noise(text: str) -> float:
@@ -81,6 +96,10 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
     p.description = ("Calibrate a robot's kinematics from drawstring readings or marker positions and "
                      "write the corrected URDF and a JSON report.")
     add_robot_arguments(p, "default: the file's", "default: the file's")
+    group(p, ROBOT_GROUP).add_argument(
+        "--limit-margin-deg", type=limit_margin, metavar="DEG",
+        help="accept measured angles up to DEG beyond each revolute joint's URDF limits (a controller that allows "
+        f"more than its URDF says), in [0, {MAX_LIMIT_MARGIN_DEG:g}]; default 0: a row beyond them is refused")
     keys = ", ".join(f"{key} ({words})" for key, (_, words) in data_keys().items())
     p.add_argument("--data", action="append",
                    help="measurement set CSV (default: the robot's shipped set); repeat it to fit several sets "
@@ -326,10 +345,15 @@ def _data(args: argparse.Namespace) -> Any:
     from ..sensors import setup_from_args
     from ..sensors.setup import flag_of
 
-    for name, value in setup_from_args(args).items():
-        if len(parsed) > 1 and name != "estimate" and value is not None:  # each set has its own
+    shared = {**setup_from_args(args), "noise_mm": args.noise_mm}
+    for name, value in shared.items():
+        if len(parsed) > 1 and name not in ("estimate", "noise_mm") and value is not None:  # each set has its own
             raise CalibPinError(f"{flag_of(name)} with several --data files: put each set's in its file "
                                 f"('# {name}: ...') or its --data argument (FILE:{name}=...)")
+    for text, (path, options) in zip(args.data, parsed, strict=True):
+        both = [name for name in options if shared.get(name) is not None]
+        if both:  # one would be dropped without a word
+            raise CalibPinError(f"--data '{text}' and {flag_of(both[0])} both give {both[0]} of {path}: give one")
     return [_fit_set(path, options) for path, options in parsed]
 
 
@@ -342,8 +366,8 @@ def _setup_options(args: argparse.Namespace) -> dict[str, Any]:
     from ..sensors import setup_from_args, setup_record
 
     return {"end_frame": args.end_frame, "setup": setup_record(**setup_from_args(args)), "noise_mm": args.noise_mm,
-            "parameters": args.model, **compliance_options(args), **unknowns_options(args),
-            **({"tcp_mm": args.tcp_mm} if getattr(args, "tcp_mm", None) else {})}
+            "parameters": args.model, "limit_margin_deg": args.limit_margin_deg, **compliance_options(args),
+            **unknowns_options(args), **({"tcp_mm": args.tcp_mm} if getattr(args, "tcp_mm", None) else {})}
 
 
 def _analyze(args: argparse.Namespace) -> int:
@@ -351,6 +375,7 @@ def _analyze(args: argparse.Namespace) -> int:
     from ..calibration.prepare import prepare
 
     calibration = prepare(args.robot, _data(args), **_setup_options(args))
+    _notes_of_sets(calibration, args)
     data = calibration.data
     print(f"{calibration.chain.name}: {data.describe_rows()} from {data.source}, "
           f"{calibration.params.name} model, {calibration.problem.model.describe()}")
@@ -384,6 +409,22 @@ def determined_line(calibration: Any, x: Any) -> str:
     return (f"at {calibration.noise * 1e3:.3g} mm noise (stated, else the default) and the prior "
             f"{calibration.prior.describe()}: {status.count('identified')} of {len(status)} deviations determined "
             f"alone; only in combination: {combos}; not determined: {', '.join(unseen) or 'none'}")
+
+
+def _notes_of_sets(calibration: Any, args: argparse.Namespace, ignored: bool = True) -> None:
+    """Warn of what was read of each set but is not as its file says: its ignored columns
+    (``ignored``), the rows --limit-margin-deg accepted beyond the URDF's joint limits."""
+    from ..measurements.checks import beyond_urdf_limits
+
+    for s in calibration.sets:
+        note = s.data.ignored_note() if ignored else None
+        if note:
+            warn(note)
+        rows = beyond_urdf_limits(calibration.chain, s.data)
+        if rows:
+            shown = "; ".join(rows[:5]) + (f"; and {len(rows) - 5} more" if len(rows) > 5 else "")
+            warn(f"{len(rows)} row(s) of {Path(s.data.source or s.label).name} beyond the URDF's joint limits, "
+                 f"accepted by --limit-margin-deg {args.limit_margin_deg:g}: {shown}", "note")
 
 
 def analysis_point(calibration: Any) -> tuple[Any, str]:
@@ -428,12 +469,15 @@ def _calibrate(args: argparse.Namespace) -> int:
     from ..calibration.holdout import Folds, Fraction, as_holdout
     from ..calibration.prepare import prepare
     from ..calibration.solve import method_record, solve
+    from ..calibration.start import start_file
     from ..exceptions import CalibPinError
 
     _check_dh_export(args)
-    method_record(args.method, args.loss)  # a bad method or loss before the data is read
+    record = method_record(args.method, args.loss)  # a bad method or loss before the data is read
     holdout = as_holdout(args.test_fraction, validation_argument(args.test_data))
     calibration = prepare(args.robot, _data(args), **_setup_options(args))
+    check_exportable(args.export, calibration.chain, record.kinematic)  # where the end frame entered, not after the fit
+    _notes_of_sets(calibration, args, ignored=False)  # the ignored columns: with the result's warnings
     if args.cv:
         if not isinstance(holdout, Fraction):
             raise CalibPinError("--cv cross-validates the training poses of a split: leave --test-data out")
@@ -444,7 +488,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
     test_file = validation_argument(args.test_data)
     inputs = {**robot_inputs(args.robot), **sets, "--test-data": getattr(test_file, "data", test_file),
-              "--nominal": args.nominal}
+              "--nominal": start_file(args.nominal) if args.nominal is not None else None}  # a folder's file
     # an input in --out is never replaced, nor removed as stale; all files together or none
     # report.html draws figures per set, which only the collector frees: on for several sets
     # (one set's take bounded memory, and the collector's passes over matplotlib take time)
@@ -456,7 +500,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     if done.refused:
         return fail(f"{done.refused} (report: {done.folder / 'report.json'})")
     for note in done.notes:
-        print(f"note: {note}")
+        warn(note, "note")
     for path in done.files:
         print(f"wrote {path}")
     return 0
@@ -645,9 +689,9 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     after, before = (result.metrics["train"][stage] if "train" in result.metrics else None
                      for stage in ("after", "before"))
     if after is not None and before is not None and after.rmse_mm > before.rmse_mm:
-        print("warning: the calibrated model fits the training poses worse than the nominal one")
+        warn("the calibrated model fits the training poses worse than the nominal one")
     for warning in report["warnings"]:  # the result's own, and the report's (rank, bounded compliances)
-        print(f"warning: {warning}")
+        warn(warning)
     if not result.kinematic:
         print(f"no URDF written: {result.method} learns a correction of the measured values, which a URDF cannot hold")
 

@@ -29,8 +29,9 @@ from .common import (
     fail,
     non_negative,
     one_line,
+    point_mm,
     run,
-    xyz_mm,
+    warn,
 )
 from .outputs import add_force_argument
 
@@ -130,8 +131,10 @@ def add_collect_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser
     p.add_argument("--probe", action="store_true", help="only read and print a few values")
     p.add_argument("--count", type=count(10_000), default=5, help="values read by --probe (5)")
     add_end_frame_argument(p)
-    p.add_argument("--anchor-mm", type=xyz_mm, help="sensor point P0 in the base frame, x,y,z mm (written to the file)")
-    p.add_argument("--tool-mm", type=xyz_mm, help="hook point in the end frame, x,y,z mm (written to the file)")
+    p.add_argument("--anchor-mm", type=point_mm("base"),
+                   help="sensor point P0 in the base frame, x,y,z mm (written to the file)")
+    p.add_argument("--tool-mm", type=point_mm("end frame"),
+                   help="hook point in the end frame, x,y,z mm (written to the file)")
     _add_sensor_arguments(p)
     add_force_argument(p, "--save-profile file")
     add_quiet_argument(p)
@@ -206,7 +209,7 @@ def _start(session: Session, outputs: Outputs, args: argparse.Namespace) -> None
             session.discard()
         raise
     if session.dropped:
-        print(f"dropped an incomplete last line of {args.out} (a write cut short): {session.dropped!r}")
+        warn(f"dropped an incomplete last line of {args.out} (a write cut short): {session.dropped!r}")
 
 
 def _collect(args: argparse.Namespace) -> int:

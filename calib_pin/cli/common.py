@@ -9,6 +9,9 @@ This module imports no numpy, scipy or Pinocchio (``calib-pin --help`` and the p
 skeleton stay quick): a group that needs a registry (the parameter models, the sensors'
 set-up records) imports it when it is added to a command's parser.
 
+stdout carries a command's results (its tables, the files written); a warning or a note
+about the inputs or the run is one line on stderr (:func:`warn`).
+
 Exit status: 0 done; 2 bad input, one line on stderr naming the file, line or field
 (never a traceback for a user's mistake); 3 a sensor fault (collect); 130 stopped by
 Ctrl-C, with one line.
@@ -109,6 +112,12 @@ def fail(message: str) -> int:
     """Print one error line on stderr (control characters escaped); the bad-input exit status."""
     print(f"error: {one_line(message)}", file=sys.stderr)
     return BAD_INPUT_EXIT
+
+
+def warn(message: str, kind: str = "warning") -> None:
+    """Print one ``warning: ...`` (or ``note: ...``) line on stderr, control characters
+    escaped: stdout carries a command's results only, which scripts parse."""
+    print(f"{kind}: {one_line(message)}", file=sys.stderr)
 
 
 #: run()'s Ctrl-C line when the command says nothing else.
@@ -226,13 +235,24 @@ def joint_names(text: str) -> tuple[str, ...]:
     """Comma-separated joint names (or ``all``), each once."""
     from ..util.arguments import as_names
 
+    if not text.replace(",", "").strip():
+        raise argparse.ArgumentTypeError(f"expected joint names, comma-separated (joint_2,joint_3) or all, got '{text[:40]}'")
     try:
-        names = as_names(text, "compliance")
+        return as_names(text, "compliance")
     except ArgumentError as e:
         raise argparse.ArgumentTypeError(e.reason) from None
-    if not names:
-        raise argparse.ArgumentTypeError(f"expected joint names, comma-separated (joint_2,joint_3) or all, got '{text[:40]}'")
-    return names
+
+
+def unknown_names(text: str) -> str:
+    """``--fix`` / ``--free``: comma-separated unknowns, at least one, each once (the text
+    as given: the library reads it, :func:`calib_pin.calibration.held.held_names`)."""
+    from ..util.arguments import as_names
+
+    try:
+        as_names(text, "names")
+    except ArgumentError as e:
+        raise argparse.ArgumentTypeError(e.reason.replace("leave names out", "leave the option out")) from None
+    return text
 
 
 #: The titles of the shared argument groups: a section of each command's ``--help``.
@@ -305,12 +325,13 @@ def add_model_argument(p: argparse.ArgumentParser) -> None:
 def add_unknowns_arguments(p: argparse.ArgumentParser, start_note: str = "") -> None:
     """``--fix``, ``--free`` and ``--nominal``: the unknowns held, and where the estimate starts."""
     g = group(p, FIT_GROUP)
-    g.add_argument("--fix", help="unknowns held at their nominal value, comma-separated: robot deviations "
+    g.add_argument("--fix", type=unknown_names, help="unknowns held at their nominal value, comma-separated: robot deviations "
                    "(theta_1,d_1), compliances (compliance_joint_2) or sensor unknowns (device_rz)")
-    g.add_argument("--free", help="the robot deviations and compliances to estimate, comma-separated; every "
+    g.add_argument("--free", type=unknown_names, help="the robot deviations and compliances to estimate, comma-separated; every "
                    "other one is held at its nominal value (the sensor's unknowns stay free)")
     g.add_argument("--nominal", help="start from the robot's own calibrated kinematics instead of the catalogue "
-                   "URDF: a calib-pin <robot>_calibration.json, or a UR default_kinematics.yaml (ur_description's "
+                   "URDF: a calib-pin <robot>_calibration.json (or the calibrate --out folder holding it), or a UR "
+                   "default_kinematics.yaml (ur_description's "
                    f"layout; what --export yaml writes){start_note}")
     g.add_argument("--prior-mm", type=positive_float(100.0), metavar="MM",
                    help="what a length deviation of the robot is before calibration, 1 sigma, mm (default 1): the "
@@ -368,14 +389,15 @@ def add_robot_arguments(p: argparse.ArgumentParser, anchor_default: str, tool_de
 
 def add_compliance_arguments(p: argparse.ArgumentParser, what: str = "estimate") -> None:
     """Joint compliance and its loads (see :mod:`calib_pin.robot.deflection`)."""
-    from ..sensors.setup import xyz_mm
+    from ..sensors.setup import point_mm
 
     g = group(p, COMPLIANCE_GROUP)
     g.add_argument("--compliance", metavar="JOINTS", type=joint_names,
                    help=f"{what} the compliance [rad/Nm] of these joints under gravity (and payload, cable pull): "
                    "joint names comma-separated (joint_2,joint_3) or all (see --compliance-model)")
     g.add_argument("--payload-kg", type=LOAD_TYPE, help="payload mass carried by the end frame, kg")
-    g.add_argument("--payload-com-mm", type=xyz_mm, help="payload centre of mass in the end frame, 'x,y,z' mm (default 0,0,0)")
+    g.add_argument("--payload-com-mm", type=point_mm("end frame"),
+                   help="payload centre of mass in the end frame, 'x,y,z' mm (default 0,0,0)")
     g.add_argument("--cable-tension-n", type=LOAD_TYPE, help="the drawstring's pull on the tool point, N")
     g.add_argument("--compliance-model", choices=("cad", "basis"),
                    help="cad: compliances on the URDF's inertias; basis: the gravity torque patterns of the "
@@ -409,7 +431,7 @@ def compliance_options(args: argparse.Namespace) -> dict[str, Any]:
 
 #: The sensors' flag parsers, re-exported from :mod:`calib_pin.sensors.setup` on first use
 #: (importing it loads numpy: this module stays light).
-_SENSOR_PARSERS = ("estimate_names", "finite", "xyz_mm")
+_SENSOR_PARSERS = ("estimate_names", "finite", "point_mm", "xyz_mm")
 
 
 def __getattr__(name: str) -> Any:

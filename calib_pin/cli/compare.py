@@ -97,14 +97,14 @@ def compare_main(argv: Sequence[str] | None = None) -> int:
     args = parse_args("compare", argv)
     if args.simulate and args.data:
         return fail("give either --data or --simulate, not both")
-    if args.models and args.simulate:
+    if args.models is not None and args.simulate:
         return fail("--models compares on measured data: give --data, not --simulate")
-    if args.models and any(a == "--methods" or a.startswith("--methods=") for a in argv):
+    if args.models is not None and any(a == "--methods" or a.startswith("--methods=") for a in argv):
         return fail("--models fits every model with one method, --method-of-models (default lm): leave --methods out")
     if args.nominal and args.simulate:
         return fail("--nominal starts from one robot's own calibration: give --data, without --simulate")
     with quiet_progress(args.quiet):
-        return run(lambda: _compare_models(args, argv) if args.models else _compare(args, argv))
+        return run(lambda: _compare_models(args, argv) if args.models is not None else _compare(args, argv))
 
 
 def _compare_models(args: argparse.Namespace, argv: list[str]) -> int:

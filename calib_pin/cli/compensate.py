@@ -15,7 +15,6 @@ refused (the others written); 2 bad input (nothing written); 130 Ctrl-C.
 from __future__ import annotations
 
 import argparse
-import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -29,7 +28,7 @@ from ..robot.description import robot_inputs
 from ..sensors.setup import xyz_mm
 from ..util.outputs import Outputs
 from . import parse_args
-from .common import positive_float, run
+from .common import positive_float, run, warn
 from .outputs import add_force_argument
 
 if TYPE_CHECKING:
@@ -56,7 +55,8 @@ def add_compensate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPar
     p.add_argument("--with-cable", action="store_true",
                    help="keep the drawstring's pull of the calibration in the deflection (default: the arm without it)")
     p.add_argument("--nominal", help="the model the targets were computed with, if not the catalogue URDF: a "
-                   "calib-pin calibration file or a UR default_kinematics.yaml (e.g. the controller's factory "
+                   "calib-pin calibration file (or the calibrate --out folder holding it) or a UR "
+                   "default_kinematics.yaml (e.g. the controller's factory "
                    "calibration); its geometry only")
     p.add_argument("--format", choices=FORMATS, default="csv",
                    help="csv (calib-pin's pose list, default), rapid (ABB .mod), krl (KUKA .src + .dat), "
@@ -167,7 +167,7 @@ def _compensate(args: argparse.Namespace) -> int:
         if state != OK:
             print(f"{where(k)}: {state}: {result.reasons[k]}")
     if extra and args.format == "csv":
-        print(f"columns {', '.join(extra)} of {Path(targets.source).name}: copied to the output as they were")
+        warn(f"columns {', '.join(extra)} of {Path(targets.source).name}: copied to the output as they were", "note")
     for path in written:
         print(f"wrote {path}")
     if not kept.all():
@@ -189,8 +189,8 @@ def _undetermined(robot: CalibratedRobot, q: np.ndarray, names: list[str], tcp_m
     d = robot.determination
     if d is None:
         if tcp_mm is not None:
-            print("note: the calibration file does not say what its data determined (an older file): the --tcp-mm "
-                  "point is not checked", file=sys.stderr)
+            warn("the calibration file does not say what its data determined (an older file): the --tcp-mm "
+                 "point is not checked", "note")
         return
     points = [("tcp", np.asarray(tcp_mm, dtype=float) * 1e-3)] if tcp_mm is not None else list(d.points)
     for name, point in points:
@@ -199,10 +199,9 @@ def _undetermined(robot: CalibratedRobot, q: np.ndarray, names: list[str], tcp_m
             continue
         total, blind = parts
         for k in np.flatnonzero(blind**2 > BLIND_SHARE * total**2):
-            print(f"warning: {names[k]}: the {name} ({', '.join(f'{v:g}' for v in point * 1e3)} mm) is not determined "
-                  f"by the calibration there: {total[k] * 1e3:.3f} mm RMS predicted, {blind[k] * 1e3:.3f} mm of it "
-                  "the prior's (what the data did not see); the compensation moves it by the model's guess",
-                  file=sys.stderr)
+            warn(f"{names[k]}: the {name} ({', '.join(f'{v:g}' for v in point * 1e3)} mm) is not determined by the "
+                 f"calibration there: {total[k] * 1e3:.3f} mm RMS predicted, {blind[k] * 1e3:.3f} mm of it the "
+                 "prior's (what the data did not see); the compensation moves it by the model's guess")
 
 
 def _refuse_compensated(targets: MeasurementSet) -> None:

@@ -69,6 +69,24 @@ def tool_chain(joints: dict[str, etree._Element], chain: Chain) -> list[etree._E
     return path[::-1]
 
 
+def check_end_frame_writable(chain: Chain) -> None:
+    """Refuse a chain whose end frame's correction has no fixed joint to go in: an end
+    frame that is the last moving joint's own link (the URDF and its joint origins, the
+    yaml, write it on the first fixed joint after that joint). Checked before a fit that
+    exports either, not after it.
+
+    Raises:
+        RobotError: naming the end frame, its joint, and what to do.
+    """
+    joints = top_level_joints(etree.parse(str(chain.description.urdf)).getroot())
+    if not tool_chain(joints, chain):
+        raise RobotError(
+            f"end frame '{chain.end_frame}' is the link of joint '{chain.joint_names[-1]}': a calibration moves the end "
+            "frame, and the URDF (or yaml) has no fixed joint after that joint to hold it: add a fixed tool frame to "
+            f"the URDF (a fixed joint from '{chain.end_frame}' to a new link) and calibrate at it (the DH table "
+            "export of the dh and hayati models needs none)")
+
+
 def corrected_origins(
     joints: dict[str, etree._Element], chain: Chain, deltas: Sequence[pin.SE3]
 ) -> dict[str, pin.SE3]:
@@ -94,10 +112,7 @@ def corrected_origins(
             rest = rest * origin_of(joint)
         out[tool[0].get("name")] = origin_of(tool[0]) * rest * end_delta * rest.inverse()
     elif np.linalg.norm(pin.log6(end_delta).vector) > 1e-15:
-        raise RobotError(
-            f"'{chain.end_frame}' is the link of joint '{chain.joint_names[-1]}': add a "
-            "fixed tool frame to the URDF so the end frame's correction can be written"
-        )
+        check_end_frame_writable(chain)
     return out
 
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..exceptions import DataError
 from ..robot.chain import Chain
-from ..util.arguments import LIMIT_TOLERANCE, as_instance, outside_limits
+from ..util.arguments import LIMIT_TOLERANCE, as_instance, outside_limits, too_far
 from .dataset import MeasurementSet
 from .schema import SCHEMAS
 
@@ -50,14 +50,59 @@ def _row_line(data: MeasurementSet, row: int) -> tuple[int | None, str]:
     return None, f"row {row} (0-based): "
 
 
-def _robot_matches(label: str, chain: Chain, robot_label: str | None) -> bool:
-    """The set's ``robot`` is the chain's name, what the caller called it, or its URDF's path."""
-    if label in (chain.name, robot_label):
+def robot_matches(label: str, chain: Chain, robot_label: str | None = None) -> bool:
+    """A set's ``robot`` names ``chain``: its name (a URDF's file stem), its URDF's
+    ``<robot name>``, what the caller called it (``robot_label``), or its URDF's path."""
+    if label in (chain.name, chain.full_model.name, robot_label):
         return True
     try:
         return Path(label).resolve() == Path(chain.description.urdf).resolve()
     except (OSError, ValueError):
         return False
+
+
+def check_robot(label: str | None, chain: Chain, robot_label: str | None, where: str) -> None:
+    """Refuse a set whose ``robot`` (None: not stated) is another robot than ``chain``
+    (:func:`robot_matches`); checked before anything of its rows, whose joints and limits
+    are another robot's.
+
+    Raises:
+        DataError: naming ``where`` and the field ``robot``.
+    """
+    if label is None or robot_matches(str(label), chain, robot_label):
+        return
+    urdf = chain.full_model.name
+    named = f" (nor '{urdf}', its URDF's <robot name>)" if urdf and urdf != chain.name else ""
+    raise DataError(where, f"is for robot '{label}', not '{chain.name}'{named}", None, "robot")
+
+
+def limits_of(chain: Chain, joint: int) -> str:
+    """Whose limits a refusal of joint ``joint`` (0-based) beyond them names: the URDF's,
+    and how to accept a controller's wider ones, or the URDF's widened by the margin."""
+    if chain.joint_kinds[joint].startswith("JointModelP"):
+        return " (the URDF's)"
+    margin = chain.description.limit_margin
+    if margin:
+        return f" (the URDF's, widened by {math.degrees(margin):g} deg)"
+    return " (the URDF's; a controller that allows more: calibrate --limit-margin-deg)"
+
+
+def beyond_urdf_limits(chain: Chain, data: MeasurementSet) -> list[str]:
+    """The rows of ``data`` that only the chain's limit margin accepts (a revolute joint
+    beyond its URDF limits, within :attr:`~calib_pin.robot.RobotDescription.limit_margin`),
+    each as ``line 12: joint_1 165.8 deg`` (``row 3`` for a set in memory)."""
+    margin = chain.description.limit_margin
+    if not margin:
+        return []
+    revolute = np.array([not kind.startswith("JointModelP") for kind in chain.joint_kinds])
+    q = np.asarray(data.q, dtype=float)
+    lower, upper = chain.lower + margin * revolute, chain.upper - margin * revolute
+    out = []
+    for row, j in zip(*np.nonzero((q < lower - LIMIT_TOLERANCE) | (q > upper + LIMIT_TOLERANCE)), strict=True):
+        line, _ = _row_line(data, int(row))
+        where = f"line {line}" if line is not None else f"row {int(row)}"
+        out.append(f"{where}: {chain.joint_names[j]} {math.degrees(q[row, j]):g} deg")
+    return out
 
 
 def _check_shapes(chain: Chain, data: MeasurementSet) -> None:
@@ -101,8 +146,8 @@ def _check_angles(chain: Chain, data: MeasurementSet) -> None:
         prismatic = chain.joint_kinds[j].startswith("JointModelP")
         factor, unit = (1e3, "mm") if prismatic else (math.degrees(1.0), "deg")
         raise DataError(_where(data), f"{prefix}{q[row, j] * factor:g} {unit} is outside the limits of "
-                        f"{chain.joint_names[j]} [{chain.lower[j] * factor:g}, {chain.upper[j] * factor:g}] {unit}",
-                        line, f"q{j + 1}")
+                        f"{chain.joint_names[j]} [{chain.lower[j] * factor:g}, {chain.upper[j] * factor:g}] {unit}"
+                        f"{limits_of(chain, j)}", line, f"q{j + 1}")
 
 
 def _check_values(data: MeasurementSet) -> None:
@@ -127,15 +172,16 @@ def _check_values(data: MeasurementSet) -> None:
 
 def _check_metadata(chain: Chain, data: MeasurementSet, robot_label: str | None) -> None:
     where = _where(data)
-    if data.robot is not None and not _robot_matches(str(data.robot), chain, robot_label):
-        raise DataError(where, f"is for robot '{data.robot}', not '{chain.name}'", None, "robot")
     if data.end_frame and data.end_frame != chain.end_frame:
         raise DataError(where, f"was measured at end frame '{data.end_frame}', not '{chain.end_frame}'",
                         None, "end_frame")
-    for name in ("anchor", "tool"):
+    for name, frame in (("anchor", "base"), ("tool", "end frame")):
         point = getattr(data, name)
         if point is not None and (np.shape(point) != (3,) or not np.all(np.isfinite(point))):
             raise DataError(where, f"{name} must be 3 finite numbers (x, y, z in m), got {point!r:.60}", None, name)
+        why = None if point is None else too_far(np.asarray(point) * 1e3, frame)
+        if why is not None:  # a unit or frame mistake: a 5 m tool
+            raise DataError(where, why, None, f"{name}_mm")
     if not (isinstance(data.length_offset, (int, float, np.floating)) and math.isfinite(data.length_offset)):
         raise DataError(where, f"length_offset must be a finite number in m, got {data.length_offset!r:.40}",
                         None, "length_offset")
@@ -147,10 +193,10 @@ def _check_metadata(chain: Chain, data: MeasurementSet, robot_label: str | None)
 def check_measurements(chain: Chain, data: Any, robot_label: str | None = None) -> MeasurementSet:
     """Check a measurement set against the robot chain it is for.
 
-    The checks: its kind; the joint angles' shape (n_rows, n_joints), every angle finite
-    and within the URDF limits (the CSV reader's tolerance); the values' shape, finite,
-    drawstring readings >= 0; one label per row; the robot it names (the chain's name,
-    ``robot_label`` or its URDF path), its end frame, and finite sensor metadata.
+    The checks: first the robot it names (the chain's name, its URDF's ``<robot name>``,
+    ``robot_label`` or its URDF path); its kind; the joint angles' shape (n_rows, n_joints), every angle finite and
+    within the URDF limits (the CSV reader's tolerance); the values' shape, finite,
+    drawstring readings >= 0; one label per row; its end frame, and finite sensor metadata.
 
     Args:
         chain: The robot chain the set is for (joints, limits, end frame).
@@ -168,6 +214,7 @@ def check_measurements(chain: Chain, data: Any, robot_label: str | None = None) 
     """
     as_instance(chain, "chain", Chain, "a Chain (calib_pin.load_chain)")
     as_instance(data, "data", MeasurementSet, "a MeasurementSet (calib_pin.read_measurements or simulate)")
+    check_robot(data.robot, chain, robot_label, _where(data))  # another robot's joints and limits: named as such
     _check_shapes(chain, data)
     _check_angles(chain, data)
     _check_values(data)

@@ -10,12 +10,14 @@ Format (one row a pose, or a marker at a pose)::
     12.5,-30.0,10.0,45.0,-20.0,90.0,612.345
 
 - Leading ``# key: value`` lines are metadata, each key once. Known keys: ``robot``
-  (a name or the URDF path given to the command), ``end_frame``, ``anchor_mm`` /
+  (a name or the URDF path given to the command, the URDF's file stem or its ``<robot
+  name>``), ``end_frame``, ``anchor_mm`` /
   ``anchor_m`` (P0 in the base frame), ``tool_mm`` / ``tool_m`` (the tool point in the end
   frame), ``length_offset_mm`` / ``length_offset_m`` (sensor zero offset), ``noise_mm`` /
   ``noise_m`` (the sensor's noise, 1 sigma), ``csv`` (the dialect, below). Other keys are
-  kept as notes. A ``# key:`` line after the header is refused (it would be ignored); other
-  ``#`` lines are comments.
+  kept as notes, but one that looks like a key calib-pin reads is refused (the rule:
+  :mod:`calib_pin.measurements.metadata`). A ``# key:`` line after the header is refused
+  (it would be ignored); other ``#`` lines are comments.
 - Every column names its unit: ``q<i>_deg`` or ``q<i>_rad`` for each revolute joint of the
   chain (``q<i>_mm`` or ``q<i>_m`` for a prismatic one), ``length_mm`` or ``length_m``; an
   optional integer ``pose`` column labels rows.
@@ -49,6 +51,7 @@ from ..exceptions import DataError
 from ..robot.chain import Chain, as_chain
 from ..util.arguments import as_bool, as_optional, as_path
 from ..util.input_files import check_regular
+from .checks import check_robot, limits_of
 from .columns import (
     ANNOTATIONS,
     Columns,
@@ -72,22 +75,13 @@ from .dialect import (
     quote,
     separator,
     shown_separator,
-    vector_parts,
 )
+from .metadata import pair_key, read_metadata, scalar_samples, sets
 from .schema import SCHEMAS
 
 __all__ = ["ANNOTATIONS", "number", "quote", "read_measurements"]
 
 _INTEGER = re.compile(r"^[-+]?\d+$")
-
-
-def _keys(size: int) -> tuple[str, ...]:
-    """The set-up metadata keys of the registered schemas that hold ``size`` numbers, in mm or m.
-
-    3: a vector, 1: a scalar; ``noise`` is every set's.
-    """
-    keys = dict.fromkeys(k for s in SCHEMAS.values() for k, n in s.metadata_keys.items() if n == size)
-    return tuple(keys) + (("noise",) if size == 1 else ())
 #: Largest field accepted, characters.
 _FIELD_LIMIT = 1000
 #: Longest text label of a marker, characters.
@@ -99,25 +93,6 @@ def _integer(text: str, path: Path, line: int, name: str) -> int:
     if not _INTEGER.match(t) or len(t) > 15:
         raise DataError(str(path), f"'{quote(text)}' is not a whole number", line, name)
     return int(t)
-
-
-def _metadata_value(key: str, text: str, path: Path, line: int, decimal: str) -> tuple[str, Any] | None:
-    """Convert one metadata value to SI; (name, value) or None for a note."""
-    base, _, unit = key.rpartition("_")
-    scale = {"mm": 1e-3, "m": 1.0}.get(unit)
-    if base in _keys(3) and scale:
-        parts = vector_parts(text, decimal)
-        if len(parts) != 3:
-            raise DataError(str(path), f"needs 3 numbers (x, y, z), got '{quote(text)}'", line, key)
-        return base, np.array([number(p, path, line, key, mark) for p, mark in parts]) * scale
-    if base in _keys(1) and scale:
-        value = number(text, path, line, key, decimal) * scale
-        if base == "noise" and value <= 0:
-            raise DataError(str(path), f"{text.strip()} must be positive", line, key)
-        return base, value
-    if key in ("robot", "end_frame"):
-        return key, text.strip()
-    return None
 
 
 @dataclass
@@ -162,44 +137,10 @@ def _metadata_line(parsed: _Parsed, stripped: str, path: Path, number_: int) -> 
             raise DataError(str(path), "metadata given twice", number_, key)
         parsed.override = parse_override(value, path, number_)
         return
-    if _pair_key(key) is None and _meta_name(key) in {_meta_name(seen) for _, seen, _ in parsed.raw_meta}:
+    if pair_key(key) is None and sets(key) in {sets(seen) for _, seen, _ in parsed.raw_meta}:
         # anchor_mm and anchor_m too; a pair key (# distance_mm: A, B, 300) may be given once a pair
         raise DataError(str(path), "metadata given twice", number_, key)
     parsed.raw_meta.append((number_, key, value))
-
-
-def _pair_key(key: str) -> tuple[str, float] | None:
-    """(name, scale to m) of a registered schema's pair metadata key, else None.
-
-    For example ``distance_mm``: ``label, label, length``, given once a pair.
-    """
-    base, _, unit = key.rpartition("_")
-    pairs = {k for s in SCHEMAS.values() for k in s.pair_metadata}
-    scale = {"mm": 1e-3, "m": 1.0}.get(unit)
-    return (base, scale) if base in pairs and scale else None
-
-
-def _pair_value(key: str, text: str, path: Path, line: int, decimal: str) -> tuple[str, str, float, int]:
-    """``A, B, 300.000`` of a pair key: (label A, label B, length [m], the file line).
-
-    Raises:
-        DataError: not two labels and a positive length.
-    """
-    pair = _pair_key(key)
-    assert pair is not None
-    parts = [p.strip() for p in re.split(r"[;\s]+" if decimal == "," else r"[,;\s]+", text.strip()) if p.strip()]
-    if len(parts) != 3:
-        raise DataError(str(path), f"needs two labels and a length ('A, B, 300.0'), got '{quote(text)}'", line, key)
-    length = number(parts[2], path, line, key, decimal) * pair[1]
-    if length <= 0:
-        raise DataError(str(path), f"{parts[2]} must be positive", line, key)
-    return parts[0], parts[1], length, line
-
-
-def _meta_name(key: str) -> str:
-    """What a metadata key sets: ``anchor`` for ``anchor_mm`` and ``anchor_m``, else the key."""
-    base, _, unit = key.rpartition("_")
-    return base if base in (*_keys(3), *_keys(1)) and unit in ("mm", "m") else key
 
 
 def _split(text: str, path: Path) -> _Parsed:
@@ -268,9 +209,7 @@ def _numeric_fields(parsed: _Parsed, cols: Columns):
     The scalar metadata, then the rows' joints, lengths and coordinates.
     """
     assert parsed.header is not None
-    for number_, key, value in parsed.raw_meta:
-        if _meta_name(key) in _keys(1):
-            yield value, number_, key
+    yield from scalar_samples(parsed.raw_meta)
     numeric = [c for c, _ in cols.joints.values()] + [c for c, _ in cols.coords.values()]
     numeric += [cols.length[0]] if cols.length is not None else []
     numeric += [c for c, _ in cols.sensor.values()]
@@ -278,24 +217,6 @@ def _numeric_fields(parsed: _Parsed, cols: Columns):
     for number_, fields in parsed.rows:
         for col in numeric:
             yield fields[col], number_, parsed.header[col]
-
-
-def _metadata(parsed: _Parsed, path: Path) -> None:
-    units: dict[str, tuple[str, int]] = {}
-    for number_, key, value in parsed.raw_meta:
-        pair = _pair_key(key)
-        if pair is not None:  # one line a pair, all in one unit
-            seen = units.setdefault(pair[0], (key, number_))
-            if seen[0] != key:
-                raise DataError(str(path), f"{seen[0]} on line {seen[1]} and {key} here mix units: give every "
-                                f"{pair[0]} in one unit", number_, key)
-            parsed.meta.setdefault(pair[0], []).append(_pair_value(key, value, path, number_, parsed.dialect.decimal))
-            continue
-        converted = _metadata_value(key, value, path, number_, parsed.dialect.decimal)
-        if converted is None:
-            parsed.notes[key] = value.strip()
-        else:
-            parsed.meta[converted[0]] = converted[1]
 
 
 def _angles(fields: list[str], header: list[str], cols: Columns, chain: Chain | None, n_joints: int,
@@ -317,7 +238,8 @@ def _angles(fields: list[str], header: list[str], cols: Columns, chain: Chain | 
             if not lo - 1e-9 <= q[i - 1] <= hi + 1e-9:
                 to_unit = {"deg": math.degrees, "mm": lambda v: v * 1e3}.get(unit, float)
                 raise DataError(str(path), f"{value:g} is outside the limits of {chain.joint_names[i - 1]} "
-                                f"[{to_unit(lo):g}, {to_unit(hi):g}] {unit}", line, header[col])
+                                f"[{to_unit(lo):g}, {to_unit(hi):g}] {unit}{limits_of(chain, i - 1)}", line,
+                                header[col])
     return q
 
 
@@ -498,7 +420,8 @@ def read_measurements(
             kind is ``poses`` and its values NaN.
         allow_empty: Accept a header with no data rows (a session not yet started).
         robot_label: What the user called the robot (a name or a URDF path); the file's
-            ``# robot:`` may be either that or the robot's name.
+            ``# robot:`` may be that, the robot's name or its URDF's ``<robot name>``
+            (checked first: another robot's file is named as such, not by its joints).
         content: The file's bytes when already read (they are checked as ``path``'s).
 
     Raises:
@@ -509,6 +432,9 @@ def read_measurements(
     chain = as_optional(as_chain, chain, "chain")
     readings, allow_empty = as_bool(readings, "readings"), as_bool(allow_empty, "allow_empty")
     parsed = _split(_read_text(path, content), path)
+    if chain is not None:  # another robot's file is named as such, not by its joints or limits
+        robot = next((value.strip() for _, key, value in parsed.raw_meta if key == "robot"), None)
+        check_robot(robot, chain, robot_label, str(path))
     if parsed.header is None:
         raise DataError(str(path), "no header line (q1_deg, ..., length_mm) and no data")
     header, line = _tokenize_header(parsed, path), parsed.header_line
@@ -520,7 +446,7 @@ def read_measurements(
     _tokenize_rows(parsed, path)
     decimal = decimal_mark(parsed.dialect.sep, parsed.override, _numeric_fields(parsed, cols), path)
     parsed.dialect = Dialect(parsed.dialect.sep, decimal)
-    _metadata(parsed, path)
+    parsed.meta, parsed.notes = read_metadata(parsed.raw_meta, path, decimal)
     if not parsed.rows and not allow_empty:
         raise DataError(str(path), "has a header but no data rows")
     n = len(parsed.rows)
@@ -551,8 +477,6 @@ def read_measurements(
     if cols.pose is not None:
         _check_unique(pose_ids, point_ids if cols.position and not cols.plain_kind else None, lines, path)
     meta = parsed.meta
-    if chain is not None and meta.get("robot") not in (None, chain.name, robot_label):
-        raise DataError(str(path), f"is for robot '{meta['robot']}', not '{chain.name}'", None, "robot")
     kind = cols.label_kind or cols.plain_kind or cols.sensor_kind or (kind_of_columns(("x", "y", "z")) if cols.position else (
         kind_of_columns(("length",)) if cols.length is not None else "poses"))
     schema = SCHEMAS.get(kind)

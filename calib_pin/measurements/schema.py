@@ -74,6 +74,9 @@ class Schema:
             ``MeasurementSet.sensor_meta``.
         pair_metadata: Metadata keys holding ``label, label, length`` (``_mm`` or ``_m``),
             each line once a pair (a contact set's ``distance``).
+        numeric_notes: Metadata keys holding one number that the sensor reads itself from
+            ``MeasurementSet.notes`` (a 6-D pose set's ``noise_deg``): read in the file's
+            dialect, kept as text in the standard one (``.`` as the decimal mark).
         point_labels: Rows carry ``pose`` and ``point_id`` labels (which marker a row measured).
         data_values_per_row: Numbers a data row holds (1 reading, 3 coordinates, a pose's
             position and quaternion 7; 0 for a row that only names what it touched).
@@ -89,6 +92,7 @@ class Schema:
     label_columns: tuple[str, ...] = ()
     metadata_keys: Mapping[str, int] = field(default_factory=lambda: MappingProxyType({}), hash=False)
     pair_metadata: tuple[str, ...] = ()
+    numeric_notes: tuple[str, ...] = ()
     point_labels: bool = False
     data_values_per_row: int = 1
     refuse_values: ValueCheck = accept_values
@@ -101,7 +105,7 @@ class Schema:
         """
         if not isinstance(self.kind, str) or not self.kind:
             raise ArgumentError("kind", f"a schema's kind is a non-empty name, got {self.kind!r:.40}")
-        for name in ("value_columns", "plain_columns", "label_columns", "pair_metadata"):
+        for name in ("value_columns", "plain_columns", "label_columns", "pair_metadata", "numeric_notes"):
             object.__setattr__(self, name, tuple(getattr(self, name)))
         object.__setattr__(self, "metadata_keys", MappingProxyType(dict(self.metadata_keys)))
 
@@ -114,7 +118,7 @@ SCHEMAS: dict[str, Schema] = {
         Schema("position", "positions", value_columns=("x", "y", "z"), point_labels=True, data_values_per_row=3),
         # position [m] and a Hamilton quaternion (w, x, y, z)
         Schema("pose", "6-D poses", value_columns=("x", "y", "z"), plain_columns=("qw", "qx", "qy", "qz"),
-               data_values_per_row=7, refuse_values=unit_quaternions),
+               numeric_notes=("noise_deg",), data_values_per_row=7, refuse_values=unit_quaternions),
         # no measured value: a row's labels say which fixture the tool point touches
         Schema("contact", "contact fixtures", label_columns=("contact_id", "plane_id"), metadata_keys={"tool": 3},
                pair_metadata=("distance",), data_values_per_row=0),

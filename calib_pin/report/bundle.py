@@ -38,6 +38,7 @@ from .json_text import dumps_readable
 
 if TYPE_CHECKING:
     from ..calibration.result import CalibrationResult
+    from ..robot.chain import Chain
 
 #: Export format -> what it writes.
 EXPORTS = {"urdf": "corrected URDF", "yaml": "corrected joint origins for xacro (and ur_description's layout)",
@@ -102,16 +103,34 @@ class WrittenOutputs:
         return self.files[-1].parent
 
 
+def check_exportable(formats: Sequence[str], chain: Chain, kinematic: bool = True) -> None:
+    """Refuse, before a fit, a robot export its result could not be written in: the
+    ``urdf`` and ``yaml`` of an end frame that is the last joint's own link
+    (:func:`calib_pin.export.urdf.check_end_frame_writable`); a method that learns no
+    kinematics (``kinematic`` False) exports nothing.
+
+    Raises:
+        RobotError: naming the end frame and what to do.
+    """
+    if kinematic and {"urdf", "yaml"} & set(formats):
+        from ..export.urdf import check_end_frame_writable
+
+        check_end_frame_writable(chain)
+
+
 def check_formats(formats: str | Sequence[str], result: CalibrationResult | None = None) -> tuple[str, ...]:
-    """``formats`` without repeats, each one of :data:`EXPORTS`.
+    """``formats`` without repeats, each one of :data:`EXPORTS`, and one ``result`` can be written in.
+
+    See :func:`check_exportable`.
 
     Args:
         formats: A sequence of names or ``"urdf,yaml"``.
-        result: The calibration, to refuse ``dh`` for the placement model; None: not checked.
+        result: The calibration, to refuse a format it cannot be written in; None: not checked.
 
     Raises:
         ArgumentError: an unknown format, or none.
-        CalibPinError: ``dh`` for the placement model (no DH table).
+        CalibPinError: ``dh`` for the placement model (no DH table); an end frame no
+            URDF or yaml can hold.
     """
     names = tuple(dict.fromkeys(as_names(formats, "formats")))
     unknown = [n for n in names if n not in EXPORTS]
@@ -121,6 +140,8 @@ def check_formats(formats: str | Sequence[str], result: CalibrationResult | None
     if result is not None and "dh" in names and result.model_name == "placement":
         raise CalibPinError("the placement model has no DH table: the dh export needs the dh or hayati model "
                             "(urdf and yaml work for every model)")
+    if result is not None:
+        check_exportable(names, result.chain, result.kinematic)
     return names
 
 
@@ -366,5 +387,5 @@ def write_outputs(result: CalibrationResult, folder: str | os.PathLike[str], for
     return WrittenOutputs(written, report, rendered.refused, list(rendered.notes), removed)
 
 
-__all__ = ["EXPORTS", "STALE", "RenderedOutputs", "WrittenOutputs", "add_outputs", "check_formats", "planned_files",
-           "remove_stale", "render_outputs", "report_in", "stale_files", "write_outputs"]
+__all__ = ["EXPORTS", "STALE", "RenderedOutputs", "WrittenOutputs", "add_outputs", "check_exportable", "check_formats",
+           "planned_files", "remove_stale", "render_outputs", "report_in", "stale_files", "write_outputs"]

@@ -247,7 +247,7 @@ def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> C
     _check_joints(full, chain_ids, description)
     locked = [j for j in range(1, full.njoints) if j not in chain_ids]
     model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full.copy()
-    continuous, lower, upper = _limits(model)
+    continuous, lower, upper = _limits(model, description.limit_margin)
     return Chain(
         description=description,
         end_frame=end,
@@ -261,10 +261,11 @@ def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> C
     )
 
 
-def _limits(model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _limits(model: pin.Model, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each joint of a chain model: continuous or not, and its limits ([rad] or [m]).
 
-    The limits are +-inf for a continuous joint.
+    The limits are +-inf for a continuous joint; a revolute joint's are widened by
+    ``margin`` [rad] each way.
     """
     n = model.njoints - 1
     continuous = np.array([model.joints[j].nq == 2 for j in range(1, model.njoints)])
@@ -272,8 +273,9 @@ def _limits(model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for k in range(n):
         if not continuous[k]:
             iq = model.joints[k + 1].idx_q
-            lower[k] = model.lowerPositionLimit[iq]
-            upper[k] = model.upperPositionLimit[iq]
+            widen = margin if not model.joints[k + 1].shortname().startswith("JointModelP") else 0.0
+            lower[k] = model.lowerPositionLimit[iq] - widen
+            upper[k] = model.upperPositionLimit[iq] + widen
     return continuous, lower, upper
 
 

@@ -56,7 +56,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ArgumentError, CalibPinError, RobotError
-from ..util.arguments import as_float, as_names, as_xyz_mm, shown_value
+from ..util.arguments import as_float, as_names, as_point_mm, shown_value
 from .chain import Chain
 from .gravity_basis import BASIS_SCALE, GravityBasis
 
@@ -140,7 +140,7 @@ class Compliance:
         names = as_names(self.joints, "joints")
         mass = None if self.payload_kg is None else as_float(self.payload_kg, "payload_kg", 0.0, MAX_LOAD, unit="kg")
         com = None if self.payload_com_mm is None else tuple(
-            float(v) for v in as_xyz_mm(self.payload_com_mm, "payload_com_mm"))
+            float(v) for v in as_point_mm(self.payload_com_mm, "payload_com_mm", "end frame"))
         tension = None if self.cable_tension_n is None else as_float(
             self.cable_tension_n, "cable_tension_n", 0.0, MAX_LOAD, unit="N")
         loaded = [k for k, v in zip(LOAD_FIELDS, (mass, com, tension), strict=True) if v is not None]

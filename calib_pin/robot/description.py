@@ -55,6 +55,11 @@ class DHTable:
         return len(self.a)
 
 
+#: The widest :attr:`RobotDescription.limit_margin` a caller may give, [deg]: beyond it the
+#: angles are another robot's or a unit mistake, not a controller's wider limits.
+MAX_LIMIT_MARGIN_DEG = 30.0
+
+
 @dataclass(frozen=True)
 class RobotDescription:
     """Where a robot's model comes from.
@@ -66,6 +71,9 @@ class RobotDescription:
         dh: Standard DH table from base to ``end_frame``, or None when none is known.
         default_data: Measurement set used when none is given, or None.
         package_dirs: Folders where ``package://`` URIs of the URDF resolve.
+        limit_margin: How far beyond its URDF limits each revolute joint of a chain of
+            this robot goes, [rad] (0: the URDF's limits; a controller that allows more:
+            ``prepare(limit_margin_deg=...)``, ``calibrate --limit-margin-deg``).
     """
 
     name: str
@@ -74,6 +82,7 @@ class RobotDescription:
     dh: DHTable | None = None
     default_data: Path | None = None
     package_dirs: tuple[Path, ...] = ()
+    limit_margin: float = 0.0
 
 
 def own_robot_names() -> list[str]:

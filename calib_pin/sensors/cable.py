@@ -18,11 +18,11 @@ from ..exceptions import ArgumentError, DataError
 from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
-from ..util.arguments import MAX_MM, as_array, as_float, as_optional, as_xyz_mm
+from ..util.arguments import MAX_MM, as_array, as_float, as_optional, as_point_mm, too_far
 from .base import SETUP_MISFIT_M, MeasurementModel, check_rows, chosen, fit_rows_name
 from .problem import SetProblem
 from .registry import check_estimate
-from .setup import SensorSetup, estimate_names, finite, option, xyz_mm
+from .setup import SensorSetup, estimate_names, finite, option, point_mm
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
@@ -82,7 +82,15 @@ class Drawstring:
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any]) -> Drawstring:
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of :meth:`to_dict`.
+
+        Raises:
+            ValueError: a point beyond :data:`~calib_pin.util.arguments.POINT_REACH_MM`.
+        """
+        for key, frame in (("anchor_mm", "base"), ("tool_mm", "end frame")):
+            why = too_far(np.asarray(doc[key], dtype=float), frame)
+            if why is not None:
+                raise ValueError(f"{key}: {why}")
         return cls(np.array(doc["anchor_mm"], dtype=float) * 1e-3, np.array(doc["tool_mm"], dtype=float) * 1e-3,
                    float(doc["length_offset_mm"]) * 1e-3)
 
@@ -106,8 +114,9 @@ class CableSetup(SensorSetup):
 
     title: ClassVar[str] = "drawstring"
 
-    anchor_mm: Any = option(help="sensor point P0 in the base frame, 'x,y,z'", unit="mm", parser=xyz_mm)
-    tool_mm: Any = option(help="tool point in the end frame (where a cable hooks on), 'x,y,z'", unit="mm", parser=xyz_mm)
+    anchor_mm: Any = option(help="sensor point P0 in the base frame, 'x,y,z'", unit="mm", parser=point_mm("base"))
+    tool_mm: Any = option(help="tool point in the end frame (where a cable hooks on), 'x,y,z'", unit="mm",
+                          parser=point_mm("end frame"))
     length_offset_mm: Any = option(help="sensor zero offset", unit="mm", parser=finite)
     estimate: Any = option((), help="drawstring geometry to estimate with the robot, comma-separated: anchor, "
                            "offset, tool (the tool point in the end frame); a set without '# anchor_mm' has its "
@@ -115,8 +124,8 @@ class CableSetup(SensorSetup):
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "anchor_mm", as_optional(as_xyz_mm, self.anchor_mm, "anchor_mm"))
-        set_(self, "tool_mm", as_optional(as_xyz_mm, self.tool_mm, "tool_mm"))
+        set_(self, "anchor_mm", as_optional(as_point_mm, self.anchor_mm, "anchor_mm", "base"))
+        set_(self, "tool_mm", as_optional(as_point_mm, self.tool_mm, "tool_mm", "end frame"))
         set_(self, "length_offset_mm", as_optional(as_float, self.length_offset_mm, "length_offset_mm", -MAX_MM,
                                                    MAX_MM, unit="mm"))
         set_(self, "estimate", check_estimate(self.estimate))

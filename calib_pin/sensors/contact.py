@@ -11,7 +11,8 @@ touches a fixture:
   n . p(q, x, t) - d (1 entry, [m]).
 
 Known distances between points (``# distance_mm: A, B, 300.000`` lines, several allowed:
-a calibrated bar, two sockets of a fixture plate) are residual rows of the set too:
+a calibrated bar, two sockets of a fixture plate; one length a pair, in either order) are
+residual rows of the set too:
 |P_A - P_B| - L (1 entry each, [m]); they belong to every part of the set (a split
 scores them with the training rows and with the test rows alike).
 
@@ -44,10 +45,10 @@ from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
-from ..util.arguments import as_optional, as_xyz_mm
+from ..util.arguments import as_optional, as_point_mm, too_far
 from .base import DEFAULT_NOISE_MM, SETUP_MISFIT_M, MeasurementModel, check_rows, fit_rows_name
 from .problem import SetProblem
-from .setup import SensorSetup, option, xyz_mm
+from .setup import SensorSetup, option, point_mm
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
@@ -117,7 +118,8 @@ class Fixtures:
 
         Raises:
             ValueError: no points or planes, a point or normal not 3 numbers, a distance
-                naming an unknown point or a point to itself.
+                naming an unknown point or a point to itself, a pair given two lengths, a
+                tool point beyond :data:`~calib_pin.util.arguments.POINT_REACH_MM`.
         """
         points = {str(k): np.asarray(v, dtype=float) for k, v in doc["points_mm"].items()}
         planes = {str(k): (np.asarray(v["normal"], dtype=float), float(v["offset_mm"]))
@@ -127,17 +129,26 @@ class Fixtures:
         for label, p in [*points.items(), *((k, n) for k, (n, _) in planes.items())]:
             if p.shape != (3,) or not np.all(np.isfinite(p)) or not np.any(p):
                 raise ValueError(f"{label}: expected 3 finite numbers (a point [mm], or a plane's non-zero normal)")
-        fx = layout(points, planes, (), doc.get("tool_mm", DEFAULT_CONTACT_TOOL_MM), doc.get("tool") == "given")
+        tool = np.asarray(doc.get("tool_mm", DEFAULT_CONTACT_TOOL_MM), dtype=float)
+        why = too_far(tool, "end frame") if tool.shape == (3,) else None
+        if why is not None:
+            raise ValueError(f"tool_mm: {why}")
+        fx = layout(points, planes, (), tool, doc.get("tool") == "given")
         index = {label: k for k, label in enumerate(fx.point_labels)}
-        distances = []
+        given = []
         for pair in doc.get("distances_mm", ()):
             a, b = str(pair[0]), str(pair[1])
             if a not in index or b not in index or a == b:
                 raise ValueError(f"distance {a}, {b}: it joins two different points of points_mm")
             length = float(pair[2]) * 1e-3 if len(pair) > 2 else float(np.linalg.norm(fx.points[index[a]]
                                                                                       - fx.points[index[b]]))
-            distances.append((index[a], index[b], length))
-        return replace(fx, distances=tuple(distances))
+            given.append((a, b, length))
+        keep, clash = same_pair(given)
+        if clash is not None:
+            (a0, b0, l0), (a, b, length) = given[clash[0]], given[clash[1]]
+            raise ValueError(f"distance {a}, {b}: {length * 1e3:g} mm, and {l0 * 1e3:g} mm as {a0}, {b0}: one "
+                             "length a pair (give it once)")
+        return replace(fx, distances=tuple((index[given[k][0]], index[given[k][1]], given[k][2]) for k in keep))
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,10 +162,10 @@ class ContactSetup(SensorSetup):
 
     title: ClassVar[str] = "contact fixtures"
 
-    tool_mm: Any = option(help="tool point in the end frame, 'x,y,z'", unit="mm", parser=xyz_mm)
+    tool_mm: Any = option(help="tool point in the end frame, 'x,y,z'", unit="mm", parser=point_mm("end frame"))
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "tool_mm", as_optional(as_xyz_mm, self.tool_mm, "tool_mm"))
+        object.__setattr__(self, "tool_mm", as_optional(as_point_mm, self.tool_mm, "tool_mm", "end frame"))
 
 
 def _label_rows(data: MeasurementSet) -> tuple[np.ndarray, np.ndarray]:
@@ -194,20 +205,49 @@ def fixture_rows(data: MeasurementSet) -> tuple[tuple[str, ...], tuple[str, ...]
     return points, planes, rows
 
 
+def same_pair(pairs: list[tuple[str, str, float]]) -> tuple[list[int], tuple[int, int] | None]:
+    """Each pair of points once: of ``pairs`` (label, label, length [m]), the entries to
+    keep (a pair given again, in either order, with the same length to
+    :data:`~calib_pin.measurements.checks.SETUP_TOLERANCE_M`, is dropped), and the first
+    two entries that give one pair two lengths, or None.
+
+    One length a pair: two would be fitted as a compromise between them, without a word.
+    """
+    from ..measurements.checks import SETUP_TOLERANCE_M
+
+    seen: dict[frozenset[str], int] = {}
+    keep = []
+    for k, (a, b, length) in enumerate(pairs):
+        first = seen.setdefault(frozenset((a, b)), k)
+        if first == k:
+            keep.append(k)
+        elif abs(pairs[first][2] - length) > SETUP_TOLERANCE_M:
+            return keep, (first, k)
+    return keep, None
+
+
 def known_distances(data: MeasurementSet, points: tuple[str, ...]) -> tuple[tuple[int, int, float], ...]:
-    """The file's ``# distance_mm`` lines as (point index, point index, length [m]).
+    """The file's ``# distance_mm`` lines as (point index, point index, length [m]), each
+    pair once (:func:`same_pair`).
 
     Args:
         data: A contact set.
         points: Its point labels, sorted (as :func:`fixture_rows` gives them).
 
     Raises:
-        DataError: a distance naming an id that is no ``contact_id`` of the set, or a
-            point to itself, naming the file and the metadata line.
+        DataError: a distance naming an id that is no ``contact_id`` of the set, a point
+            to itself, or a pair given two lengths, naming the file and the metadata line.
     """
     index = {label: k for k, label in enumerate(points)}
+    given = list(data.sensor_meta.get("distance", ()))
+    keep, clash = same_pair([(a, b, length) for a, b, length, _ in given])
+    if clash is not None:
+        (a0, b0, l0, line0), (a, b, length, line) = given[clash[0]], given[clash[1]]
+        where = f"line {line0}" if line0 is not None else f"entry {clash[0] + 1}"
+        raise DataError(data.source, f"{a}, {b}: {length * 1e3:g} mm here, {l0 * 1e3:g} mm on {where} ({a0}, {b0}): "
+                        "one length a pair (give it once)", line, "distance_mm")
     out = []
-    for a, b, length, line in data.sensor_meta.get("distance", ()):
+    for a, b, length, line in (given[k] for k in keep):
         for label in (a, b):
             if label not in index:
                 known = ", ".join(points) or "none"

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any, ClassVar
 
@@ -40,6 +41,24 @@ def xyz_mm(text: str) -> tuple[float, float, float]:
         raise argparse.ArgumentTypeError(f"expected 3 numbers 'x,y,z' in mm, each of magnitude below "
                                          f"{FLAG_MAX_MM:.0f} (1 km: a unit mistake?), got '{text[:40]}'")
     return values  # type: ignore[return-value]
+
+
+@functools.cache
+def point_mm(frame: str) -> Callable[[str], tuple[float, float, float]]:
+    """The parser of a point of ``frame`` (``"end frame"``: a tool point, ``"base"``: an
+    anchor): :func:`xyz_mm`, within :data:`calib_pin.util.arguments.POINT_REACH_MM` of it
+    (one parser a frame: every flag of a frame parses alike)."""
+    from ..util.arguments import too_far
+
+    def parse(text: str) -> tuple[float, float, float]:
+        values = xyz_mm(text)
+        why = too_far(values, frame)
+        if why is not None:
+            raise argparse.ArgumentTypeError(why)
+        return values
+
+    parse.__name__ = f"point_mm({frame!r})"
+    return parse
 
 
 def finite(text: str) -> float:

@@ -37,7 +37,7 @@ from ..sensors.cable import SESSION_ANCHOR_SPREAD_MM as SESSION_ANCHOR_SPREAD_MM
 from ..sensors.position import DEFAULT_MARKERS_MM, default_device_frame
 from ..sensors.position import SESSION_DEVICE_SHIFT_MM as SESSION_DEVICE_SHIFT_MM  # re-exported
 from ..sensors.position import SESSION_DEVICE_TURN_DEG as SESSION_DEVICE_TURN_DEG  # re-exported
-from ..util.arguments import MAX_MM, as_array, as_choice, as_float, as_instance, as_int, as_optional, as_xyz_mm
+from ..util.arguments import MAX_MM, as_array, as_choice, as_float, as_instance, as_int, as_optional, as_point_mm
 from ..util.atomic import write_text
 from ..util.input_files import check_regular
 from ..util.units import for_humans, from_humans
@@ -435,7 +435,7 @@ def simulate(
 
 def _drawstring(anchor_mm: Any, tool_mm: Any, length_offset_mm: Any) -> Drawstring:
     """A drawstring's true geometry from points and offset in mm, checked."""
-    anchor, tool = as_xyz_mm(anchor_mm, "anchor_mm"), as_xyz_mm(tool_mm, "tool_mm")
+    anchor, tool = as_point_mm(anchor_mm, "anchor_mm", "base"), as_point_mm(tool_mm, "tool_mm", "end frame")
     offset = as_float(length_offset_mm, "length_offset_mm", -MAX_MM, MAX_MM, unit="mm")
     return Drawstring(anchor * 1e-3, tool * 1e-3, offset * 1e-3)
 

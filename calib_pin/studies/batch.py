@@ -39,8 +39,8 @@ from ..util.outputs import Outputs
 from .checkpoint import Checkpoint, Interrupted, file_digest, fingerprint
 from .parallel import ParallelFault, error_line, limited, parallel_completed, parallel_map
 
-__all__ = ["SUMMARY_COLUMNS", "BatchTask", "ParallelFault", "TaskOutcome", "parallel_completed", "parallel_map",
-           "run_batch", "run_task", "task_key", "write_outcome", "write_summary"]
+__all__ = ["NAME_LIMIT", "SUMMARY_COLUMNS", "BatchTask", "ParallelFault", "TaskOutcome", "folder_name",
+           "parallel_completed", "parallel_map", "run_batch", "run_task", "task_key", "write_outcome", "write_summary"]
 
 #: Columns of ``summary.csv``; errors in [mm], time in [s].
 SUMMARY_COLUMNS = (
@@ -49,6 +49,30 @@ SUMMARY_COLUMNS = (
       for stage in ("before", "after")),
     "time_s",
 )
+
+
+#: Longest name of a set's output folder, bytes of UTF-8 (a file system's limit is 255).
+NAME_LIMIT = 100
+
+
+def folder_name(stems: Sequence[str]) -> str:
+    """The output folder's name of a calibration of files with these stems: joined by ``+``
+    when that is a safe folder name (not empty, not hidden, ``.`` or ``..``, at most
+    :data:`NAME_LIMIT` bytes), else a safe short form that stays unique: the first stem
+    without its leading dots (``set`` if nothing is left), ``+N-more`` for the others, and
+    8 hex digits of the joined stems (``session_01+11-more-3fa2c1d0``, ``set-9c1e07aa`` for
+    a file ``...csv``)."""
+    import hashlib
+
+    joined = "+".join(stems)
+    if joined and not joined.startswith(".") and len(joined.encode()) <= NAME_LIMIT:
+        return joined
+    digest = hashlib.sha256(joined.encode()).hexdigest()[:8]
+    head = (stems[0].lstrip(".") if stems else "") or "set"
+    more = f"+{len(stems) - 1}-more" if len(stems) > 1 else ""
+    room = NAME_LIMIT - len(f"{more}-{digest}".encode())
+    head = head.encode()[:room].decode(errors="ignore")  # whole characters only
+    return f"{head}{more}-{digest}"
 
 
 @dataclass(frozen=True)
@@ -80,11 +104,12 @@ class BatchTask:
 
     @property
     def name(self) -> str:
-        """The calibration's name: the data file's stem (``session_03``).
+        """The calibration's name, and its output folder's (:func:`folder_name`).
 
-        With several sets, their stems joined by ``+`` (``a+b+c``).
+        The data file's stem (``session_03``); with several sets, their stems joined by
+        ``+`` (``a+b+c``).
         """
-        return "+".join(Path(f).name.removesuffix(".csv") for f in self.files)
+        return folder_name([Path(f).name.removesuffix(".csv") for f in self.files])
 
 
 @dataclass
@@ -127,14 +152,22 @@ def run_task(task: BatchTask) -> TaskOutcome:
 
     Never raises for a bad set: the error becomes ``status=failed`` and one line.
     """
-    from ..calibration.solve import calibrate
-    from ..report.bundle import render_outputs
+    from ..calibration.holdout import as_holdout
+    from ..calibration.prepare import prepare
+    from ..calibration.solve import method_record, solve
+    from ..report.bundle import check_exportable, render_outputs
 
     start = time.perf_counter()
     row: dict[str, Any] = {"set": task.name, "method": task.method, "seed": task.seed}
     try:
         data = task.data if isinstance(task.data, str) else list(task.data)
-        result = calibrate(_robot(task), data, method=task.method, seed=task.seed, **task.options)
+        options = dict(task.options)  # calibrate()'s: prepare's, the holdout's and the loss
+        loss = options.pop("loss", "linear")
+        record = method_record(task.method, loss)
+        holdout = as_holdout(options.pop("test_fraction", 0.2), options.pop("test_data", None))
+        calibration = prepare(_robot(task), data, **options)
+        check_exportable(("urdf",), calibration.chain, record.kinematic)  # before the fit, not after it
+        result = solve(calibration, record, holdout=holdout, seed=task.seed, loss=loss)
         rendered = render_outputs(result, ("urdf",), html=False)
         report = rendered.report
         row["rows"] = len(result.data)

@@ -24,6 +24,11 @@ from ..exceptions import ArgumentError
 
 #: Largest coordinate accepted in [mm] (a kilometre: a bigger one is a unit mistake).
 MAX_MM = 1e6
+#: How far from its frame a point given to calib-pin may be, [mm]: a point of the tool (the
+#: tool point, a payload's centre of mass) 2 m from the end frame, a sensor's anchor 20 m
+#: from the robot's base. Farther is a unit or frame mistake (a 5 m tool), refused where
+#: the point enters: a flag, a set-up record, a file's metadata, a simulation.
+POINT_REACH_MM = {"end frame": 2000.0, "base": 20000.0}
 #: Turns a continuous joint (no limits) may be given, each way.
 CONTINUOUS_TURNS = 2
 #: How far outside its URDF limits a joint angle is accepted, [rad] or [m]: the
@@ -101,14 +106,18 @@ def as_choice(value: Any, arg: str, choices: Iterable[str]) -> str:
 
 
 def as_names(value: Any, arg: str) -> tuple[str, ...]:
-    """Names: a comma-separated str (``"anchor,offset"``) or a sequence of str; None or blank gives ``()``.
+    """Names: a comma-separated str (``"anchor,offset"``) or a sequence of str; None gives ``()``.
 
     Blanks around names are dropped; a name given twice is refused (``joint_2,joint_2``
-    would make two compliances of one joint, a file compensate refuses).
+    would make two compliances of one joint, a file compensate refuses), and so is text
+    that names nothing (``""``, ``",,"``).
     """
     if value is None:
         return ()
     if isinstance(value, str):
+        if not value.replace(",", "").strip():
+            raise ArgumentError(arg, f"{shown_value(value)} names nothing: give comma-separated names, or leave "
+                                f"{arg} out")
         items: Sequence[Any] = value.split(",")
     elif isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1):
         items = list(value)
@@ -162,6 +171,27 @@ def as_xyz_mm(value: Any, arg: str) -> np.ndarray:
     return xyz
 
 
+def too_far(xyz_mm: Any, frame: str) -> str | None:
+    """Why the point ``xyz_mm`` [mm] of ``frame`` (a key of :data:`POINT_REACH_MM`) is
+    refused, or None when it is within reach."""
+    xyz = np.asarray(xyz_mm, dtype=float).reshape(-1)
+    reach, distance = POINT_REACH_MM[frame], float(np.linalg.norm(xyz))
+    if distance <= reach:
+        return None
+    shown = ",".join(f"{v:g}" for v in xyz)
+    return f"{shown} mm is {distance:.6g} mm from the {frame}, beyond the {reach:g} mm a point may be (a unit mistake?)"
+
+
+def as_point_mm(value: Any, arg: str, frame: str) -> np.ndarray:
+    """A point ``(x, y, z)`` [mm] of ``frame`` (``"end frame"``: a tool point, ``"base"``: a
+    sensor's anchor) as :func:`as_xyz_mm` takes it, and within :data:`POINT_REACH_MM` of it."""
+    xyz = as_xyz_mm(value, arg)
+    why = too_far(xyz, frame)
+    if why is not None:
+        raise ArgumentError(arg, why)
+    return xyz
+
+
 def outside_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                    tolerance: float = LIMIT_TOLERANCE) -> tuple[int, ...] | None:
     """Index of the first joint value of q (..., n_joints) outside the limits, or None.
@@ -181,5 +211,6 @@ def as_instance(value: Any, arg: str, kind: type | tuple[type, ...], what: str) 
     return value
 
 
-__all__ = ["CONTINUOUS_TURNS", "LIMIT_TOLERANCE", "MAX_MM", "as_array", "as_bool", "as_choice", "as_float",
-           "as_instance", "as_int", "as_names", "as_optional", "as_path", "as_xyz_mm", "outside_limits", "shown_value"]
+__all__ = ["CONTINUOUS_TURNS", "LIMIT_TOLERANCE", "MAX_MM", "POINT_REACH_MM", "as_array", "as_bool", "as_choice",
+           "as_float", "as_instance", "as_int", "as_names", "as_optional", "as_path", "as_point_mm", "as_xyz_mm",
+           "outside_limits", "shown_value", "too_far"]
