@@ -94,10 +94,14 @@ def resolve_gauge(problem: Any, x: np.ndarray, start: np.ndarray, free: np.ndarr
     rss0 = rss = _rss(problem, x)
     steps, count = 0, 0
     sigma = np.ones(0)
+    total = np.inf
     for k in range(MAX_STEPS):
         split = determined(problem, x, free, prior, noise)
         if k == 0:
             count, sigma = split.n_undetermined, split.sigma
+            # In all, no more than the chi-square of that many directions could rise by chance:
+            # an estimate far out along one the data barely sees is then what the data says.
+            total = rss0 + (count + 2.0 * np.sqrt(2.0 * count) + CHI2_BUDGET) * noise**2
         if not split.n_undetermined:
             break
         step = split.toward(x, start)
@@ -109,7 +113,7 @@ def resolve_gauge(problem: Any, x: np.ndarray, start: np.ndarray, free: np.ndarr
             # what the step costs to first order (a direction seen less than the noise costs
             # less than one noise variance per prior sigma), and a margin for the curvature
             along = split.vt[split.rank:] @ (step / split.sigma) * split.singular_values[split.rank:]
-            ceiling = rss + (2.0 * float(along @ along) + CHI2_BUDGET * noise**2)
+            ceiling = min(rss + (2.0 * float(along @ along) + CHI2_BUDGET * noise**2), total)
             trial = _refit(problem, trial, split, sensor, scale, ceiling)
             if _rss(problem, trial) <= ceiling:
                 break
