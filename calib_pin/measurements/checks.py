@@ -202,3 +202,10 @@ def _file_keys(path: str) -> set[str] | None:
 def _mm(value: Any) -> str:
     return ", ".join(f"{v:.10g}" for v in np.atleast_1d(np.asarray(value, dtype=float) * 1e3))
 
+
+def __getattr__(name: str) -> Any:
+    """The old name of the validation session's check (now in calib_pin.calibration.validation), with a warning."""
+    from ..util.deprecation import moved_names
+
+    return moved_names(__name__, {
+        "check_same_setup": "calib_pin.calibration.validation"})(name)

@@ -976,3 +976,11 @@ def contact_set(chain: Chain, fixtures: Fixtures, q: np.ndarray, rows: np.ndarra
         sensor_meta={"distance": tuple((fx.point_labels[a], fx.point_labels[b], length, None)
                                        for a, b, length in fx.distances),
                      **({"tool": fx.tool} if fx.tool_known else {})})
+
+
+def __getattr__(name: str) -> Any:
+    """The old names of what moved elsewhere (the example sessions of calib_pin.simulation), with a DeprecationWarning."""
+    from ..util.deprecation import moved_names
+
+    return moved_names(__name__, {
+        "simulate_contacts": "calib_pin.simulation.contact"})(name)

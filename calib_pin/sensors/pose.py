@@ -628,3 +628,11 @@ def fit_rig(chain: Chain, params: ParameterModel, q: np.ndarray, poses: np.ndarr
 
     fit = least_squares(residual, np.zeros(12), jac=jacobian, method="lm")
     return model.geometry_at(np.concatenate([zero, fit.x]))
+
+
+def __getattr__(name: str) -> Any:
+    """The old names of what moved elsewhere (the example sessions of calib_pin.simulation), with a DeprecationWarning."""
+    from ..util.deprecation import moved_names
+
+    return moved_names(__name__, {
+        "simulate_poses": "calib_pin.simulation.pose", "QUATERNION_TOLERANCE": "calib_pin.measurements.schema"})(name)

@@ -579,3 +579,12 @@ def _compliance_words(compliance: Compliance | None) -> str:
     if not compliance:
         return ""
     return f"; with the compliance of {compliance.words()}"
+
+
+def __getattr__(name: str) -> Any:
+    """The old names of two renamed functions, with a DeprecationWarning."""
+    from ..util.deprecation import moved_names
+
+    return moved_names(__name__, {
+        "session_truths": "calib_pin.studies.comparison:truths_of",
+        "stacked_fresh_scorer": "calib_pin.studies.comparison:fresh_scorer"})(name)
