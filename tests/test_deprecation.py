@@ -136,3 +136,17 @@ def test_the_module_warning_shows_under_the_default_filters(tmp_path):
     done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, check=True, env=default_env())
     assert f"{script}:1: DeprecationWarning: calib_pin.pipeline is deprecated" in done.stderr
     assert f"{script}:2: DeprecationWarning: calib_pin.sensors.pose.simulate_poses is deprecated" in done.stderr
+
+
+def test_a_deprecated_keyword_warns_at_the_callers_line_under_the_default_filters(tmp_path):
+    """prepare's, calibrate's and compare's deprecated keywords are reported at the script's
+    own line (not ``sys:1``), so Python's default filters show them, however deep the check."""
+    script = tmp_path / "loose.py"
+    script.write_text("import calib_pin as cp\n"
+                      "cp.prepare('irb120', tool_mm=(0, 0, 100))\n"
+                      "cp.prepare('irb120', compliance='joint_2', payload_kg=1.0)\n"
+                      "cp.calibrate('irb120', method='lm', tool_mm=(0, 0, 100))\n"
+                      "cp.compare('irb120', methods=['lm'], trials=1, estimate=('anchor',))\n")
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, check=True, env=default_env())
+    for line, what in ((2, "tool_mm"), (3, "payload_kg"), (4, "tool_mm"), (5, "estimate")):
+        assert f"{script}:{line}: DeprecationWarning: {what} as separate keyword(s) are deprecated" in done.stderr

@@ -7,7 +7,6 @@ checks each value where it enters, and returns a :class:`Calibration`: what
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -219,15 +218,16 @@ def deprecated_records(loose: dict[str, Any], setup: SensorSetup | None,
     if unknown:
         raise ArgumentError(unknown[0], "is not an argument of calibrate/prepare (see help(calib_pin.calibrate))")
     from ..sensors.setup import given
+    from ..util.deprecation import warn_deprecated
 
     shorthand = {k: loose[k] for k in DEPRECATED_SETUP if k in loose and given(loose[k])}
     record = setup_record(setup, **shorthand)  # a bad value is refused before the warning
     if shorthand:
-        warnings.warn(f"{', '.join(shorthand)} as separate keyword(s) are deprecated: pass setup=calib_pin."
-                      "CableSetup(...) (or the record of your sensor)", DeprecationWarning, stacklevel=4)
+        warn_deprecated(f"{', '.join(shorthand)} as separate keyword(s) are deprecated: pass setup=calib_pin."
+                        "CableSetup(...) (or the record of your sensor)")
     return record, as_compliance(compliance, payload_kg=loose.get("payload_kg"),
                                  payload_com_mm=loose.get("payload_com_mm"),
-                                 cable_tension_n=loose.get("cable_tension_n"), stacklevel=5)
+                                 cable_tension_n=loose.get("cable_tension_n"))
 
 
 def _load_robot(robot: str | RobotDescription, first: Any, end_frame: str | None) -> Chain:
