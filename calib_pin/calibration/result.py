@@ -63,7 +63,7 @@ class CalibrationResult:
             ``default`` (none stated, a method that does not weigh rows by it), or
             ``estimated: ...`` (none stated: from the residual, :mod:`calib_pin.calibration.noise`).
         cross_validation: K-fold held-out metrics of this model on the training poses
-            (:meth:`calib_pin.studies.cross_validation.CrossValidation.as_dict`), when asked.
+            (:meth:`calib_pin.calibration.solve.CrossValidation.as_dict`), when asked.
         start: The start of ``--nominal`` (None: the catalogue geometry); ``x`` stays the
             deviations from the catalogue URDF.
     """

@@ -47,7 +47,7 @@ def moved_names(module: str, moved: Mapping[str, str], advice: Mapping[str, str]
 
     Args:
         module: The module's name (``calib_pin.sensors.pose``).
-        moved: Old name -> ``"calib_pin.new.module:new_name"`` (``:new_name`` may be left
+        moved: Old name -> ``"<new module>:<new name>"`` (``:<new name>`` may be left
             out when the name is unchanged).
         advice: Old name -> what the warning says to use instead, where its new path is not
             the whole answer (default: ``use <its new path>``).
