@@ -66,6 +66,14 @@ def _run(*args, script="calibrate.py"):
         (["irb120", "--estimate", "anchor,hook"], "cannot estimate 'hook'"),
         (["irb120", "--seed", "-1"], "expected a non-negative int, got '-1'"),
         (["irb120", "--length-offset-mm", "nan"], "expected a finite number, got 'nan'"),
+        # the library's ArgumentError named by the flag that gave it
+        (["irb120", "--method", "lm", "--cv", "500"], "argument --cv: 500 folds for 96 training poses: give 2 to 96"),
+        (["irb120", "--method", "ekf_qibas"], "argument --method: unknown method 'ekf_qibas': did you mean ekf-qibas?"),
+        (["ur5", "--method", "lm"], "argument --data: robot 'ur5' has no default measurement set: give one"),
+        (["irb120", "--method", "lm", "--test-data", str(ROOT / "robots" / "irb120_wu2015.csv"), "--test-fraction", "0.5"],
+         "argument --test-fraction: 0.5 beside a separate validation session"),
+        (["irb120", "--data", str(ROOT / "robots" / "irb120_wu2015.csv"), "--anchor-mm", "600,200,-100"],
+         f"error: --anchor-mm is for drawstring data; {ROOT / 'robots' / 'irb120_wu2015.csv'} holds positions"),
     ],
 )
 def test_bad_input_one_line_exit_2(args, message, tmp_path, capsys):

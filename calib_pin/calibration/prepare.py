@@ -160,8 +160,8 @@ class Calibration:
 
         roles = [s.role for s in self.sets]
         if "test" in roles:
-            raise CalibPinError(f"test_data and set {self.labels[roles.index('test')]} with role 'test': give the "
-                                "validation session one way (--test-data, or a --data set with role=test)")
+            raise ArgumentError("test_data", f"a validation session beside set {self.labels[roles.index('test')]}, "
+                                "whose role is 'test': give the validation session one way, not both")
         _, session = load_data(self.chain, test.data, "", self.chain.end_frame)
         k = choose_training_set(test, session, self.labels, [s.kind for s in self.sets],
                                 [s.data.source for s in self.sets])
@@ -212,7 +212,8 @@ def deprecated_records(loose: dict[str, Any], setup: SensorSetup | None,
         compliance: The compliance given (a record, joint names, or None).
 
     Raises:
-        ArgumentError: an unknown keyword, a bad value (named), a load beside a record.
+        ArgumentError: an unknown keyword, a bad value (named), a set-up option or a load
+            beside its record.
     """
     unknown = sorted(set(loose) - set(DEPRECATED_SETUP) - set(DEPRECATED_LOADS))
     if unknown:
@@ -221,6 +222,9 @@ def deprecated_records(loose: dict[str, Any], setup: SensorSetup | None,
     from ..util.deprecation import warn_deprecated
 
     shorthand = {k: loose[k] for k in DEPRECATED_SETUP if k in loose and given(loose[k])}
+    if shorthand and setup is not None:
+        raise ArgumentError(next(iter(shorthand)), f"given beside setup={type(setup).__name__}(...): give it once, as "
+                            "the record's field")
     record = setup_record(setup, **shorthand)  # a bad value is refused before the warning
     if shorthand:
         warn_deprecated(f"{', '.join(shorthand)} as separate keyword(s) are deprecated: pass setup=calib_pin."

@@ -93,7 +93,7 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    "poses with the calibrated robot fixed, the other poses scored; FILE:register=role: on its rows "
                    "whose role column says 'register'")
     p.add_argument("--method", default=DEFAULT_METHOD, help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})")
-    add_test_fraction_argument(p)
+    add_test_fraction_argument(p, None)  # refused beside --test-data
     p.add_argument("--out", default="out", help="output folder (default ./out)")
     p.add_argument("--noise-mm", type=assumed_noise,
                    help="sensor noise (1 sigma) for the Kalman filters, mm, > 0 (default: the file's, else estimated "
@@ -134,7 +134,6 @@ def _per_set_named(args: argparse.Namespace, action: Any) -> int:
         CalibPinError: ``action``'s, reworded for a per-set key given in one ``--data``.
     """
     from ..exceptions import ArgumentError, CalibPinError, DataError
-    from ..sensors.setup import flag_of
 
     try:
         return action(args)
@@ -145,15 +144,14 @@ def _per_set_named(args: argparse.Namespace, action: Any) -> int:
         except CalibPinError:  # refused before its --data was read: the first error stands
             raise e from None
         for text, path, key in typed:
-            flag = flag_of(key)
             if getattr(args, key, None) is not None:
                 continue  # the global flag was given too: the library's message may be about it
             if (isinstance(e, ArgumentError) and e.argument == key) or \
                     (isinstance(e, DataError) and e.field == key and e.line is None and Path(e.path) == Path(path)):
                 reason = e.reason
-            elif not isinstance(e, ArgumentError | DataError) and str(e).startswith(f"{flag} is for ") \
-                    and f"{path} holds " in str(e):
-                reason = str(e)[len(flag) + 1:]
+            elif isinstance(e, ArgumentError) and e.argument == "setup" and e.reason.startswith(f"{key} is for ") \
+                    and f"{path} holds " in e.reason:
+                reason = e.reason[len(key) + 1:]
             else:
                 continue
             raise CalibPinError(f"--data '{text}': {key}: {reason}") from None

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..exceptions import CalibPinError, DataError
+from ..exceptions import ArgumentError, DataError
 from ..robot import Chain, load_chain
 from ..util.arguments import as_path
 from .checks import check_measurements
@@ -26,7 +26,7 @@ def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_labe
     if data is None:
         data = chain.description.default_data
         if data is None or not Path(data).is_file():
-            raise CalibPinError(f"robot '{chain.name}' has no default measurement set: pass --data")
+            raise ArgumentError("data", f"robot '{chain.name}' has no default measurement set: give one")
     given = data if isinstance(data, MeasurementSet) else None
     loaded = given if given is not None else read_measurements(as_path(data, "data"), chain, robot_label=robot_label)
     if end_frame is not None and loaded.end_frame and loaded.end_frame != end_frame:

@@ -441,9 +441,9 @@ class ContactModel(MeasurementModel):
         """
         cls.refuse_foreign(options, data)
         if options.get("estimate"):
-            raise CalibPinError(f"--estimate {','.join(options['estimate'])} is for drawstring data; with contact "
-                                f"fixtures ({data.source}) the points and planes are always estimated, and the tool "
-                                "point unless given (--tool-mm)")
+            raise ArgumentError("setup", f"estimate {','.join(options['estimate'])} is for drawstring data; with "
+                                f"contact fixtures ({data.source}) the points and planes are always estimated, and "
+                                "the tool point unless the set-up gives it")
         points, planes, rows = fixture_rows(data)
         distances = known_distances(data, points)
         given = options.get("tool_mm")

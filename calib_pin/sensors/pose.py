@@ -311,8 +311,8 @@ class PoseModel(MeasurementModel):
         """
         cls.refuse_foreign(options, data)
         if options.get("estimate"):
-            raise CalibPinError(f"--estimate {','.join(options['estimate'])} is for drawstring data; with 6-D poses "
-                                f"({data.source}) the device frame and the body are always estimated")
+            raise ArgumentError("setup", f"estimate {','.join(options['estimate'])} is for drawstring data; with 6-D "
+                                f"poses ({data.source}) the device frame and the body are always estimated")
         noise_m, noise_rad = noise_of(data, options)
         fit_rows = np.asarray(fit_rows, dtype=int)
         rig = fit_rig(chain, params, data.q[fit_rows], data.values[fit_rows], noise_m / noise_rad)
