@@ -276,3 +276,14 @@ def test_every_help_names_the_calib_pin_command(name, capsys):
         command(name)(["--help"])
     assert done.value.code == 0
     assert capsys.readouterr().out.startswith(f"usage: calib-pin {name} ")
+
+
+def test_calibrate_looks_its_method_up_once(tmp_path, monkeypatch):
+    """calibrate hands solve the record it checked before reading the data: one lookup."""
+    import calib_pin.calibration.solve as solve_module
+
+    looked = []
+    get_method = solve_module.get_method
+    monkeypatch.setattr(solve_module, "get_method", lambda name: looked.append(name) or get_method(name))
+    assert calibrate_main(["irb120", "--method", "ukf", "--no-html", "--out", str(tmp_path / "o")]) == 0
+    assert looked == ["ukf"]

@@ -129,3 +129,13 @@ def test_problem_on_without_reuse_fits_anew(device_fits):
     fresh = setup.problem_on(rows, reuse=False)
     assert len(calls) == 2 and fresh is not setup.problem
     assert fresh.residual(None).tobytes() == setup.problem.residual(None).tobytes()
+
+
+def test_a_fraction_that_holds_out_every_pose_says_so(chain, params):
+    """One pose at test fraction 0.6 leaves no training row: said as such, not as 'every set
+    has role test' (prepare refuses those)."""
+    import pytest
+
+    one = cp.simulate(chain, params, 1, seed=1)[0]
+    with pytest.raises(cp.DataError, match="test fraction 0.6 holds out every pose of its 1 rows: nothing to fit"):
+        cp.calibrate("irb120", one, method="lm", test_fraction=0.6)

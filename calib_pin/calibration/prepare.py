@@ -17,7 +17,7 @@ import numpy as np
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements import MeasurementSet, read_measurements
 from ..measurements.load import load_data
-from ..parameters import MODELS, ParameterModel, parameter_model
+from ..parameters import MODELS, ParameterModel, model_of
 from ..robot import Chain, RobotDescription, load_chain, resolve_robot
 from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
 from ..robot.description import as_robot
@@ -256,9 +256,7 @@ def _fit_sets(data: Any) -> list[FitSet]:
         if isinstance(d, FitSet):
             out.append(d)
         elif d is None or isinstance(d, str | Path | MeasurementSet) or hasattr(d, "__fspath__"):
-            if d is not None and not isinstance(d, MeasurementSet):
-                as_path(d, "data")
-            out.append(FitSet(d))  # type: ignore[arg-type]
+            out.append(FitSet(d))  # type: ignore[arg-type]  # a path is checked by FitSet
         else:
             raise ArgumentError("data", f"expected a measurement CSV path, a MeasurementSet or a FitSet, got "
                                 f"{type(d).__name__}")
@@ -319,9 +317,9 @@ def prepare(
         raise ArgumentError(name, f"one value for several sets: put each set's in its file ('# {name}: ...') or its "
                             "FitSet's setup")
     chain = _load_robot(robot, given[0].data, end_frame)
-    parameter_model(chain, parameters)  # a robot that cannot be calibrated says so first
+    model_of(chain, parameters)  # a robot that cannot be calibrated says so first (a chain made here: not checked)
     chain, first = load_data(chain, given[0].data, str(robot), end_frame)
-    params = parameter_model(chain, parameters)  # of the set's own end frame
+    params = model_of(chain, parameters)  # of the set's own end frame
     loaded = [first] + [load_data(chain, s.data, str(robot), chain.end_frame)[1] for s in given[1:]]
     labels = labelled(given, loaded)
     soft = record.spec(chain) if record is not None else None

@@ -277,8 +277,9 @@ def _solve(calibration: Calibration, record: Method, holdout: Holdout, seed: int
     if isinstance(holdout, TestSet):
         return _solve_session(calibration, record, holdout, seed, loss, history)
     train, test = calibration.split(holdout.test_fraction, seed)
-    if not len(train):
-        raise CalibPinError("every set has role 'test': nothing to fit")
+    if not len(train):  # prepare refused sets that are all role 'test'; a set this small is split so
+        raise DataError(calibration.data.source or "data", f"test fraction {holdout.test_fraction:g} holds out "
+                        f"every pose of its {len(calibration.data)} rows: nothing to fit (hold out less, or give more)")
     if isinstance(holdout, Folds):
         _check_folds(calibration, train, holdout.k, "holdout")
     notes = []

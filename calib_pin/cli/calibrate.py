@@ -398,7 +398,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     from ..exceptions import CalibPinError
 
     _check_dh_export(args)
-    method_record(args.method, args.loss)  # a bad method or loss before the data is read
+    method = method_record(args.method, args.loss)  # a bad method or loss before the data is read
     holdout = as_holdout(args.test_fraction, validation_argument(args.test_data))
     calibration = prepare(args.robot, _data(args), **_setup_options(args))
     if args.cv:
@@ -406,7 +406,7 @@ def _calibrate(args: argparse.Namespace) -> int:
             raise CalibPinError("--cv cross-validates the training poses of a split: leave --test-data out")
         holdout = Folds(args.cv, holdout.test_fraction)
     _announce(calibration)
-    result = solve(calibration, args.method, holdout=holdout, seed=args.seed, loss=args.loss)
+    result = solve(calibration, method, holdout=holdout, seed=args.seed, loss=args.loss)
     data = _data_files(args)  # --data may be given once per set
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
     test_file = validation_argument(args.test_data)

@@ -168,6 +168,15 @@ def check_measurements(chain: Chain, data: Any, robot_label: str | None = None) 
     """
     as_instance(chain, "chain", Chain, "a Chain (calib_pin.load_chain)")
     as_instance(data, "data", MeasurementSet, "a MeasurementSet (calib_pin.read_measurements or simulate)")
+    return check_set(chain, data, robot_label)
+
+
+def check_set(chain: Chain, data: MeasurementSet, robot_label: str | None = None) -> MeasurementSet:
+    """:func:`check_measurements` of a chain and a set known to be ones (a calibration's own).
+
+    Raises:
+        DataError: as :func:`check_measurements`.
+    """
     _check_shapes(chain, data)
     _check_angles(chain, data)
     _check_values(data)

@@ -9,9 +9,8 @@ from pathlib import Path
 
 from ..exceptions import ArgumentError, DataError
 from ..robot import Chain, load_chain
-from ..util.arguments import as_path
-from .checks import check_measurements
-from .csv_reader import read_measurements
+from .checks import check_set
+from .csv_reader import read_set
 from .dataset import MeasurementSet
 
 
@@ -28,11 +27,12 @@ def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_labe
         if data is None or not Path(data).is_file():
             raise ArgumentError("data", f"robot '{chain.name}' has no default measurement set: give one")
     given = data if isinstance(data, MeasurementSet) else None
-    loaded = given if given is not None else read_measurements(as_path(data, "data"), chain, robot_label=robot_label)
+    # a path its caller checked (FitSet, TestSet): read as it is
+    loaded = data if isinstance(data, MeasurementSet) else read_set(Path(data), chain, robot_label=robot_label)
     if end_frame is not None and loaded.end_frame and loaded.end_frame != end_frame:
         raise DataError(loaded.source or "data", f"was measured at end frame '{loaded.end_frame}', not '{end_frame}': "
                         "leave --end-frame out, or change the file's '# end_frame:' if it is wrong", None, "end_frame")
     if end_frame is None and loaded.end_frame and loaded.end_frame != chain.end_frame:
         chain = load_chain(chain.description, loaded.end_frame)
-        loaded = given if given is not None else read_measurements(loaded.source, chain, robot_label=robot_label)
-    return chain, check_measurements(chain, loaded, robot_label)
+        loaded = given if given is not None else read_set(Path(loaded.source), chain, robot_label=robot_label)
+    return chain, check_set(chain, loaded, robot_label)

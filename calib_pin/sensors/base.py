@@ -187,11 +187,10 @@ class MeasurementModel(ABC):
                  compliance: ComplianceSpec | None = None,
                  cable: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         from ..parameters.base import as_parameter_model
-        from ..robot.chain import as_chain
 
-        self.chain = as_chain(chain, "chain")
+        self._kin = Kinematics(chain)  # refuses anything but a chain, naming it
+        self.chain = chain
         self.params = as_parameter_model(params, "params", chain)
-        self._kin = Kinematics(chain)
         self.n_robot = len(params.names)
         self.compliance_spec = compliance
         self.deflection = None if compliance is None else Deflection(chain, compliance, cable)
