@@ -95,14 +95,6 @@ class TestSet:
         if r is not None and self.same:
             raise ArgumentError("same", "a re-registered session has its own set-up: give register or same, not both")
 
-    def describe(self) -> str:
-        """How its rows are used, for people."""
-        if self.register is None:
-            return "the training set's set-up"
-        if self.register == "role":
-            return f"a new set-up, re-registered on its rows with role={REGISTER_ROLE}"
-        return f"a new set-up, re-registered on its first {self.register} poses"
-
 
 #: How rows are held out: a fraction, folds, or a session.
 Holdout = Fraction | Folds | TestSet

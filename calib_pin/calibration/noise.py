@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..estimators import Method, run_method
+from ..estimators import Method, get_method, run_method
 from ..estimators.subspace import Subspace
 from ..exceptions import DataError
 from .problem import Problem
@@ -141,7 +141,7 @@ def estimate_noise(problem: Problem, train: np.ndarray, sigmas: list[float | Non
     unknown = [(k, j) for k, j in flat if where[k][j] == "default"]
     if not unknown or (len(flat) == 1 and not method.weighs_noise):
         return Noise(tuple(map(tuple, now)), tuple(map(tuple, where)), 0, "default" if unknown else "stated")
-    pilot = _method(PILOT)
+    pilot = get_method(PILOT)
     fits = 0
     while True:
         noise = Noise(tuple(map(tuple, now)), tuple(map(tuple, where)))
@@ -181,12 +181,6 @@ def estimate_noise(problem: Problem, train: np.ndarray, sigmas: list[float | Non
     else:
         words = f"estimated from the residual ({fits} fit{plural})"
     return Noise(tuple(map(tuple, now)), tuple(map(tuple, where)), fits, words, estimate)
-
-
-def _method(name: str) -> Method:
-    from ..estimators import get_method
-
-    return get_method(name)
 
 
 def _residuals(training: Problem, x: np.ndarray) -> dict[int, list[np.ndarray]]:

@@ -337,7 +337,7 @@ class SetResult:
     overrides: tuple[str, ...] = ()
     overridden: tuple[str, ...] = ()
     unit: str = "mm"
-    chain: Chain | None = field(default=None, repr=False)
+    chain: Chain = field(repr=False, kw_only=True)
     problem: Any = field(default=None, repr=False)
 
     def predict(self, q: Any, point_ids: Any = None) -> np.ndarray:
@@ -356,8 +356,7 @@ class SetResult:
             ArgumentError: as :meth:`CalibrationResult.predict`.
             DataError: a label that is not a marker of this set.
         """
-        chain = self.chain if self.chain is not None else self.model.chain
-        q = as_angles_rad(_joint_angles(q, chain.n_joints), "q", chain)  # within limits: not degrees
+        q = as_angles_rad(_joint_angles(q, self.chain.n_joints), "q", self.chain)  # within limits: not degrees
         labels = None
         if point_ids is not None:
             labels = np.asarray(point_ids, dtype=object).reshape(-1)
