@@ -93,7 +93,7 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    "poses with the calibrated robot fixed, the other poses scored; FILE:register=role: on its rows "
                    "whose role column says 'register'")
     p.add_argument("--method", default=DEFAULT_METHOD, help=f"estimator: {', '.join(ESTIMATORS)} (default {DEFAULT_METHOD})")
-    add_test_fraction_argument(p, None)  # refused beside --test-data
+    add_test_fraction_argument(p)
     p.add_argument("--out", default="out", help="output folder (default ./out)")
     p.add_argument("--noise-mm", type=assumed_noise,
                    help="sensor noise (1 sigma) for the Kalman filters, mm, > 0 (default: the file's, else estimated "
@@ -118,6 +118,9 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
 def calibrate_main(argv: Sequence[str] | None = None) -> int:
     """``calibrate.py ROBOT [--data CSV] [--method NAME] [--seed N] [--test-fraction F] [--out DIR]``."""
     args = parse_args("calibrate", argv)
+    typed = list(sys.argv[1:] if argv is None else argv)
+    if not any(a == "--test-fraction" or a.startswith("--test-fraction=") for a in typed):
+        args.test_fraction = None  # the default share, or none beside --test-data (a share given there is refused)
     return run(lambda: _per_set_named(args, _analyze if args.analyze else _calibrate))
 
 

@@ -315,9 +315,9 @@ def add_seed_argument(p: argparse.ArgumentParser) -> None:
     group(p, FIT_GROUP).add_argument("--seed", type=SEED_TYPE, default=0, help=SEED_HELP)
 
 
-def add_test_fraction_argument(p: argparse.ArgumentParser, default: float | None = 0.2) -> None:
-    """``--test-fraction``: the held-out share of poses, in [0, 1) (``default`` None: 0.2 unless refused)."""
-    group(p, FIT_GROUP).add_argument("--test-fraction", type=fraction, default=default, help=TEST_FRACTION_HELP)
+def add_test_fraction_argument(p: argparse.ArgumentParser) -> None:
+    """``--test-fraction``: the held-out share of poses, in [0, 1)."""
+    group(p, FIT_GROUP).add_argument("--test-fraction", type=fraction, default=0.2, help=TEST_FRACTION_HELP)
 
 
 def add_loss_argument(p: argparse.ArgumentParser) -> None:
