@@ -277,7 +277,7 @@ class MeasurementModel(ABC):
                 if name not in own and given(options.get(name)):
                     takers = [s.data_name.split()[0] for s in SENSORS.values() if name in s.setup_type.field_names()]
                     raise ArgumentError("setup", f"{name} is for {' and '.join(takers)} data; "
-                                        f"{data.source} holds {cls.data_name}")
+                                        f"{data.source or 'the set'} holds {cls.data_name}")
 
     @classmethod
     @abstractmethod
