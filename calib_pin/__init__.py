@@ -52,17 +52,39 @@ _RENAMED = {
     "StackedProblem": ("Problem", "calibration.problem"),
 }
 
-#: Deprecated module paths -> the modules that hold their contents (imports of them warn).
-_MOVED_MODULES = {
-    "arguments": "util.arguments", "units": "util.units", "progress": "util.progress", "atomic": "util.atomic",
-    "input_files": "util.input_files", "optional": "util.optional", "sanity": "parameters.sanity",
-    "compensation": "export.compensation", "problem": "estimators.problem", "stacked": "calibration.problem",
-    "result": "calibration.result", "validation": "calibration.validation", "multiset": "calibration.sets",
-    "pipeline": "calibration.solve", "export.bundle": "report.bundle", "export.outputs": "util.outputs",
-    "export.json_text": "report.json_text", "report.comparison_figures": "studies.comparison_figures",
-    "parameters.start": "calibration.start", "parameters.held": "calibration.held",
-    "analysis.subspace": "estimators.subspace", "analysis.noise": "calibration.noise",
-    "studies.cross_validation": "calibration.solve",
+#: Deprecated module paths -> the module that holds their contents, and their names that moved
+#: elsewhere or were renamed (old name -> ``"new.module:new_name"``, in calib_pin). An import
+#: of the old path warns once; an old name warns naming its replacement.
+_MOVED_MODULES: dict[str, tuple[str, dict[str, str]]] = {
+    "arguments": ("util.arguments", {
+        "as_angles_rad": "robot.chain:as_angles_rad", "as_chain": "robot.chain:as_chain",
+        "as_parameter_model": "parameters.base:as_parameter_model", "as_robot": "robot.description:as_robot"}),
+    "units": ("util.units", {}), "progress": ("util.progress", {}), "atomic": ("util.atomic", {}),
+    "input_files": ("util.input_files", {}), "optional": ("util.optional", {}), "sanity": ("parameters.sanity", {}),
+    "compensation": ("export.compensation", {}),
+    "problem": ("estimators.problem", {"CalibrationProblem": "sensors.problem:SetProblem"}),
+    "stacked": ("calibration.problem", {"StackedProblem": "calibration.problem:Problem",
+                                        "StackedModel": "calibration.problem:ProblemModel"}),
+    "result": ("calibration.result", {}),
+    "validation": ("calibration.validation", {"as_test_set": "calibration.holdout:TestSet"}),
+    "multiset": ("calibration.sets", {
+        "StackedSetup": "calibration.prepare:Calibration", "SetResult": "calibration.result:SetResult",
+        "fit_sets": "calibration.prepare:_fit_sets", "MAX_FILTER_NOISE_M": "calibration.noise:MAX_FILTER_NOISE_M",
+        "MAX_VCE_FITS": "calibration.noise:MAX_FITS", "VCE_TOLERANCE": "calibration.noise:TOLERANCE"}),
+    "pipeline": ("calibration.solve", {"CalibrationSetup": "calibration.prepare:Calibration"}),
+    "export.bundle": ("report.bundle", {}),
+    "export.outputs": ("util.outputs", {"robot_file": "robot.description:robot_file",
+                                        "robot_inputs": "robot.description:robot_inputs"}),
+    "export.json_text": ("report.json_text", {}), "report.comparison_figures": ("studies.comparison_figures", {}),
+    "parameters.start": ("calibration.start", {}), "parameters.held": ("calibration.held", {}),
+    "analysis.subspace": ("estimators.subspace", {}), "analysis.noise": ("calibration.noise", {}),
+    "studies.cross_validation": ("calibration.solve", {}),
+}
+
+#: What a deprecated name is to be replaced with, where the warning says more than its new path.
+_ADVICE = {
+    "fit_sets": "calib_pin.prepare takes a list of sets (a FitSet each)",
+    "as_test_set": "calib_pin.TestSet(test_data)",
 }
 
 __all__ = [
@@ -149,9 +171,12 @@ def __dir__() -> list[str]:
 
 
 class _MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
-    """Imports of a deprecated module path give the module that holds its contents.
+    """Imports of a deprecated module path give a module of its own that re-exports its contents.
 
-    With a DeprecationWarning; kept for one release.
+    The alias holds the public names of the module that has its contents now, and gives the
+    old names that moved elsewhere or were renamed on first use, each with a
+    DeprecationWarning naming its replacement; the real modules are left as they are. Kept
+    for one release.
     """
 
     def find_spec(self, fullname: str, path: Any = None, target: Any = None) -> Any:
@@ -161,12 +186,19 @@ class _MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         return importlib.util.spec_from_loader(fullname, self)
 
     def create_module(self, spec: Any) -> Any:
-        new = f"{__name__}.{_MOVED_MODULES[spec.name.removeprefix(f'{__name__}.')]}"
+        new = f"{__name__}.{_MOVED_MODULES[spec.name.removeprefix(f'{__name__}.')][0]}"
         warnings.warn(f"{spec.name} is deprecated: its contents are in {new}", DeprecationWarning, stacklevel=2)
-        return importlib.import_module(new)
+        return None  # a plain module of the old name
 
     def exec_module(self, module: Any) -> None:
-        return None
+        target, moved = _MOVED_MODULES[module.__name__.removeprefix(f"{__name__}.")]
+        real = importlib.import_module(f"{__name__}.{target}")
+        module.__dict__.update({k: v for k, v in vars(real).items() if not k.startswith("__")})
+        module.__all__ = sorted({k for k in vars(real) if not k.startswith("_")} | set(moved))
+
+        from .util.deprecation import moved_names
+
+        module.__getattr__ = moved_names(module.__name__, {k: f"{__name__}.{v}" for k, v in moved.items()}, _ADVICE)
 
 
 sys.meta_path.append(_MovedModules())

@@ -34,6 +34,24 @@ def small(chain, params):
 
 
 @pytest.fixture(scope="module")
+def other(chain, params):
+    """Another drawstring session of the same set-up: a validation session."""
+    return cp.simulate(chain, params, 30, seed=2)[0]
+
+
+@pytest.fixture(scope="module")
+def positions(chain, params):
+    """A simulated tracker set of 20 poses."""
+    return cp.simulate_positions(chain, params, 20, seed=3)[0]
+
+
+@pytest.fixture(scope="module")
+def two(small, other):
+    """An LM fit on two drawstring sets."""
+    return cp.calibrate("irb120", [small, other], method="lm")
+
+
+@pytest.fixture(scope="module")
 def setup(small):
     return cp.prepare("irb120", small)
 
@@ -117,17 +135,36 @@ CASES = [
     ("solve", "calibration", lambda f: cp.solve("irb120", "lm")),
     ("solve", "method", lambda f: cp.solve(f.setup, 3)),
     ("solve", "seed", lambda f: cp.solve(f.setup, "lm", seed=-2)),
-    ("solve", "test_fraction", lambda f: cp.solve(f.setup, "lm", holdout=2.0)),
+    ("solve", "holdout", lambda f: cp.solve(f.setup, "lm", holdout=2.0)),
+    ("solve", "holdout", lambda f: cp.solve(f.setup, "lm", holdout=1.5)),
     ("solve", "loss", lambda f: cp.solve(f.setup, "lm", loss=["huber"])),
     ("solve", "holdout", lambda f: cp.solve(f.setup, "lm", holdout="a.csv")),
     ("solve", "history", lambda f: cp.solve(f.setup, "lm", history="no")),
     ("Fraction", "test_fraction", lambda f: cp.Fraction(-0.1)),
-    ("Folds", "folds", lambda f: cp.Folds(1)),
     ("Prior", "prior length_mm", lambda f: cp.Prior(length_mm=0.0)),
     ("Prior", "prior angle_deg", lambda f: cp.Prior(angle_deg=float("nan"))),
     ("prepare", "prior", lambda f: cp.prepare("irb120", prior=(1.0, 0.1))),
     ("prepare", "tcp_mm", lambda f: cp.prepare("irb120", tcp_mm=(1.0, 2.0))),
-    ("Folds", "folds", lambda f: cp.solve(f.setup, "lm", holdout=cp.Folds(500))),
+    ("Folds", "k", lambda f: cp.Folds(1)),
+    ("solve", "holdout", lambda f: cp.solve(f.setup, "lm", holdout=cp.Folds(500))),
+    ("solve", "method", lambda f: cp.solve(f.setup, "ekf_qibas")),
+    ("calibrate", "holdout", lambda f: cp.calibrate("irb120", f.small, holdout=cp.Fraction(0.3))),
+    ("calibrate", "test_fraction", lambda f: cp.calibrate("irb120", f.small, method="lm", test_data=f.other,
+                                                          test_fraction=0.5)),  # the session is the test
+    ("calibrate", "test_data", lambda f: cp.calibrate("irb120", [f.small, cp.FitSet(f.other, role="test")],
+                                                      method="lm", test_data=f.other)),
+    ("calibrate", "anchor_mm", lambda f: cp.calibrate("irb120", f.small, setup=cp.CableSetup(anchor_mm=(0, 0, 0)),
+                                                      anchor_mm=(600, 200, -100))),  # the shorthand beside the record
+    ("calibrate", "setup", lambda f: cp.calibrate("irb120", f.positions, method="lm",
+                                                  setup=cp.CableSetup(anchor_mm=(600, 200, -100)))),
+    ("calibrate", "setup", lambda f: cp.calibrate("irb120", f.positions, method="lm",
+                                                  setup=cp.CableSetup(estimate="anchor"))),
+    ("calibrate", "data", lambda f: cp.calibrate("ur5", method="lm")),  # no shipped set
+    ("CalibrationResult.predict", "q", lambda f: f.fit.predict(np.zeros((2, 5)))),
+    ("CalibrationResult.predict", "q", lambda f: f.fit.predict("0,0,0,0,0,0")),
+    ("CalibrationResult.predict", "set", lambda f: f.fit.predict(np.zeros(6), set="nope")),
+    ("CalibrationResult.predict", "set", lambda f: f.two.predict(np.zeros(6))),  # several sets: name one
+    ("CalibrationResult.predict", "point_ids", lambda f: f.fit.predict(np.zeros(6), point_ids=[1, 2])),
     ("TestSet", "test_data", lambda f: cp.TestSet(12)),
     ("TestSet", "register", lambda f: cp.TestSet("a.csv", register=0)),
     ("TestSet", "same", lambda f: cp.TestSet("a.csv", same=3)),
@@ -224,7 +261,7 @@ CASES = [
     ("CableModel", "estimate", lambda f: cp.CableModel(f.chain, f.params, Drawstring(np.zeros(3), np.zeros(3)),
                                                        estimate="moon")),
     ("PositionModel", "device", lambda f: cp.PositionModel(f.chain, f.params, "tracker")),
-    # several sets (calib_pin.calibration.multiset): each FitSet's fields, checked by calibrate/prepare
+    # several sets (calib_pin.calibration.sets): each FitSet's fields, checked by calibrate/prepare
     ("FitSet", "role", lambda f: cp.calibrate("irb120", [cp.FitSet(f.small, role="held"), f.small], method="lm")),
     ("FitSet", "label", lambda f: cp.calibrate("irb120", [cp.FitSet(f.small, label=3), f.small], method="lm")),
     ("FitSet", "noise_mm", lambda f: cp.calibrate("irb120", [cp.FitSet(f.small, noise_mm=-1), f.small], method="lm")),
@@ -270,13 +307,16 @@ class Fixtures:
 
 @pytest.mark.parametrize(("entry", "argument", "call"), CASES,
                          ids=[f"{c[0]}-{c[1]}-{k}" for k, c in enumerate(CASES)])
-def test_a_bad_argument_is_named(entry, argument, call, chain, params, small, setup, arm, calibration, fit):
-    fixtures = Fixtures(chain=chain, params=params, small=small, setup=setup, arm=arm, calibration=calibration, fit=fit)
+def test_a_bad_argument_is_named(entry, argument, call, request):
+    """The message names the argument, in one line, with no command-line flag (``--cv``)."""
+    names = ("chain", "params", "small", "other", "positions", "two", "setup", "arm", "calibration", "fit")
+    fixtures = Fixtures(**{name: request.getfixturevalue(name) for name in names if name in call.__code__.co_names})
     with pytest.raises(cp.CalibPinError) as caught:
         call(fixtures)
     message = str(caught.value)
     assert argument in message, message
     assert len(message.splitlines()) == 1, message
+    assert not re.search(r"(?<![\w-])--[a-z]", message), message
     if isinstance(caught.value, ArgumentError):
         assert caught.value.argument == argument
 
@@ -360,3 +400,23 @@ def test_a_point_beyond_reach_is_refused_with_its_bound(make, arg, says):
         make()
     assert caught.value.argument == arg
     assert cp.CableSetup(tool_mm=(0, 0, 1999), anchor_mm=(19000, 0, 0)).tool_mm.tolist() == [0, 0, 1999]
+
+
+def test_an_argument_error_says_what_was_meant(small, setup, fit):
+    """A whole number of folds given as ``holdout`` names Folds; a method's typo its nearest
+    name; a set-up option given in both forms names both; calibrate's holdout sends to solve."""
+    with pytest.raises(ArgumentError, match=r"calib_pin\.Folds\(5\)") as caught:
+        cp.solve(setup, "lm", holdout=5)
+    assert caught.value.argument == "holdout"
+    with pytest.raises(ArgumentError, match="did you mean ekf-qibas") as caught:
+        cp.calibrate("irb120", small, method="ekf_qibas")
+    assert caught.value.argument == "method"
+    with pytest.raises(ArgumentError, match=r"beside setup=CableSetup\(\.\.\.\)") as caught:
+        cp.prepare("irb120", small, setup=cp.CableSetup(anchor_mm=(0, 0, 0)), anchor_mm=(600, 200, -100))
+    assert caught.value.argument == "anchor_mm"
+    with pytest.raises(ArgumentError, match=r"call calib_pin\.prepare, then calib_pin\.solve"):
+        cp.calibrate("irb120", small, holdout=cp.Fraction(0.3))
+    with pytest.raises(ArgumentError, match="500 folds for 30 training poses: give 2 to 30"):
+        cp.solve(setup, "lm", holdout=cp.Folds(500))
+    with pytest.raises(ArgumentError, match="looks like degrees"):
+        fit.predict(np.full((2, 6), 30.0))

@@ -1,4 +1,4 @@
-"""The library's writers (calib_pin/atomic.py): on a full disk the earlier file is kept
+"""The library's writers (calib_pin/util/atomic.py): on a full disk the earlier file is kept
 whole, not cut, and no temporary file is left; a symbolic link is written through."""
 
 from __future__ import annotations

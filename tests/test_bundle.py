@@ -1,4 +1,4 @@
-"""write_outputs (calib_pin/export/bundle.py): a calibration's files all together or none,
+"""write_outputs (calib_pin/report/bundle.py): a calibration's files all together or none,
 the same for the CLI, batch and library users: no corrected robot past the sanity bound,
 an earlier run's stale files removed, an input never written over nor removed."""
 

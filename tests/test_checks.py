@@ -118,7 +118,7 @@ def test_validation_session_with_another_setup_is_refused(cable, tmp_path):
     offset = dataclasses.replace(cable, length_offset=0.0125, source="")
     with pytest.raises(cp.DataError, match="length_offset_mm"):
         cp.calibrate("irb120", cable, method="lm", test_data=offset)
-    with pytest.raises(cp.DataError, match=r"the calibration 610, 200, -100 mm \(--anchor-mm\)"):
+    with pytest.raises(cp.DataError, match=r"the calibration 610, 200, -100 mm \(given\)"):
         check_same_setup(cable, cable, {"anchor_mm": (610.0, 200.0, -100.0)})
     check_same_setup(dataclasses.replace(cable, anchor=None, tool=None), cable, {})  # the session does not say
     check_same_setup(dataclasses.replace(cable, anchor=cable.anchor + 4e-10), cable, {})  # within rounding

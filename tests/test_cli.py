@@ -67,6 +67,14 @@ def _run(*args, script="calibrate.py"):
         (["irb120", "--estimate", "anchor,hook"], "cannot estimate 'hook'"),
         (["irb120", "--seed", "-1"], "expected a non-negative int, got '-1'"),
         (["irb120", "--length-offset-mm", "nan"], "expected a finite number, got 'nan'"),
+        # the library's ArgumentError named by the flag that gave it
+        (["irb120", "--method", "lm", "--cv", "500"], "argument --cv: 500 folds for 96 training poses: give 2 to 96"),
+        (["irb120", "--method", "ekf_qibas"], "argument --method: unknown method 'ekf_qibas': did you mean ekf-qibas?"),
+        (["ur5", "--method", "lm"], "argument --data: robot 'ur5' has no default measurement set: give one"),
+        (["irb120", "--method", "lm", "--test-data", str(ROOT / "robots" / "irb120_wu2015.csv"), "--test-fraction", "0.5"],
+         "argument --test-fraction: 0.5 beside a separate validation session"),
+        (["irb120", "--data", str(ROOT / "robots" / "irb120_wu2015.csv"), "--anchor-mm", "600,200,-100"],
+         f"error: --anchor-mm is for drawstring data; {ROOT / 'robots' / 'irb120_wu2015.csv'} holds positions"),
     ],
 )
 def test_bad_input_one_line_exit_2(args, message, tmp_path, capsys):
@@ -322,3 +330,14 @@ def test_no_command_prints_a_warning_or_note_on_stdout():
             if re.search(r"""print\(f?["'](warning|note):""", line) and "sys.stderr" not in line:
                 found.append(f"{path.name}:{number}")
     assert not found
+
+
+def test_calibrate_looks_its_method_up_once(tmp_path, monkeypatch):
+    """calibrate hands solve the record it checked before reading the data: one lookup."""
+    import calib_pin.calibration.solve as solve_module
+
+    looked = []
+    get_method = solve_module.get_method
+    monkeypatch.setattr(solve_module, "get_method", lambda name: looked.append(name) or get_method(name))
+    assert calibrate_main(["irb120", "--method", "ukf", "--no-html", "--out", str(tmp_path / "o")]) == 0
+    assert looked == ["ukf"]

@@ -85,7 +85,7 @@ def test_shipped_set_uses_its_truth_file():
 
 
 def test_bad_settings():
-    with pytest.raises(cp.EstimatorError, match="unknown method 'nope'"):
+    with pytest.raises(cp.ArgumentError, match="argument methods: unknown method 'nope'"):
         cp.compare("irb120", methods=["nope"])
     with pytest.raises(cp.CalibPinError, match="trials must be at least 1"):
         cp.compare("irb120", methods=["lm"], trials=0)
@@ -142,3 +142,22 @@ def test_compare_writes_all_outputs_or_none_and_the_figures_are_optional(tmp_pat
     assert code == 0 and len(lines) == 1 and "MPLBACKEND='nonsense'" in lines[0], err
     assert sorted(p.name for p in (tmp_path / "backend" / "out").iterdir()) == \
         ["fig2_residuals.png", "fig3_convergence.png", *tables]
+
+
+def test_each_method_is_looked_up_and_checked_once(monkeypatch):
+    """compare resolves each method's record once and hands the record to solve: one lookup
+    per method (it was one more per check and per trial) and its loss checked by compare and
+    by each trial's solve, nothing else."""
+    from collections import Counter
+
+    import calib_pin.estimators as estimators
+    from calib_pin.estimators import Method
+
+    looked, checked = Counter(), Counter()
+    get_method, check = estimators.get_method, Method.check
+    monkeypatch.setattr(estimators, "get_method", lambda name: looked.update([name]) or get_method(name))
+    monkeypatch.setattr(Method, "check", lambda self, loss="linear": checked.update([self.name]) or check(self, loss))
+    monkeypatch.setattr("calib_pin.calibration.solve.get_method", estimators.get_method)
+    cp.compare("irb120", methods=["ekf", "ukf"], trials=2, simulate_noise="gauss", poses=40, seed=3)
+    assert looked["ekf"] == looked["ukf"] == 1, looked
+    assert checked["ekf"] == checked["ukf"] == 1 + 2, checked

@@ -16,6 +16,7 @@ import pytest
 import calib_pin as cp
 from calib_pin.analysis.identifiability import distinct_values
 from calib_pin.cli import main
+from calib_pin.estimators import get_method
 from calib_pin.estimators.problem import data_row_errors, data_rows
 from calib_pin.robot.poses import random_poses
 from calib_pin.sensors.contact import rigid_aligned
@@ -82,8 +83,9 @@ def test_compare_scores_a_contact_set_on_fresh_poses_after_the_best_rigid_motion
     assert fresh == pytest.approx(float(np.sqrt(np.mean(error**2))) * 1e3, rel=1e-6)
     # the default methods leave out those the sensor refuses, saying so
     said: list[str] = []
-    assert _methods_for_data(cp.prepare("irb120", str(sets / "touch.csv")), ["ekf", "ukf", "rbf", "lm"], True,
-                             said.append) == ["ekf", "lm"]
+    records = [get_method(m) for m in ("ekf", "ukf", "rbf", "lm")]
+    kept = _methods_for_data(cp.prepare("irb120", str(sets / "touch.csv")), records, True, said.append)
+    assert [m.name for m in kept] == ["ekf", "lm"]
     assert said and "ukf, rbf" in said[0]
 
 

@@ -54,3 +54,16 @@ def test_folds_hold_what_the_calibration_holds():
     assert cv.stat("rmse_mm")[0] > 1.5 * free.stat("rmse_mm")[0]
     result = cp.solve(held, "lm", seed=1)
     assert abs(cv.stat("rmse_mm")[0] - result.metrics["test"]["after"].rmse_mm) < 0.5 * result.metrics["test"]["after"].rmse_mm
+
+
+def test_folds_take_the_checked_method(monkeypatch):
+    """solve with Folds checks the method's loss once: the folds fit with the record solve
+    checked (cross-validation checked it again)."""
+    from calib_pin.estimators import Method
+
+    checked = []
+    check = Method.check
+    monkeypatch.setattr(Method, "check", lambda self, loss="linear": checked.append(self.name) or check(self, loss))
+    calibration = prepare("irb120", simulate(load_chain("irb120"), parameter_model(load_chain("irb120")), 60, seed=4)[0])
+    result = cp.solve(calibration, "lm", holdout=cp.Folds(3))
+    assert result.cross_validation["folds"] == 3 and checked == ["lm"]

@@ -10,6 +10,15 @@ import calib_pin
 
 PACKAGE = Path(calib_pin.__file__).parent
 
+#: The package's folders from the ground up: a module imports only from its own folder and
+#: the folders below it (the public ``__init__`` names everything, lazily, from the top).
+LAYERS = ("exceptions", "util", "robot", "parameters", "export", "measurements", "estimators", "sensors",
+          "simulation", "analysis", "calibration", "report", "hardware", "studies", "cli")
+#: The command line: the top layer, which no other module imports.
+CLI = LAYERS[-1]
+#: The packages above the measurement sets: they read, write or fit measurement sets.
+ABOVE_MEASUREMENTS = LAYERS[LAYERS.index("measurements") + 1:]
+
 
 def _module(path: Path) -> str:
     parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
@@ -35,21 +44,16 @@ def _imports(source: str, module: str, is_package: bool = False) -> list[tuple[i
 def cli_imports_outside_cli() -> list[str]:
     bad = []
     for path in sorted(PACKAGE.rglob("*.py")):
-        if path.relative_to(PACKAGE).parts[0] == "cli":
+        if path.relative_to(PACKAGE).parts[0] == CLI:
             continue
         for line, module in _imports(path.read_text(encoding="utf-8"), _module(path), path.name == "__init__.py"):
-            if module == "calib_pin.cli" or module.startswith("calib_pin.cli."):
+            if module == f"calib_pin.{CLI}" or module.startswith(f"calib_pin.{CLI}."):
                 bad.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {module}")
     return bad
 
 
 def test_no_module_outside_cli_imports_the_cli():
     assert cli_imports_outside_cli() == []
-
-
-#: The packages above the measurement sets: they read, write or fit measurement sets.
-ABOVE_MEASUREMENTS = ("sensors", "simulation", "calibration", "analysis", "estimators", "report", "studies", "cli",
-                      "export", "hardware")
 
 
 def measurement_imports_above() -> list[str]:
@@ -82,11 +86,6 @@ def test_the_check_resolves_relative_and_absolute_imports():
     assert "calib_pin.export.cli.outputs" in nested  # level 1 inside export/ is export's, not the CLI
     assert "calib_pin.client" in top and not any(m.startswith("calib_pin.cli.") for m in top if "client" in m)
 
-
-#: The package's folders from the ground up: a module imports only from its own folder and
-#: the folders below it (the public ``__init__`` names everything, lazily, from the top).
-LAYERS = ("exceptions", "util", "robot", "parameters", "export", "measurements", "estimators", "sensors",
-          "simulation", "analysis", "calibration", "report", "hardware", "studies", "cli")
 
 
 def _resolved(name: str) -> str | None:
@@ -132,11 +131,11 @@ def test_no_top_level_module_but_the_public_init_and_the_errors():
     assert set(folders) <= set(LAYERS), set(folders) - set(LAYERS)
 
 
-def test_every_import_runs_down_the_layers():
-    """No import runs back up: each module imports its own folder's and the folders below."""
+def imports_up(graph: dict[str, set[tuple[str, int]]]) -> list[str]:
+    """``module:line -> target`` of each import in ``graph`` that runs back up :data:`LAYERS`."""
     rank = {name: k for k, name in enumerate(LAYERS)}
     bad = []
-    for module, targets in _graph().items():
+    for module, targets in graph.items():
         mine = _layer(module)
         if mine == "__init__":
             continue
@@ -144,21 +143,20 @@ def test_every_import_runs_down_the_layers():
             theirs = _layer(target)
             if theirs == "__init__" or rank[theirs] > rank[mine]:
                 bad.append(f"{module}:{line} -> {target}")
-    assert bad == []
+    return bad
 
 
-def test_no_import_cycle():
-    """No module imports one that imports it back, through any chain of imports."""
-    graph = {m: {t for t, _ in targets} for m, targets in _graph().items()}
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The modules of ``graph`` that import each other through any chain, each group sorted."""
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []
-    cycles = []
+    found = []
 
     def visit(node: str) -> None:  # Tarjan's strongly connected components
         index[node] = low[node] = len(index)
         stack.append(node)
-        for nxt in graph.get(node, ()):
+        for nxt in sorted(graph.get(node, ())):
             if nxt not in index:
                 visit(nxt)
                 low[node] = min(low[node], low[nxt])
@@ -172,17 +170,46 @@ def test_no_import_cycle():
                 if top == node:
                     break
             if len(component) > 1:
-                cycles.append(sorted(component))
+                found.append(sorted(component))
 
     for node in sorted(graph):
         if node not in index:
             visit(node)
-    assert cycles == []
+    return found
+
+
+def test_every_import_runs_down_the_layers():
+    """No import runs back up: each module imports its own folder's and the folders below."""
+    assert imports_up(_graph()) == []
+
+
+def test_no_import_cycle():
+    """No module imports one that imports it back, through any chain of imports."""
+    assert cycles({m: {t for t, _ in targets} for m, targets in _graph().items()}) == []
+
+
+def test_the_rank_and_cycle_checks_fail_on_a_bad_graph():
+    """A small graph with an import back up (robot -> sensors), one into the public
+    ``__init__`` and a cycle of three (a -> b -> c -> a) beside a chain that is none."""
+    graph = {"calib_pin.robot.chain": {("calib_pin.sensors.base", 3), ("calib_pin.util.arguments", 4)},
+             "calib_pin.sensors.base": {("calib_pin", 7)},
+             "calib_pin.util.arguments": set()}
+    assert imports_up(graph) == ["calib_pin.robot.chain:3 -> calib_pin.sensors.base",
+                                 "calib_pin.sensors.base:7 -> calib_pin"]
+    ring = {"a": {"b"}, "b": {"c"}, "c": {"a", "d"}, "d": {"e"}, "e": set()}
+    assert cycles(ring) == [["a", "b", "c"]]
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": set()}) == []
+
+
+def test_the_layer_lists_agree():
+    """What sits above the measurement sets, and the command line, are read from LAYERS."""
+    assert "export" not in ABOVE_MEASUREMENTS and "sensors" in ABOVE_MEASUREMENTS and CLI == "cli"
 
 
 def test_the_layer_check_sees_a_cycle_and_an_import_back_up():
     """What the checks would catch: an import inside a function counts, and so does one under
     TYPE_CHECKING."""
-    source = "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..cli import main\ndef f():\n    from ..sensors import x\n"
+    source = ("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..cli import main\n"
+              "def f():\n    from ..sensors import x\n")
     found = [m for _, m in _imports(source, "calib_pin.robot.chain")]
     assert "calib_pin.cli" in found and "calib_pin.sensors" in found

@@ -1,5 +1,5 @@
-"""Noise per part of a row (calib_pin/sensors/base.py noise_parts, calib_pin/multiset.py
-variance_components / fit_noise_parts): a 6-D pose set that states neither noise gets
+"""Noise per part of a row (calib_pin/sensors/base.py noise_parts, calib_pin/calibration/noise.py
+estimate_noise): a 6-D pose set that states neither noise gets
 both from its residual, and calibrates as well as with them stated; the per-part errors
 and noises reach report.json, the printout and report.html."""
 

@@ -1,4 +1,4 @@
-"""Outputs (calib_pin/export/outputs.py): never overwritten without --force, never an input,
+"""Outputs (calib_pin/util/outputs.py): never overwritten without --force, never an input,
 never cut or half-moved: a full disk and a failed rename leave every file as it was."""
 
 from __future__ import annotations

@@ -113,7 +113,7 @@ def test_a_cable_key_on_a_position_set_is_refused(tmp_path):
     (tmp_path / "a.csv").write_text(text)
     (tmp_path / "b.csv").write_text(text)
     data = [FitSet(tmp_path / "a.csv", setup=CableSetup(anchor_mm=(1, 2, 3))), FitSet(tmp_path / "b.csv")]
-    with pytest.raises(CalibPinError, match="--anchor-mm is for drawstring data; .*a.csv holds positions"):
+    with pytest.raises(CalibPinError, match="argument setup: anchor_mm is for drawstring data; .*a.csv holds positions"):
         cp.prepare("irb120", data)
 
 

@@ -148,3 +148,13 @@ def test_values_are_counted_against_the_directions_the_rows_identify(session):
         cp.calibrate("irb120", data.subset(np.arange(3)), method="lm", test_fraction=0, free="theta_2,theta_3,d_1")
     with pytest.raises(cp.DataError, match=r"19 fitting rows of cross-validation fold 1 of 3 \(the other folds'\) give"):
         cp.solve(cp.prepare("irb120", data.subset(np.arange(29))), "lm", holdout=cp.Folds(3))
+
+
+def test_a_fraction_that_holds_out_every_pose_says_so(chain, params):
+    """One pose at test fraction 0.6 leaves no training row: said as such, not as 'every set
+    has role test' (prepare refuses those)."""
+    import pytest
+
+    one = cp.simulate(chain, params, 1, seed=1)[0]
+    with pytest.raises(cp.DataError, match="test fraction 0.6 holds out every pose of its 1 rows: nothing to fit"):
+        cp.calibrate("irb120", one, method="lm", test_fraction=0.6)

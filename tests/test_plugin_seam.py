@@ -163,7 +163,7 @@ def test_an_invented_sensor_reads_writes_and_calibrates(tmp_path, distance):
     data = cp.read_measurements(path)
     assert data.kind == "distance" and data.values.shape == (80,)
     assert sensor_for(data.kind).setup_of(data) == fake_sensor.DistanceSetup(target_mm=(0, 0, 50))
-    with pytest.raises(cp.CalibPinError, match="--anchor-mm is for drawstring data; .*holds laser distances"):
+    with pytest.raises(cp.CalibPinError, match="argument setup: anchor_mm is for drawstring data; .*holds laser distances"):
         cp.calibrate("irb120", path, method="lm", setup=CableSetup(anchor_mm=(1, 2, 3)))
     result = cp.calibrate("irb120", path, method="lm", test_fraction=0.25, setup=fake_sensor.DistanceSetup(
         beam=(0.6, 0.0, 0.8)))

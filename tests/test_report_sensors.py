@@ -131,7 +131,8 @@ def test_a_shared_flag_names_every_sensor_that_takes_it():
 def test_a_foreign_flag_names_every_sensor_that_takes_it(chain):
     params = cp.parameter_model(chain)
     data, _ = cp.simulate_sessions(chain, params, 5, seed=1, kinds=["pose"])
-    with pytest.raises(cp.CalibPinError, match="--tool-mm is for drawstring and contact data; .* holds 6-D poses"):
+    with pytest.raises(cp.ArgumentError,
+                       match="argument setup: tool_mm is for drawstring and contact data; the set holds 6-D poses"):
         cp.calibrate("irb120", data[0], method="lm", setup=cp.sensors.CableSetup(tool_mm=(0, 0, 50)))
 
 

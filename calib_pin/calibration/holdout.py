@@ -58,7 +58,7 @@ class Folds:
 
     def __post_init__(self) -> None:
         """Raises: ArgumentError naming ``k`` or ``test_fraction``."""
-        object.__setattr__(self, "k", as_int(self.k, "folds", 2))
+        object.__setattr__(self, "k", as_int(self.k, "k", 2))
         object.__setattr__(self, "test_fraction",
                            as_float(self.test_fraction, "test_fraction", 0.0, 1.0, high_open=True))
 
@@ -97,37 +97,31 @@ class TestSet:
         if r is not None and self.same:
             raise ArgumentError("same", "a re-registered session has its own set-up: give register or same, not both")
 
-    def describe(self) -> str:
-        """How its rows are used, for people."""
-        if self.register is None:
-            return "the training set's set-up"
-        if self.register == "role":
-            return f"a new set-up, re-registered on its rows with role={REGISTER_ROLE}"
-        return f"a new set-up, re-registered on {self.register} of its poses"
-
 
 #: How rows are held out: a fraction, folds, or a session.
 Holdout = Fraction | Folds | TestSet
 
 
-def as_holdout(test_fraction: float = 0.2, test_data: Any = None) -> Holdout:
+def as_holdout(test_fraction: float | None = None, test_data: Any = None) -> Holdout:
     """The holdout of ``calibrate``'s two arguments ``test_fraction`` and ``test_data``.
 
     ``test_data`` (a path, a set or a :class:`TestSet`) when given, else :class:`Fraction`
     of ``test_fraction``.
 
     Args:
-        test_fraction: Share of each set's poses held out, in [0, 1); checked beside a
-            session too.
+        test_fraction: Share of each set's poses held out, in [0, 1); None: the default
+            (0.2), or none beside ``test_data`` (where only 0 agrees).
         test_data: A separate validation session (a CSV path, a
             :class:`~calib_pin.measurements.MeasurementSet` or a :class:`TestSet`), or None.
 
     Raises:
-        ArgumentError: naming the argument.
+        ArgumentError: naming the argument; a share held out beside ``test_data``.
     """
     if test_data is None:
-        return Fraction(test_fraction)
-    Fraction(test_fraction)  # a bad fraction is refused beside a session too
+        return Fraction() if test_fraction is None else Fraction(test_fraction)
+    if test_fraction is not None and Fraction(test_fraction).test_fraction > 0:
+        raise ArgumentError("test_fraction", f"{test_fraction} beside a separate validation session, which is the "
+                            "test (every row trains): leave it out, or 0")
     if isinstance(test_data, TestSet):
         return test_data
     if not isinstance(test_data, MeasurementSet | str | Path) and not hasattr(test_data, "__fspath__"):

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ..estimators import Method, run_method
+from ..estimators import Method, get_method, run_method
 from ..estimators.subspace import Subspace
 from ..exceptions import DataError
 from .problem import Problem
@@ -154,7 +154,7 @@ def estimate_noise(problem: Problem, train: np.ndarray, sigmas: list[float | Non
     unknown = [(k, j) for k, j in flat if where[k][j] == "default"]
     if not unknown or (len(flat) == 1 and not method.weighs_noise):
         return Noise(tuple(map(tuple, now)), tuple(map(tuple, where)), 0, "default" if unknown else "stated")
-    pilot = _method(PILOT)
+    pilot = get_method(PILOT)
     defaults = [list(s) for s in now]
     fits, moved = 0, 0.0
     thin: dict[tuple[int, int], str] = {}
@@ -294,12 +294,6 @@ def _notes(problem: Problem, sigmas: list[list[float]], origins: list[list[str]]
                      "set's is the geometric mean of the last fit's and its residual's, and the method was fitted "
                      "with those (state the noises, '# noise_mm: ...' in each file, to fix them)")
     return notes
-
-
-def _method(name: str) -> Method:
-    from ..estimators import get_method
-
-    return get_method(name)
 
 
 def _residuals(training: Problem, x: np.ndarray) -> dict[int, list[np.ndarray]]:

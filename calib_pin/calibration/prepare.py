@@ -7,7 +7,6 @@ checks each value where it enters, and returns a :class:`Calibration`: what
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -18,7 +17,7 @@ import numpy as np
 from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements import MeasurementSet, read_measurements
 from ..measurements.load import load_data
-from ..parameters import MODELS, ParameterModel, parameter_model
+from ..parameters import MODELS, ParameterModel, model_of
 from ..parameters.prior import Prior
 from ..robot import Chain, RobotDescription, load_chain, resolve_robot
 from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
@@ -176,8 +175,8 @@ class Calibration:
 
         roles = [s.role for s in self.sets]
         if "test" in roles:
-            raise CalibPinError(f"test_data and set {self.labels[roles.index('test')]} with role 'test': give the "
-                                "validation session one way (--test-data, or a --data set with role=test)")
+            raise ArgumentError("test_data", f"a validation session beside set {self.labels[roles.index('test')]}, "
+                                "whose role is 'test': give the validation session one way, not both")
         _, session = load_data(self.chain, test.data, "", self.chain.end_frame)
         k = choose_training_set(test, session, self.labels, [s.kind for s in self.sets],
                                 [s.data.source for s in self.sets])
@@ -230,21 +229,26 @@ def deprecated_records(loose: dict[str, Any], setup: SensorSetup | None,
         compliance: The compliance given (a record, joint names, or None).
 
     Raises:
-        ArgumentError: an unknown keyword, a bad value (named), a load beside a record.
+        ArgumentError: an unknown keyword, a bad value (named), a set-up option or a load
+            beside its record.
     """
     unknown = sorted(set(loose) - set(DEPRECATED_SETUP) - set(DEPRECATED_LOADS))
     if unknown:
         raise ArgumentError(unknown[0], "is not an argument of calibrate/prepare (see help(calib_pin.calibrate))")
     from ..sensors.setup import given
+    from ..util.deprecation import warn_deprecated
 
     shorthand = {k: loose[k] for k in DEPRECATED_SETUP if k in loose and given(loose[k])}
+    if shorthand and setup is not None:
+        raise ArgumentError(next(iter(shorthand)), f"given beside setup={type(setup).__name__}(...): give it once, as "
+                            "the record's field")
     record = setup_record(setup, **shorthand)  # a bad value is refused before the warning
     if shorthand:
-        warnings.warn(f"{', '.join(shorthand)} as separate keyword(s) are deprecated: pass setup=calib_pin."
-                      "CableSetup(...) (or the record of your sensor)", DeprecationWarning, stacklevel=4)
+        warn_deprecated(f"{', '.join(shorthand)} as separate keyword(s) are deprecated: pass setup=calib_pin."
+                        "CableSetup(...) (or the record of your sensor)")
     return record, as_compliance(compliance, payload_kg=loose.get("payload_kg"),
                                  payload_com_mm=loose.get("payload_com_mm"),
-                                 cable_tension_n=loose.get("cable_tension_n"), stacklevel=5)
+                                 cable_tension_n=loose.get("cable_tension_n"))
 
 
 def _load_robot(robot: str | RobotDescription, first: Any, end_frame: str | None,
@@ -272,9 +276,7 @@ def _fit_sets(data: Any) -> list[FitSet]:
         if isinstance(d, FitSet):
             out.append(d)
         elif d is None or isinstance(d, str | Path | MeasurementSet) or hasattr(d, "__fspath__"):
-            if d is not None and not isinstance(d, MeasurementSet):
-                as_path(d, "data")
-            out.append(FitSet(d))  # type: ignore[arg-type]
+            out.append(FitSet(d))  # type: ignore[arg-type]  # a path is checked by FitSet
         else:
             raise ArgumentError("data", f"expected a measurement CSV path, a MeasurementSet or a FitSet, got "
                                 f"{type(d).__name__}")
@@ -383,9 +385,9 @@ def prepare(
     _refuse_given_twice(given, one_for_all, noises)
     margin = as_optional(as_float, limit_margin_deg, "limit_margin_deg", 0.0, MAX_LIMIT_MARGIN_DEG, unit="deg")
     chain = _load_robot(robot, given[0].data, end_frame, margin)
-    parameter_model(chain, parameters)  # a robot that cannot be calibrated says so first
+    model_of(chain, parameters)  # a robot that cannot be calibrated says so first (a chain made here: not checked)
     chain, first = load_data(chain, given[0].data, str(robot), end_frame)
-    params = parameter_model(chain, parameters)  # of the set's own end frame
+    params = model_of(chain, parameters)  # of the set's own end frame
     loaded = [first] + [load_data(chain, s.data, str(robot), chain.end_frame)[1] for s in given[1:]]
     labels = labelled(given, loaded)
     soft = record.spec(chain) if record is not None else None

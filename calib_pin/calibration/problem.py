@@ -479,21 +479,6 @@ class Problem(RowProblem):
         return np.concatenate([p.row_errors(residual[lo:hi]) / w for p, w, lo, hi
                                in zip(self.parts, self.weights, starts[:-1], starts[1:], strict=True)])
 
-    def part_rows(self, part: int) -> np.ndarray:
-        """The rows of part ``part``."""
-        return np.arange(self._offsets[part], self._offsets[part + 1])
-
-    def part_data(self, k: int) -> tuple[int, np.ndarray] | None:
-        """Where set k's data rows stand among :attr:`q`'s: (its part, the data rows).
-
-        None when set k has no rows here.
-        """
-        if k not in self.sets:
-            return None
-        part = self.sets.index(k)
-        start = sum(len(p.q) for p in self.parts[:part])
-        return part, np.arange(start, start + len(self.parts[part].q))
-
     def named_directions(self, x: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, str]]:
         """Directions of the unknowns each part's sensor names, as vectors of x, by name.
 

@@ -12,7 +12,7 @@ import pinocchio as pin
 
 from ..analysis.metrics import Metrics
 from ..estimators.base import EstimateResult
-from ..exceptions import CalibPinError
+from ..exceptions import ArgumentError, CalibPinError
 from ..export.urdf import write_calibrated_urdf
 from ..measurements import MeasurementSet
 from ..parameters import ParameterModel
@@ -66,7 +66,7 @@ class CalibrationResult:
             ``default`` (none stated, a method that does not weigh rows by it), or
             ``estimated: ...`` (none stated: from the residual, :mod:`calib_pin.calibration.noise`).
         cross_validation: K-fold held-out metrics of this model on the training poses
-            (:meth:`calib_pin.studies.cross_validation.CrossValidation.as_dict`), when asked.
+            (:meth:`calib_pin.calibration.solve.CrossValidation.as_dict`), when asked.
         start: The start of ``--nominal`` (None: the catalogue geometry); ``x`` stays the
             deviations from the catalogue URDF.
     """
@@ -190,7 +190,7 @@ class CalibrationResult:
             device frame.
 
         Raises:
-            CalibPinError: q is not finite numbers of shape (n_poses, n_joints), or is
+            ArgumentError: naming the argument: q is not finite numbers of shape (n_poses, n_joints), or is
                 outside the joint limits (degrees given as radians); point_ids
                 is left out with several markers, or is not one label or one per pose;
                 ``set`` left out with several sets, or naming none.
@@ -205,19 +205,19 @@ class CalibrationResult:
             set: The set's label or index (0-based); None with one set.
 
         Raises:
-            CalibPinError: None with several sets, or a label or index of no set.
+            ArgumentError: naming ``set``: None with several sets, or a label or index of no set.
         """
         labels = [s.label for s in self.sets]
         if set is None:
             if len(self.sets) == 1:
                 return self.sets[0]
-            raise CalibPinError(f"a calibration of {len(self.sets)} sets predicts per set: name it, set= one of "
-                                f"{', '.join(labels)}")
+            raise ArgumentError("set", f"left out: a calibration of {len(self.sets)} sets predicts per set, name "
+                                f"one of {', '.join(labels)}")
         if isinstance(set, str) and set in labels:
             return self.sets[labels.index(set)]
         if isinstance(set, int | np.integer) and not isinstance(set, bool) and 0 <= set < len(self.sets):
             return self.sets[int(set)]
-        raise CalibPinError(f"set: {set!r} is no set of this calibration (labels: {', '.join(labels)}, or an index "
+        raise ArgumentError("set", f"{set!r} is no set of this calibration (labels: {', '.join(labels)}, or an index "
                             f"from 0 to {len(self.sets) - 1})")
 
     def sanity_error(self) -> str | None:
@@ -453,20 +453,20 @@ def _joint_angles(q: Any, n_joints: int) -> np.ndarray:
     """q as finite floats of shape (n_poses, n_joints) [rad] (one pose may be 1-D).
 
     Raises:
-        CalibPinError: naming ``q``: not numbers, not finite, no poses, or another shape.
+        ArgumentError: naming ``q``: not numbers, not finite, no poses, or another shape.
     """
     try:
         angles = np.array(q, dtype=float)
     except (TypeError, ValueError):
-        raise CalibPinError(f"q: not numbers (joint angles [rad], shape (n_poses, {n_joints}))") from None
+        raise ArgumentError("q", f"not numbers (joint angles [rad], shape (n_poses, {n_joints}))") from None
     if angles.ndim == 1 and angles.shape == (n_joints,):
         angles = angles[None, :]
     if angles.ndim != 2 or angles.shape[1] != n_joints:
-        raise CalibPinError(f"q: shape {angles.shape}, expected (n_poses, {n_joints}) joint angles [rad]")
+        raise ArgumentError("q", f"shape {angles.shape}, expected (n_poses, {n_joints}) joint angles [rad]")
     if not len(angles):
-        raise CalibPinError("q: no poses")
+        raise ArgumentError("q", "no poses")
     if not np.all(np.isfinite(angles)):
-        raise CalibPinError("q: not finite (NaN or inf)")
+        raise ArgumentError("q", "not finite (NaN or inf)")
     return angles
 
 
@@ -508,7 +508,7 @@ class SetResult:
     overrides: tuple[str, ...] = ()
     overridden: tuple[str, ...] = ()
     unit: str = "mm"
-    chain: Chain | None = field(default=None, repr=False)
+    chain: Chain = field(repr=False, kw_only=True)
     problem: Any = field(default=None, repr=False)
 
     def predict(self, q: Any, point_ids: Any = None) -> np.ndarray:
@@ -524,21 +524,20 @@ class SetResult:
             device frame.
 
         Raises:
-            CalibPinError: as :meth:`CalibrationResult.predict`.
+            ArgumentError: as :meth:`CalibrationResult.predict`.
             DataError: a label that is not a marker of this set.
         """
-        chain = self.chain if self.chain is not None else self.model.chain
-        q = as_angles_rad(_joint_angles(q, chain.n_joints), "q", chain)  # within limits: not degrees
+        q = as_angles_rad(_joint_angles(q, self.chain.n_joints), "q", self.chain)  # within limits: not degrees
         labels = None
         if point_ids is not None:
             labels = np.asarray(point_ids, dtype=object).reshape(-1)
             if labels.shape == (1,):
                 labels = np.repeat(labels, len(q))
             if labels.shape != (len(q),):
-                raise CalibPinError(f"point_ids: {labels.size} labels for {len(q)} poses (give one label, or one per pose)")
+                raise ArgumentError("point_ids", f"{labels.size} labels for {len(q)} poses (give one label, or one per pose)")
         points = self.model.point_index(labels, len(q))
         if labels is not None and points is None:  # a sensor of one point has no labels: they would be ignored
-            raise CalibPinError(f"point_ids: this calibration's sensor ({self.model.describe()}) measures one "
+            raise ArgumentError("point_ids", f"this calibration's sensor ({self.model.describe()}) measures one "
                                 "point, which has no label: leave point_ids out")
         values = self.model.predict(self.x, q, points)
         correction = None if self.estimate is None else self.estimate.correction

@@ -24,7 +24,7 @@ from ..exceptions import ArgumentError, CalibPinError, DataError
 from ..measurements import MeasurementSet
 from ..sensors import SensorSetup, sensor_for
 from ..sensors.setup import given as given_value
-from ..util.arguments import MAX_MM, as_choice, as_float, as_instance
+from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_path
 from .repeats import repeat_error, shares_lines
 
 #: A set's role: split by pose (default), all training rows, or all test rows.
@@ -53,7 +53,9 @@ class FitSet:
     setup: SensorSetup | None = None
 
     def __post_init__(self) -> None:
-        """Raises: ArgumentError naming ``role``, ``label`` or ``noise_mm``."""
+        """Raises: ArgumentError naming ``data``, ``role``, ``label`` or ``noise_mm``."""
+        if self.data is not None and not isinstance(self.data, MeasurementSet):
+            as_path(self.data, "data")
         as_choice(self.role, "role", ROLES)
         as_instance(self.label, "label", str, "a set's label (text)")
         if self.noise_mm is not None:

@@ -57,19 +57,24 @@ class Fit:
     x0: np.ndarray
 
 
-def method_record(method: Any, loss: str) -> Method:
+def method_record(method: Any, loss: str, argument: str = "method") -> Method:
     """``method`` (a name or a record) as a record that takes ``loss``.
 
     Args:
         method: An estimator's name (``calib_pin.ESTIMATORS``) or record.
         loss: ``linear``, or a robust loss (``huber``, ``soft_l1``, ``cauchy``).
+        argument: The caller's name of ``method``, for messages.
 
     Raises:
-        ArgumentError: not a method name, or a loss that is no text.
-        EstimatorError: an unknown method or loss, or a loss the method has no robust variant for.
+        ArgumentError: not a method's name (naming ``argument``), or a loss that is no text.
+        EstimatorError: an unknown loss, or a loss the method has no robust variant for.
     """
-    record = method if isinstance(method, Method) else get_method(
-        as_instance(method, "method", str, "a method name (calib_pin.ESTIMATORS)"))
+    from ..estimators import ESTIMATORS, unknown_method
+
+    if not isinstance(method, Method) and as_instance(method, argument, str, "a method name (calib_pin.ESTIMATORS)") \
+            not in ESTIMATORS:
+        raise ArgumentError(argument, unknown_method(method))
+    record = method if isinstance(method, Method) else get_method(method)
     record.check(as_instance(loss, "loss", str, "a loss name (linear, huber, soft_l1, cauchy)"))
     return record
 
@@ -275,9 +280,23 @@ def solve(calibration: Calibration, method: str | Method = DEFAULT_METHOD, *, ho
     record = method_record(method, loss)
     seed = as_int(seed, "seed", 0)
     history = as_bool(history, "history")
-    rows: Holdout = Fraction(holdout) if isinstance(holdout, int | float) and not isinstance(holdout, bool) else \
+    rows: Holdout = _fraction(holdout) if isinstance(holdout, int | float) and not isinstance(holdout, bool) else \
         as_instance(holdout, "holdout", (Fraction, Folds, TestSet), "calib_pin.Fraction, Folds or TestSet")
     return _solve(calibration, record, rows, seed, loss, history)
+
+
+def _fraction(share: float) -> Fraction:
+    """``solve``'s ``holdout`` given as a number: the share of each set's poses held out.
+
+    Raises:
+        ArgumentError: naming ``holdout``: not in [0, 1) (a whole number of folds is named).
+    """
+    try:
+        return Fraction(share)
+    except ArgumentError as e:
+        folds = f" (for {share}-fold cross-validation: calib_pin.Folds({share}))" if isinstance(share, int) and \
+            share >= 2 else ""
+        raise ArgumentError("holdout", f"{e.reason}{folds}") from None
 
 
 def _solve(calibration: Calibration, record: Method, holdout: Holdout, seed: int, loss: str,
@@ -287,8 +306,11 @@ def _solve(calibration: Calibration, record: Method, holdout: Holdout, seed: int
     if isinstance(holdout, TestSet):
         return _solve_session(calibration, record, holdout, seed, loss, history)
     train, test = calibration.split(holdout.test_fraction, seed)
-    if not len(train):
-        raise CalibPinError("every set has role 'test': nothing to fit")
+    if not len(train):  # prepare refused sets that are all role 'test'; a set this small is split so
+        raise DataError(calibration.data.source or "data", f"test fraction {holdout.test_fraction:g} holds out "
+                        f"every pose of its {len(calibration.data)} rows: nothing to fit (hold out less, or give more)")
+    if isinstance(holdout, Folds):
+        _check_folds(calibration, train, holdout.k, "holdout")
     notes = []
     if holdout.test_fraction > 0 and not len(test):
         notes.append(f"test fraction {holdout.test_fraction:g} holds out no pose of {len(calibration.data)}: "
@@ -296,8 +318,8 @@ def _solve(calibration: Calibration, record: Method, holdout: Holdout, seed: int
     result = score(calibration, record, fit(calibration, record, train, seed=seed, loss=loss, history=history),
                    train, test, seed=seed, loss=loss, notes=notes)
     if isinstance(holdout, Folds):
-        result = replace(result, cross_validation=cross_validate(calibration, record, train, holdout.k, seed=seed,
-                                                                 loss=loss).as_dict())
+        result = replace(result, cross_validation=_cross_validate(calibration, record, train, holdout.k, seed,
+                                                                  loss).as_dict())
     return result
 
 
@@ -373,13 +395,23 @@ def cross_validate(calibration: Calibration, method: str | Method, rows: np.ndar
         ArgumentError: K out of range for the poses (``folds``).
         EstimatorError: an unknown method or loss.
     """
-    method = method_record(method, loss)
-    rows = np.asarray(rows, dtype=int)
-    groups = np.asarray(calibration.data.groups)[rows]
-    poses = len(np.unique(groups))
-    if not 2 <= folds <= poses:
-        raise ArgumentError("folds", f"--cv {folds}: needs 2 to {poses} folds (the training poses)")
-    fold = fold_of_rows(groups, folds, seed)
+    record, rows = method_record(method, loss), np.asarray(rows, dtype=int)
+    folds = as_int(folds, "folds", 2)
+    _check_folds(calibration, rows, folds, "folds")
+    return _cross_validate(calibration, record, rows, folds, seed, loss)
+
+
+def _check_folds(calibration: Calibration, rows: np.ndarray, folds: int, argument: str) -> None:
+    """Refuse more folds than ``rows`` have poses, naming ``argument``."""
+    poses = len(np.unique(np.asarray(calibration.data.groups)[rows]))
+    if folds > poses:
+        raise ArgumentError(argument, f"{folds} folds for {poses} training poses: give 2 to {poses} folds")
+
+
+def _cross_validate(calibration: Calibration, method: Method, rows: np.ndarray, folds: int, seed: int,
+                    loss: str) -> CrossValidation:
+    """:func:`cross_validate` of checked arguments."""
+    fold = fold_of_rows(np.asarray(calibration.data.groups)[rows], folds, seed)
     out = []
     for k in range(folds):
         train, test = rows[fold != k], rows[fold == k]
@@ -396,7 +428,7 @@ def calibrate(
     *,
     method: str = DEFAULT_METHOD,
     seed: int = 0,
-    test_fraction: float = 0.2,
+    test_fraction: float | None = None,
     test_data: str | Path | Any = None,
     end_frame: str | None = None,
     noise_mm: Any = None,
@@ -419,10 +451,10 @@ def calibrate(
             by pose each, weighted by its noise. None: the robot's shipped set.
         method: Estimator name (``calib_pin.ESTIMATORS``; default ``ekf-qibas``).
         seed: Seed of the train/test split and of the estimator.
-        test_fraction: Share of each set's poses held out for the test metrics.
+        test_fraction: Share of each set's poses held out for the test metrics (default 0.2).
         test_data: A separate validation session (a CSV, a set, or a
             :class:`~calib_pin.calibration.holdout.TestSet` with its set-up): every row of
-            ``data`` trains and the session is the test.
+            ``data`` trains and the session is the test (``test_fraction`` is refused beside it).
         end_frame: End frame; default the file's ``end_frame`` or the robot's.
         noise_mm: Sensor noise (1 sigma) [mm]: one for all sets, or one per set; default each
             file's ``noise_mm``, else estimated from the residual where it matters
@@ -450,6 +482,9 @@ def calibrate(
         CalibPinError: any bad input (robot, file, option), with a one-line message; a bad
             argument is an :class:`~calib_pin.exceptions.ArgumentError` naming it.
     """
+    if "holdout" in deprecated:
+        raise ArgumentError("holdout", "is solve's: calibrate holds rows out by test_fraction or test_data (or call "
+                            "calib_pin.prepare, then calib_pin.solve(calibration, method, holdout=...))")
     progress = deprecated.pop("progress", None)
     if progress is not None and not callable(progress):
         raise ArgumentError("progress", f"expected a function of the calibration, or None, got {type(progress).__name__}")

@@ -97,7 +97,7 @@ def choose_training_set(test: TestSet, session: MeasurementSet, labels: tuple[st
     if len(of_kind) > 1:
         raise ArgumentError("same", f"{len(of_kind)} training sets of {session.kind} data "
                             f"({', '.join(labels[k] for k in of_kind)}): name the one whose set-up the session shares "
-                            "(FILE:same=LABEL), or re-register it (FILE:register=K)")
+                            "(same=LABEL), or re-register it (register=K)")
     return of_kind[0]
 
 
@@ -286,7 +286,7 @@ def score_session(model: Any, x: np.ndarray, correction: Any, session: Measureme
             ("is", "points", "its first K poses")
         raise DataError(session.source or "test_data", f"the session's own {verb} {shift * 1e3:.3g} mm (RMS over its "
                         f"{over}) from the calibration's: {hint} Measure both from the same placement, or re-register "
-                        f"the session on its own poses (--test-data FILE:register=K: {poses})", None, what)
+                        f"the session on its own poses (register=K: {poses})", None, what)
     before = model.session_errors(None, session)
     after = model.session_errors(x, session, correction)
     return {"before": Metrics.of(before), "after": Metrics.of(after)}

@@ -143,6 +143,9 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
 def calibrate_main(argv: Sequence[str] | None = None) -> int:
     """``calibrate.py ROBOT [--data CSV] [--method NAME] [--seed N] [--test-fraction F] [--out DIR]``."""
     args = parse_args("calibrate", argv)
+    typed = list(sys.argv[1:] if argv is None else argv)
+    if not any(a == "--test-fraction" or a.startswith("--test-fraction=") for a in typed):
+        args.test_fraction = None  # the default share, or none beside --test-data (a share given there is refused)
     return run(lambda: _per_set_named(args, _analyze if args.analyze else _calibrate))
 
 
@@ -159,7 +162,6 @@ def _per_set_named(args: argparse.Namespace, action: Any) -> int:
         CalibPinError: ``action``'s, reworded for a per-set key given in one ``--data``.
     """
     from ..exceptions import ArgumentError, CalibPinError, DataError
-    from ..sensors.setup import flag_of
 
     try:
         return action(args)
@@ -170,15 +172,14 @@ def _per_set_named(args: argparse.Namespace, action: Any) -> int:
         except CalibPinError:  # refused before its --data was read: the first error stands
             raise e from None
         for text, path, key in typed:
-            flag = flag_of(key)
             if getattr(args, key, None) is not None:
                 continue  # the global flag was given too: the library's message may be about it
             if (isinstance(e, ArgumentError) and e.argument == key) or \
                     (isinstance(e, DataError) and e.field == key and e.line is None and Path(e.path) == Path(path)):
                 reason = e.reason
-            elif not isinstance(e, ArgumentError | DataError) and str(e).startswith(f"{flag} is for ") \
-                    and f"{path} holds " in str(e):
-                reason = str(e)[len(flag) + 1:]
+            elif isinstance(e, ArgumentError) and e.argument == "setup" and e.reason.startswith(f"{key} is for ") \
+                    and f"{path} holds " in e.reason:
+                reason = e.reason[len(key) + 1:]
             else:
                 continue
             raise CalibPinError(f"--data '{text}': {key}: {reason}") from None
@@ -473,17 +474,17 @@ def _calibrate(args: argparse.Namespace) -> int:
     from ..exceptions import CalibPinError
 
     _check_dh_export(args)
-    record = method_record(args.method, args.loss)  # a bad method or loss before the data is read
+    method = method_record(args.method, args.loss)  # a bad method or loss before the data is read
     holdout = as_holdout(args.test_fraction, validation_argument(args.test_data))
     calibration = prepare(args.robot, _data(args), **_setup_options(args))
-    check_exportable(args.export, calibration.chain, record.kinematic)  # where the end frame entered, not after the fit
+    check_exportable(args.export, calibration.chain, method.kinematic)  # where the end frame entered, not after the fit
     _notes_of_sets(calibration, args, ignored=False)  # the ignored columns: with the result's warnings
     if args.cv:
         if not isinstance(holdout, Fraction):
             raise CalibPinError("--cv cross-validates the training poses of a split: leave --test-data out")
         holdout = Folds(args.cv, holdout.test_fraction)
     _announce(calibration)
-    result = solve(calibration, args.method, holdout=holdout, seed=args.seed, loss=args.loss)
+    result = solve(calibration, method, holdout=holdout, seed=args.seed, loss=args.loss)
     data = _data_files(args)  # --data may be given once per set
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
     test_file = validation_argument(args.test_data)

@@ -108,6 +108,36 @@ class OneLineParser(argparse.ArgumentParser):
         return out
 
 
+#: The command line's flag of each library argument a command's error may name, where it is
+#: not the argument's own name as a flag (``test_fraction``: ``--test-fraction``).
+ARGUMENT_FLAGS = {"holdout": "--cv", "folds": "--cv", "parameters": "--model", "same": "--test-data: same",
+                  "register": "--test-data: register"}
+#: The library arguments a command gives by the flag of the same name.
+SAME_NAMED = ("data", "test_data", "test_fraction", "method", "methods", "loss", "seed", "noise_mm", "noise_deg",
+              "end_frame", "compliance", "fix", "free", "nominal", "trials", "poses")
+
+
+def cli_message(error: CalibPinError) -> str:
+    """A library error in the command line's words: an argument is named by its flag.
+
+    An :class:`~calib_pin.exceptions.ArgumentError` of an argument a command gives by a flag
+    says ``argument --flag: ...`` as argparse does; a refused sensor set-up field
+    (``setup``: ``anchor_mm is for ...``) is named by its flag (``--anchor-mm is for ...``).
+    Every other error keeps its message.
+    """
+    if not isinstance(error, ArgumentError):
+        return str(error)
+    from ..sensors import setup_fields
+    from ..sensors.setup import flag_of
+
+    if error.argument == "setup":
+        field, _, rest = error.reason.partition(" ")
+        return f"{flag_of(field)} {rest}" if field in setup_fields() else str(error)
+    name = error.argument
+    flag = ARGUMENT_FLAGS.get(name) or (flag_of(name) if name in SAME_NAMED or name in setup_fields() else None)
+    return f"argument {flag}: {error.reason}" if flag else str(error)
+
+
 def fail(message: str) -> int:
     """Print one error line on stderr (control characters escaped); the bad-input exit status."""
     print(f"error: {one_line(message)}", file=sys.stderr)
@@ -135,7 +165,7 @@ def run(action: Callable[[], int], interrupted: str = NOTHING_WRITTEN) -> int:
     try:
         return action()
     except CalibPinError as e:
-        return fail(str(e))
+        return fail(cli_message(e))
     except KeyboardInterrupt:
         done = WRITTEN[mark:]
         if done and interrupted == NOTHING_WRITTEN:  # Ctrl-C after the commit (while printing the summary)

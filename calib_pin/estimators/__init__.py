@@ -128,6 +128,15 @@ PAPER_LABELS = {m.name: m.label for m in METHODS.values()}
 DEFAULT_METHOD = "ekf-qibas"
 
 
+def unknown_method(name: str) -> str:
+    """Why ``name`` is no method, in words: the names nearest it, then the valid ones."""
+    import difflib
+
+    near = difflib.get_close_matches(name.replace("_", "-").lower(), list(METHODS), n=1, cutoff=0.7)
+    hint = f": did you mean {near[0]}?" if near else ""
+    return f"unknown method '{name}'{hint} (valid: {', '.join(METHODS)})"
+
+
 def get_method(name: str) -> Method:
     """The method record registered as ``name``.
 
@@ -140,7 +149,7 @@ def get_method(name: str) -> Method:
     try:
         return METHODS[name]
     except KeyError:
-        raise EstimatorError(f"unknown method '{name}' (valid: {', '.join(METHODS)})") from None
+        raise EstimatorError(unknown_method(name)) from None
 
 
 def get_estimator(name: str, loss: str = "linear") -> Any:

@@ -339,3 +339,12 @@ def load_calibration(path: str | Path, robot: str | None = None, *, cable: bool 
         raise DataError(str(source), f"cannot read: {e.strerror or e}") from None
     except (ValueError, KeyError, TypeError, AttributeError) as e:
         raise DataError(str(source), f"not a calib-pin calibration file ({type(e).__name__}: {e})") from None
+
+
+def __getattr__(name: str) -> Any:
+    """The old names of what moved elsewhere (the writer of calib_pin.calibration.record), with a DeprecationWarning."""
+    from ..util.deprecation import moved_names
+
+    return moved_names(__name__, {
+        "calibration_document": "calib_pin.calibration.record", "calibration_text": "calib_pin.calibration.record",
+        "write_calibration": "calib_pin.calibration.record"})(name)

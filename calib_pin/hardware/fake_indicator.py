@@ -83,7 +83,7 @@ class FakeIndicator:
         protocol: ``modbus`` or ``ascii``.
         value_mm: Value served (settable while running).
         slave, register, words, signed, word_order, scale_mm, zero_mm: Modbus encoding,
-            as in :class:`calib_pin.drawstring.SensorProfile`.
+            as in :class:`calib_pin.hardware.reader.SensorProfile`.
         period_s: ASCII: time between printed lines.
         noise_mm: Gaussian noise added to each answer (1 sigma).
         drift_mm_per_s: Creep of the value over time.

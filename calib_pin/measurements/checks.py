@@ -214,6 +214,15 @@ def check_measurements(chain: Chain, data: Any, robot_label: str | None = None) 
     """
     as_instance(chain, "chain", Chain, "a Chain (calib_pin.load_chain)")
     as_instance(data, "data", MeasurementSet, "a MeasurementSet (calib_pin.read_measurements or simulate)")
+    return check_set(chain, data, robot_label)
+
+
+def check_set(chain: Chain, data: MeasurementSet, robot_label: str | None = None) -> MeasurementSet:
+    """:func:`check_measurements` of a chain and a set known to be ones (a calibration's own).
+
+    Raises:
+        DataError: as :func:`check_measurements`.
+    """
     check_robot(data.robot, chain, robot_label, _where(data))  # another robot's joints and limits: named as such
     _check_shapes(chain, data)
     _check_angles(chain, data)
@@ -249,3 +258,10 @@ def _file_keys(path: str) -> set[str] | None:
 def _mm(value: Any) -> str:
     return ", ".join(f"{v:.10g}" for v in np.atleast_1d(np.asarray(value, dtype=float) * 1e3))
 
+
+def __getattr__(name: str) -> Any:
+    """The old name of the validation session's check (now in calib_pin.calibration.validation), with a warning."""
+    from ..util.deprecation import moved_names
+
+    return moved_names(__name__, {
+        "check_same_setup": "calib_pin.calibration.validation"})(name)

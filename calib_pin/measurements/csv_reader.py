@@ -431,6 +431,16 @@ def read_measurements(
     path = as_path(path, "path")
     chain = as_optional(as_chain, chain, "chain")
     readings, allow_empty = as_bool(readings, "readings"), as_bool(allow_empty, "allow_empty")
+    return read_set(path, chain, readings=readings, allow_empty=allow_empty, robot_label=robot_label, content=content)
+
+
+def read_set(path: Path, chain: Chain | None, *, readings: bool = True, allow_empty: bool = False,
+             robot_label: str | None = None, content: bytes | None = None) -> MeasurementSet:
+    """:func:`read_measurements` of arguments already checked (a path and the chain a caller made).
+
+    Raises:
+        DataError: the file cannot be read, or a row, column or metadata value is wrong.
+    """
     parsed = _split(_read_text(path, content), path)
     if chain is not None:  # another robot's file is named as such, not by its joints or limits
         robot = next((value.strip() for _, key, value in parsed.raw_meta if key == "robot"), None)

@@ -7,11 +7,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..exceptions import CalibPinError, DataError
+from ..exceptions import ArgumentError, DataError
 from ..robot import Chain, load_chain
-from ..util.arguments import as_path
-from .checks import check_measurements
-from .csv_reader import read_measurements
+from .checks import check_set
+from .csv_reader import read_set
 from .dataset import MeasurementSet
 
 
@@ -26,13 +25,14 @@ def load_data(chain: Chain, data: str | Path | MeasurementSet | None, robot_labe
     if data is None:
         data = chain.description.default_data
         if data is None or not Path(data).is_file():
-            raise CalibPinError(f"robot '{chain.name}' has no default measurement set: pass --data")
+            raise ArgumentError("data", f"robot '{chain.name}' has no default measurement set: give one")
     given = data if isinstance(data, MeasurementSet) else None
-    loaded = given if given is not None else read_measurements(as_path(data, "data"), chain, robot_label=robot_label)
+    # a path its caller checked (FitSet, TestSet): read as it is
+    loaded = data if isinstance(data, MeasurementSet) else read_set(Path(data), chain, robot_label=robot_label)
     if end_frame is not None and loaded.end_frame and loaded.end_frame != end_frame:
         raise DataError(loaded.source or "data", f"was measured at end frame '{loaded.end_frame}', not '{end_frame}': "
                         "leave --end-frame out, or change the file's '# end_frame:' if it is wrong", None, "end_frame")
     if end_frame is None and loaded.end_frame and loaded.end_frame != chain.end_frame:
         chain = load_chain(chain.description, loaded.end_frame)
-        loaded = given if given is not None else read_measurements(loaded.source, chain, robot_label=robot_label)
-    return chain, check_measurements(chain, loaded, robot_label)
+        loaded = given if given is not None else read_set(Path(loaded.source), chain, robot_label=robot_label)
+    return chain, check_set(chain, loaded, robot_label)

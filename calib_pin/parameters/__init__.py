@@ -44,7 +44,15 @@ def parameter_model(chain: Chain, name: str | None = None) -> ParameterModel:
     from ..util.arguments import as_instance, as_optional
 
     as_chain(chain, "chain")
-    name = as_optional(as_instance, name, "name", str, f"a parameter model's name ({', '.join(MODELS)})")
+    return model_of(chain, as_optional(as_instance, name, "name", str, f"a parameter model's name ({', '.join(MODELS)})"))
+
+
+def model_of(chain: Chain, name: str | None) -> ParameterModel:
+    """:func:`parameter_model` of a chain and a name already checked (a calibration's own).
+
+    Raises:
+        RobotError: the robot has no DH table for a DH model, or the name is unknown.
+    """
     name = name or default_model(chain)
     if name not in MODELS:
         raise RobotError(f"unknown parameter model '{name}' (valid: {', '.join(MODELS)})")
@@ -59,4 +67,4 @@ def parameter_model(chain: Chain, name: str | None = None) -> ParameterModel:
 
 
 __all__ = ["MODELS", "DHModel", "HayatiModel", "ParameterModel", "PlacementModel", "default_model",
-           "dh_transforms", "parameter_model"]
+           "dh_transforms", "model_of", "parameter_model"]

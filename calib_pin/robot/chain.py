@@ -205,7 +205,7 @@ def load_chain(robot: str | RobotDescription, end_frame: str | None = None) -> C
     """Load a robot and reduce it to the chain from its root to ``end_frame``.
 
     Args:
-        robot: Robot name or URDF path (see :func:`calib_pin.robots.resolve_robot`), or
+        robot: Robot name or URDF path (see :func:`calib_pin.robot.description.resolve_robot`), or
             a resolved description.
         end_frame: End frame name; default the description's (``tool0`` where it exists).
 

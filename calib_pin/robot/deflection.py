@@ -47,7 +47,6 @@ combination of the gravity torque patterns its kinematics allows, with coefficie
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -57,6 +56,7 @@ import pinocchio as pin
 
 from ..exceptions import ArgumentError, CalibPinError, RobotError
 from ..util.arguments import as_float, as_names, as_point_mm, shown_value
+from ..util.deprecation import warn_deprecated
 from .chain import Chain
 from .gravity_basis import BASIS_SCALE, GravityBasis
 
@@ -175,7 +175,7 @@ class Compliance:
 
 
 def as_compliance(value: Any, arg: str = "compliance", *, payload_kg: Any = None, payload_com_mm: Any = None,
-                  cable_tension_n: Any = None, stacklevel: int = 3) -> Compliance | None:
+                  cable_tension_n: Any = None) -> Compliance | None:
     """A :class:`Compliance` from what a caller gave as ``compliance``.
 
     The loose keywords ``payload_kg``, ``payload_com_mm`` and ``cable_tension_n`` are
@@ -188,8 +188,8 @@ def as_compliance(value: Any, arg: str = "compliance", *, payload_kg: Any = None
         arg: The argument's name, for messages.
         payload_kg: Deprecated: payload mass [kg].
         payload_com_mm: Deprecated: the payload's centre of mass in the end frame [mm].
-        cable_tension_n: Deprecated: drawstring tension [N].
-        stacklevel: Of the DeprecationWarning.
+        cable_tension_n: Deprecated: drawstring tension [N]; the warning is at the caller's
+            line outside calib_pin.
 
     Raises:
         ArgumentError: ``value`` of another type, a bad field (named), or a loose keyword
@@ -201,9 +201,8 @@ def as_compliance(value: Any, arg: str = "compliance", *, payload_kg: Any = None
         if isinstance(value, Compliance):
             key = next(iter(loose))
             raise ArgumentError(key, f"given beside {arg}=Compliance(...): give it once, as the record's field")
-        warnings.warn(f"{', '.join(loose)} as separate keyword(s) are deprecated: pass "
-                      f"{arg}=calib_pin.Compliance(joints, {', '.join(f'{k}=...' for k in loose)})",
-                      DeprecationWarning, stacklevel=stacklevel)
+        warn_deprecated(f"{', '.join(loose)} as separate keyword(s) are deprecated: pass "
+                        f"{arg}=calib_pin.Compliance(joints, {', '.join(f'{k}=...' for k in loose)})")
     if value is None and not loose:
         return None
     if isinstance(value, Compliance):

@@ -25,7 +25,7 @@ from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec, Deflection
 from ..robot.kinematics import Kinematics
 from .registry import SENSORS
-from .setup import SensorSetup, flag_of, given
+from .setup import SensorSetup, given
 
 #: Sensor noise (1 sigma) assumed when neither the data (``# noise_mm``) nor the caller give it, [mm].
 DEFAULT_NOISE_MM = 0.05
@@ -217,11 +217,10 @@ class MeasurementModel(ABC):
                  compliance: ComplianceSpec | None = None,
                  cable: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         from ..parameters.base import as_parameter_model
-        from ..robot.chain import as_chain
 
-        self.chain = as_chain(chain, "chain")
+        self._kin = Kinematics(chain)  # refuses anything but a chain, naming it
+        self.chain = chain
         self.params = as_parameter_model(params, "params", chain)
-        self._kin = Kinematics(chain)
         self.n_robot = len(params.names)
         self.compliance_spec = compliance
         self.deflection = None if compliance is None else Deflection(chain, compliance, cable)
@@ -308,16 +307,16 @@ class MeasurementModel(ABC):
             data: The measurement set they are given for.
 
         Raises:
-            CalibPinError: naming the option's flag and the data.
+            ArgumentError: naming ``setup``, the option and the data.
         """
-        from ..exceptions import CalibPinError
+        from ..exceptions import ArgumentError
         own = set(cls.setup_type.field_names())
         for other in SENSORS.values():
             for name in other.setup_type.field_names():
                 if name not in own and given(options.get(name)):
                     takers = [s.data_name.split()[0] for s in SENSORS.values() if name in s.setup_type.field_names()]
-                    raise CalibPinError(f"{flag_of(name)} is for {' and '.join(takers)} data; "
-                                        f"{data.source} holds {cls.data_name}")
+                    raise ArgumentError("setup", f"{name} is for {' and '.join(takers)} data; "
+                                        f"{data.source or 'the set'} holds {cls.data_name}")
 
     @classmethod
     @abstractmethod

@@ -368,13 +368,13 @@ class CableModel(MeasurementModel):
                                 f"the validation session has {_mm(own)} mm, the calibration's is fitted on its training "
                                 f"rows ({training.source or 'the training set'} gives none): leave the session's line "
                                 "out to score it with the calibrated one, or re-register the session on its own "
-                                "first poses (--test-data FILE:register=K)", None, key)
+                                "first poses (register=K)", None, key)
             if not np.allclose(np.asarray(own, dtype=float), used, rtol=0.0, atol=SETUP_TOLERANCE_M):
-                by = f"--{key.replace('_', '-')}" if override is not None else (training.source or "the training set")
+                by = "given" if override is not None else (training.source or "the training set")
                 raise DataError(session.source or "test_data",
                                 f"the validation session has {_mm(own)} mm, the calibration {_mm(used)} mm ({by}): "
                                 "measure both with the same set-up, re-register the session on its own first poses "
-                                "(--test-data FILE:register=K), or correct the file's line", None, key)
+                                "(register=K), or correct the file's line", None, key)
 
     def geometry_at(self, x: np.ndarray | None) -> Drawstring:
         """The sensor geometry x implies (``sensor`` plus the estimated corrections)."""

@@ -482,9 +482,9 @@ class ContactModel(MeasurementModel):
         """
         cls.refuse_foreign(options, data)
         if options.get("estimate"):
-            raise CalibPinError(f"--estimate {','.join(options['estimate'])} is for drawstring data; with contact "
-                                f"fixtures ({data.source}) the points and planes are always estimated, and the tool "
-                                "point unless given (--tool-mm)")
+            raise ArgumentError("setup", f"estimate {','.join(options['estimate'])} is for drawstring data; with "
+                                f"contact fixtures ({data.source}) the points and planes are always estimated, and "
+                                "the tool point unless the set-up gives it")
         points, planes, rows = fixture_rows(data)
         distances = known_distances(data, points)
         given = options.get("tool_mm")
@@ -1044,3 +1044,11 @@ def contact_set(chain: Chain, fixtures: Fixtures, q: np.ndarray, rows: np.ndarra
         sensor_meta={"distance": tuple((fx.point_labels[a], fx.point_labels[b], length, None)
                                        for a, b, length in fx.distances),
                      **({"tool": fx.tool} if fx.tool_known else {})})
+
+
+def __getattr__(name: str) -> Any:
+    """The old names of what moved elsewhere (the example sessions of calib_pin.simulation), with a DeprecationWarning."""
+    from ..util.deprecation import moved_names
+
+    return moved_names(__name__, {
+        "simulate_contacts": "calib_pin.simulation.contact"})(name)

@@ -319,8 +319,8 @@ class PoseModel(MeasurementModel):
         """
         cls.refuse_foreign(options, data)
         if options.get("estimate"):
-            raise CalibPinError(f"--estimate {','.join(options['estimate'])} is for drawstring data; with 6-D poses "
-                                f"({data.source}) the device frame and the body are always estimated")
+            raise ArgumentError("setup", f"estimate {','.join(options['estimate'])} is for drawstring data; with 6-D "
+                                f"poses ({data.source}) the device frame and the body are always estimated")
         noise_m, noise_rad = noise_of(data, options)
         fit_rows = np.asarray(fit_rows, dtype=int)
         rig = fit_rig(chain, params, data.q[fit_rows], data.values[fit_rows], noise_m / noise_rad, data.source,
@@ -655,3 +655,11 @@ def fit_rig(chain: Chain, params: ParameterModel, q: np.ndarray, poses: np.ndarr
 
     fit = least_squares(residual, np.zeros(RIG_UNKNOWNS), jac=jacobian, method="lm")
     return model.geometry_at(np.concatenate([zero, fit.x]))
+
+
+def __getattr__(name: str) -> Any:
+    """The old names of what moved elsewhere (the example sessions of calib_pin.simulation), with a DeprecationWarning."""
+    from ..util.deprecation import moved_names
+
+    return moved_names(__name__, {
+        "simulate_poses": "calib_pin.simulation.pose", "QUATERNION_TOLERANCE": "calib_pin.measurements.schema"})(name)

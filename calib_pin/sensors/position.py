@@ -174,8 +174,8 @@ class PositionModel(MeasurementModel):
         """
         cls.refuse_foreign(options, data)
         if options.get("estimate"):
-            raise CalibPinError(
-                f"--estimate {','.join(options['estimate'])} is for drawstring data; with positions "
+            raise ArgumentError(
+                "setup", f"estimate {','.join(options['estimate'])} is for drawstring data; with positions "
                 f"({data.source}) the device frame and the marker points are always estimated")
         assert data.point_ids is not None
         labels, points = marker_labels(data.point_ids, data.source or "the measurement set")
@@ -298,13 +298,13 @@ class PositionModel(MeasurementModel):
             source: The file, for messages.
 
         Raises:
-            CalibPinError: no labels with several markers.
+            ArgumentError: no labels with several markers (naming ``point_ids``).
             DataError: a label this calibration has no marker for.
         """
         if labels is None:
             if len(self.device.labels) == 1:
                 return np.zeros(n_rows, dtype=int)
-            raise CalibPinError(f"point_ids: this calibration has {len(self.device.labels)} markers "
+            raise ArgumentError("point_ids", f"this calibration has {len(self.device.labels)} markers "
                                 f"({', '.join(map(str, self.device.labels))}): give each pose's marker label")
         return self.device.index_of(labels, source or "point_ids", "point_id" if source else None)
 

@@ -32,7 +32,7 @@ from ..calibration.holdout import Fraction
 from ..calibration.prepare import Calibration, deprecated_records, prepare
 from ..calibration.result import CalibrationResult
 from ..calibration.solve import check_method, method_record, solve
-from ..estimators import PAPER_LABELS, PAPER_METHODS
+from ..estimators import PAPER_METHODS, Method
 from ..estimators.problem import data_row_errors
 from ..exceptions import ArgumentError, CalibPinError
 from ..parameters import ParameterModel, parameter_model
@@ -352,9 +352,9 @@ def fresh_scorer(calibration: Calibration, truths: list[Truth] | None,
     return score
 
 
-def run_trial(calibration: Calibration, truths: list[Truth] | None, methods: list[str], seed: int,
+def run_trial(calibration: Calibration, truths: list[Truth] | None, methods: list[Method], seed: int,
            test_fraction: float, tick: Callable[[], Any] | None = None) -> Trial:
-    """One trial: every method fitted on the split of seed ``seed`` and scored on the held-out rows.
+    """One trial: every method (a checked record) fitted on the split of seed ``seed`` and scored on the held-out rows.
 
     Each method is fitted as :func:`calib_pin.solve` fits it (every set split by pose),
     scored on the held-out rows of every set (each row's error in its own set's unit) and,
@@ -368,13 +368,13 @@ def run_trial(calibration: Calibration, truths: list[Truth] | None, methods: lis
     fresh = fresh_scorer(calibration, truths, seed)
     before_fresh = None
     for m in methods:
-        result = solve(calibration, m, holdout=Fraction(test_fraction), seed=seed)
+        result = solve(calibration, m, holdout=Fraction(test_fraction), seed=seed)  # the record: no lookup
         est, problem = result.estimate, result.problem
         train_problem, test_problem = problem.subset(result.train), problem.subset(result.test)
         k, evals = est.converged(CONVERGED_TOLERANCE)
         residual = data_row_errors(test_problem, est.residual(test_problem))
-        runs[m] = MethodRun(
-            method=m, label=PAPER_LABELS[m],
+        runs[m.name] = MethodRun(
+            method=m.name, label=m.label,
             train=Metrics.of(data_row_errors(train_problem, est.residual(train_problem))), test=Metrics.of(residual),
             fresh_rmse_mm=fresh(result, False), iterations=est.iterations, evaluations=est.nfev,
             converged_iterations=k, converged_evaluations=evals, time_s=est.time_s,
@@ -391,7 +391,7 @@ def run_trial(calibration: Calibration, truths: list[Truth] | None, methods: lis
                  before_fresh_rmse_mm=before_fresh, before_residual_mm=before * 1e3, runs=runs)
 
 
-def _simulated_trial(robot: str, chain: Chain, params: ParameterModel, methods: list[str], test_fraction: float,
+def _simulated_trial(robot: str, chain: Chain, params: ParameterModel, methods: list[Method], test_fraction: float,
                      poses: int, noise_mm: float, noise_kind: str, options: dict[str, Any], seed: int,
                      tick: Callable[[], Any] | None = None) -> Trial:
     """One trial on a fresh simulated set of seed ``seed`` (a picklable unit of work)."""
@@ -462,8 +462,7 @@ def compare(
     """
     default = methods is None
     methods = list(PAPER_METHODS) if methods is None else list(methods)
-    for m in methods:
-        method_record(m, "linear")
+    records = [method_record(m, "linear", "methods") for m in methods]  # each looked up and checked once
     if trials < 1:
         raise CalibPinError(f"trials must be at least 1, got {trials}")
     setup, record = deprecated_records(deprecated, setup, compliance)
@@ -478,18 +477,18 @@ def compare(
         options["nominal"] = str(as_path(nominal, "nominal"))
     calibration = None if simulate_noise is not None else prepare(robot, data, **options)
     if calibration is not None:
-        methods = _methods_for_data(calibration, methods, default, notify)
-    with progress_bar(trials * len(methods), "trials x methods") as bar:
+        records = _methods_for_data(calibration, records, default, notify)
+    with progress_bar(trials * len(records), "trials x methods") as bar:
         local = jobs == 1 and scheduler is None  # a bar follows only the trials run here
         tick = bar.update if bar is not None and local else None
-        out, what = _trials(robot, calibration, methods, trials, seed, test_fraction, simulate_noise, noise_mm,
+        out, what = _trials(robot, calibration, records, trials, seed, test_fraction, simulate_noise, noise_mm,
                             poses, options, (jobs, scheduler), tick, (checkpoint, notify))
     start = f", started from {Path(nominal).name}" if nominal is not None else ""
-    return Comparison(robot=robot, methods=methods, trials=out, data=what + _compliance_words(record) + start)
+    return Comparison(robot=robot, methods=[r.name for r in records], trials=out, data=what + _compliance_words(record) + start)
 
 
-def _methods_for_data(calibration: Calibration, methods: list[str], default: bool,
-                      notify: Callable[[str], Any] | None) -> list[str]:
+def _methods_for_data(calibration: Calibration, methods: list[Method], default: bool,
+                      notify: Callable[[str], Any] | None) -> list[Method]:
     """``methods`` less, when they are the default, those the data's sensors refuse.
 
     Refused: rows of several sizes, ``unsupported_methods``; said through ``notify``.
@@ -498,21 +497,21 @@ def _methods_for_data(calibration: Calibration, methods: list[str], default: boo
     kinds = set(calibration.kinds)
     unsupported = {m for k in kinds for m in getattr(sensor_for(k), "unsupported_methods", ())}
     if len(calibration.sets) > 1:
-        unsupported |= {m for m in methods if not method_record(m, "linear").kinematic}
-    refused = [m for m in methods if m in unsupported] if default else []
+        unsupported |= {m.name for m in methods if not m.kinematic}
+    refused = [m.name for m in methods if m.name in unsupported] if default else []
     if refused and notify is not None:
         names = ", ".join(sorted({sensor_for(k).data_name for k in kinds
                                   if set(refused) & set(getattr(sensor_for(k), "unsupported_methods", ()))}))
         why = (f"they need rows of one size, and {names} rows differ in size" if names
                else "they learn one set-up's values, and several sets are fitted as one robot")
         notify(f"left out {', '.join(refused)}: {why} (--methods chooses)")
-    kept = [m for m in methods if m not in refused]
+    kept = [m for m in methods if m.name not in refused]
     for m in kept:
-        check_method(method_record(m, "linear"), calibration)
+        check_method(m, calibration)
     return kept
 
 
-def _trials(robot: str, calibration: Calibration | None, methods: list[str], trials: int, seed: int,
+def _trials(robot: str, calibration: Calibration | None, methods: list[Method], trials: int, seed: int,
             test_fraction: float, simulate_noise: str | None, noise_mm: float, poses: int, options: dict[str, Any],
             where: tuple[int, str | None], tick: Callable[[], Any] | None,
             keep: tuple[str | Path | None, Callable[[str], Any] | None] = (None, None)) -> tuple[list[Trial], str]:
@@ -521,7 +520,7 @@ def _trials(robot: str, calibration: Calibration | None, methods: list[str], tri
     Run in ``where`` = (jobs, scheduler), kept in ``keep`` = (checkpoint folder, notify).
     """
     seeds = range(seed, seed + trials)
-    settings: list[Any] = [robot, file_digest(robot), methods, test_fraction, _plain_options(options)]
+    settings: list[Any] = [robot, file_digest(robot), [m.name for m in methods], test_fraction, _plain_options(options)]
     if "nominal" in options:  # the start's content, not only its name
         settings += ["nominal", file_digest(options["nominal"])]
     split = f", {trials} split(s) of seeds {seed}..{seed + trials - 1}" if trials > 1 else f", split seed {seed}"
@@ -581,3 +580,12 @@ def _compliance_words(compliance: Compliance | None) -> str:
     if not compliance:
         return ""
     return f"; with the compliance of {compliance.words()}"
+
+
+def __getattr__(name: str) -> Any:
+    """The old names of two renamed functions, with a DeprecationWarning."""
+    from ..util.deprecation import moved_names
+
+    return moved_names(__name__, {
+        "session_truths": "calib_pin.studies.comparison:truths_of",
+        "stacked_fresh_scorer": "calib_pin.studies.comparison:fresh_scorer"})(name)

@@ -218,9 +218,9 @@ def compare_models(robot: str, data: Any = None, *, models: str | list[str], met
         calibration = prepare(robot, data, parameters=choice.parameters, setup=setup, compliance=compliance,
                               fix=fix, free=free, nominal=nominal, prior=prior)
         check_method(record, calibration)
-        one = partial(run_trial, calibration, None, [method], test_fraction=test_fraction)
+        one = partial(run_trial, calibration, None, [record], test_fraction=test_fraction)
         runs = parallel_map(one, range(seed, seed + trials), jobs, scheduler)
-        test[choice.name] = [t.runs[method].test for t in runs]
+        test[choice.name] = [t.runs[record.name].test for t in runs]
         described[choice.name] = _describe(calibration)
         rows = calibration.data
         what = (f"{rows.describe_rows()} from {Path(rows.source).name if rows.source else 'memory'}"
