@@ -33,6 +33,7 @@ REMOVED = {
     "calib_pin.sensors.contact.LABEL_COLUMNS": "calib_pin.measurements.schema.SCHEMAS",
     "calib_pin.studies.comparison.start_x": "calib_pin.Calibration.start_on",
     "calib_pin.validation.score_registered": "calib_pin.calibration.validation.register_session",
+    "calib_pin.validation.same_rows": "calib_pin.calibration.repeats.repeat_error",
 }
 
 

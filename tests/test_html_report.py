@@ -56,7 +56,7 @@ def test_every_deviation_with_its_interval(rendered):
         if row["status"] == "identified":  # an interval of its own only when the data determines it alone
             assert f"[{fmt(p['ci95'][0])}, {fmt(p['ci95'][1])}]" in page
         else:
-            assert "ci95" not in p and row["low"] is None
+            assert p["ci95"] is None and row["low"] is None
     for c in r["uncertainty"]["combinations"]:
         assert f"<li>{c['combination']} = {fmt(c['value'])} {c['unit']}, 95 % [{fmt(c['ci95'][0])}, " in page
     for key in r["sensor_corrections"]:

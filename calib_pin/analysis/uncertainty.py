@@ -101,6 +101,8 @@ class Uncertainty:
             if status == "identified":
                 s = std * f
                 entry.update(std=s, ci95=[value * f - Z95 * s, value * f + Z95 * s])
+            else:  # no interval of its own: null, so that a reader of the keys finds them
+                entry.update(std=None, ci95=None)
             out[f"{name}_{suffix}"] = entry
         return {"parameters": out, "combinations": [c.as_dict() for c in self.combinations],
                 "noise_mm": self.noise * 1e3}

@@ -51,7 +51,7 @@ def deviation_rows(r: dict) -> list[dict]:
     for key in r["deviations"]:
         name, unit = key.rsplit("_", 1)
         p = params[key]
-        low, high = p.get("ci95", (None, None))
+        low, high = p.get("ci95") or (None, None)
         out.append({"key": key, "name": name, "unit": unit, "value": p["value"], "std": p.get("std"),
                     "low": low, "high": high, "status": p["status"]})
     return out
@@ -122,7 +122,7 @@ def _deviation_section(r: dict, rows: list[dict]) -> str:
     params = r["uncertainty"]["parameters"]
     sensor = [[html.escape(k.rsplit("_", 1)[0]), k.rsplit("_", 1)[1], fmt(params[k]["value"]),
                fmt(params[k].get("std")), f"[{fmt(params[k]['ci95'][0])}, {fmt(params[k]['ci95'][1])}]"
-               if "ci95" in params[k] else "&mdash;"] for k in r["sensor_corrections"]]
+               if params[k].get("ci95") is not None else "&mdash;"] for k in r["sensor_corrections"]]
     ident = r["identifiability"]
     combos = "".join(f"<li>{html.escape(c['combination'])} = {fmt(c['value'])} {c['unit']}, 95 % "
                      f"[{fmt(c['ci95'][0])}, {fmt(c['ci95'][1])}]</li>"
