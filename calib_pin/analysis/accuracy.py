@@ -33,10 +33,10 @@ from typing import Any
 
 import numpy as np
 
-from ..estimators.subspace import RCOND, Subspace
+from ..estimators.subspace import RCOND
 from ..parameters.prior import Prior
 from ..robot.poses import random_poses
-from .determined import Determined
+from .determined import Determined, pinv_gram
 from .repeatability import Repeatability
 
 #: A named point: its name, where it is in the end frame (3,) [m], and its derivative with
@@ -279,7 +279,7 @@ def predict_accuracy(problem: Any, x: np.ndarray, split: Determined, points: Seq
             full = jac + rotations @ derivative  # (n, 3, n_params)
             effective = jac[:, :, split.robot] + rotations @ (derivative @ response)  # (n, 3, n_robot)
             parts = [(full, full_cov), (effective, blind_cov[np.ix_(split.robot, split.robot)])]
-        a, b = (np.einsum("nip,pk,njk->nij", j, c, j) for j, c in parts)
+        a, b = (j @ c @ j.transpose(0, 2, 1) for j, c in parts)
         cov = a + b + model_error**2 * np.eye(3)
         per_pose = np.trace(cov, axis1=1, axis2=2)
         rigid = sum(_rigid_share(np.asarray(where).reshape(-1, 3), j, c) for j, c in parts)
@@ -299,24 +299,18 @@ def predict_accuracy(problem: Any, x: np.ndarray, split: Determined, points: Seq
 def _sensor_response(problem: Any, x: np.ndarray, split: Determined, rcond: float) -> tuple[np.ndarray, np.ndarray]:
     """The free unknowns' noise covariance, and how the sensor's unknowns follow the robot's.
 
-    (the noise covariance of every free unknown, SI (n_params, n_params); how the sensor's
-    unknowns follow a move of the free robot unknowns, (n_params, n_robot)): the first in the
-    estimators' identifiable subspace, the second the sensor's least-squares refit.
+    The first (SI, (n_params, n_params)) in the estimators' identifiable subspace (the
+    pseudo-inverse of the scaled Gram matrix, cut at ``rcond``), the second ((n_params,
+    n_robot)) the sensor's least-squares refit after a move of the free robot unknowns.
     """
-    model = problem.model
     n = problem.n_params
-    robot = set(split.robot.tolist())
-    held = [i for i in range(model.sensor_start) if i not in robot]  # robot unknowns held by --fix
-    free = np.array([i for i in range(n) if i not in held])
-    sensor = free[free >= model.sensor_start]
-    scale = np.asarray(model.scale, dtype=float)
-    jacobian = problem.jacobian(x)
-    space = Subspace.of(jacobian[:, free], scale[free], x[free], rcond)
+    free, gram = split.free, split.gram
+    scale = np.asarray(problem.model.scale, dtype=float)[free]
     full_cov = np.zeros((n, n))
-    full_cov[np.ix_(free, free)] = space.covariance(split.noise)
+    full_cov[np.ix_(free, free)] = split.noise**2 * scale[:, None] * pinv_gram(gram, rcond) * scale[None, :]
+    on_robot = np.isin(free, split.robot)
     response = np.zeros((n, len(split.robot)))
-    if len(sensor):
-        scaled = jacobian[:, sensor] * scale[sensor]
-        solved = np.linalg.lstsq(scaled, jacobian[:, split.robot], rcond=rcond)[0]
-        response[sensor] = -scale[sensor][:, None] * solved
+    if not on_robot.all():
+        solved = pinv_gram(gram[np.ix_(~on_robot, ~on_robot)], rcond) @ gram[np.ix_(~on_robot, on_robot)]
+        response[free[~on_robot]] = -(scale[~on_robot][:, None] * solved) / scale[on_robot][None, :]
     return full_cov, response

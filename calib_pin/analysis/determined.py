@@ -8,8 +8,9 @@ the training Jacobian J (J_R the robot's, J_S the sensor's):
     J~ = (I - P_S) J_R,    P_S the projection onto the columns of J_S,
 
 and J~ is measured in units of the :class:`~calib_pin.parameters.prior.Prior` (W the
-prior's standard deviations): A = J~ W = U S V^T. Along a right singular vector v_i a
-move of one prior standard deviation changes the residual by s_i, so the data determines
+prior's standard deviations): A = J~ W = U S V^T, from A^T A (the robot's information with
+the sensor's unknowns free). Along a right singular vector v_i a move of one prior standard
+deviation changes the residual by s_i, so the data determines
 v_i better than the prior does when s_i exceeds the noise (and the estimators' relative
 cut, ``RCOND`` times the largest). The others are **not determined**: exactly blind (a turn
 of the arm about a cable's anchor, d_2 - d_3 of parallel joints) or seen so weakly that
@@ -24,12 +25,12 @@ The estimate's error covariance splits into the two (robot unknowns, SI):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
 
 import numpy as np
-from scipy.linalg import qr, svd
+from scipy.linalg import eigh
 
 from ..estimators.subspace import RCOND
 from ..parameters.prior import Prior
@@ -60,6 +61,8 @@ class Determined:
     rank: int
     noise: float
     n_params: int
+    free: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int), repr=False)
+    gram: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
 
     @property
     def n_undetermined(self) -> int:
@@ -105,24 +108,24 @@ class Determined:
         return np.sum(v**2, axis=0)
 
 
-def sensor_projection(jacobian: np.ndarray, scale: np.ndarray, rcond: float = RCOND) -> np.ndarray:
-    """An orthonormal basis of what the sensor's unknowns can explain, shape (m, k).
-
-    An orthonormal basis of the columns of ``jacobian * scale`` (shape (m, k)), rank-cut
-    at ``rcond`` times the largest singular value: what the sensor's unknowns can explain.
-    """
-    if not jacobian.shape[1]:
-        return np.zeros((jacobian.shape[0], 0))
-    u, s, _ = svd(jacobian * scale, full_matrices=False, check_finite=False)
-    keep = s > rcond * s[0] if s[0] > 0 else np.zeros(len(s), dtype=bool)
-    return u[:, keep]
+def pinv_gram(gram: np.ndarray, rcond: float) -> np.ndarray:
+    """The pseudo-inverse of a Gram matrix J^T J, its eigenvalues below ``rcond``^2 times the
+    largest (singular values of J below ``rcond`` times the largest) left out."""
+    if not len(gram):
+        return gram.copy()
+    w, v = eigh(gram)
+    keep = w > rcond**2 * max(w[-1], 0.0) if w[-1] > 0 else np.zeros(len(w), dtype=bool)
+    return (v[:, keep] / w[keep]) @ v[:, keep].T
 
 
 def determined(problem: Any, x: np.ndarray, free: np.ndarray, prior: Prior, noise: float,
                rcond: float = RCOND) -> Determined:
     """What the rows of ``problem`` determine of the free robot unknowns at x.
 
-    The rows' residual is in units of ``noise``.
+    The rows' residual is in units of ``noise``. From the Gram matrix of the scaled
+    Jacobian: the sensor's columns are projected out by the Schur complement (the robot's
+    information with the sensor's unknowns free), so every step is on matrices of the
+    unknowns' size, never of the rows'.
 
     Args:
         problem: A calibration problem (its training rows).
@@ -134,21 +137,22 @@ def determined(problem: Any, x: np.ndarray, free: np.ndarray, prior: Prior, nois
     """
     model = problem.model
     free = np.asarray(free, dtype=int)
-    robot = free[free < model.sensor_start]
-    sensor = free[free >= model.sensor_start]
     scale = np.asarray(model.scale, dtype=float)
+    scaled = problem.jacobian(x)[:, free] * scale[free]
+    gram = scaled.T @ scaled
+    on_robot = free < model.sensor_start
+    robot, sensor = free[on_robot], free[~on_robot]
+    information = gram[np.ix_(on_robot, on_robot)]
+    if len(sensor):  # what the sensor's unknowns cannot explain of the robot's columns
+        across = gram[np.ix_(on_robot, ~on_robot)]
+        information = information - across @ pinv_gram(gram[np.ix_(~on_robot, ~on_robot)], rcond) @ across.T
     sigma = prior.sigma(model.units, scale)[robot]
-    jacobian = problem.jacobian(x)
-    reduced = jacobian[:, robot]
-    explained = sensor_projection(jacobian[:, sensor], scale[sensor], rcond)
-    if explained.shape[1]:
-        reduced = reduced - explained @ (explained.T @ reduced)
-    whitened = reduced * sigma
-    m, n = whitened.shape
-    r = qr(whitened, mode="r", check_finite=False)[0] if m > n else whitened
-    _, s, vt = svd(r, full_matrices=True, check_finite=False)
-    s = np.concatenate([s, np.zeros(n - len(s))])
+    ratio = sigma / scale[robot]  # one prior sigma in typical sizes
+    w, v = eigh(ratio[:, None] * information * ratio[None, :])
+    order = np.argsort(w)[::-1]
+    s = np.sqrt(np.clip(w[order], 0.0, None))
+    vt = v[:, order].T
     top = s[0] if len(s) else 0.0
     rank = int(np.sum((s > rcond * top) & (s > noise))) if top > 0 else 0
     return Determined(robot=robot, sigma=sigma, singular_values=s, vt=vt, rank=rank, noise=float(noise),
-                      n_params=int(problem.n_params))
+                      n_params=int(problem.n_params), free=free, gram=gram)

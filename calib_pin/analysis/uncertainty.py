@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from ..estimators.subspace import RCOND, Subspace
+from ..estimators.subspace import RCOND
 from ..util.units import human_unit
-from .determined import UNSEEN, Determined
+from .determined import UNSEEN, Determined, pinv_gram
 
 #: z of the two-sided 95 % normal interval.
 Z95 = 1.959964
@@ -228,13 +228,12 @@ def estimate_uncertainty(problem: Any, x: np.ndarray, split: Determined, *, held
         else:
             std[i] = np.sqrt(max(noise_cov[i, i], 0.0))
     sensor = [i for i in range(model.sensor_start, n) if i not in held]
-    if sensor:
-        free = np.array([i for i in range(n) if i not in held])
-        space = Subspace.of(problem.jacobian(x)[:, free], np.asarray(model.scale)[free], x[free], rcond)
-        cov = space.covariance(split.noise)
-        for k, i in enumerate(free):
+    if sensor:  # the estimators' identifiable subspace: the Gram matrix's pseudo-inverse, cut at rcond
+        scale = np.asarray(model.scale, dtype=float)[split.free]
+        variance = split.noise**2 * np.diag(pinv_gram(split.gram, rcond)) * scale**2
+        for k, i in enumerate(split.free):
             if i >= model.sensor_start:
-                std[i] = np.sqrt(max(cov[k, k], 0.0))
+                std[i] = np.sqrt(max(variance[k], 0.0))
     position = {int(i): j for j, i in enumerate(split.robot)}
     mixed = [position[i] for i in split.robot if status[i] == "combination"]
     combinations: list[Combination] = []

@@ -24,10 +24,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..analysis.determined import Determined, determined
-from ..estimators.active_set import Fixed
 from ..parameters.prior import Prior
 
 #: Passes over the directions not determined (each at the Jacobian of the point reached).
@@ -39,6 +37,8 @@ CHI2_BUDGET = 1.0
 HALVINGS = 8
 #: Gauss-Newton steps that restore the fit after a step along a curved freedom.
 RESTORE_STEPS = 5
+#: Gauss-Newton steps that fit the sensor's unknowns again after a step.
+REFIT_STEPS = 3
 #: A pass moving the robot by less than this (in prior units, largest entry) ends the search.
 SMALL = 1e-9
 
@@ -162,9 +162,23 @@ def _refit(problem: Any, x: np.ndarray, split: Determined, sensor: np.ndarray, s
 
 
 def _refit_sensor(problem: Any, x: np.ndarray, sensor: np.ndarray) -> np.ndarray:
-    """x with the sensor's unknowns ``sensor`` fitted again, the robot held."""
-    part = Fixed(problem, sensor, x)
-    if part.n_values < len(sensor):
-        return x
-    fit = least_squares(part.residual, x[sensor], jac=part.jacobian, method="lm", x_scale=part.scale)
-    return part.expand(fit.x)
+    """x with the sensor's unknowns ``sensor`` fitted again, the robot held.
+
+    Gauss-Newton on the sensor's columns alone (a gauge step moves the robot a little, so a
+    few steps reach the sensor's new best fit), each step kept only while it lowers the
+    residual's sum of squares.
+    """
+    scale = np.asarray(problem.model.scale, dtype=float)[sensor]
+    r = problem.residual(x)
+    for _ in range(REFIT_STEPS):
+        columns = problem.jacobian(x)[:, sensor] * scale
+        step = np.linalg.lstsq(columns, -r, rcond=1e-10)[0]
+        trial = x.copy()
+        trial[sensor] += scale * step
+        r_trial = problem.residual(trial)
+        if float(r_trial @ r_trial) >= float(r @ r):
+            break
+        x, r = trial, r_trial
+        if np.abs(step).max(initial=0.0) < 1e-9:
+            break
+    return x
