@@ -26,6 +26,7 @@ from ..sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for, setup_record
 from ..sensors.base import FIT_ROWS_KEY
 from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path, as_xyz_mm
 from .holdout import TestSet
+from .misfit import check_misfits
 from .problem import Problem
 from .sets import FitSet, PreparedSet, labelled, refuse_repeats, set_overrides, set_sigma
 from .start import Start
@@ -416,4 +417,5 @@ def prepare(
         start = load_start(as_path(nominal, "nominal"), chain, params, soft.joints if soft else ())
     if held or start is not None:
         calibration = replace(calibration, fixed=held, start=start, _cache=calibration._cache)
+    check_misfits(calibration)  # a unit or order mistake, named before any fit
     return calibration

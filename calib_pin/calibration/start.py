@@ -22,6 +22,7 @@ Two files are read:
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,9 @@ import pinocchio as pin
 
 from ..exceptions import CalibPinError, DataError
 from ..parameters.base import ParameterModel
+from ..parameters.sanity import SANITY_M, SANITY_RAD
 from ..robot.chain import Chain
+from ..sensors.misreading import Misreading, Reading, Suspect
 
 #: A start whose corrections the parameter model holds worse than this is refused, [m, rad].
 FIT_TOLERANCE = 1e-6
@@ -181,3 +184,74 @@ def load_start(path: str | Path, chain: Chain, params: ParameterModel, compliant
     if compliant and spec is not None and tuple(spec.joints) == tuple(compliant):
         compliance = np.array(robot.compliance, dtype=float)
     return Start(str(path), "calibration", np.array(robot.deviations, dtype=float), compliance, 0.0)
+
+
+def _degrees(s: Suspect) -> Iterator[Reading]:
+    """A ``default_kinematics.yaml`` start's angles read as degrees, when some is beyond pi."""
+    from ..export.yaml import read_ur_entries, read_ur_kinematics_yaml
+
+    if s.start is None or s.start.kind != "ur-kinematics-yaml":
+        return
+    entries, _ = read_ur_entries(s.start.source)
+    largest = max(abs(a) for v in entries.values() for a in v[3:])
+    if not largest > np.pi + 1e-9:
+        return
+    x, fit = fit_deltas(s.params, read_ur_kinematics_yaml(s.chain, s.start.source, np.pi / 180.0))
+    if fit <= FIT_TOLERANCE:
+        yield Reading("degrees, not radians", "roll, pitch, yaw", None, f"its angles reach {largest:.4g}",
+                      "read as degrees", "give roll, pitch and yaw in radians (x pi/180)", robot_x=x)
+
+
+#: ur_description's arms calib-pin finds by name (example-robot-data), whose
+#: ``default_kinematics.yaml`` may be given for another.
+UR_MODELS = ("ur5", "ur10", "ur3")
+
+
+def _largest_offset(entries: dict[str, list[float]], nominal: dict[str, pin.SE3]) -> tuple[float, float]:
+    """How far a file's joint origins are from ``nominal``'s: the largest translation [m] and rotation [rad]."""
+    moved, turned = 0.0, 0.0
+    for key, v in entries.items():
+        origin = pin.SE3(pin.rpy.rpyToMatrix(*v[3:]), np.array(v[:3]))
+        moved = max(moved, float(np.linalg.norm(origin.translation - nominal[key].translation)))
+        turned = max(turned, float(np.linalg.norm(pin.log3(nominal[key].rotation.T @ origin.rotation))))
+    return moved, turned
+
+
+def _another_model(s: Suspect) -> Iterator[Reading]:
+    """The catalogue robot, when a ``default_kinematics.yaml`` start holds another UR arm's
+    joint origins (within the sanity bounds of its catalogue ones, and not this arm's)."""
+    from ..export.yaml import read_ur_entries, ur_kinematics
+    from ..robot.chain import load_chain
+
+    if s.start is None or s.start.kind != "ur-kinematics-yaml":
+        return
+    entries, _ = read_ur_entries(s.start.source)
+    identity = [pin.SE3.Identity()] * (s.chain.n_joints + 1)
+    own = _largest_offset(entries, ur_kinematics(s.chain, identity)[0])
+    if own[0] <= SANITY_M and own[1] <= SANITY_RAD:
+        return
+    seen = {Path(s.chain.description.urdf).resolve()}
+    for name in UR_MODELS:
+        try:
+            other = load_chain(name, "tool0")
+            urdf = Path(other.description.urdf).resolve()
+            if name == s.chain.name or urdf in seen:
+                continue  # this arm, or one of the same URDF (example-robot-data's ur3 is its ur5)
+            seen.add(urdf)
+            moved, turned = _largest_offset(entries, ur_kinematics(other, identity)[0])
+        except CalibPinError:
+            continue
+        if moved <= SANITY_M and turned <= SANITY_RAD:
+            yield Reading(f"a {name}'s file, not a {s.chain.name}'s", "kinematics", None,
+                          f"its joint origins are within {moved * 1e3:.1f} mm and {np.degrees(turned):.2f} deg of "
+                          f"a {name}'s, and {own[0] * 1e3:.4g} mm from a {s.chain.name}'s",
+                          f"from the catalogue {s.chain.name}", f"give the {s.chain.name}'s own "
+                          "default_kinematics.yaml (or leave --nominal out)", robot_x=np.zeros(len(s.params.names)))
+            return
+
+
+#: The usual mistakes of a start file, tried by the pre-fit misfit check
+#: (:mod:`calib_pin.calibration.misfit`) when the start misses the rows far more than a robot
+#: within its tolerances would.
+START_MISREADINGS = (Misreading("a default_kinematics.yaml in degrees", _degrees),
+                     Misreading("another UR arm's default_kinematics.yaml", _another_model))

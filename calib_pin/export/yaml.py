@@ -254,7 +254,40 @@ def write_ur_kinematics_yaml(chain: Chain, deltas: Sequence[pin.SE3], path: str 
 _REST = re.compile(r"T xyz \[mm\] = (\S+) (\S+) (\S+); rpy \[deg\] = (\S+) (\S+) (\S+)")
 
 
-def read_ur_kinematics_yaml(chain: Chain, path: str | Path) -> list[pin.SE3]:
+def read_ur_entries(path: str | Path) -> tuple[dict[str, list[float]], str]:
+    """The six joint origins of a ``default_kinematics.yaml`` as written, and the file's text.
+
+    Each kinematics key (``shoulder`` ... ``wrist_3``) -> ``[x, y, z, roll, pitch, yaw]``,
+    numbers as the file gives them (metres and, in the layout, radians).
+
+    Raises:
+        DataError: not the layout (naming the missing key or bad value).
+    """
+    path = Path(path)
+    text = path.read_text(encoding="utf-8-sig")
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        raise DataError(str(path), f"not YAML: {str(e).splitlines()[0]}") from None
+    body = doc.get("kinematics") if isinstance(doc, dict) else None
+    if not isinstance(body, dict):
+        raise DataError(str(path), "no 'kinematics:' mapping (ur_description's default_kinematics.yaml layout)")
+    entries = {}
+    for key in UR_KEYS:
+        entry = body.get(key)
+        if not isinstance(entry, dict):
+            raise DataError(str(path), f"no kinematics.{key} entry {{x, y, z, roll, pitch, yaw}}")
+        try:
+            v = [float(entry[k]) for k in ("x", "y", "z", "roll", "pitch", "yaw")]
+        except (KeyError, TypeError, ValueError):
+            raise DataError(str(path), f"kinematics.{key} needs numbers x, y, z [m], roll, pitch, yaw [rad]") from None
+        if not np.all(np.isfinite(v)) or max(abs(c) for c in v[:3]) > 10.0:
+            raise DataError(str(path), f"kinematics.{key}: {v} is not a joint origin in m and rad")
+        entries[key] = v
+    return entries, text
+
+
+def read_ur_kinematics_yaml(chain: Chain, path: str | Path, angle_unit: float = 1.0) -> list[pin.SE3]:
     """The corrections of ``chain`` that a ``default_kinematics.yaml`` holds.
 
     The inverse of :func:`write_ur_kinematics_yaml`.
@@ -268,6 +301,7 @@ def read_ur_kinematics_yaml(chain: Chain, path: str | Path) -> list[pin.SE3]:
     Args:
         chain: The nominal chain of a UR arm.
         path: The ``default_kinematics.yaml`` file.
+        angle_unit: Radians per unit of the file's roll, pitch, yaw (1: radians, the layout's).
 
     Returns:
         ``n_joints + 1`` transforms right-multiplied onto the chain's joint placements and
@@ -277,27 +311,9 @@ def read_ur_kinematics_yaml(chain: Chain, path: str | Path) -> list[pin.SE3]:
         DataError: not the layout (naming the missing key or bad value).
         RobotError: the chain is not a UR arm.
     """
-    path = Path(path)
-    text = path.read_text(encoding="utf-8-sig")
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        raise DataError(str(path), f"not YAML: {str(e).splitlines()[0]}") from None
-    body = doc.get("kinematics") if isinstance(doc, dict) else None
-    if not isinstance(body, dict):
-        raise DataError(str(path), "no 'kinematics:' mapping (ur_description's default_kinematics.yaml layout)")
-    origins = []
-    for key in UR_KEYS:
-        entry = body.get(key)
-        if not isinstance(entry, dict):
-            raise DataError(str(path), f"no kinematics.{key} entry {{x, y, z, roll, pitch, yaw}}")
-        try:
-            v = [float(entry[k]) for k in ("x", "y", "z", "roll", "pitch", "yaw")]
-        except (KeyError, TypeError, ValueError):
-            raise DataError(str(path), f"kinematics.{key} needs numbers x, y, z [m], roll, pitch, yaw [rad]") from None
-        if not np.all(np.isfinite(v)) or max(abs(c) for c in v[:3]) > 10.0:
-            raise DataError(str(path), f"kinematics.{key}: {v} is not a joint origin in m and rad")
-        origins.append(pin.SE3(pin.rpy.rpyToMatrix(*v[3:]), np.array(v[:3])))
+    entries, text = read_ur_entries(path)
+    origins = [pin.SE3(pin.rpy.rpyToMatrix(*(np.array(v[3:]) * angle_unit)), np.array(v[:3]))
+               for v in entries.values()]
     ur_kinematics(chain, [pin.SE3.Identity()] * (chain.n_joints + 1))  # a UR arm, or RobotError
     links = _ur_link_frames(chain)
     data = chain.model.createData()

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -234,25 +235,48 @@ def check_set(chain: Chain, data: MeasurementSet, robot_label: str | None = None
 _META_KEY = re.compile(r"^#\s*([A-Za-z_][\w.]*)\s*:")
 
 
-def _file_keys(path: str) -> set[str] | None:
-    """The metadata keys (``# key:`` lines above the header) of the CSV file ``path``, or None.
+@dataclass(frozen=True)
+class FileHeader:
+    """What a measurement file holds above its rows.
+
+    Attributes:
+        keys: Each metadata key (``# key:`` line) and its 1-based line.
+        columns: The header's column names, as written.
+    """
+
+    keys: dict[str, int]
+    columns: tuple[str, ...]
+
+
+def file_header(path: str) -> FileHeader | None:
+    """The metadata keys and the column names of the CSV file ``path``, or None.
 
     None when it is not a readable file (a set made in memory).
     """
     try:
         with open(path, encoding="utf-8-sig", errors="replace") as f:
-            keys = set()
-            for raw in f:
+            keys: dict[str, int] = {}
+            for number, raw in enumerate(f, 1):
                 line = raw.strip()
                 if not line:
                     continue
                 if not line.startswith("#"):
-                    break
+                    columns = tuple(c.strip().strip('"') for c in re.split(r"[;,\t]", line))
+                    return FileHeader(keys, columns)
                 if m := _META_KEY.match(line):
-                    keys.add(m.group(1))
-            return keys
+                    keys.setdefault(m.group(1), number)
+            return FileHeader(keys, ())
     except (OSError, ValueError):
         return None
+
+
+def _file_keys(path: str) -> set[str] | None:
+    """The metadata keys (``# key:`` lines above the header) of the CSV file ``path``, or None.
+
+    None when it is not a readable file (a set made in memory).
+    """
+    header = file_header(path)
+    return None if header is None else set(header.keys)
 
 
 def _mm(value: Any) -> str:

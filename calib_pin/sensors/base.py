@@ -24,6 +24,7 @@ from ..measurements.schema import Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec, Deflection
 from ..robot.kinematics import Kinematics
+from .misreading import METRES_IN_MM_COLUMNS, RADIANS_IN_DEGREE_COLUMNS, Misreading
 from .registry import SENSORS
 from .setup import SensorSetup, given
 
@@ -205,6 +206,9 @@ class MeasurementModel(ABC):
     #: What a validation session measured from another placement has moved, for the refusal
     #: of a sensor whose model measures it (``session_frame_shift``): its name, and the hint.
     moved_setup: ClassVar[tuple[str, str]] = ("device frame", "the device was moved between the sessions?")
+    #: The usual unit and order mistakes of a set of this sensor, each a reading that
+    #: undoes it (:mod:`calib_pin.sensors.misreading`), tried by the pre-fit misfit check.
+    misreadings: ClassVar[tuple[Misreading, ...]] = (RADIANS_IN_DEGREE_COLUMNS, METRES_IN_MM_COLUMNS)
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """A sensor that declares its ``schema`` takes its ``kind`` and ``data_name`` from it."""

@@ -20,6 +20,7 @@ from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..util.arguments import MAX_MM, as_array, as_float, as_optional, as_point_mm, too_far
 from .base import SETUP_MISFIT_M, MeasurementModel, check_rows, chosen, fit_rows_name
+from .misreading import setup_in_metres
 from .problem import SetProblem
 from .registry import check_estimate
 from .setup import SensorSetup, estimate_names, finite, option, point_mm
@@ -206,6 +207,7 @@ class CableModel(MeasurementModel):
     error_name = "reading error"
     estimable = CABLE_EXTRAS
     setup_type = CableSetup
+    misreadings = (*MeasurementModel.misreadings, setup_in_metres(("anchor_mm", "base"), ("tool_mm", "end frame")))
 
     def __init__(self, chain: Chain, params: ParameterModel, sensor: Drawstring, estimate: tuple[str, ...] = (),
                  compliance: ComplianceSpec | None = None) -> None:

@@ -34,7 +34,7 @@ set sees each.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -47,6 +47,7 @@ from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..util.arguments import as_optional, as_point_mm, too_far
 from .base import DEFAULT_NOISE_MM, SETUP_MISFIT_M, MeasurementModel, check_rows, fit_rows_name
+from .misreading import Misreading, Reading, Suspect, setup_in_metres
 from .problem import SetProblem
 from .setup import SensorSetup, option, point_mm
 
@@ -261,6 +262,35 @@ def known_distances(data: MeasurementSet, points: tuple[str, ...]) -> tuple[tupl
     return tuple(out)
 
 
+#: Units a known distance is written in by mistake, each by how many mm it holds.
+DISTANCE_UNITS = ((1000.0, "metres"), (10.0, "cm"))
+
+
+def _distance_units(s: Suspect) -> Iterator[Reading]:
+    """Each ``# distance_mm`` line read in metres or cm, when the fixtures the nominal robot
+    locates (the set as prepared) are about that many times farther apart than it says."""
+    fixtures = s.problem.model.fixtures
+    index = {label: k for k, label in enumerate(fixtures.point_labels)}
+    given = list(s.data.sensor_meta.get("distance", ()))
+    for k, (a, b, length, line) in enumerate(given):
+        if a not in index or b not in index or not length > 0:
+            continue
+        located = float(np.linalg.norm(fixtures.points[index[a]] - fixtures.points[index[b]]))
+        for factor, unit in DISTANCE_UNITS:
+            if not 0.5 * factor <= located / length <= 2.0 * factor:
+                continue
+            read = [*given[:k], (a, b, length * factor, line), *given[k + 1 :]]
+            mm = f"{length * factor * 1e3:g}"
+            yield Reading(f"{unit}, not mm", "distance_mm", line,
+                          f"{a}, {b}, {length * 1e3:g} mm; the fixtures the nominal robot locates are "
+                          f"{located * 1e3:.4g} mm apart", f"with {mm} mm", f"give it in mm ({a}, {b}, {mm})",
+                          data=replace(s.data, sensor_meta={**s.data.sensor_meta, "distance": read}))
+
+
+#: A known distance of a contact set in another unit than its key's.
+DISTANCE_IN_ANOTHER_UNIT = Misreading("a known distance in metres or cm", _distance_units)
+
+
 def rigid_aligned(points: np.ndarray, onto: np.ndarray) -> np.ndarray:
     """``points`` (n, 3) moved by the rigid motion that brings them closest to ``onto`` (n, 3).
 
@@ -284,6 +314,8 @@ class ContactProblem(SetProblem):
     Rows differ in size: a point row holds 3 residual entries, a plane row 1, a distance
     row 1 (after the data rows); use :attr:`row_offsets`.
     """
+
+    other_rows: ClassVar[str] = "known distances"
 
     @property
     def n_data(self) -> int:
@@ -436,6 +468,7 @@ class ContactModel(MeasurementModel):
     setup_type = ContactSetup
     fits_setup = True
     fitted_setup = "fixture points and planes"
+    misreadings = (*MeasurementModel.misreadings, setup_in_metres(("tool_mm", "end frame")), DISTANCE_IN_ANOTHER_UNIT)
     moved_setup = ("fixtures", "the fixtures (a plate, a cube) were moved between the sessions?")
 
     def __init__(self, chain: Chain, params: ParameterModel, fixtures: Fixtures,

@@ -32,7 +32,7 @@ columns. The analytic Jacobian is checked against finite differences in the test
 from __future__ import annotations
 
 import copy
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -54,6 +54,7 @@ from .base import (
     frame_unknowns,
     refuse_too_few,
 )
+from .misreading import Misreading, Reading, Suspect
 from .problem import SetProblem
 from .setup import SensorSetup, option
 
@@ -205,6 +206,18 @@ def noise_origins(data: MeasurementSet, options: Mapping[str, Any]) -> tuple[str
     return position, orientation
 
 
+def _xyzw(s: Suspect) -> Iterator[Reading]:
+    """The quaternion columns read in x, y, z, w order (qw the last)."""
+    values = np.array(s.data.values, dtype=float)
+    values[:, 3:7] = values[:, [6, 3, 4, 5]]
+    yield Reading("x, y, z, w order", "qw, qx, qy, qz", None, "read in w, x, y, z order", "with qw the last column",
+                  "write the quaternion w, x, y, z (the last column first)", data=replace(s.data, values=values))
+
+
+#: A 6-D pose set's quaternions written x, y, z, w (as ROS, Eigen's coeffs(), scipy write them).
+QUATERNION_XYZW = Misreading("quaternions in x, y, z, w order", _xyzw)
+
+
 @dataclass
 class PoseProblem(SetProblem):
     """A calibration problem of 6-D pose rows: 6 residual entries a row.
@@ -274,6 +287,7 @@ class PoseModel(MeasurementModel):
     setup_type = PoseSetup
     fits_setup = True
     fitted_setup = "device frame and body"
+    misreadings = (*MeasurementModel.misreadings, QUATERNION_XYZW)
 
     def __init__(self, chain: Chain, params: ParameterModel, rig: PoseRig, noise_m: float = DEFAULT_NOISE_MM * 1e-3,
                  noise_rad: float = float(np.deg2rad(DEFAULT_NOISE_DEG)),

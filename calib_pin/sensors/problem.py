@@ -10,7 +10,7 @@ subclasses it.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -33,6 +33,8 @@ class SetProblem(RowProblem):
     q: np.ndarray
     readings: np.ndarray
     points: np.ndarray | None = None
+    #: What rows after the data rows are, for people (a contact set's known distances).
+    other_rows: ClassVar[str] = "other rows"
 
     @property
     def scale(self) -> np.ndarray:
