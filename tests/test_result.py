@@ -78,3 +78,19 @@ def test_point_ids_of_a_sensor_of_one_point_are_refused_not_ignored():
     assert result.predict(q).shape == (3,)
     with pytest.raises(cp.CalibPinError, match="point_ids: .*leave point_ids out"):
         result.predict(q, point_ids=["T1", "T1", "T1"])
+
+
+def test_a_sanity_refusal_blames_only_the_setup_its_sets_take():
+    """A drawstring's refusal may blame its anchor, tool point or offset; a 6-D pose set's, having
+    none to give, a unit or order mistake in its data."""
+    from types import SimpleNamespace
+
+    from calib_pin.calibration.result import _setup_hint
+    from calib_pin.sensors import CableModel, ContactModel, PoseModel, PositionModel
+
+    assert CableModel.setup_keys() == ("anchor_mm", "tool_mm", "length_offset_mm")
+    assert ContactModel.setup_keys() == ("tool_mm",) and PoseModel.setup_keys() == PositionModel.setup_keys() == ()
+    pose = object.__new__(PoseModel)
+    cable = object.__new__(CableModel)
+    assert _setup_hint(SimpleNamespace(parts=(pose,))) == "a unit or order mistake in the data"
+    assert _setup_hint(SimpleNamespace(parts=(pose, cable))) == "a wrong anchor_mm/tool_mm/length_offset_mm or unit"

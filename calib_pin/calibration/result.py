@@ -235,7 +235,7 @@ class CalibrationResult:
             beyond = beyond_sanity(value, unit)  # compliances: see report.json's compliance section
             if beyond:
                 return (f"{name} = {beyond}: the data cannot support it (a parameter the poses barely see, see "
-                        f"--analyze; a wrong anchor_mm/tool_mm or unit; or outliers, see --loss){self._misfits()}; "
+                        f"--analyze; {_setup_hint(model)}; or outliers, see --loss){self._misfits()}; "
                         "no URDF written")
         return None
 
@@ -555,3 +555,10 @@ class SetResult:
             "error": self.model.error_name, "error_unit": self.unit, "sensor": self.model.describe(), **self.geometry,
             "setup_from_caller": list(self.overrides), "setup_over_file": list(self.overridden),
         }
+
+
+def _setup_hint(model: Any) -> str:
+    """What set-up of the sets a sanity-bound refusal may blame: the values their sensors
+    take in mm (``a wrong anchor_mm/tool_mm/length_offset_mm or unit``), else a unit."""
+    keys = dict.fromkeys(key for part in model.parts for key in type(part).setup_keys())
+    return f"a wrong {'/'.join(keys)} or unit" if keys else "a unit or order mistake in the data"

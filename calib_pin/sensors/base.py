@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
@@ -245,6 +245,11 @@ class MeasurementModel(ABC):
         names = set(cls.setup_type.field_names())
         given = {k: v for k, v in data.sensor_meta.items() if k in names}
         return cls.setup_type(**given) if given else None
+
+    @classmethod
+    def setup_keys(cls) -> tuple[str, ...]:
+        """The set-up values a caller or a file gives in mm (``anchor_mm``, ``tool_mm``, ...)."""
+        return tuple(f.name for f in fields(cls.setup_type) if f.metadata.get("unit") == "mm")
 
     @classmethod
     def planning_model(cls, chain: Chain, params: ParameterModel, setup: SensorSetup | None) -> MeasurementModel:
