@@ -9,6 +9,8 @@ The files are created in a fresh folder that is the working directory of the run
 
 from __future__ import annotations
 
+import math
+import re
 from pathlib import Path
 
 import pytest
@@ -1174,6 +1176,95 @@ I34B: list[Case] = [
 ]
 
 
+def _each_field(text: str, columns: tuple[str, ...], change) -> str:
+    """A measurement file's text with each field of ``columns`` replaced by ``change(value)``
+    (``change`` of the row's fields, for a reordering, when ``columns`` is empty)."""
+    lines = text.splitlines()
+    k = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    head = lines[k].split(",")
+    rows = []
+    for line in lines[k + 1 :]:
+        fields = line.split(",")
+        for c, name in enumerate(head):
+            if name in columns:
+                fields[c] = change(float(fields[c]))
+        rows.append(",".join(fields if columns else change(fields)))
+    return "\n".join([*lines[: k + 1], *rows]) + "\n"
+
+
+JOINTS_DEG = tuple(f"q{j}_deg" for j in range(1, 7))
+
+
+def radians(text: str) -> str:
+    """A measurement file's text with its joint angles in radians under the ``_deg`` columns."""
+    return _each_field(text, JOINTS_DEG, lambda v: f"{math.radians(v):.9f}")
+
+
+def _ur10_files() -> dict[str, str]:
+    """A ur10 drawstring set (u.csv) and its catalogue's default_kinematics.yaml in degrees
+    (deg.yaml) and a ur5's (ur5.yaml)."""
+    import tempfile
+
+    import pinocchio as pin
+
+    import calib_pin as cp
+    from calib_pin.export.yaml import write_ur_kinematics_yaml
+
+    chain = cp.load_chain("ur10")
+    params = cp.parameter_model(chain)
+    data, _ = cp.simulate(chain, params, 40, seed=34)
+    with tempfile.TemporaryDirectory() as folder:
+        cp.write_measurements(Path(folder) / "u.csv", data)
+        write_ur_kinematics_yaml(chain, [pin.SE3.Identity()] * 7, Path(folder) / "ur10.yaml")
+        write_ur_kinematics_yaml(cp.load_chain("ur5"), [pin.SE3.Identity()] * 7, Path(folder) / "ur5.yaml")
+        texts = {name: (Path(folder) / name).read_text() for name in ("u.csv", "ur10.yaml", "ur5.yaml")}
+    texts["deg.yaml"] = re.sub(r"(roll|pitch|yaw): (\S+)", lambda m: f"{m.group(1)}: {math.degrees(float(m.group(2))):.9f}",
+                               texts.pop("ur10.yaml"))
+    return texts
+
+
+UR10 = _ur10_files()
+NO_ANCHOR = csv(*ROWS[:40], meta=(*META[:2], *META[3:]))
+LM = ["--method", "lm", "--no-html", "--out", "out"]
+SHIFTED = _each_field(pose_set(), ("q2_deg",), lambda v: f"{v + 10:.9f}")  # joint 2 read 10 deg off: no usual mistake
+
+#: Issue 34: unit and order mistakes named before the fit (the pre-fit misfit check), a
+#: correct set never refused, and the sanity-bound refusal's hint naming only what the sets take.
+I34C: list[Case] = [
+    (CAL, ["irb120", "--data", "d.csv", *LM], {"d.csv": radians(data())}, 2,
+     "d.csv: q1_deg..q6_deg: radians in degree columns? every angle (-6.717 to 6.753) is within the joints' limits in "
+     "radians; the nominal robot misses the rows by "),
+    (CAL, ["irb120", "--data", "p.csv", *LM], {"p.csv": radians(pose_set())}, 2,
+     "p.csv: q1_deg..q6_deg: radians in degree columns?"),
+    (CAL, ["irb120", "--data", "c.csv", *LM], {"c.csv": radians(contact_set())}, 2,
+     "c.csv: q1_deg..q6_deg: radians in degree columns?"),
+    (CAL, ["irb120", "--data", "d.csv", "--anchor-mm", "0.6,0.2,-0.1", *LM], {"d.csv": NO_ANCHOR}, 2,
+     "d.csv: anchor_mm: metres, not mm? 0.6,0.2,-0.1 mm (given); the nominal robot misses the rows by "),
+    (CAL, ["irb120", "--data", "d.csv", *LM], {"d.csv": anchor("# anchor_mm: 0.6, 0.2, -0.1")}, 2,
+     "d.csv:3: anchor_mm: metres, not mm? 0.6,0.2,-0.1 mm (the file's)"),
+    (CAL, ["irb120", "--data", "p.csv", *LM], {"p.csv": _each_field(pose_set(), (), lambda f: f[:-4] + f[-3:] + f[-4:-3])},
+     2, "p.csv: qw, qx, qy, qz: x, y, z, w order? read in w, x, y, z order; the nominal robot misses the rows by position"),
+    (CAL, ["irb120", "--data", "p.csv", *LM], {"p.csv": _each_field(pose_set(), ("x_mm", "y_mm", "z_mm"),
+                                                                    lambda v: f"{v * 1e-3:.9f}")}, 2,
+     "p.csv: x_mm, y_mm, z_mm: metres in mm columns? every value"),
+    (CAL, ["irb120", "--data", "c.csv", *LM], {"c.csv": contact_set().replace("391.535439", "0.391535")}, 2,
+     "c.csv:3: distance_mm: metres, not mm? A, B, 0.391535 mm; the fixtures the nominal robot locates are "),
+    (CAL, ["irb120", "--data", "c.csv", *LM], {"c.csv": contact_set().replace("391.535439", "39.1535")}, 2,
+     "c.csv:3: distance_mm: cm, not mm? A, B, 39.1535 mm"),
+    (CAL, ["ur10", "--data", "u.csv", "--nominal", "deg.yaml", *LM], UR10, 2,
+     "deg.yaml: roll, pitch, yaw: degrees, not radians? its angles reach 90; the start misses the rows by "),
+    (CAL, ["ur10", "--data", "u.csv", "--nominal", "ur5.yaml", *LM], UR10, 2,
+     "ur5.yaml: kinematics: a ur5's file, not a ur10's? its joint origins are within 0.0 mm and 0.00 deg of a ur5's"),
+    # correct sets stay accepted: the shipped ones (a real IRB120's markers among them)
+    *[(CAL, ["irb120", "--data", name, "--analyze"], {name: (ROOT / "robots" / name).read_text()}, 0, "determined")
+      for name in ("irb120_wu2015.csv", "irb120_pose_example.csv", "irb120_contact_example.csv")],
+    # a fit beyond the sanity bound blames only the set-up its sets take
+    (CAL, ["irb120", "--data", "p.csv", *LM], {"p.csv": SHIFTED}, 2,
+     "the data cannot support it (a parameter the poses barely see, see --analyze; a unit or order mistake in the "
+     "data; or outliers"),
+]
+
+
 #: The rows of the earlier rounds, then round 3's by class (docs/bad_input.md lists them all).
 BASE_CASES = list(CASES)
 SECTIONS: list[tuple[str, list[Case]]] = [
@@ -1184,6 +1275,7 @@ SECTIONS: list[tuple[str, list[Case]]] = [
     ("Round 3: real files (extra columns, string labels, ';' and decimal comma)", R3_FILES),
     ("Issue 25: parameters held fixed, a start file, controller programs", I25_CONTROLLER),
     ("Round 26: per-set options name their own key; a set-up that misses the readings", I26_PERSET),
+    ("Issue 34 (C): unit and order mistakes named before the fit", I34C),
     ("Issue 34 (B): rows fitted twice, thin sets' noise, collisions, moved fixtures, counts, messages", I34B),
     ("Issue 34: several sets, new sensors and real lab files (part A)", I34_CLASSES),
 ]
