@@ -25,6 +25,7 @@ from ..estimators.base import EstimateResult
 from ..estimators.problem import data_row_errors, data_rows
 from ..exceptions import ArgumentError, CalibPinError, DataError, EstimatorError
 from ..measurements import MeasurementSet
+from ..parameters.prior import Prior
 from ..robot import RobotDescription
 from ..robot.deflection import Compliance
 from ..sensors import SensorSetup, sensor_for
@@ -439,6 +440,9 @@ def calibrate(
     fix: Any = None,
     free: Any = None,
     nominal: str | Path | None = None,
+    prior: Prior | None = None,
+    tcp_mm: Any = None,
+    limit_margin_deg: float | None = None,
     **deprecated: Any,
 ) -> CalibrationResult:
     """Calibrate a robot's kinematic deviations from one or more measurement sets.
@@ -474,6 +478,14 @@ def calibrate(
         nominal: Start from a robot's own kinematics instead of the catalogue URDF: a
             calib-pin calibration file or a UR ``default_kinematics.yaml``; ``result.x``
             stays relative to the URDF.
+        prior: What a deviation is before calibration (:class:`~calib_pin.parameters.prior.Prior`,
+            default 1 mm and 0.1 deg): the robot stays at its start along what the data does
+            not determine, and this bounds the error left there (``result.accuracy``).
+        tcp_mm: The points of the end frame you work with, (x, y, z) [mm] or a list of them:
+            ``result.accuracy`` is given there (default: the measured points, the end frame's
+            origin and a tool the data gives).
+        limit_margin_deg: How far beyond its URDF limits each revolute joint's measured angle
+            is accepted, [deg] in [0, 30] (a controller whose limits are wider than its URDF's).
         deprecated: ``anchor_mm``, ``tool_mm``, ``length_offset_mm``, ``estimate`` (give
             ``setup``), ``payload_kg``, ``payload_com_mm``, ``cable_tension_n`` (give
             ``compliance``) and ``progress``: accepted for one release with a DeprecationWarning.
@@ -492,7 +504,8 @@ def calibrate(
     seed = as_int(seed, "seed", 0)
     holdout = as_holdout(test_fraction, test_data)
     prepared = prepare(robot, data, end_frame=end_frame, noise_mm=noise_mm, parameters=parameters, setup=setup,
-                       compliance=compliance, fix=fix, free=free, nominal=nominal, **deprecated)
+                       compliance=compliance, fix=fix, free=free, nominal=nominal, prior=prior, tcp_mm=tcp_mm,
+                       limit_margin_deg=limit_margin_deg, **deprecated)
     if progress is not None:
         warnings.warn("calibrate(progress=...) is deprecated: call calib_pin.prepare, then calib_pin.solve",
                       DeprecationWarning, stacklevel=2)
