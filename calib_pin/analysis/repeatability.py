@@ -105,7 +105,7 @@ def repeatability(q: np.ndarray, values: np.ndarray | None, points: np.ndarray |
         stated: The noise stated for the set, [m], or None.
         origin: Where ``stated`` came from (``file``, ``caller``).
     """
-    if values is not None:
+    if values is not None and len(values):
         values = np.asarray(values, dtype=float)
         poses = _poses(q)
         markers = _marker_distances(values, points, poses)

@@ -361,7 +361,7 @@ class CalibrationResult:
         for s in self.sets:
             schema = SCHEMAS.get(s.kind)
             lengths = schema is not None and len(schema.value_columns) in (1, 3) and not s.model.noise_parts()
-            problem = s.problem.subset(s.train)
+            problem = s.problem  # every row: a sensor's repeatability is no fit's
             rep = repeatability(problem.q, np.asarray(problem.readings) if lengths else None,
                                 problem.points, s.sigma if s.sigma_origin in ("file", "caller") else None,
                                 s.sigma_origin)
