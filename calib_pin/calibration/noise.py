@@ -185,7 +185,7 @@ def estimate_noise(problem: Problem, train: np.ndarray, sigmas: list[float | Non
                                                                                                    strict=True)]
     for k, j in unknown:
         where[k][j] = thin.get((k, j), "estimate")
-    notes = _notes(problem, now, where, fits, moved, settled)
+    notes = _notes(problem, now, where, fits, moved, settled, set(training.sets))
     stated = where[0][0] in ("caller", "file")
     plural = "s" if fits > 1 else ""
     if stated:
@@ -273,13 +273,17 @@ def _unit(problem: Problem, k: int, j: int) -> str:
 
 
 def _notes(problem: Problem, sigmas: list[list[float]], origins: list[list[str]], fits: int, moved: float,
-           settled: bool) -> list[str]:
-    """The printout's lines on the estimate: each thin component (the noise it got, and
-    how to state it), and a variance-component estimation that did not settle."""
+           settled: bool, trained: set[int]) -> list[str]:
+    """The printout's lines on the estimate.
+
+    Each thin component of a set that trains (the noise it got, and how to state it; a set
+    of no training row, a test set, is weighted by nothing), and a variance-component
+    estimation that did not settle.
+    """
     labels = problem.model.labels
     notes = []
     for k, j in ((a, b) for a, by_part in enumerate(origins) for b, origin in enumerate(by_part)
-                 if origin in ("pooled", "default")):
+                 if origin in ("pooled", "default") and a in trained):
         own = problem.model.parts[k].noise_parts()
         unit, per_si = (own[j].unit, own[j].per_si) if own else ("mm", 1e3)
         part = f" ({own[j].name})" if own else ""
