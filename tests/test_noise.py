@@ -99,3 +99,11 @@ def test_variance_components_that_do_not_settle_say_so_and_refit(monkeypatch):
     assert any(n.startswith("the sets' noise did not settle in 2 fits") for n in found.notes)
     result = cp.solve(calibration, "lm")
     assert any("did not settle in 2 fits" in w for w in result.warnings)
+
+
+def test_a_test_set_gets_no_thin_set_note(chain, params):
+    """A set of role test trains nothing: its noise weighs no row, and no note names it."""
+    sets, _ = cp.simulate_sessions(chain, params, (40, 20), 5, kinds=("cable", "cable"))
+    result = cp.calibrate("irb120", [cp.FitSet(sets[0], label="a"), cp.FitSet(sets[1], label="b", role="test")],
+                          method="lm")
+    assert not [w for w in result.warnings if "noise of set b" in w]
