@@ -243,6 +243,17 @@ class MeasurementModel(ABC):
         return cls.setup_type(**given) if given else None
 
     @classmethod
+    def usable(cls, data: MeasurementSet) -> MeasurementSet:
+        """The rows of ``data`` this sensor can use, as loaded; what it leaves out is named in ``dropped``.
+
+        Default: every row (a camera drops its poses of too few corners).
+
+        Raises:
+            DataError: a set this sensor cannot use at all, naming its file.
+        """
+        return data
+
+    @classmethod
     def planning_model(cls, chain: Chain, params: ParameterModel, setup: SensorSetup | None) -> MeasurementModel:
         """The model poses are planned for (``calib-pin plan-poses``), from the caller's set-up.
 
