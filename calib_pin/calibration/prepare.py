@@ -398,6 +398,9 @@ def prepare(
     for s, d, label, noise in zip(given, loaded, labels, noises, strict=True):
         sigma, origin = set_sigma(s, noise, d)
         own, overridden = set_overrides(s, d, label)
+        stated = sensor_for(d.kind).stated_noise(d, {**one_for_all, **own}) if sigma is None else None
+        if stated is not None:  # a noise in the sensor's own unit (a camera's pixels)
+            sigma, origin = stated
         options: dict[str, Any] = {**one_for_all, **own, "estimate": estimate, "compliance": soft}
         if sigma is not None and origin == "caller":
             options["noise_mm"] = sigma * 1e3  # a sensor whose rows have parts reads its own

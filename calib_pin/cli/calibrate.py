@@ -407,7 +407,8 @@ def determined_line(calibration: Any, x: Any) -> str:
     status = [u.status[i] for i in robot]
     unseen = [u.names[i] for i in robot if u.status[i] == "not determined"]
     combos = "; ".join(c.text for c in u.combinations) or "none"
-    return (f"at {calibration.noise * 1e3:.3g} mm noise (stated, else the default) and the prior "
+    unit = problem.model.first.value_unit  # the first set's noise, in its unit (a camera's: px)
+    return (f"at {calibration.noise * 1e3:.3g} {unit} noise (stated, else the default) and the prior "
             f"{calibration.prior.describe()}: {status.count('identified')} of {len(status)} deviations determined "
             f"alone; only in combination: {combos}; not determined: {', '.join(unseen) or 'none'}")
 
@@ -651,6 +652,8 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
+    for note in dict.fromkeys(s["gauge_note"] for s in report["sets"] if "gauge_note" in s):  # a hand-eye's gauge
+        print(f"note: {note}")
     named = len(result.sets) > 1
     prefits = [(f"set {s['label']}: " if named else "", s["setup_prefit"]) for s in report["sets"] if "setup_prefit" in s]
     for where, prefit in prefits:

@@ -243,6 +243,15 @@ class MeasurementModel(ABC):
         return cls.setup_type(**given) if given else None
 
     @classmethod
+    def stated_noise(cls, data: MeasurementSet, options: Mapping[str, Any]) -> tuple[float, str] | None:
+        """A noise the set states in the sensor's own unit (a camera's ``noise_px``): (sigma, origin), or None.
+
+        Sigma as the sensor's values are carried (SI); origin ``caller`` or ``file``.
+        Default None: the set's noise is ``# noise_mm`` or the caller's ``noise_mm``.
+        """
+        return None
+
+    @classmethod
     def usable(cls, data: MeasurementSet) -> MeasurementSet:
         """The rows of ``data`` this sensor can use, as loaded; what it leaves out is named in ``dropped``.
 
@@ -388,10 +397,11 @@ class MeasurementModel(ABC):
         """
         return ()
 
-    def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> tuple[np.ndarray, ...]:
+    def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray,
+                       points: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """Each of :meth:`noise_parts`' unweighted entries over the rows, flattened, SI [m, rad].
 
-        What its sigma is estimated from (default: none).
+        What its sigma is estimated from (default: none); ``points``: each row's point index.
         """
         return ()
 

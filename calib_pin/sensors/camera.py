@@ -51,13 +51,13 @@ from .camera_fit import fit_rig, refit_fixed
 from .camera_rig import (
     CAMERA_EXTRAS,
     DEFAULT_NOISE_PX,
-    GAUGE_NOTE,
     MIN_CORNERS,
     MOUNTS,
     PX,
     CameraRig,
     CameraSetup,
     corner_index,
+    gauge_note,
     setup_from_notes,
 )
 from .camera_view import session_rig, simulate_camera
@@ -142,6 +142,15 @@ class CameraModel(MeasurementModel):
         out = data.subset(keep)
         out.dropped = (*data.dropped, note)
         return out
+
+    @classmethod
+    def stated_noise(cls, data: MeasurementSet, options: Mapping[str, Any]) -> tuple[float, str] | None:
+        """The caller's ``noise_px``, else the file's ``# noise_px``, as carried (px x PX); None if neither."""
+        given = options.get("noise_px")
+        if given is not None:
+            return float(given) * PX, "caller"
+        filed = setup_from_notes(data)
+        return (float(filed.noise_px) * PX, "file") if filed is not None and filed.noise_px is not None else None
 
     @classmethod
     def options_of(cls, data: MeasurementSet, options: Mapping[str, Any]) -> tuple[str, Board, Intrinsics, float, str]:
@@ -273,7 +282,7 @@ class CameraModel(MeasurementModel):
         return CameraRig(rig.mount, camera, board, rig.board, intrinsics)
 
     def geometry_report(self, x: np.ndarray | None) -> dict:
-        return {**self.geometry_at(x).to_dict(), "gauge_note": GAUGE_NOTE}
+        return {**self.geometry_at(x).to_dict(), "gauge_note": gauge_note(self.rig.mount)}
 
     def describe(self) -> str:
         estimated = "placements and intrinsics" if "intrinsics" in self.estimate else "placements"

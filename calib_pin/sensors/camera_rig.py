@@ -44,10 +44,12 @@ PX = 1e-3
 DEFAULT_NOISE_PX = 0.5
 #: A board pose needs at least this many corners (PnP of a plane): a pose with fewer is dropped.
 MIN_CORNERS = 4
-#: What the gauge note on the camera's placement says (report and describe).
-GAUGE_NOTE = ("the camera placement shares a gauge with the last link's deviations (eye in hand) or the base's "
-              "(eye to hand), and the board's with the other end: each alone is the true one only on a robot "
-              "nominal there; the calibrated robot and placements together are what the data determines")
+def gauge_note(mount: str) -> str:
+    """What a calibration says of the placements' gauge (its report and printout), for ``mount``."""
+    flange, cell = ("camera (T_EC)", "board (T_BW)") if mount == MOUNTS[0] else ("board (T_EW)", "camera (T_BC)")
+    return (f"the {flange} placement shares a gauge with the last link's deviations, and the {cell} placement with "
+            "the base's: each alone is the true one only on a robot nominal there; the robot and the placements "
+            "together are what the data determines")
 
 
 def _mount(text: str) -> str:

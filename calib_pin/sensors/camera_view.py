@@ -7,7 +7,7 @@ not detected). A pose is usable when at least :data:`MIN_SEEN` corners are seen.
 
 The default set-ups are made for the robot (:func:`default_rig`): eye in hand, a camera
 beside the flange looking along it and a board lying face up where the camera looks down
-most often; eye to hand, the board on the flange facing out along it and a camera 0.9 m
+most often; eye to hand, the board on the flange facing out along it and a camera 0.7 m
 out from the middle of the workspace looking at it. The default camera
 (:func:`default_intrinsics`) is a 1280x1024 sensor with a 1000 px focal length and a
 little distortion; the default board (:func:`default_board`) a 9x7 ChArUco board of 30 mm
@@ -41,7 +41,7 @@ MIN_SEEN = 12
 #: Simulated pixel noise when the caller gives none, 1 sigma per coordinate, [px].
 SIMULATED_NOISE_PX = 0.5
 #: How far the camera looks at the board in the default set-ups, [m].
-VIEW_DISTANCE_M = (0.45, 0.9)
+VIEW_DISTANCE_M = (0.45, 0.7)
 #: Spread of a later simulated session's moved part (the board eye in hand, the camera eye to
 #: hand): a turn about the vertical [deg] and a shift per horizontal axis [mm].
 SESSION_TURN_DEG = 10.0
