@@ -374,6 +374,31 @@ class CameraModel(MeasurementModel):
         corners = self.point_index(data.point_ids, len(data), data.source)
         return np.linalg.norm(self.predict(x, data.q, corners) - np.asarray(data.values) * PX, axis=1)
 
+    def session_frame_shift(self, x: np.ndarray | None, data: MeasurementSet) -> float | None:
+        """How far a separate session's part fixed in the cell is from the calibration's, [m].
+
+        That part (the board eye in hand, the camera eye to hand) placed from the session's
+        own images (PnP with the model at x); the RMS distance between where the two put the
+        board's corners (eye in hand), or the camera's centre and a point 0.5 m along its
+        axis (eye to hand). None when PnP finds the board in none of its poses.
+        """
+        rig = self.geometry_at(x)
+        corners = self.check_rows(data, rig.board, rig.intrinsics)
+        try:
+            own = refit_fixed(self, np.zeros(self.n_params) if x is None else x, data.q, data.values, corners,
+                              data.source or "test_data")
+        except DataError:
+            return None
+        if rig.in_hand:
+            points = rig.board.points
+            ours, theirs = points @ rig.board_pose.rotation.T + rig.board_pose.translation, \
+                points @ own.board_pose.rotation.T + own.board_pose.translation
+        else:
+            points = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.5]])
+            ours, theirs = points @ rig.camera.rotation.T + rig.camera.translation, \
+                points @ own.camera.rotation.T + own.camera.translation
+        return float(np.sqrt(np.mean(np.sum((theirs - ours) ** 2, axis=1))))
+
     def _project(self, x: np.ndarray | None, q: np.ndarray, corners: np.ndarray,
                  jacobian: bool) -> tuple[np.ndarray, Any]:
         """Image points [px] and, with ``jacobian``, their derivative [px per unit of x] (n, 2, n_params)."""

@@ -42,7 +42,13 @@ MIN_POSES = 3
 
 
 def _project(m: np.ndarray) -> np.ndarray:
-    """The rotation nearest to a 3x3 matrix (Frobenius)."""
+    """The rotation nearest to a 3x3 matrix (Frobenius).
+
+    Raises:
+        ValueError: a matrix that is not finite (a solver that failed).
+    """
+    if not np.all(np.isfinite(m)):
+        raise ValueError("not finite")
     u, _, vt = np.linalg.svd(m)
     return u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
 
@@ -54,7 +60,9 @@ def _mean(frames: list[pin.SE3]) -> pin.SE3:
 
 def board_poses(cv2: Any, board: Board, intrinsics: Intrinsics, values: np.ndarray, corners: np.ndarray,
                 inverse: np.ndarray, m: int) -> list[pin.SE3 | None]:
-    """Each pose's board in the camera frame, T_CW, by PnP (None where it fails or has fewer than 4 corners).
+    """Each pose's board in the camera frame, T_CW, by PnP.
+
+    None where it fails, or has fewer than 4 corners or corners of one line only.
 
     Args:
         values: Image points (n_rows, 2) [px]; ``corners``: each row's corner index;
@@ -68,6 +76,10 @@ def board_poses(cv2: Any, board: Board, intrinsics: Intrinsics, values: np.ndarr
             out.append(None)
             continue
         obj = board.points[corners[rows]].astype(np.float64)
+        spread = np.linalg.svd(obj[:, :2] - obj[:, :2].mean(axis=0), compute_uv=False)
+        if spread[1] < 0.5e-3 * board.square_mm:  # corners of one line: no board pose
+            out.append(None)
+            continue
         img = np.asarray(values[rows], dtype=np.float64).reshape(-1, 1, 2)
         try:
             ok, rvec, tvec = cv2.solvePnP(obj, img, k, dist, flags=cv2.SOLVEPNP_IPPE)
@@ -76,17 +88,22 @@ def board_poses(cv2: Any, board: Board, intrinsics: Intrinsics, values: np.ndarr
                                               flags=cv2.SOLVEPNP_ITERATIVE)
         except cv2.error:
             ok = False
+        ok = ok and bool(np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec)))
         out.append(pin.SE3(cv2.Rodrigues(rvec)[0], np.asarray(tvec, dtype=float).reshape(3)) if ok else None)
     return out
+
+
+def _arrays(frames: list[pin.SE3]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The rotations (3, 3) and translations (3, 1) of ``frames`` as OpenCV reads them (C-ordered float64)."""
+    return ([np.ascontiguousarray(f.rotation, dtype=np.float64) for f in frames],
+            [np.ascontiguousarray(f.translation, dtype=np.float64).reshape(3, 1) for f in frames])
 
 
 def _robot_world(cv2: Any, in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3],
                  method: int) -> tuple[pin.SE3, pin.SE3]:
     """(camera, board placement) by ``cv2.calibrateRobotWorldHandEye``."""
     b = [e.inverse() for e in ends] if in_hand else ends  # eye in hand: T_EB; eye to hand: T_BE
-    r_x, t_x, r_z, t_z = cv2.calibrateRobotWorldHandEye([f.rotation for f in boards], [f.translation for f in boards],
-                                                        [f.rotation for f in b], [f.translation for f in b],
-                                                        method=method)
+    r_x, t_x, r_z, t_z = cv2.calibrateRobotWorldHandEye(*_arrays(boards), *_arrays(b), method=method)
     x, z = pin.SE3(_project(np.asarray(r_x)), np.asarray(t_x, float).reshape(3)), \
         pin.SE3(_project(np.asarray(r_z)), np.asarray(t_z, float).reshape(3))
     return z.inverse(), x.inverse()  # Z = T_CE (T_CB), X = T_WB (T_WE)
@@ -96,8 +113,7 @@ def _hand_eye(cv2: Any, in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3
               method: int) -> tuple[pin.SE3, pin.SE3]:
     """(camera, board placement) by ``cv2.calibrateHandEye``, the other placement the mean of each pose's."""
     g = ends if in_hand else [e.inverse() for e in ends]  # gripper2base, or base2gripper for eye to hand
-    r, t = cv2.calibrateHandEye([f.rotation for f in g], [f.translation for f in g],
-                                [f.rotation for f in boards], [f.translation for f in boards], method=method)
+    r, t = cv2.calibrateHandEye(*_arrays(g), *_arrays(boards), method=method)
     camera = pin.SE3(_project(np.asarray(r)), np.asarray(t, float).reshape(3))  # T_EC, or T_BC
     return camera, _mean([gk * camera * bk for gk, bk in zip(g, boards, strict=True)])
 
@@ -139,7 +155,7 @@ def fit_rig(cls: Any, chain: Chain, params: ParameterModel, mount: str, board: B
             break  # the robot-world start fits: no fallback
         try:
             camera, placed = solve(cv2, in_hand, ends, boards, method)
-        except cv2.error:
+        except (cv2.error, np.linalg.LinAlgError, ValueError):
             continue
         rig = CameraRig(mount, camera, placed, board, intrinsics)
         starts.append((_rms(cls(chain, params, rig, estimate=()), q, values, corners), rig))
