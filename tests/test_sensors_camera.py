@@ -273,3 +273,11 @@ def test_simulate_and_calibrate_a_camera_set_from_the_command_line(tmp_path, cap
                            str(tmp_path / "o")]) == 0
     printed = capsys.readouterr().out
     assert "RMSE px" in printed and "reprojection 0.2 px (file)" in printed and "last link" in printed
+
+
+def test_without_opencv_a_camera_set_is_one_line_with_the_install_hint(monkeypatch):
+    """OpenCV missing: the camera set is refused with the pip command of the camera extra."""
+    chain, params, data, truth = _session("irb120", "eye-in-hand", n=12)
+    monkeypatch.setitem(__import__("sys").modules, "cv2", None)
+    with pytest.raises(cp.CalibPinError, match=r"opencv-python-headless': pip install 'calib-pin\[camera\]'"):
+        cp.calibrate("irb120", data, method="lm")
