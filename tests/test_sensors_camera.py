@@ -281,3 +281,13 @@ def test_without_opencv_a_camera_set_is_one_line_with_the_install_hint(monkeypat
     monkeypatch.setitem(__import__("sys").modules, "cv2", None)
     with pytest.raises(cp.CalibPinError, match=r"opencv-python-headless': pip install 'calib-pin\[camera\]'"):
         cp.calibrate("irb120", data, method="lm")
+
+
+def test_analyze_names_the_hand_eye_gauge(capsys):
+    """--analyze of the shipped camera example lists the last link with the camera's placement."""
+    from calib_pin.cli.calibrate import calibrate_main
+
+    example = Path(__file__).resolve().parents[1] / "robots" / "irb120_camera_example.csv"
+    assert calibrate_main(["irb120", "--data", str(example), "--analyze"]) == 0
+    printed = capsys.readouterr().out
+    assert "a_6 +1 mm with camera_x -1 mm" in printed and "px noise" in printed

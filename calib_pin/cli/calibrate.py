@@ -653,7 +653,7 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
     for note in dict.fromkeys(s["gauge_note"] for s in report["sets"] if "gauge_note" in s):  # a hand-eye's gauge
-        print(f"note: {note}")
+        print(f"gauge: {note}")
     named = len(result.sets) > 1
     prefits = [(f"set {s['label']}: " if named else "", s["setup_prefit"]) for s in report["sets"] if "setup_prefit" in s]
     for where, prefit in prefits:
