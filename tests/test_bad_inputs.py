@@ -593,7 +593,8 @@ R3_WRONG: list[Case] = [
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=600,200,-100:noise_mm=0.05", "--data", "b.csv", "--analyze"],
      {"a.csv": data(), "b.csv": csv(*ROWS[60:100])}, 0, "rank"),
     (CAL, ["irb120", "--data", "a.csv:colour=red", "--data", "b.csv", "--analyze"], {"a.csv": data(), "b.csv": data()},
-     2, "--data 'a.csv:colour=red': unknown key 'colour' (valid: anchor_mm, tool_mm, length_offset_mm, noise_deg, noise_mm"),
+     2, "--data 'a.csv:colour=red': unknown key 'colour' (valid: anchor_mm, tool_mm, length_offset_mm, noise_deg, "
+     "camera_mount, board, intrinsics, noise_px, noise_mm"),
     (CAL, ["irb120", "--data", "a.csv:anchor_mm=600,200", "--data", "b.csv", "--analyze"],
      {"a.csv": data(), "b.csv": data()}, 2, "--data 'a.csv:anchor_mm=600,200': anchor_mm: expected 3 numbers"),
     (CAL, ["irb120", "--data", "a.csv", "--data", "b.csv:role=validate", "--analyze"],
@@ -915,6 +916,15 @@ I26_PERSET: list[Case] = [
      "--data 'p.csv:noise_deg=0': noise_deg: expected a number in (0, 180] deg, got '0'"),
     (CAL, ["irb120", "--data", "p.csv:noise_deg=200", "--analyze"], {"p.csv": pose_set()}, 2,
      "--data 'p.csv:noise_deg=200': noise_deg: expected a number in (0, 180] deg, got '200'"),
+    (CAL, ["irb120", "--data", "a.csv:noise_px=0", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:noise_px=0': noise_px: expected a number in (0, 100] px, got '0'"),
+    (CAL, ["irb120", "--data", "a.csv:camera_mount=sideways", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:camera_mount=sideways': camera_mount: expected eye-in-hand or eye-to-hand, got 'sideways'"),
+    (CAL, ["irb120", "--data", "a.csv:board=charuco,1x7,30,22", "--analyze"], {"a.csv": data()}, 2,
+     "board: expected 'charuco,COLSxROWS,SQUARE_MM,MARKER_MM[,DICT]' or 'chessboard,COLSxROWS,SQUARE_MM', got "
+     "'charuco,1x7,30,22': columns 1 is not a whole number of squares in [2, 1000]"),
+    (CAL, ["irb120", "--data", "a.csv:intrinsics=1000,1000,640", "--analyze"], {"a.csv": data()}, 2,
+     "--data 'a.csv:intrinsics=1000,1000,640': intrinsics: expected 'fx,fy,cx,cy,width,height[,k1,k2,p1,p2,k3]'"),
     (CAL, ["irb120", "--data", "a.csv:noise_mm=1e3", "--analyze"], {"a.csv": data()}, 2,
      "--data 'a.csv:noise_mm=1e3': noise_mm: expected a number in (0, 100], got '1e3'"),
     (CAL, ["irb120", "--data", "a.csv:role=validate", "--analyze"], {"a.csv": data()}, 2,
@@ -1265,6 +1275,48 @@ I34C: list[Case] = [
 ]
 
 
+CAMERA_SHIPPED = (ROOT / "robots" / "irb120_camera_example.csv").read_text().splitlines()
+CAMERA_HEAD = next(k for k, line in enumerate(CAMERA_SHIPPED) if not line.startswith("#"))
+
+
+def camera_set(row: int | None = None, column: int = 0, value: str = "", drop: str = "", thin: bool = False) -> str:
+    """The shipped camera example; field ``column`` of data row ``row`` (0-based; file line CAMERA_HEAD + row + 2)
+    set to ``value``; metadata lines starting with ``drop`` left out; ``thin``: pose 1 keeps only 3 corners."""
+    meta = [line for line in CAMERA_SHIPPED[:CAMERA_HEAD] if not (drop and line.startswith(drop))]
+    rows = CAMERA_SHIPPED[CAMERA_HEAD + 1 :]
+    if row is not None:
+        rows[row] = swap(rows[row], column, value)
+    if thin:
+        first = rows[0].split(",")[0]
+        mine = [r for r in rows if r.split(",")[0] == first]
+        rows = mine[:3] + [r for r in rows if r.split(",")[0] != first]
+    return "\n".join([*meta, CAMERA_SHIPPED[CAMERA_HEAD], *rows]) + "\n"
+
+
+#: Camera sets (calib_pin/sensors/camera.py): a corner not on the board, a pixel outside the image, a pose of too
+#: few corners, no intrinsics, a noise in mm.
+I35_CAMERA: list[Case] = [
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": camera_set(3, 1, "99")}, 2,
+     f"c.csv:{CAMERA_HEAD + 5}: corner_id: 99 is not a corner of the board (charuco 9x7 squares of 30 mm"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": camera_set(3, 8, "1500.5")}, 2,
+     f"c.csv:{CAMERA_HEAD + 5}: u_px: (1500.5, "),
+    (CAL, ["irb120", "--data", "c.csv", "--method", "lm", "--no-html", "--out", "out"], {"c.csv": camera_set(thin=True)},
+     0, "1 pose(s) dropped, fewer than 4 corners (pose (corners)): 1 (3)"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": camera_set(drop="# camera_f")}, 2,
+     "c.csv: camera_fx_px: intrinsics need # camera_fx_px"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze"], {"c.csv": camera_set(drop="# camera_")}, 2,
+     "c.csv: intrinsics: no camera intrinsics: add '# camera_fx_px'"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze", "--intrinsics", "1000,1000,640,512,1280"], {"c.csv": camera_set()},
+     2, "argument --intrinsics: expected 'fx,fy,cx,cy,width,height[,k1,k2,p1,p2,k3]'"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze", "--noise-mm", "0.1"], {"c.csv": camera_set()}, 2,
+     "argument --noise-mm: a camera set's noise is in pixels"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze", "--board", "charuco,9x7,30"], {"c.csv": camera_set()}, 2,
+     "argument --board: expected 'charuco,COLSxROWS,SQUARE_MM,MARKER_MM[,DICT]'"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--camera-mount", "eye-to-hand"], {}, 2,
+     "--camera-mount is for --kinds camera; this simulates cable"),
+]
+
+
 #: The rows of the earlier rounds, then round 3's by class (docs/bad_input.md lists them all).
 BASE_CASES = list(CASES)
 SECTIONS: list[tuple[str, list[Case]]] = [
@@ -1278,6 +1330,7 @@ SECTIONS: list[tuple[str, list[Case]]] = [
     ("Issue 34 (C): unit and order mistakes named before the fit", I34C),
     ("Issue 34 (B): rows fitted twice, thin sets' noise, collisions, moved fixtures, counts, messages", I34B),
     ("Issue 34: several sets, new sensors and real lab files (part A)", I34_CLASSES),
+    ("Issue 35: camera sets (a board's corners in images)", I35_CAMERA),
 ]
 CASES += [row for _, rows in SECTIONS for row in rows]
 

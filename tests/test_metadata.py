@@ -25,7 +25,7 @@ def _read(*lines: str, decimal: str = ".") -> tuple[dict, dict]:
     ("Anchor_mm: 600, 200, -100", "did you mean anchor_mm? (keys are case-sensitive"),
     ("anchor_cm: 60, 20, -10", "did you mean anchor_mm? (unit 'cm' is not read: anchor_mm or anchor_m"),
     ("tool: 0, 0, 50", "did you mean tool_mm? (no unit: tool_mm or tool_m"),
-    ("noise: 0.05", "did you mean noise_mm? (no unit: noise_mm, noise_m or noise_deg"),
+    ("noise: 0.05", "did you mean noise_mm? (no unit: noise_mm, noise_m, noise_deg or noise_px"),
     ("lenght_offset_mm: 0", "did you mean length_offset_mm?"),
     ("noise_dge: 0.01", "did you mean noise_deg?"),
     ("distanse_mm: A, B, 300", "did you mean distance_mm?"),

@@ -306,7 +306,7 @@ def _residuals(training: Problem, x: np.ndarray) -> dict[int, list[np.ndarray]]:
     for part, k in zip(training.parts, training.sets, strict=True):
         xk = training.model.part_x(x, k)
         if part.model.noise_parts():
-            out[k] = list(part.model.part_residuals(xk, part.q, part.readings))
+            out[k] = list(part.model.part_residuals(xk, part.q, part.readings, part.points))
         else:
             out[k] = [part.residual(xk)]
     return out

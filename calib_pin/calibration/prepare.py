@@ -22,7 +22,7 @@ from ..parameters.prior import Prior
 from ..robot import Chain, RobotDescription, load_chain, resolve_robot
 from ..robot.deflection import Compliance, ComplianceSpec, as_compliance
 from ..robot.description import MAX_LIMIT_MARGIN_DEG, as_robot
-from ..sensors import DEFAULT_NOISE_MM, SensorSetup, sensor_for, setup_record
+from ..sensors import DEFAULT_NOISE_MM, SENSORS, SensorSetup, sensor_for, setup_record
 from ..sensors.base import FIT_ROWS_KEY
 from ..util.arguments import MAX_MM, as_choice, as_float, as_instance, as_optional, as_path, as_xyz_mm
 from .holdout import TestSet
@@ -179,6 +179,8 @@ class Calibration:
             raise ArgumentError("test_data", f"a validation session beside set {self.labels[roles.index('test')]}, "
                                 "whose role is 'test': give the validation session one way, not both")
         _, session = load_data(self.chain, test.data, "", self.chain.end_frame)
+        if session.kind in SENSORS:
+            session = sensor_for(session.kind).usable(session)
         k = choose_training_set(test, session, self.labels, [s.kind for s in self.sets],
                                 [s.data.source for s in self.sets])
         if test.register is None:
@@ -390,12 +392,16 @@ def prepare(
     chain, first = load_data(chain, given[0].data, str(robot), end_frame)
     params = model_of(chain, parameters)  # of the set's own end frame
     loaded = [first] + [load_data(chain, s.data, str(robot), chain.end_frame)[1] for s in given[1:]]
+    loaded = [sensor_for(d.kind).usable(d) for d in loaded]  # rows a sensor cannot use left out, each named
     labels = labelled(given, loaded)
     soft = record.spec(chain) if record is not None else None
     sets = []
     for s, d, label, noise in zip(given, loaded, labels, noises, strict=True):
         sigma, origin = set_sigma(s, noise, d)
         own, overridden = set_overrides(s, d, label)
+        stated = sensor_for(d.kind).stated_noise(d, {**one_for_all, **own}) if sigma is None else None
+        if stated is not None:  # a noise in the sensor's own unit (a camera's pixels)
+            sigma, origin = stated
         options: dict[str, Any] = {**one_for_all, **own, "estimate": estimate, "compliance": soft}
         if sigma is not None and origin == "caller":
             options["noise_mm"] = sigma * 1e3  # a sensor whose rows have parts reads its own

@@ -359,6 +359,8 @@ class CalibrationResult:
         train_values = sum(len(_length_residual(s, s.train)) for s in self.sets)
         sets = []
         for s in self.sets:
+            if _no_length(s):  # a camera's pixels: no model error of the robot in mm to tell
+                continue
             schema = SCHEMAS.get(s.kind)
             lengths = schema is not None and len(schema.value_columns) in (1, 3) and not s.model.noise_parts()
             problem = s.problem  # every row: a sensor's repeatability is no fit's
@@ -435,6 +437,12 @@ def _point_derivatives(model: Any, x: np.ndarray, columns: np.ndarray, n_params:
     return [d if np.any(d) else None for d in out]
 
 
+def _no_length(s: SetResult) -> bool:
+    """A set whose errors are no length (a camera's pixels): it says nothing of the model error in mm."""
+    own = s.model.noise_parts()
+    return bool(own) and own[0].unit != "mm"
+
+
 def _length_residual(s: SetResult, rows: np.ndarray) -> np.ndarray:
     """A set's residual on ``rows`` in metres, unweighted, flattened.
 
@@ -444,8 +452,10 @@ def _length_residual(s: SetResult, rows: np.ndarray) -> np.ndarray:
     if not len(rows):
         return np.zeros(0)
     part = s.problem.subset(rows)
+    if _no_length(s):
+        return np.zeros(0)
     if s.model.noise_parts():
-        return np.asarray(s.model.part_residuals(s.x, part.q, part.readings)[0])
+        return np.asarray(s.model.part_residuals(s.x, part.q, part.readings, part.points)[0])
     return np.asarray(part.residual(s.x))
 
 
@@ -549,7 +559,7 @@ class SetResult:
         """JSON-ready: the set's table and set-up."""
         return {
             "label": self.label, "data": self.source, "data_kind": self.kind, "role": self.role,
-            "noise_mm": self.sigma * 1e3, "noise_from": self.sigma_origin,
+            f"noise_{self.unit}": self.sigma * 1e3, "noise_from": self.sigma_origin,
             "train_rows": len(self.train), "test_rows": len(self.test),
             **{split: {stage: m.as_dict() for stage, m in stages.items()} for split, stages in self.metrics.items()},
             "error": self.model.error_name, "error_unit": self.unit, "sensor": self.model.describe(), **self.geometry,

@@ -210,6 +210,7 @@ def score(calibration: Calibration, method: Method, done: Fit, train: np.ndarray
     problem, estimate, x0 = done.problem, done.estimate, done.x0
     model = problem.model
     warnings_ = [note for note in (s.data.ignored_note() for s in calibration.sets) if note] + list(notes)
+    warnings_ += [note for s in calibration.sets for note in s.data.dropped]  # rows a sensor could not use
     several = len(calibration.sets) > 1
     guessed = [s.label for s, origin in zip(calibration.sets, done.noise.origins, strict=True) if origin[0] == "estimate"]
     if several and done.noise.fits > 1 and guessed:

@@ -298,6 +298,6 @@ def session_notes(test: TestSet) -> tuple[str, ...]:
     assert isinstance(session, MeasurementSet)
     extra = [c for c in session.extra if not (c == "role" and test.register == "role")]
     if not extra:
-        return ()
-    return (f"ignored columns: {', '.join(extra)} (in {Path(session.source).name or 'test_data'}; read and kept, "
-            "not used)",)
+        return session.dropped
+    return session.dropped + (f"ignored columns: {', '.join(extra)} (in {Path(session.source).name or 'test_data'}; "
+                              "read and kept, not used)",)

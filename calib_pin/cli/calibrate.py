@@ -407,7 +407,8 @@ def determined_line(calibration: Any, x: Any) -> str:
     status = [u.status[i] for i in robot]
     unseen = [u.names[i] for i in robot if u.status[i] == "not determined"]
     combos = "; ".join(c.text for c in u.combinations) or "none"
-    return (f"at {calibration.noise * 1e3:.3g} mm noise (stated, else the default) and the prior "
+    unit = problem.model.first.value_unit  # the first set's noise, in its unit (a camera's: px)
+    return (f"at {calibration.noise * 1e3:.3g} {unit} noise (stated, else the default) and the prior "
             f"{calibration.prior.describe()}: {status.count('identified')} of {len(status)} deviations determined "
             f"alone; only in combination: {combos}; not determined: {', '.join(unseen) or 'none'}")
 
@@ -594,12 +595,12 @@ def _header(result: Any, report: dict[str, Any]) -> None:
     for s, doc in zip(result.sets, report["sets"], strict=True) if several else ():
         rows = len(s.train) + len(s.test)
         print(f"set {s.label}: {rows} rows from {s.source or 'memory'} ({len(s.train)} train, {len(s.test)} test, "
-              f"role {s.role}), noise {s.sigma * 1e3:.4f} mm ({s.sigma_origin}){_override_note(s)}")
+              f"role {s.role}), noise {s.sigma * 1e3:.4f} {s.unit} ({s.sigma_origin}){_override_note(s)}")
         print(part_table(doc["errors_by_part"]) if "errors_by_part" in doc else table(s.metrics, s.unit))
     info = result.test_registration or {}
     if not several:
         if info.get("setup") == "new":
-            print(_registration_line(info, several))
+            print(_registration_line(info, several, value_unit_of(result, info)))
         print(part_table(parts) if parts else table(result.metrics, result.sets[0].unit))
         return
     unit = pooled_unit(result.sets)
@@ -611,22 +612,22 @@ def _header(result: Any, report: dict[str, Any]) -> None:
         print(table(pooled, unit))
     if result.test_source:  # a separate validation session, scored apart from the sets
         how = (f"the set-up of set {info['same_as']} (as calibrated; nothing fitted on it)"
-               if info.get("setup") == "same" else _registration_line(info, several))
+               if info.get("setup") == "same" else _registration_line(info, several, value_unit_of(result, info)))
         print(f"validation session {result.test_source}: {how}")
         print(table({"test": result.metrics["test"]}, value_unit_of(result, info)))
 
 
-def _registration_line(info: dict[str, Any], several: bool) -> str:
-    """How a validation session on a new set-up was re-registered and scored."""
+def _registration_line(info: dict[str, Any], several: bool, unit: str = "mm") -> str:
+    """How a validation session on a new set-up was re-registered and scored (its errors in ``unit``)."""
     if several:
         return (f"a new set-up, {len(info['registered_rows'])} rows re-registered it ({info['registered_on']}; "
                 f"fitted {', '.join(info['fitted'])} with the calibrated robot fixed, RMS "
-                f"{info['registration_rmse_mm']:.4f} mm); the other {len(info['scored_rows'])} rows scored")
+                f"{info['registration_rmse_mm']:.4f} {unit}); the other {len(info['scored_rows'])} rows scored")
     lines = info["registered_lines"]
     where = f" (file lines {lines[0]}-{lines[-1]})" if lines and info["registered_on"][0] == "f" else ""
     return (f"validation on a new set-up: {len(info['registered_rows'])} rows{where} re-registered it "
             f"({info['registered_on']}; fitted {', '.join(info['fitted'])} with the calibrated robot "
-            f"fixed, RMS {info['registration_rmse_mm']:.4f} mm); the other "
+            f"fixed, RMS {info['registration_rmse_mm']:.4f} {unit}); the other "
             f"{len(info['scored_rows'])} rows are the test rows (rows in report.json)")
 
 
@@ -651,6 +652,8 @@ def _summary(result: Any, report: dict[str, Any]) -> None:
     shown = ", ".join(f"{k} {v:+.3f}" for k, v in result.sensor_corrections.items() if not k.startswith("marker"))
     if result.sensor_corrections:
         print(f"sensor geometry estimated: {shown or 'marker points'} (corrections; all in report.json)")
+    for note in dict.fromkeys(s["gauge_note"] for s in report["sets"] if "gauge_note" in s):  # a hand-eye's gauge
+        print(f"gauge: {note}")
     named = len(result.sets) > 1
     prefits = [(f"set {s['label']}: " if named else "", s["setup_prefit"]) for s in report["sets"] if "setup_prefit" in s]
     for where, prefit in prefits:

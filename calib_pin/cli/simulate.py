@@ -152,7 +152,8 @@ def _simulate(args: argparse.Namespace) -> int:
     from ..sensors.setup import flag_of
 
     simulated = kinds or [default_kind()]
-    for name in ("noise_deg",):  # a set-up flag no simulated sensor takes is refused, not ignored
+    own = ("noise_deg", "camera_mount", "board", "intrinsics", "noise_px")  # set-up flags a simulated sensor reads
+    for name in own:  # a set-up flag no simulated sensor takes is refused, not ignored
         if getattr(args, name, None) is not None and not any(
                 name in sensor_for(k).setup_type.field_names() for k in simulated if k in SENSORS):
             takers = [s.kind for s in SENSORS.values() if name in s.setup_type.field_names()]
@@ -187,7 +188,7 @@ def _simulate(args: argparse.Namespace) -> int:
     else:
         sets, truth = simulate_sessions(chain, params, args.poses, args.seed, args.sessions, kinds=kinds,
                                         anchors_mm=anchors or None, poses=poses, geometries=geometries, **common,
-                                        setup={"noise_deg": args.noise_deg} if args.noise_deg is not None else None)
+                                        setup={n: getattr(args, n) for n in own if getattr(args, n, None) is not None})
     for data in sets:
         refused = sensor_for(data.kind).schema.refuse_values(data.values)
         if refused is not None:
@@ -204,8 +205,10 @@ def _simulate(args: argparse.Namespace) -> int:
         what = f"{args.sessions} session(s) ({'; '.join(f'{d.kind}: {d.describe_rows()}' for d in sets)}; " \
             f"seeds {args.seed}..{args.seed + args.sessions - 1})"
     noise = ", ".join(f"{v:g}" for v in args.noise_mm) if isinstance(args.noise_mm, tuple) else f"{args.noise_mm:g}"
+    pixels = [d.notes["noise_px"] for d in sets if "noise_px" in d.notes]  # a camera's noise is its own, in px
+    noise = f"{noise} mm" + (f", {pixels[0]} px" if pixels else "") if len(pixels) < len(sets) else f"{pixels[0]} px"
     print(f"{chain.name}: {what}, {kind} deviations (seed {args.seed}), "
-          f"noise {noise} mm ({args.noise_kind})")
+          f"noise {noise} ({args.noise_kind})")
     for path in written:
         print(f"wrote {path}")
     return 0

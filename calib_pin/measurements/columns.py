@@ -66,6 +66,10 @@ class Columns:
     labels: dict[str, int] = field(default_factory=dict)
     #: That sensor's kind ("" without such columns).
     label_kind: str = ""
+    #: A registered kind's own point column (its schema's ``point_column`` other than
+    #: ``point_id``: a camera's ``corner_id``), its index, and that kind.
+    own_point: int | None = None
+    own_point_kind: str = ""
 
     @property
     def position(self) -> bool:
@@ -99,6 +103,11 @@ def label_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
     Labels are text naming what a row touched; a row may leave some empty.
     """
     return {c: (kind, schema.label_columns) for kind, schema in SCHEMAS.items() for c in schema.label_columns}
+
+
+def point_columns() -> dict[str, str]:
+    """Name -> kind of every registered schema's own point column (not ``point_id``: a camera's ``corner_id``)."""
+    return {s.point_column: kind for kind, s in SCHEMAS.items() if s.point_labels and s.point_column != "point_id"}
 
 
 def kind_of_columns(columns: tuple[str, ...]) -> str:
@@ -174,6 +183,8 @@ def classify(header: list[str], path: Path, line: int) -> Columns:
                 raise DataError(str(path), "columns of two sensors: one set holds one sensor's data", line, name)
             cols.labels[name] = col
             cols.label_kind = labelled[name][0]
+        elif name in (own := point_columns()):
+            cols.own_point, cols.own_point_kind = col, own[name]
         elif name in ANNOTATIONS:
             continue  # what calib-pin compensate adds to the joint targets; not data
         elif name == "pose":
@@ -246,6 +257,11 @@ def check_columns(cols: Columns, n_joints: int, robot: str | None, end_frame: st
     for i in sorted(expected):
         if i not in cols.joints:
             raise DataError(str(path), f"missing column q{i}_deg (or q{i}_rad; q{i}_mm for a prismatic joint)", line)
+    if cols.own_point_kind and cols.own_point_kind not in (cols.plain_kind, cols.sensor_kind):
+        column = SCHEMAS[cols.own_point_kind].point_column
+        raise DataError(str(path), f"has {column}, a column of {cols.own_point_kind} sets, without their value columns "
+                        f"({', '.join(SCHEMAS[cols.own_point_kind].plain_columns or SCHEMAS[cols.own_point_kind].value_columns)})"
+                        ": one set holds one sensor's data", line)
     if cols.label_kind:
         other = ("length" if cols.length is not None else "x/y/z" if cols.coords else "point_id" if cols.point is not None
                  else cols.sensor_kind or cols.plain_kind)
@@ -287,6 +303,9 @@ def _check_plain(cols: Columns, path: Path, line: int) -> None:
     """
     schema = SCHEMAS[cols.plain_kind]
     kind = cols.plain_kind
+    if schema.point_labels and schema.point_column != "point_id" and cols.own_point is None:
+        raise DataError(str(path), f"missing column {schema.point_column} of a {kind} set (which point each row "
+                        "measured)", line)
     if cols.length is not None or cols.sensor_kind or cols.point is not None:
         other = "length" if cols.length is not None else "point_id" if cols.point is not None else cols.sensor_kind
         raise DataError(str(path), f"has {kind} columns and {other}: one set holds one sensor's data", line)

@@ -316,6 +316,8 @@ def _values(fields: list[str], header: list[str], cols: Columns, path: Path, lin
         return np.zeros(0)
     if cols.plain_kind:  # a sensor's unit-free columns after its value columns (a pose: x, y, z, then qw .. qz)
         plain = np.array([number(fields[col], path, line, header[col], decimal) for col in cols.plain.values()])
+        if not SCHEMAS[cols.plain_kind].value_columns:  # unit-free values only (a camera's u_px, v_px)
+            return plain
         return np.concatenate([_values(fields, header, replace(cols, plain={}, plain_kind=""), path, line, decimal),
                                plain])
     if cols.sensor_kind:  # a registered sensor's columns, in its order
@@ -336,8 +338,8 @@ def _values(fields: list[str], header: list[str], cols: Columns, path: Path, lin
     return np.array([length * (1e-3 if unit == "mm" else 1.0)])
 
 
-def _point_ids(parsed: _Parsed, col: int, path: Path) -> np.ndarray:
-    """The ``point_id`` column: ints when every label is a whole number, else text.
+def _point_ids(parsed: _Parsed, col: int, path: Path, name: str = "point_id") -> np.ndarray:
+    """The ``point_id`` column (or a kind's own, ``name``): ints when every label is a whole number, else text.
 
     Raises:
         DataError: an empty or over-long label, or whole numbers mixed with text labels.
@@ -348,15 +350,15 @@ def _point_ids(parsed: _Parsed, col: int, path: Path) -> np.ndarray:
         return np.array([int(t) for _, t in texts], dtype=int)
     for number_, text in texts:
         if not text:
-            raise DataError(str(path), "empty: each row of a position set names its marker", number_, "point_id")
+            raise DataError(str(path), "empty: each row names the point it measured", number_, name)
         if len(text) > _LABEL_LIMIT or any(ord(c) < 32 or ord(c) == 127 for c in text):
             raise DataError(str(path), f"'{quote(text)}' is not a marker label (a whole number, or text of up to "
-                            f"{_LABEL_LIMIT} printable characters)", number_, "point_id")
+                            f"{_LABEL_LIMIT} printable characters)", number_, name)
     if whole:
         label = next((n, t) for n, t in texts if not (_INTEGER.match(t) and len(t) <= 15))
         raise DataError(str(path), f"mixes whole numbers ({whole[0][1]} on line {whole[0][0]}) and text labels "
                         f"({quote(label[1])} on line {label[0]}): use one kind (1, 2, ... or P1, P2, ...)",
-                        whole[0][0] if whole[0][0] > label[0] else label[0], "point_id")
+                        whole[0][0] if whole[0][0] > label[0] else label[0], name)
     return np.array([t for _, t in texts], dtype=str)
 
 
@@ -392,7 +394,8 @@ def _extra(parsed: _Parsed, cols: Columns) -> dict[str, np.ndarray]:
     return out
 
 
-def _check_unique(pose_ids: np.ndarray, point_ids: np.ndarray | None, lines: list[int], path: Path) -> None:
+def _check_unique(pose_ids: np.ndarray, point_ids: np.ndarray | None, lines: list[int], path: Path,
+                  name: str = "point_id") -> None:
     if point_ids is None or point_ids.dtype.kind in "iu":  # whole numbers: every key distinct, at once
         keys = pose_ids[:, None] if point_ids is None else np.stack([pose_ids, point_ids], axis=1)
         if len(np.unique(keys, axis=0)) == len(keys):
@@ -401,7 +404,8 @@ def _check_unique(pose_ids: np.ndarray, point_ids: np.ndarray | None, lines: lis
     for r, line in enumerate(lines):
         key = (int(pose_ids[r]), point_label(point_ids[r])) if point_ids is not None else int(pose_ids[r])
         if key in seen:
-            what = f"pose {key[0]} point {key[1]}" if isinstance(key, tuple) else f"pose {key}"
+            point = "point" if name == "point_id" else name
+            what = f"pose {key[0]} {point} {key[1]}" if isinstance(key, tuple) else f"pose {key}"
             raise DataError(str(path), f"{what} appears twice", line, "pose")
         seen.add(key)
 
@@ -468,7 +472,8 @@ def read_set(path: Path, chain: Chain | None, *, readings: bool = True, allow_em
     if cols.plain_kind:  # in the sensor's order
         order = {name: k for k, name in enumerate(plain_columns()[next(iter(cols.plain))][1])}
         cols.plain = dict(sorted(cols.plain.items(), key=lambda item: order[item[0]]))
-    width = 0 if cols.label_kind else len(cols.sensor) if cols.sensor_kind else 3 if cols.position else 1
+    bare = bool(cols.plain_kind) and not SCHEMAS[cols.plain_kind].value_columns  # unit-free values only (a camera's)
+    width = 0 if cols.label_kind or bare else len(cols.sensor) if cols.sensor_kind else 3 if cols.position else 1
     values = np.empty((n, width + len(cols.plain)))
     pose_ids = np.empty(n, dtype=int)
     at_once = _rows_at_once(parsed, cols, chain, n_joints, width, decimal) if n else None
@@ -482,10 +487,14 @@ def read_set(path: Path, chain: Chain | None, *, readings: bool = True, allow_em
         values[r] = _values(fields, header, cols, path, number_, decimal)
         if cols.pose is not None:
             pose_ids[r] = _integer(fields[cols.pose], path, number_, "pose")
-    point_ids = _point_ids(parsed, cols.point, path) if cols.point is not None else np.ones(n, dtype=int)
+    point_col = cols.point if cols.point is not None else cols.own_point
+    own_point = cols.own_point is not None  # a kind's own point column (a camera's corner_id)
+    point_name = header[point_col] if point_col is not None else "point_id"
+    point_ids = _point_ids(parsed, point_col, path, point_name) if point_col is not None else np.ones(n, dtype=int)
     lines = [number_ for number_, _ in parsed.rows]
     if cols.pose is not None:
-        _check_unique(pose_ids, point_ids if cols.position and not cols.plain_kind else None, lines, path)
+        _check_unique(pose_ids, point_ids if (cols.position and not cols.plain_kind) or own_point else None, lines, path,
+                      point_name)
     meta = parsed.meta
     kind = cols.label_kind or cols.plain_kind or cols.sensor_kind or (kind_of_columns(("x", "y", "z")) if cols.position else (
         kind_of_columns(("length",)) if cols.length is not None else "poses"))
@@ -498,7 +507,8 @@ def read_set(path: Path, chain: Chain | None, *, readings: bool = True, allow_em
         noise=meta.get("noise"), robot=meta.get("robot"), end_frame=meta.get("end_frame"),
         lines=np.array(lines, dtype=int), source=str(path), notes=parsed.notes,
         pose_ids=pose_ids if cols.pose is not None else None,
-        point_ids=point_ids if cols.position and not cols.plain_kind else None, extra=_extra(parsed, cols),
+        point_ids=point_ids if (cols.position and not cols.plain_kind) or own_point else None,
+        extra=_extra(parsed, cols),
         sensor_meta={k: tuple(meta[k]) if isinstance(meta[k], list) else meta[k] for k in own if k in meta},
         labels=labels,
     )

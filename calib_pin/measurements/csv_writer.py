@@ -77,7 +77,7 @@ def header(n_joints: int, kind: str, with_pose: bool = False) -> str:
         values += schema.plain_columns  # unit-free, after the others (a pose's quaternion)
         values += schema.label_columns  # text naming what a row touched (a contact's fixture)
     if schema is not None and schema.point_labels:
-        return ",".join(["pose", "point_id", *joints, *values])
+        return ",".join(["pose", schema.point_column, *joints, *values])
     return ",".join((["pose"] if with_pose else []) + joints + values)
 
 

@@ -80,7 +80,8 @@ class MeasurementSet:
             ``anchor``, ``tool``, ``length_offset``.
         labels: The sensor's text label columns (its schema's ``label_columns``: a
             contact set's ``contact_id``, ``plane_id``), name to shape (n_rows,) text, ''
-            where a row leaves one empty.
+            where a row leaves one empty.        dropped: Notes on rows its sensor could not use and left out when the set was
+            loaded (a camera's poses of too few corners), one line each.
     """
 
     q: np.ndarray
@@ -100,6 +101,7 @@ class MeasurementSet:
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     sensor_meta: dict[str, Any] = field(default_factory=dict)
     labels: dict[str, np.ndarray] = field(default_factory=dict)
+    dropped: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         """A list or tuple given for an array field (a set made by hand) becomes an array.

@@ -78,6 +78,7 @@ class Schema:
             ``MeasurementSet.notes`` (a 6-D pose set's ``noise_deg``): read in the file's
             dialect, kept as text in the standard one (``.`` as the decimal mark).
         point_labels: Rows carry ``pose`` and ``point_id`` labels (which marker a row measured).
+        point_column: The name of that label column (``point_id``; a camera's ``corner_id``).
         data_values_per_row: Numbers a data row holds (1 reading, 3 coordinates, a pose's
             position and quaternion 7; 0 for a row that only names what it touched).
         refuse_values: The value check (a :data:`ValueCheck`) of a set's finite values,
@@ -94,6 +95,7 @@ class Schema:
     pair_metadata: tuple[str, ...] = ()
     numeric_notes: tuple[str, ...] = ()
     point_labels: bool = False
+    point_column: str = "point_id"
     data_values_per_row: int = 1
     refuse_values: ValueCheck = accept_values
 
@@ -122,6 +124,12 @@ SCHEMAS: dict[str, Schema] = {
         # no measured value: a row's labels say which fixture the tool point touches
         Schema("contact", "contact fixtures", label_columns=("contact_id", "plane_id"), metadata_keys={"tool": 3},
                pair_metadata=("distance",), data_values_per_row=0),
+        # one detected board corner a row: which corner, and where it is in the image [px]
+        Schema("camera", "camera image points", plain_columns=("u_px", "v_px"), point_labels=True,
+               point_column="corner_id", data_values_per_row=2, metadata_keys={"board_square": 1, "board_marker": 1},
+               numeric_notes=("noise_px", "board_columns", "board_rows", "camera_fx_px", "camera_fy_px",
+                              "camera_cx_px", "camera_cy_px", "camera_width_px", "camera_height_px", "camera_k1",
+                              "camera_k2", "camera_p1", "camera_p2", "camera_k3")),
     )
 }
 

@@ -7,7 +7,9 @@
 - :class:`.pose.PoseModel`: 6-D poses (position and quaternion) from a tracker's 6-DoF
   probe or motion capture, set up by a :class:`.pose.PoseSetup`;
 - :class:`.contact.ContactModel`: touches of fixed points and planes (no instrument), set
-  up by a :class:`.contact.ContactSetup`.
+  up by a :class:`.contact.ContactSetup`;
+- :class:`.camera.CameraModel`: a board's corners in a camera's images (eye in hand or eye
+  to hand), set up by a :class:`.camera.CameraSetup`.
 
 The registry :data:`SENSORS` maps a measurement set's ``kind`` to its model; what a
 file of each kind holds (value columns, metadata keys) is the model's ``schema``, a
@@ -28,13 +30,16 @@ from typing import Any
 from ..measurements.schema import default_kind
 from .base import DEFAULT_NOISE_MM, MeasurementModel, NoisePart
 from .cable import CABLE_EXTRAS, CableModel, CableSetup, Drawstring
+from .camera import CameraModel
+from .camera_rig import CameraRig, CameraSetup
 from .contact import ContactModel, ContactSetup, Fixtures
+from .lens import Board, Intrinsics
 from .pose import PoseModel, PoseRig, PoseSetup
 from .position import PositionDevice, PositionModel, PositionSetup, fit_device
 from .registry import SENSORS, check_estimate, register, sensor_for, setup_fields, setup_types
 from .setup import SensorSetup, add_setup_arguments, setup_record
 
-for _model in (CableModel, PositionModel, PoseModel, ContactModel):
+for _model in (CableModel, PositionModel, PoseModel, ContactModel, CameraModel):
     register(_model)
 
 
@@ -54,7 +59,8 @@ def setup_from_args(args: argparse.Namespace) -> dict[str, Any]:
     return {name: getattr(args, name) for name in setup_fields() if hasattr(args, name)}
 
 
-__all__ = ["CABLE_EXTRAS", "DEFAULT_NOISE_MM", "NoisePart", "SENSORS", "CableModel", "CableSetup", "ContactModel", "ContactSetup",
+__all__ = ["CABLE_EXTRAS", "DEFAULT_NOISE_MM", "NoisePart", "SENSORS", "Board", "CableModel", "CableSetup", "CameraModel",
+           "CameraRig", "CameraSetup", "ContactModel", "ContactSetup", "Intrinsics",
            "Fixtures", "Drawstring", "MeasurementModel",
            "PoseModel", "PoseRig", "PoseSetup", "PositionDevice",
            "PositionModel", "PositionSetup", "SensorSetup", "add_sensor_arguments", "check_estimate", "default_kind",

@@ -252,6 +252,26 @@ class MeasurementModel(ABC):
         return tuple(f.name for f in fields(cls.setup_type) if f.metadata.get("unit") == "mm")
 
     @classmethod
+    def stated_noise(cls, data: MeasurementSet, options: Mapping[str, Any]) -> tuple[float, str] | None:
+        """A noise the set states in the sensor's own unit (a camera's ``noise_px``): (sigma, origin), or None.
+
+        Sigma as the sensor's values are carried (SI); origin ``caller`` or ``file``.
+        Default None: the set's noise is ``# noise_mm`` or the caller's ``noise_mm``.
+        """
+        return None
+
+    @classmethod
+    def usable(cls, data: MeasurementSet) -> MeasurementSet:
+        """The rows of ``data`` this sensor can use, as loaded; what it leaves out is named in ``dropped``.
+
+        Default: every row (a camera drops its poses of too few corners).
+
+        Raises:
+            DataError: a set this sensor cannot use at all, naming its file.
+        """
+        return data
+
+    @classmethod
     def planning_model(cls, chain: Chain, params: ParameterModel, setup: SensorSetup | None) -> MeasurementModel:
         """The model poses are planned for (``calib-pin plan-poses``), from the caller's set-up.
 
@@ -386,10 +406,11 @@ class MeasurementModel(ABC):
         """
         return ()
 
-    def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> tuple[np.ndarray, ...]:
+    def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray,
+                       points: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """Each of :meth:`noise_parts`' unweighted entries over the rows, flattened, SI [m, rad].
 
-        What its sigma is estimated from (default: none).
+        What its sigma is estimated from (default: none); ``points``: each row's point index.
         """
         return ()
 

@@ -375,7 +375,8 @@ class PoseModel(MeasurementModel):
         return (NoisePart("position", "mm", 1e3, self.noise_m, self.noise_from[0]),
                 NoisePart("orientation", "deg", float(np.rad2deg(1.0)), self.noise_rad, self.noise_from[1]))
 
-    def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray) -> tuple[np.ndarray, ...]:
+    def part_residuals(self, x: np.ndarray | None, q: np.ndarray, readings: np.ndarray,
+                       points: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """The position errors [m] and the orientation errors' rotation vectors [rad].
 
         Each flattened, shape (3 n_rows,).

@@ -23,17 +23,21 @@ from ..exceptions import CalibPinError
 EXTRAS = {"matplotlib": "plots", "serial": "hardware", "minimalmodbus": "hardware", "dask": "cluster",
           "distributed": "cluster", "joblib": "cluster"}
 
+#: Module -> the package that provides it, where the names differ.
+PACKAGES = {"cv2": "opencv-python-headless"}
+
 T = TypeVar("T")
 
 #: Why matplotlib's backend was replaced by Agg in this process, until it is printed once.
 _backend_note: list[str] = []
 
 
-def require(module: str) -> ModuleType:
+def require(module: str, extra: str = "") -> ModuleType:
     """Import an optional dependency (matplotlib through :func:`import_matplotlib`).
 
     Args:
         module: The module's name (``matplotlib``, ``filterpy``, ...).
+        extra: The extra of calib-pin that installs it, when :data:`EXTRAS` does not say.
 
     Raises:
         CalibPinError: it is not installed (the message names the pip command), or it is
@@ -45,10 +49,10 @@ def require(module: str) -> ModuleType:
     try:
         return importlib.import_module(module)
     except ImportError as e:
-        raise _unavailable(module, e) from None
+        raise _unavailable(module, e, extra) from None
 
 
-def _unavailable(module: str, error: Exception) -> CalibPinError:
+def _unavailable(module: str, error: Exception, extra: str = "") -> CalibPinError:
     """The one-line reason an optional package cannot be imported."""
     top = module.split(".")[0]
     try:
@@ -59,9 +63,10 @@ def _unavailable(module: str, error: Exception) -> CalibPinError:
     if installed and not missing:
         return CalibPinError(f"the optional package '{top}' is installed but cannot be imported "
                              f"({type(error).__name__}: {error})")
-    extra = EXTRAS.get(top, "")
+    extra = extra or EXTRAS.get(top, "")
     hint = f"pip install 'calib-pin[{extra}]'" if extra else f"pip install {module}"
-    return CalibPinError(f"this needs the optional package '{top}': {hint}")
+    package = PACKAGES.get(top, top)
+    return CalibPinError(f"this needs the optional package '{package}': {hint}")
 
 
 def import_matplotlib() -> ModuleType:

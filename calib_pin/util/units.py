@@ -9,8 +9,10 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
-#: SI unit -> (factor to the human unit, suffix of the key).
-HUMAN_UNITS = {"m": (1e3, "mm"), "rad": (float(np.rad2deg(1.0)), "deg"), "rad/Nm": (1e6, "urad_per_Nm")}
+#: SI unit -> (factor to the human unit, suffix of the key): a camera's intrinsics are in
+#: pixels (``px``) and its distortion coefficients have no unit (``1``: no suffix).
+HUMAN_UNITS = {"m": (1e3, "mm"), "rad": (float(np.rad2deg(1.0)), "deg"), "rad/Nm": (1e6, "urad_per_Nm"),
+               "px": (1.0, "px"), "1": (1.0, "")}
 
 
 def human_unit(unit: str) -> tuple[float, str]:
@@ -26,7 +28,7 @@ def for_humans(x: Iterable[float], names: Iterable[str], units: Iterable[str]) -
     out = {}
     for value, name, unit in zip(x, names, units, strict=True):
         factor, suffix = human_unit(unit)
-        out[f"{name}_{suffix}"] = float(value * factor)
+        out[f"{name}_{suffix}" if suffix else name] = float(value * factor)
     return out
 
 
@@ -44,5 +46,5 @@ def from_humans(values: Mapping[str, float], names: Iterable[str], units: Iterab
     out = []
     for name, unit in zip(names, units, strict=True):
         factor, suffix = human_unit(unit)
-        out.append(values[f"{name}_{suffix}"] / factor)
+        out.append(values[f"{name}_{suffix}" if suffix else name] / factor)
     return np.array(out)

@@ -1,0 +1,223 @@
+"""Where a camera's placements start: PnP of each image, then OpenCV's hand-eye solvers, then a polish.
+
+:func:`fit_rig` takes the training rows of a camera set and the nominal robot:
+
+1. each pose's board in the camera frame, T_CW, by ``cv2.solvePnP`` (IPPE, the planar
+   solver, then its iterative refinement) from the corners and the intrinsics;
+2. the camera's and the board's placements by OpenCV's robot-world hand-eye solver,
+   ``cv2.calibrateRobotWorldHandEye`` (A X = Z B: T_CW T_WB = T_CE T_EB eye in hand,
+   T_CW T_WE = T_CB T_BE eye to hand), with the classic hand-eye solver
+   ``cv2.calibrateHandEye`` (A X = X B) and the mean of the other placement as the
+   fallback when it fails or fits the corners worse;
+3. both placements polished together by scipy's least squares on the reprojection error
+   with the nominal robot (the intrinsics as given): where the joint fit starts.
+
+OpenCV is the optional ``camera`` extra (``pip install 'calib-pin[camera]'``): without
+it, a camera set is refused with that line.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import DataError
+from ..util.optional import require
+from .base import refuse_too_few
+from .camera_rig import PX, CameraRig
+from .lens import Board, Intrinsics
+
+if TYPE_CHECKING:
+    from ..parameters import ParameterModel
+    from ..robot.chain import Chain
+
+#: A start whose corners miss by more than this (RMS) [px] is tried again with the classic hand-eye solver.
+FALLBACK_PX = 20.0
+#: The extra of calib-pin that installs OpenCV (opencv-python-headless).
+OPENCV_EXTRA = "camera"
+#: Poses a hand-eye start needs at least (two motions between them).
+MIN_POSES = 3
+
+
+def _project(m: np.ndarray) -> np.ndarray:
+    """The rotation nearest to a 3x3 matrix (Frobenius).
+
+    Raises:
+        ValueError: a matrix that is not finite (a solver that failed).
+    """
+    if not np.all(np.isfinite(m)):
+        raise ValueError("not finite")
+    u, _, vt = np.linalg.svd(m)
+    return u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+
+
+def _mean(frames: list[pin.SE3]) -> pin.SE3:
+    """The mean of nearly equal placements: the rotations' projected sum, the translations' mean."""
+    return pin.SE3(_project(sum(f.rotation for f in frames)), np.mean([f.translation for f in frames], axis=0))
+
+
+def board_poses(cv2: Any, board: Board, intrinsics: Intrinsics, values: np.ndarray, corners: np.ndarray,
+                inverse: np.ndarray, m: int) -> list[pin.SE3 | None]:
+    """Each pose's board in the camera frame, T_CW, by PnP.
+
+    None where it fails, or has fewer than 4 corners or corners of one line only.
+
+    Args:
+        values: Image points (n_rows, 2) [px]; ``corners``: each row's corner index;
+            ``inverse``: each row's pose index in 0..m-1.
+    """
+    k, dist = intrinsics.matrix(), intrinsics.distortion()
+    out: list[pin.SE3 | None] = []
+    for j in range(m):
+        rows = np.flatnonzero(inverse == j)
+        if len(rows) < 4:
+            out.append(None)
+            continue
+        obj = board.points[corners[rows]].astype(np.float64)
+        spread = np.linalg.svd(obj[:, :2] - obj[:, :2].mean(axis=0), compute_uv=False)
+        if spread[1] < 0.5e-3 * board.square_mm:  # corners of one line: no board pose
+            out.append(None)
+            continue
+        img = np.asarray(values[rows], dtype=np.float64).reshape(-1, 1, 2)
+        try:
+            ok, rvec, tvec = cv2.solvePnP(obj, img, k, dist, flags=cv2.SOLVEPNP_IPPE)
+            if ok:
+                ok, rvec, tvec = cv2.solvePnP(obj, img, k, dist, rvec, tvec, useExtrinsicGuess=True,
+                                              flags=cv2.SOLVEPNP_ITERATIVE)
+        except cv2.error:
+            ok = False
+        ok = ok and bool(np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec)))
+        out.append(pin.SE3(cv2.Rodrigues(rvec)[0], np.asarray(tvec, dtype=float).reshape(3)) if ok else None)
+    return out
+
+
+def _arrays(frames: list[pin.SE3]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The rotations (3, 3) and translations (3, 1) of ``frames`` as OpenCV reads them (C-ordered float64)."""
+    return ([np.ascontiguousarray(f.rotation, dtype=np.float64) for f in frames],
+            [np.ascontiguousarray(f.translation, dtype=np.float64).reshape(3, 1) for f in frames])
+
+
+def _robot_world(cv2: Any, in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3],
+                 method: int) -> tuple[pin.SE3, pin.SE3]:
+    """(camera, board placement) by ``cv2.calibrateRobotWorldHandEye``."""
+    b = [e.inverse() for e in ends] if in_hand else ends  # eye in hand: T_EB; eye to hand: T_BE
+    r_x, t_x, r_z, t_z = cv2.calibrateRobotWorldHandEye(*_arrays(boards), *_arrays(b), method=method)
+    x, z = pin.SE3(_project(np.asarray(r_x)), np.asarray(t_x, float).reshape(3)), \
+        pin.SE3(_project(np.asarray(r_z)), np.asarray(t_z, float).reshape(3))
+    return z.inverse(), x.inverse()  # Z = T_CE (T_CB), X = T_WB (T_WE)
+
+
+def _hand_eye(cv2: Any, in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3],
+              method: int) -> tuple[pin.SE3, pin.SE3]:
+    """(camera, board placement) by ``cv2.calibrateHandEye``, the other placement the mean of each pose's."""
+    g = ends if in_hand else [e.inverse() for e in ends]  # gripper2base, or base2gripper for eye to hand
+    r, t = cv2.calibrateHandEye(*_arrays(g), *_arrays(boards), method=method)
+    camera = pin.SE3(_project(np.asarray(r)), np.asarray(t, float).reshape(3))  # T_EC, or T_BC
+    return camera, _mean([gk * camera * bk for gk, bk in zip(g, boards, strict=True)])
+
+
+def fit_rig(cls: Any, chain: Chain, params: ParameterModel, mount: str, board: Board, intrinsics: Intrinsics, q: np.ndarray,
+            values: np.ndarray, corners: np.ndarray, source: str = "", rows: str = "training rows") -> CameraRig:
+    """The camera's and board's placements that fit the rows best with the nominal robot (module docstring).
+
+    Args:
+        cls: The camera's measurement model (:class:`~calib_pin.sensors.camera.CameraModel`).
+        q: Joint angles of the rows, shape (n_rows, n_joints), [rad].
+        values: Image points, shape (n_rows, 2), [px].
+        corners: Each row's corner index.
+        source, rows: The data's name and what its rows are called, for a refusal.
+
+    Raises:
+        CalibPinError: OpenCV is not installed (the line names the extra).
+        DataError: fewer than 3 poses whose board pose PnP finds, or too few values.
+    """
+    cv2 = require("cv2", OPENCV_EXTRA)
+    refuse_too_few(source, len(q), 2 * len(q), 12, "the camera's and the board's placements", rows)
+    poses, inverse = np.unique(np.asarray(q, dtype=float), axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    model = cls(chain, params, CameraRig(mount, pin.SE3.Identity(), pin.SE3.Identity(), board, intrinsics))
+    rot, origin = model.end_frames(None, poses)
+    found = board_poses(cv2, board, intrinsics, values, corners, inverse, len(poses))
+    good = [j for j, f in enumerate(found) if f is not None]
+    if len(good) < MIN_POSES:
+        raise DataError(source or "the measurement set", f"PnP finds the board in {len(good)} of the {len(poses)} poses "
+                        f"of the {rows}: a hand-eye start needs {MIN_POSES} (more poses, each of 4 corners or more)")
+    ends = [pin.SE3(rot[j], origin[j]) for j in good]
+    boards = [found[j] for j in good]
+    in_hand = mount == "eye-in-hand"
+    starts: list[tuple[float, CameraRig]] = []
+    for solve, method in ((_robot_world, cv2.CALIB_ROBOT_WORLD_HAND_EYE_SHAH),
+                          (_robot_world, cv2.CALIB_ROBOT_WORLD_HAND_EYE_LI),
+                          (_hand_eye, cv2.CALIB_HAND_EYE_TSAI), (_hand_eye, cv2.CALIB_HAND_EYE_PARK)):
+        if solve is _hand_eye and starts and min(s[0] for s in starts) < FALLBACK_PX:
+            break  # the robot-world start fits: no fallback
+        try:
+            camera, placed = solve(cv2, in_hand, ends, boards, method)
+        except (cv2.error, np.linalg.LinAlgError, ValueError):
+            continue
+        rig = CameraRig(mount, camera, placed, board, intrinsics)
+        starts.append((_rms(cls(chain, params, rig, estimate=()), q, values, corners), rig))
+    if not starts:
+        raise DataError(source or "the measurement set", "OpenCV's hand-eye solvers found no camera placement on the "
+                        f"{rows} (poses too alike: turn the flange about more axes between images)")
+    return polish(cls(chain, params, min(starts, key=lambda s: s[0])[1]), q, values, corners)
+
+
+def _rms(model: Any, q: np.ndarray, values: np.ndarray, corners: np.ndarray) -> float:
+    """RMS reprojection error [px] of ``model``'s rig with the nominal robot (inf where a corner is behind the camera)."""
+    if np.any(model.camera_points(None, q, corners)[:, 2] <= 0):
+        return float("inf")
+    return float(np.sqrt(np.mean((model.image_points(None, q, corners) - values) ** 2)))
+
+
+def polish(model: Any, q: np.ndarray, values: np.ndarray, corners: np.ndarray) -> CameraRig:
+    """``model``'s placements (its estimated unknowns) refined on the reprojection error with the nominal robot.
+
+    By scipy's Levenberg-Marquardt.
+    """
+    from scipy.optimize import least_squares  # imported here: scipy.optimize is slow to import
+
+    zero = np.zeros(model.sensor_start)
+    readings = np.asarray(values, dtype=float)
+
+    def residual(e: np.ndarray) -> np.ndarray:
+        return (model.image_points(np.concatenate([zero, e]), q, corners) - readings).reshape(-1)
+
+    def jacobian(e: np.ndarray) -> np.ndarray:
+        jac = model.predict_with_jacobian(np.concatenate([zero, e]), q, corners)[1]
+        return jac[:, :, model.sensor_start :].reshape(2 * len(q), -1) / PX
+
+    fit = least_squares(residual, np.zeros(model.n_params - model.sensor_start), jac=jacobian, method="lm")
+    return model.geometry_at(np.concatenate([zero, fit.x]))
+
+
+def refit_fixed(calibrated: Any, x: np.ndarray, q: np.ndarray, values: np.ndarray, corners: np.ndarray,
+                source: str) -> CameraRig:
+    """The calibration's rig with its part fixed in the cell (the board eye in hand, the camera eye to hand) moved.
+
+    Each pose's placement of that part from PnP and the calibrated robot and flange-side
+    part, averaged: where a re-registered session starts.
+
+    Raises:
+        DataError: PnP finds the board in no registration pose.
+    """
+    cv2 = require("cv2", OPENCV_EXTRA)
+    rig = calibrated.geometry_at(x)
+    poses, inverse = np.unique(np.asarray(q, dtype=float), axis=0, return_inverse=True)
+    rot, origin = calibrated.end_frames(x, poses)
+    found = board_poses(cv2, rig.board, rig.intrinsics, values, corners, inverse.reshape(-1), len(poses))
+    placed = []
+    for j, board in enumerate(found):
+        if board is None:
+            continue
+        end = pin.SE3(rot[j], origin[j])
+        placed.append(end * rig.camera * board if rig.in_hand else end * rig.board_pose * board.inverse())
+    if not placed:
+        raise DataError(source, f"PnP finds the board in none of the {len(poses)} registration poses (each needs 4 "
+                        "corners or more)", None, "register")
+    moved = _mean(placed)
+    if rig.in_hand:
+        return CameraRig(rig.mount, rig.camera, moved, rig.board, rig.intrinsics)
+    return CameraRig(rig.mount, moved, rig.board_pose, rig.board, rig.intrinsics)
