@@ -8,6 +8,7 @@ import pytest
 import calib_pin as cp
 from calib_pin.measurements import write_poses
 
+ROBOTS = Path(__file__).resolve().parents[1] / "robots"
 HEADER = "q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,length_mm"
 META = "# robot: irb120\n# anchor_mm: 600, 200, -100\n# tool_mm: 0, 0, 50\n"
 ROW = "10,20,-30,40,-50,60,812.5"
@@ -117,10 +118,10 @@ def test_missing_file(tmp_path, chain):
 
 
 def test_too_few_rows_for_the_parameters(tmp_path):
-    """Rows that identify (nearly) nothing are refused before estimating: 16 readings of
+    """Rows that identify (nearly) nothing are refused before estimating: 20 readings of
     one pose identify 1 direction (counted against the directions, not the 24 unknowns)."""
     path = _write(tmp_path, META + HEADER + "\n" + "\n".join([ROW] * 20) + "\n")
-    with pytest.raises(cp.DataError, match=r"s.csv: the training poses identify only 1 of 24 directions: all 16 rows "
+    with pytest.raises(cp.DataError, match=r"s.csv: the training poses identify only 1 of 24 directions: all 20 rows "
                                            "are at 1 distinct pose"):
         cp.calibrate("irb120", path)
 
@@ -334,3 +335,15 @@ def test_a_bad_row_is_named_as_row_by_row(tmp_path, chain, monkeypatch):
             m.setattr(csv_reader, "_rows_at_once", lambda *args, **kwargs: None)
             cp.read_measurements(path, chain)
         assert message in str(fast.value) and str(fast.value) == str(slow.value)
+
+
+def test_a_pose_read_again_stays_on_one_side_of_a_split(tmp_path):
+    """Without a pose column, rows of the same joint angles are one pose (read three times):
+    a split keeps them together, so a held-out pose was never trained on."""
+    rows = [line for line in (ROBOTS / "irb120_default.csv").read_text().splitlines()[7:47]]
+    path = _write(tmp_path, META + HEADER + "\n" + "\n".join(r for r in rows for _ in range(3)) + "\n")
+    calibration = cp.prepare("irb120", path)
+    assert calibration.data.describe_rows() == "120 rows at 40 poses"
+    train, test = calibration.split(0.2, 0)
+    groups = calibration.data.groups
+    assert len(test) == 24 and not set(groups[train]) & set(groups[test])

@@ -118,7 +118,7 @@ def pinv_gram(gram: np.ndarray, rcond: float) -> np.ndarray:
     return (v[:, keep] / w[keep]) @ v[:, keep].T
 
 
-def determined(problem: Any, x: np.ndarray, free: np.ndarray, prior: Prior, noise: float,
+def determined(problem: Any, x: np.ndarray, free: np.ndarray, prior: Prior, noise: float | None,
                rcond: float = RCOND) -> Determined:
     """What the rows of ``problem`` determine of the free robot unknowns at x.
 
@@ -132,7 +132,8 @@ def determined(problem: Any, x: np.ndarray, free: np.ndarray, prior: Prior, nois
         x: The estimate, shape (n_params,), SI.
         free: Indices of the unknowns not held, shape (n_free,).
         prior: The prior whose units measure the robot's directions.
-        noise: The residual's noise (1 sigma), [m].
+        noise: The residual's noise (1 sigma), [m]; None: sqrt(RSS / (m - r)) at x, r the
+            rank of the free unknowns (a noise no one stated, nor estimated).
         rcond: The estimators' relative cut (:data:`calib_pin.estimators.subspace.RCOND`).
     """
     model = problem.model
@@ -140,6 +141,11 @@ def determined(problem: Any, x: np.ndarray, free: np.ndarray, prior: Prior, nois
     scale = np.asarray(model.scale, dtype=float)
     scaled = problem.jacobian(x)[:, free] * scale[free]
     gram = scaled.T @ scaled
+    if noise is None:
+        w = np.linalg.eigvalsh(gram)
+        rank = int(np.sum(w > rcond**2 * w[-1])) if len(w) and w[-1] > 0 else 0
+        r = problem.residual(x)
+        noise = float(np.sqrt(r @ r / max(len(r) - rank, 1)))
     on_robot = free < model.sensor_start
     robot, sensor = free[on_robot], free[~on_robot]
     information = gram[np.ix_(on_robot, on_robot)]

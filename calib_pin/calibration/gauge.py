@@ -69,7 +69,7 @@ class Gauge:
 
 
 def resolve_gauge(problem: Any, x: np.ndarray, start: np.ndarray, free: np.ndarray, prior: Prior,
-                  noise: float) -> tuple[np.ndarray, Gauge]:
+                  noise: float | None) -> tuple[np.ndarray, Gauge]:
     """``x`` with the robot at ``start`` along every direction ``problem``'s rows do not determine.
 
     The sensor's unknowns are fitted again (they take what the robot no longer explains).
@@ -80,7 +80,7 @@ def resolve_gauge(problem: Any, x: np.ndarray, start: np.ndarray, free: np.ndarr
         start: Where the estimate started, shape (n_params,), SI (its robot part is the target).
         free: Indices of the unknowns that may move (the others are held), shape (n_free,).
         prior: The prior whose units measure the robot's directions.
-        noise: The residual's noise (1 sigma), [m].
+        noise: The residual's noise (1 sigma), [m]; None: from the residual at x (RSS / (m - r)).
 
     Returns:
         The moved estimate, shape (n_params,), and how it moved.
@@ -92,16 +92,16 @@ def resolve_gauge(problem: Any, x: np.ndarray, start: np.ndarray, free: np.ndarr
     x = np.array(x, dtype=float)
     original = x.copy()
     rss0 = rss = _rss(problem, x)
-    steps, count = 0, 0
-    sigma = np.ones(0)
-    total = np.inf
+    steps = 0
+    split = determined(problem, x, free, prior, noise)
+    judged = split.noise  # a noise from the residual is judged once, at the estimate
+    count, sigma = split.n_undetermined, split.sigma
+    # In all, no more than the chi-square of that many directions could rise by chance: an
+    # estimate far out along one the data barely sees is then what the data says.
+    total = rss0 + (count + 2.0 * np.sqrt(2.0 * count) + CHI2_BUDGET) * judged**2
     for k in range(MAX_STEPS):
-        split = determined(problem, x, free, prior, noise)
-        if k == 0:
-            count, sigma = split.n_undetermined, split.sigma
-            # In all, no more than the chi-square of that many directions could rise by chance:
-            # an estimate far out along one the data barely sees is then what the data says.
-            total = rss0 + (count + 2.0 * np.sqrt(2.0 * count) + CHI2_BUDGET) * noise**2
+        if k:
+            split = determined(problem, x, free, prior, judged)
         if not split.n_undetermined:
             break
         step = split.toward(x, start)
@@ -113,7 +113,7 @@ def resolve_gauge(problem: Any, x: np.ndarray, start: np.ndarray, free: np.ndarr
             # what the step costs to first order (a direction seen less than the noise costs
             # less than one noise variance per prior sigma), and a margin for the curvature
             along = split.vt[split.rank:] @ (step / split.sigma) * split.singular_values[split.rank:]
-            ceiling = min(rss + (2.0 * float(along @ along) + CHI2_BUDGET * noise**2), total)
+            ceiling = min(rss + (2.0 * float(along @ along) + CHI2_BUDGET * judged**2), total)
             trial = _refit(problem, trial, split, sensor, scale, ceiling)
             if _rss(problem, trial) <= ceiling:
                 break
@@ -125,7 +125,7 @@ def resolve_gauge(problem: Any, x: np.ndarray, start: np.ndarray, free: np.ndarr
     robot = free[free < model.sensor_start]
     moved = np.abs(x[robot] - original[robot]) / sigma if len(robot) else np.zeros(0)
     return x, Gauge(undetermined=count, robot_moved=float(moved.max(initial=0.0)), steps=steps,
-                    chi2_change=(_rss(problem, x) - rss0) / noise**2, noise=float(noise))
+                    chi2_change=(_rss(problem, x) - rss0) / judged**2, noise=float(judged))
 
 
 def _rss(problem: Any, x: np.ndarray) -> float:

@@ -147,8 +147,11 @@ def fit(calibration: Calibration, method: Method, train: np.ndarray, *, seed: in
     model = problem.model  # compliances keep the estimate's value: each is bounded at zero (active set)
     free = np.setdiff1d(np.arange(problem.n_params), [*held, *range(model.n_robot, model.sensor_start)])
     inliers = _inliers(problem.subset(train), estimate)
-    x, gauge = resolve_gauge(inliers, estimate.x, x0, free, calibration.prior,
-                             noise.sigma if loss == "linear" else _robust_noise(inliers, estimate.x))
+    # the noise the directions are judged against: the stated or estimated one; a robust fit's
+    # from its inliers' median; none (a default a method that weighs nothing was given): the residual's
+    judged = (_robust_noise(inliers, estimate.x) if loss != "linear" else None if noise.words == "default"
+              else noise.sigma)
+    x, gauge = resolve_gauge(inliers, estimate.x, x0, free, calibration.prior, judged)
     estimate = replace(estimate, x=x, extras={**estimate.extras, "gauge": gauge})
     return Fit(problem, estimate, noise, x0)
 

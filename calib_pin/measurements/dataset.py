@@ -146,15 +146,22 @@ class MeasurementSet:
     def groups(self) -> np.ndarray:
         """Each row's pose label: rows of one pose go to the same side of a split.
 
-        One group a row when the file has no ``pose`` column.
+        The ``pose`` column's labels; without one, rows of the same joint angles are one pose
+        (a pose read again), labelled in the order they first appear (0, 1, ... for a file
+        that reads each pose once).
         """
-        return self.pose_ids if self.pose_ids is not None else np.arange(len(self))
+        if self.pose_ids is not None:
+            return self.pose_ids
+        q = np.asarray(self.q, dtype=float).reshape(len(self), -1)
+        if not len(q):
+            return np.arange(0)
+        _, first, inverse = np.unique(q, axis=0, return_index=True, return_inverse=True)
+        return np.argsort(np.argsort(first))[inverse.reshape(-1)]
 
     def describe_rows(self) -> str:
         """``120 poses`` or ``108 rows at 36 poses``."""
-        if self.pose_ids is not None and len(np.unique(self.pose_ids)) != len(self):
-            return f"{len(self)} rows at {len(np.unique(self.pose_ids))} poses"
-        return f"{len(self)} poses"
+        poses = len(np.unique(self.groups))
+        return f"{len(self)} rows at {poses} poses" if poses != len(self) else f"{len(self)} poses"
 
     def ignored_note(self) -> str | None:
         """The note on the extra columns, or None when the set has none.
