@@ -6,7 +6,9 @@ frame (the measured points, the flange origin, a tool), the predicted error in t
 frame is the sum of three independent parts, each shown:
 
 - **noise**: the reading noise carried through the estimate along the directions the data
-  determines (:mod:`calib_pin.analysis.determined`);
+  determines (:mod:`calib_pin.analysis.determined`): the residual's noise, or, where the
+  residual is known to be above the sensor's repeatability, the repeatability (the rest is
+  the model's part, not counted twice);
 - **model**: what the model does not explain. Each set's residual per value (on its
   held-out rows when there are enough, else its training rows with their degrees of
   freedom) above the sensor's repeatability (:mod:`calib_pin.analysis.repeatability`) is an
@@ -218,6 +220,16 @@ class Accuracy:
         return [w for w in (s.warning() for s in self.sets) if w]
 
 
+def _reading_share(sets: Sequence[Unexplained], noise: float) -> float:
+    """How much of the residual's noise ``noise`` is the sensor's reading noise: its known
+    repeatability over it (at most 1), for one set whose repeatability is known and whose
+    residual is significantly above it; 1 otherwise (the whole residual drives the estimate's
+    error, and the model part is then only a bound or zero)."""
+    if len(sets) != 1 or sets[0].repeatability.sigma is None or sets[0].model <= 0 or noise <= 0:
+        return 1.0
+    return float(min(sets[0].repeatability.sigma / noise, 1.0))
+
+
 def _rms(cov: np.ndarray) -> float:
     """The RMS length of errors with covariances ``cov`` (n, 3, 3) over the poses, [m]."""
     return float(np.sqrt(max(float(np.trace(cov, axis1=1, axis2=2).mean()), 0.0)))
@@ -261,13 +273,16 @@ def predict_accuracy(problem: Any, x: np.ndarray, split: Determined, points: Seq
     """
     model = problem.model
     noise_cov, blind_cov = split.covariance()
+    reading = _reading_share(sets, split.noise)
+    noise_cov = noise_cov * reading**2  # the reading noise's part; the model's is its own part
     values = sum(s.values for s in sets)
     model_error = float(np.sqrt(sum(s.model**2 * s.values for s in sets) / values)) if values else 0.0
     model_bound = float(np.sqrt(sum(s.bound**2 * s.values for s in sets) / values)) if values else 0.0
     q = random_poses(model.chain, poses, np.random.default_rng(seed))
     rotations, _ = model.end_frames(x, q)
     rng = np.random.default_rng(seed + 1)
-    moved = _sensor_response(problem, x, split, rcond) if any(d is not None for _, _, d in points) else None
+    moved = (_sensor_response(problem, split, noise_cov, split.noise * reading, rcond)
+             if any(d is not None for _, _, d in points) else None)
     out, first_points, first_error = [], np.zeros((poses, 3)), np.zeros(poses)
     for k, (name, point, derivative) in enumerate(points):
         where, jac = model.point_jacobian(x, q, np.asarray(point, dtype=float))
@@ -296,21 +311,32 @@ def predict_accuracy(problem: Any, x: np.ndarray, split: Determined, points: Seq
                     sets=tuple(sets), workspace_points=first_points, workspace_error=first_error)
 
 
-def _sensor_response(problem: Any, x: np.ndarray, split: Determined, rcond: float) -> tuple[np.ndarray, np.ndarray]:
+def _sensor_response(problem: Any, split: Determined, noise_cov: np.ndarray, noise: float,
+                     rcond: float) -> tuple[np.ndarray, np.ndarray]:
     """The free unknowns' noise covariance, and how the sensor's unknowns follow the robot's.
 
-    The first (SI, (n_params, n_params)) in the estimators' identifiable subspace (the
-    pseudo-inverse of the scaled Gram matrix, cut at ``rcond``), the second ((n_params,
-    n_robot)) the sensor's least-squares refit after a move of the free robot unknowns.
+    The second, G ((n_params, n_robot)), is the sensor's least-squares refit after a move of
+    the free robot unknowns. The first (SI, (n_params, n_params)) is the robot's noise
+    covariance along the directions the data determines (``noise_cov``, in the gauge: the
+    others are the blind part) carried to the sensor by G, plus the sensor's own given the
+    robot (the pseudo-inverse of its scaled Gram matrix, cut at ``rcond``, for residual noise
+    ``noise`` [m]).
     """
     n = problem.n_params
     free, gram = split.free, split.gram
     scale = np.asarray(problem.model.scale, dtype=float)[free]
-    full_cov = np.zeros((n, n))
-    full_cov[np.ix_(free, free)] = split.noise**2 * scale[:, None] * pinv_gram(gram, rcond) * scale[None, :]
     on_robot = np.isin(free, split.robot)
+    sensor = free[~on_robot]
     response = np.zeros((n, len(split.robot)))
-    if not on_robot.all():
-        solved = pinv_gram(gram[np.ix_(~on_robot, ~on_robot)], rcond) @ gram[np.ix_(~on_robot, on_robot)]
-        response[free[~on_robot]] = -(scale[~on_robot][:, None] * solved) / scale[on_robot][None, :]
+    own = np.zeros((n, n))
+    if len(sensor):
+        inverse = pinv_gram(gram[np.ix_(~on_robot, ~on_robot)], rcond)
+        solved = inverse @ gram[np.ix_(~on_robot, on_robot)]
+        response[sensor] = -(scale[~on_robot][:, None] * solved) / scale[on_robot][None, :]
+        own[np.ix_(sensor, sensor)] = noise**2 * scale[~on_robot][:, None] * inverse * scale[~on_robot][None, :]
+    carry = np.zeros((n, n))
+    carry[:, split.robot] = response
+    carry[split.robot, split.robot] = 1.0
+    robot_cov = noise_cov[np.ix_(split.robot, split.robot)]
+    full_cov = carry[:, split.robot] @ robot_cov @ carry[:, split.robot].T + own
     return full_cov, response
