@@ -150,3 +150,14 @@ def test_per_row_figure_thins_large_sets_and_says_so():
     assert np.array_equal(rows, np.union1d(np.arange(0, 10_000, 4), [1, 4_999]))
     assert figures.decimation_note(10_000) == "1 in 4 of 10000 rows drawn, outliers always"
     assert np.array_equal(figures.drawn_rows(3_000), np.arange(3_000)) and figures.decimation_note(3_000) == ""
+
+
+def test_a_camera_set_beside_a_cable_set_is_drawn_with_its_noise_in_px(tmp_path):
+    pytest.importorskip("cv2")
+    result = calib_pin.calibrate("irb120", [ROBOTS_DIR / "irb120_camera_example.csv", ROBOTS_DIR / "irb120_default.csv"],
+                                 method="lm")
+    report = build_report(result)
+    assert report["noise_unit"] == "px" and report["noise_px"] == pytest.approx(0.1) and "noise_mm" not in report
+    page = write_html_report(report, tmp_path / "r.html").read_text()
+    assert "sensor noise assumed</th><td>0.1 px" in page
+    assert "<td>0.1 px (file)</td>" in page and " mm (estimate)</td>" in page

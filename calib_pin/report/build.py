@@ -228,6 +228,7 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
     model = result.problem.model
     geometry = model.geometry_report(result.x)
     sets = _set_reports(result)
+    unit = result.sets[0].unit
     one = {k: v for k, v in sets[0].items() if k in ("errors_by_part", "noise_by_part")} if len(sets) == 1 else {}
     report: dict[str, Any] = {
         "robot": result.chain.name,
@@ -250,7 +251,8 @@ def build_report(result: CalibrationResult) -> dict[str, Any]:
         "identifiability": result.identifiability.as_dict(),
         **geometry,
         "sensor_geometry": geometry,
-        "noise_mm": result.noise * 1e3,
+        f"noise_{unit}": result.noise * 1e3,  # the first set's unit: its rows weigh 1
+        "noise_unit": unit,
         "noise_from": result.noise_from,
         **one,
         "loss": result.loss,

@@ -88,7 +88,7 @@ def _summary(r: dict) -> str:
         ("method", f"{r['method']} (loss {r['loss']})"),
         ("time", f"{fmt(r['time_s'])} s"),
         ("iterations", f"{r['iterations']} ({fmt(r['evaluations'])} evaluations; {r['stop_reason']})"),
-        ("sensor noise assumed", f"{fmt(r['noise_mm'])} mm"),
+        ("sensor noise assumed", _noise(r)),
     ]
     if r.get("accuracy"):
         a = r["accuracy"]
@@ -260,16 +260,22 @@ def _sensor_section(r: dict) -> str:
             f"{fmt(r['length_offset_mm'])} mm.</p>")
 
 
+def _noise(r: dict) -> str:
+    """A report's or a set's noise with its unit (mm, px, ...), as text."""
+    unit = r.get("noise_unit") or r.get("error_unit") or "mm"
+    return f"{fmt(r[f'noise_{unit}'])} {unit}"
+
+
 def _sets_section(r: dict) -> str:
     """A row per measurement set: its noise and where it came from, its rows and errors."""
     rows = []
     for s in r["sets"]:
         for split in ("train", "test"):
             if split in s:
-                rows.append([html.escape(s["label"]), html.escape(str(s["data"])), f"{fmt(s['noise_mm'])} ({s['noise_from']})",
+                rows.append([html.escape(s["label"]), html.escape(str(s["data"])), f"{_noise(s)} ({s['noise_from']})",
                              split, str(s[f"{split}_rows"]), fmt(s[split]["before"]["rmse_mm"]),
                              fmt(s[split]["after"]["rmse_mm"])])
-    return (_table(["set", "data", "noise mm", "split", "rows", "RMSE before", "RMSE after"], rows, "num")
+    return (_table(["set", "data", "noise", "split", "rows", "RMSE before", "RMSE after"], rows, "num")
             + "<p>One robot, each set with its own sensor set-up; rows weighted by their set's noise. The summary "
             f"pools {html.escape(r.get('metrics_pooled', 'every set'))}.</p>")
 
