@@ -48,7 +48,8 @@ def _start_collect_script(fake, poses_path, out, rows):
     command = [sys.executable, str(ROOT / "scripts" / "collect.py"), "irb120", "--poses", str(poses_path),
                "--port", fake.path, "--out", str(out), *MODBUS,
                "--auto", "0.05", "--interval", "0", "--samples", "3", "--timeout", "0.2"]
-    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # as a user's shell
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not (out.exists() and len(_rows(out)[0]) >= rows):
         time.sleep(0.02)

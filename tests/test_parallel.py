@@ -78,7 +78,13 @@ CLI = [sys.executable, "-c", "import sys; from calib_pin.cli import main; sys.ex
 
 def _start(argv: list[str], tmp_path: Path, hook: str | None) -> subprocess.Popen:
     return subprocess.Popen([*CLI, *argv], cwd=tmp_path, env=_env(tmp_path, hook),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=_default_ctrl_c)
+
+
+def _default_ctrl_c() -> None:
+    """In the child: Ctrl-C as a user's shell gives it (a runner started with ``&`` ignores it)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _finish(proc: subprocess.Popen, timeout: float = 30) -> tuple[int, str, str]:
