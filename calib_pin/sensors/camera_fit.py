@@ -27,7 +27,7 @@ from ..exceptions import DataError
 from ..util.optional import require
 from .base import refuse_too_few
 from .camera_rig import PX, CameraRig
-from .lens import Board, Intrinsics
+from .lens import OPENCV_EXTRA, Board, Intrinsics
 
 if TYPE_CHECKING:
     from ..parameters import ParameterModel
@@ -35,8 +35,6 @@ if TYPE_CHECKING:
 
 #: A start whose corners miss by more than this (RMS) [px] is tried again with the classic hand-eye solver.
 FALLBACK_PX = 20.0
-#: The extra of calib-pin that installs OpenCV (opencv-python-headless).
-OPENCV_EXTRA = "camera"
 #: Poses a hand-eye start needs at least (two motions between them).
 MIN_POSES = 3
 
