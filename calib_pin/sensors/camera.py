@@ -46,7 +46,7 @@ from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
-from .base import MeasurementModel, NoisePart, chosen, fit_rows_name, frame_unknowns
+from .base import MeasurementModel, NoisePart, SetupExports, chosen, fit_rows_name, frame_unknowns
 from .camera_fit import fit_rig, refit_fixed
 from .camera_rig import (
     CAMERA_EXTRAS,
@@ -288,6 +288,38 @@ class CameraModel(MeasurementModel):
         estimated = "placements and intrinsics" if "intrinsics" in self.estimate else "placements"
         return (f"camera {self.rig.mount}, {self.rig.board.describe()}, {estimated} estimated (noise "
                 f"{self.noise_px:.4g} px)")
+
+    def setup_exports(self, x: np.ndarray, links: tuple[str, str], tag: str = "") -> SetupExports:
+        """The camera's and the board's frames for the URDF, the hand-eye YAML and, when calibrated, the intrinsics.
+
+        The frames: ``camera_optical_frame`` (x right, y down, z the optical axis) and
+        ``calibration_board`` (its corners' frame), each on a fixed joint from the end frame's
+        link or the base link, by the mount. ``hand_eye.yaml``: :mod:`calib_pin.export.hand_eye`,
+        with the gauge note. ``intrinsics.yaml`` (with ``estimate`` intrinsics): the calibrated
+        intrinsics in the layout they were read in (:mod:`.lens_file`), ROS's ``camera_info``
+        when they were not read from a file.
+        """
+        from ..export.hand_eye import HandEye, hand_eye_text
+        from ..export.urdf import AddedFrame
+        from .lens_file import intrinsics_text
+
+        rig = self.geometry_at(x)
+        base, end = links
+        camera, board = f"camera_optical_frame{tag}", f"calibration_board{tag}"
+        on = ("end", "base") if rig.in_hand else ("base", "end")
+        frames = (AddedFrame(camera, on[0], rig.camera), AddedFrame(board, on[1], rig.board_pose))
+        gauge = f"gauge: {gauge_note(rig.mount)}"
+        namespace = f"{self.chain.name}{tag}_eye_{'on_hand' if rig.in_hand else 'on_base'}"
+        files = {"hand_eye.yaml": hand_eye_text(HandEye(rig.in_hand, rig.camera, rig.board_pose, base, end, camera,
+                                                         board), namespace, [gauge])}
+        if "intrinsics" in self.estimate:
+            source = rig.intrinsics.source
+            start = f" from {source.path}" if source is not None else ""
+            note = (f"calib-pin: intrinsics calibrated with the robot '{self.chain.name}' and the hand-eye placements"
+                    f"{start}")
+            files["intrinsics.yaml"] = intrinsics_text(rig.intrinsics, source.format if source else "ros",
+                                                       (source.camera_name if source else "") or "camera", [note])
+        return SetupExports(frames, files)
 
     @property
     def reference_point(self) -> np.ndarray:
