@@ -60,10 +60,20 @@ from .camera_rig import (
     gauge_note,
     setup_from_notes,
 )
-from .camera_view import session_rig, simulate_camera
+from .camera_view import (
+    MIN_SEEN,
+    board_distance,
+    default_rig,
+    focus_range,
+    planned_views,
+    planning_rows,
+    session_rig,
+    simulate_camera,
+)
 from .lens import INTRINSIC_NAMES, INTRINSIC_SCALE, INTRINSIC_UNITS, Board, Intrinsics
 from .lens import project as project_points
 from .problem import SetProblem
+from .setup import SensorSetup
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
@@ -259,6 +269,71 @@ class CameraModel(MeasurementModel):
     def session_geometry(cls, first: CameraRig, rng: np.random.Generator) -> CameraRig:
         """A later session's set-up, its part fixed in the cell moved: :func:`.camera_view.session_rig`."""
         return session_rig(first, rng)
+
+    # --- planning (plan-poses --sensor camera) ----------------------------------------------
+
+    @classmethod
+    def planning_model(cls, chain: Chain, params: ParameterModel, setup: SensorSetup | None,
+                       focus_mm: tuple[float, float] | None = None) -> CameraModel:
+        """The simulator's set-up for the robot (:func:`.camera_view.default_rig`) with the caller's mount, board and
+        lens; the placements estimated, and the intrinsics with ``estimate``.
+
+        Args:
+            setup: The caller's :class:`CameraSetup` (None: eye in hand, the default board and lens).
+            focus_mm: The distance range [mm] a planned pose keeps the board's middle in
+                (default :func:`.camera_view.focus_range` of the mount).
+
+        Raises:
+            ArgumentError: a focus range that is not 0 < near < far.
+        """
+        setup = setup if isinstance(setup, CameraSetup) else CameraSetup()
+        mount = setup.camera_mount or MOUNTS[0]
+        rig = default_rig(cls, chain, params, mount, setup.board, setup.intrinsics)
+        estimate = ("camera", "board", *chosen(setup.estimate, cls.estimable, "a camera"))
+        model = cls(chain, params, rig, estimate, noise_px=setup.noise_px or DEFAULT_NOISE_PX)
+        near, far = focus_mm if focus_mm is not None else focus_range(mount)
+        if not 0 < near < far:
+            raise ArgumentError("focus_mm", f"expected 0 < near < far, got {near:g}, {far:g} mm")
+        model.focus_mm = (float(near), float(far))
+        return model
+
+    #: The distance range [mm] a planned pose keeps the board's middle in (:meth:`planning_model` sets it).
+    focus_mm: tuple[float, float] | None = None
+
+    @property
+    def plan_rule(self) -> str:
+        """What a candidate pose must do to be planned, for people."""
+        near, far = self.focus_mm or focus_range(self.rig.mount)
+        return f"see {MIN_SEEN} corners or more of the board, its middle {near:g} to {far:g} mm from the camera"
+
+    def plan_candidates(self, n: int, rng: np.random.Generator, margin: float) -> tuple[np.ndarray, np.ndarray]:
+        """Of ``n`` random poses within the joint limits less ``margin`` [rad], those that see the board in focus.
+
+        Returns their joint angles (m, n_joints) [rad] and the corners each sees (m, n_corners):
+        :func:`.camera_view.planned_views`.
+        """
+        from ..robot.poses import random_poses
+
+        return planned_views(self, random_poses(self.chain, n, rng, margin=margin),
+                             self.focus_mm or focus_range(self.rig.mount))
+
+    def planning_rows(self, q: np.ndarray, visible: np.ndarray) -> np.ndarray:
+        """Each candidate's information from the corners it sees: :func:`.camera_view.planning_rows`."""
+        return planning_rows(self, q, np.asarray(visible, dtype=bool))
+
+    def planning_problem(self, q: np.ndarray, visible: np.ndarray) -> SetProblem:
+        """The problem of the corners each pose of q sees (``visible``, (n, n_corners)), at the nominal robot."""
+        pose, corner = np.nonzero(np.asarray(visible, dtype=bool))
+        rows = np.asarray(q, dtype=float)[pose]
+        return SetProblem(self, rows, self.predict(None, rows, corner), corner)
+
+    def plan_summary(self, q: np.ndarray, visible: np.ndarray) -> str:
+        """The planned poses' corners in view and board distances, one line."""
+        counts = np.asarray(visible, dtype=bool).sum(axis=1)
+        distance = board_distance(self, None, q)
+        return (f"corners in view per planned pose: {counts.min()} to {counts.max()} of {self.rig.board.n_corners} "
+                f"(median {np.median(counts):g}); the board's middle {distance.min():.0f} to {distance.max():.0f} mm "
+                f"from the camera ({self.rig.mount}, {self.rig.board.describe()})")
 
     # --- geometry -------------------------------------------------------------------------
 
