@@ -47,7 +47,7 @@ from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
 from .base import MeasurementModel, NoisePart, SetupExports, chosen, fit_rows_name, frame_unknowns
-from .camera_fit import fit_rig, refit_fixed
+from .camera_fit import fit_rig, hand_eye_alone, refit_fixed
 from .camera_rig import (
     CAMERA_EXTRAS,
     DEFAULT_NOISE_PX,
@@ -269,6 +269,21 @@ class CameraModel(MeasurementModel):
     def session_geometry(cls, first: CameraRig, rng: np.random.Generator) -> CameraRig:
         """A later session's set-up, its part fixed in the cell moved: :func:`.camera_view.session_rig`."""
         return session_rig(first, rng)
+
+    # --- the camera's pose, and hand-eye alone ---------------------------------------------
+
+    def camera_to_board(self, x: np.ndarray | None, q: np.ndarray) -> list[pin.SE3]:
+        """The board's pose in the camera frame at each pose of q (T_CW, [m]): what PnP reads of an image."""
+        rig = self.geometry_at(x)
+        rot, origin = self.end_frames(x, q)
+        ends = [pin.SE3(r, t) for r, t in zip(rot, origin, strict=True)]
+        if rig.in_hand:  # T_CE T_EB T_BW
+            return [rig.camera.inverse() * end.inverse() * rig.board_pose for end in ends]
+        return [rig.camera.inverse() * end * rig.board_pose for end in ends]  # T_CB T_BE T_EW
+
+    def hand_eye_alone(self, q: np.ndarray, values: np.ndarray, corners: np.ndarray) -> dict[str, CameraRig]:
+        """OpenCV's hand-eye methods alone on the rows with the nominal robot: :func:`.camera_fit.hand_eye_alone`."""
+        return hand_eye_alone(self, q, values, corners)
 
     # --- planning (plan-poses --sensor camera) ----------------------------------------------
 

@@ -116,6 +116,52 @@ def _hand_eye(cv2: Any, in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3
     return camera, _mean([gk * camera * bk for gk, bk in zip(g, boards, strict=True)])
 
 
+#: OpenCV's hand-eye methods, by name: robot-world (A X = Z B) and classic (A X = X B) solvers and their flags.
+HAND_EYE_METHODS = (("shah", "robot_world", "CALIB_ROBOT_WORLD_HAND_EYE_SHAH"),
+                    ("li", "robot_world", "CALIB_ROBOT_WORLD_HAND_EYE_LI"),
+                    ("tsai", "hand_eye", "CALIB_HAND_EYE_TSAI"), ("park", "hand_eye", "CALIB_HAND_EYE_PARK"),
+                    ("horaud", "hand_eye", "CALIB_HAND_EYE_HORAUD"),
+                    ("andreff", "hand_eye", "CALIB_HAND_EYE_ANDREFF"),
+                    ("daniilidis", "hand_eye", "CALIB_HAND_EYE_DANIILIDIS"))
+
+
+def hand_eye_alone(model: Any, q: np.ndarray, values: np.ndarray, corners: np.ndarray) -> dict[str, CameraRig]:
+    """Each of OpenCV's hand-eye methods alone on the rows, with the nominal robot: its camera and board placements.
+
+    PnP per pose (:func:`board_poses`), the end frames of ``model``'s nominal robot, then each
+    method of :data:`HAND_EYE_METHODS` (the classic ones take the other placement as the mean
+    of each pose's); no polish. A method that fails is left out.
+
+    Args:
+        model: A camera's measurement model (its mount, board and intrinsics are used).
+        q, values, corners: The rows' joint angles [rad], image points [px], corner indices.
+
+    Raises:
+        CalibPinError: OpenCV is not installed.
+        DataError: PnP finds the board in fewer than 3 poses.
+    """
+    cv2 = require("cv2", OPENCV_EXTRA)
+    rig = model.rig
+    poses, inverse = np.unique(np.asarray(q, dtype=float), axis=0, return_inverse=True)
+    found = board_poses(cv2, rig.board, rig.intrinsics, values, corners, inverse.reshape(-1), len(poses))
+    good = [j for j, f in enumerate(found) if f is not None]
+    if len(good) < MIN_POSES:
+        raise DataError("the measurement set", f"PnP finds the board in {len(good)} of the {len(poses)} poses: a "
+                        f"hand-eye solution needs {MIN_POSES}")
+    rot, origin = model.end_frames(None, poses[good])
+    ends = [pin.SE3(r, t) for r, t in zip(rot, origin, strict=True)]
+    boards = [found[j] for j in good]
+    out = {}
+    for name, kind, flag in HAND_EYE_METHODS:
+        solve = _robot_world if kind == "robot_world" else _hand_eye
+        try:
+            camera, placed = solve(cv2, rig.in_hand, ends, boards, getattr(cv2, flag))
+        except (cv2.error, np.linalg.LinAlgError, ValueError):
+            continue
+        out[name] = CameraRig(rig.mount, camera, placed, rig.board, rig.intrinsics)
+    return out
+
+
 def fit_rig(cls: Any, chain: Chain, params: ParameterModel, mount: str, board: Board, intrinsics: Intrinsics, q: np.ndarray,
             values: np.ndarray, corners: np.ndarray, source: str = "", rows: str = "training rows") -> CameraRig:
     """The camera's and board's placements that fit the rows best with the nominal robot (module docstring).
