@@ -45,6 +45,10 @@ def add_benchmark_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    help="also time calibrate ur5 --model placement --test-fraction 0 --no-html on 1 000 simulated "
                    "marker positions (lm, ekf-qibas) as whole processes against a process that only imports numpy, "
                    "Pinocchio and scipy.optimize, interleaved")
+    p.add_argument("--camera", action="store_true",
+                   help="also time calibrate irb120 on a simulated camera set of 100 images of 50 corners each (lm, "
+                   "with report.html, --estimate intrinsics, the default method) as whole processes against the floor "
+                   "process, interleaved")
     p.add_argument("--hand-eye", action="store_true",
                    help="instead of timing: the joint calibration against OpenCV's best hand-eye method on the nominal "
                    "robot, on the same simulated camera sets (--robots irb120,ur5; both mounts; with the robot's "
@@ -141,6 +145,8 @@ def _benchmark(args: argparse.Namespace) -> int:
         _commands(args)
     if args.floor:
         _floor(args)
+    if args.camera:
+        _camera(args)
     if args.against == "figaroh":
         _against_figaroh(args)
     return 0
@@ -155,6 +161,19 @@ def _floor(args: argparse.Namespace) -> None:
           f"(seed {args.seed}) as whole processes, interleaved with the floor (a process importing numpy, Pinocchio "
           f"and scipy.optimize), median wall s of {repeats} runs; {PROCESS_NOTE}:")
     print(format_floor(above_floor(repeats=repeats, seed=args.seed)))
+
+
+def _camera(args: argparse.Namespace) -> None:
+    from ..studies.benchmark_camera import CORNERS, format_camera, time_camera
+    from ..studies.benchmark_commands import PROCESS_NOTE
+
+    repeats = max(args.repeats, 5)
+    runs, images, rows = time_camera(repeats=repeats, seed=args.seed)
+    print(f"a camera set: calibrate irb120 on {images} simulated images of {CORNERS} corners each ({rows} rows, eye in "
+          f"hand, 0.1 px, seed {args.seed}) as whole processes, interleaved with the floor, median wall s of {repeats} "
+          f"runs; {PROCESS_NOTE}:")
+    print(format_camera(runs))
+    print("goal: 100 images of 50 corners each calibrate in a few seconds")
 
 
 def _quick_start(args: argparse.Namespace) -> None:

@@ -45,7 +45,7 @@ POSES, NOISE_PX, FRESH = 40, 0.1, 150
 #: A fresh pose sees at least this many corners of the true board.
 FRESH_CORNERS = MIN_SEEN
 #: The sentence the output carries about the flange placement.
-FLANGE_NOTE = ("the placement on the flange (the hand-eye transform eye in hand, the board's eye to hand) shares a "
+FLANGE_NOTE = ("The placement on the flange (the hand-eye transform eye in hand, the board's eye to hand) shares a "
                "gauge with the last link's deviations: it is compared with the truth only on a robot whose last "
                "link is nominal (rows 'last link nominal'); elsewhere '-'")
 
