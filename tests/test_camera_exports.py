@@ -140,3 +140,20 @@ def test_without_estimating_the_intrinsics_no_lens_file_is_written(tmp_path, cam
     path, _ = camera_csv
     assert calibrate_main(["irb120", "--data", str(path), "--method", "lm", "--no-html", "--out", str(tmp_path)]) == 0
     assert not (tmp_path / "irb120_intrinsics.yaml").exists() and (tmp_path / "irb120_hand_eye.yaml").is_file()
+
+
+def test_a_urdf_that_has_the_frames_gets_them_placed_anew(tmp_path):
+    """A URDF an earlier calibration wrote (its camera frame on the same fixed joint) gets the frame placed anew,
+    not twice; a frame named as another link of the URDF is refused, naming it."""
+    from calib_pin.export.urdf import AddedFrame, calibrated_urdf
+
+    chain = cp.load_chain("irb120")
+    zero = cp.parameter_model(chain).deltas(np.zeros(len(cp.parameter_model(chain).names)))
+    first = AddedFrame("camera_optical_frame", "end", pin.SE3(np.eye(3), np.array([0.1, 0.0, 0.0])))
+    (tmp_path / "a.urdf").write_bytes(calibrated_urdf(chain, zero, frames=[first]))
+    again = cp.load_chain(str(tmp_path / "a.urdf"))
+    moved = AddedFrame("camera_optical_frame", "end", pin.SE3(np.eye(3), np.array([0.2, 0.0, 0.0])))
+    text = calibrated_urdf(again, zero, frames=[moved]).decode()
+    assert text.count('<link name="camera_optical_frame"/>') == 1 and 'xyz="0.2 0 0"' in text
+    with pytest.raises(cp.RobotError, match="already has a link or joint 'link_1'"):
+        calibrated_urdf(chain, zero, frames=[AddedFrame("link_1", "base", pin.SE3.Identity())])

@@ -55,13 +55,24 @@ def frame_links(chain: Chain) -> tuple[str, str]:
 def _add_frames(root: etree._Element, chain: Chain, frames: Sequence[AddedFrame]) -> None:
     """Append each frame's link and fixed joint to ``root``.
 
+    A frame the URDF already has on the same fixed joint (a URDF an earlier calibration
+    wrote) is placed anew.
+
     Raises:
-        RobotError: a frame whose link or joint name the URDF already has.
+        RobotError: a frame whose link or joint name the URDF has otherwise.
     """
     taken = {e.get("name") for e in root if e.tag in ("link", "joint")}
+    joints = top_level_joints(root)
     base, end = frame_links(chain)
     for frame in frames:
         joint_name = f"{frame.name}_joint"
+        parent = end if frame.on == "end" else base
+        earlier = joints.get(joint_name)
+        if earlier is not None and earlier.get("type") == "fixed" and earlier.find("parent") is not None \
+                and earlier.find("parent").get("link") == parent and earlier.find("child") is not None \
+                and earlier.find("child").get("link") == frame.name:  # an earlier calibration's: placed anew
+            _set_origin(earlier, frame.placement)
+            continue
         clash = next((n for n in (frame.name, joint_name) if n in taken), None)
         if clash is not None:
             raise RobotError(f"the URDF of '{chain.name}' already has a link or joint '{clash}': the calibrated "
@@ -78,7 +89,7 @@ def _add_frames(root: etree._Element, chain: Chain, frames: Sequence[AddedFrame]
         origin = etree.SubElement(joint, "origin")
         origin.tail = "\n    "
         _set_origin(joint, frame.placement)
-        etree.SubElement(joint, "parent", link=end if frame.on == "end" else base).tail = "\n    "
+        etree.SubElement(joint, "parent", link=parent).tail = "\n    "
         etree.SubElement(joint, "child", link=frame.name).tail = "\n  "
         joint.tail = "\n"
 
