@@ -209,7 +209,8 @@ def data_keys() -> dict[str, tuple[Any, str]]:
                 continue
             shape = "'x,y,z' " if "'x,y,z'" in f.metadata["help"] else ""
             takers = " and ".join(other.title for other in types if f.name in other.field_names())
-            keys[f.name] = (f.metadata.get("parser"), f"{shape}{f.metadata['unit']}; {takers} sets")
+            unit = f"{f.metadata['unit']}; " if f.metadata["unit"] else ""
+            keys[f.name] = (f.metadata.get("parser"), f"{shape}{unit}{takers} sets")
     keys.update(noise_mm=(assumed_noise, "mm, in (0, 100]: the sensor sigma of the Kalman filters"),
                 role=(None, ", ".join(ROLES)), label=(None, "a name for the printout and report.json"))
     return keys
