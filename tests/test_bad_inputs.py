@@ -1317,6 +1317,51 @@ I35_CAMERA: list[Case] = [
 ]
 
 
+#: A ROS camera_info file of the shipped camera example's lens (calib_pin/sensors/lens_file.py).
+LENS_ROS = ("image_width: 1280\nimage_height: 1024\ncamera_name: cam\ncamera_matrix:\n  rows: 3\n  cols: 3\n"
+            "  data: [1000, 0, 642, 0, 1000, 509, 0, 0, 1]\ndistortion_model: plumb_bob\n"
+            "distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [-0.08, 0.05, 0.0005, -0.0003, 0]\n")
+#: The same lens as OpenCV's camera file (what cv2.FileStorage writes).
+LENS_CV = ("%YAML:1.0\n---\nimage_width: 1280\nimage_height: 1024\ncamera_matrix: !!opencv-matrix\n   rows: 3\n"
+           "   cols: 3\n   dt: d\n   data: [ 1000., 0., 642., 0., 1000., 509., 0., 0., 1. ]\n"
+           "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
+           "   data: [ -0.08, 0.05, 0.0005, -0.0003, 0. ]\n")
+
+#: A camera's lens file (--intrinsics FILE.yaml), its exports and plan-poses --sensor camera: a missing key, a
+#: matrix of the wrong shape, another distortion model, not YAML, a skewed camera; a focus range that is none.
+I35_CAMERA_FILES: list[Case] = [
+    (CAL, ["irb120", "--data", "c.csv", "--analyze", "--intrinsics", "k.yaml"], {"c.csv": camera_set(),
+     "k.yaml": LENS_CV}, 0, "analysed at zero deviations"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze", "--intrinsics", "k.yaml"],
+     {"c.csv": camera_set(), "k.yaml": LENS_ROS.replace("image_height: 1024\n", "")}, 2,
+     "argument --intrinsics: k.yaml: image_height: missing (a ROS camera_info file has image_width, image_height"),
+    (CAL, ["irb120", "--data", "c.csv:intrinsics=k.yaml", "--analyze"],
+     {"c.csv": camera_set(), "k.yaml": LENS_CV.replace("   rows: 3\n   cols: 3", "   rows: 2\n   cols: 3").replace(
+         " 0., 0., 1. ]", " ]")}, 2, "--data 'c.csv:intrinsics=k.yaml': intrinsics: k.yaml:5: camera_matrix: "
+     "expected a 3x3 matrix, got 2x3"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze", "--intrinsics", "k.yaml"],
+     {"c.csv": camera_set(), "k.yaml": LENS_ROS.replace("plumb_bob", "equidistant")}, 2,
+     "k.yaml:8: distortion_model: 'equidistant' is not a distortion model calib-pin's lens has (plumb_bob"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze", "--intrinsics", "k.yaml"],
+     {"c.csv": camera_set(), "k.yaml": LENS_ROS.replace("[1000, 0, 642,", "[1000, 3, 642,")}, 2,
+     "k.yaml:4: camera_matrix: not a pinhole camera matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze", "--intrinsics", "k.yaml"],
+     {"c.csv": camera_set(), "k.yaml": LENS_ROS.replace("data: [1000,", "data: [1000,,")}, 2,
+     "k.yaml:7: not valid YAML"),
+    (CAL, ["irb120", "--data", "c.csv", "--analyze", "--intrinsics", "missing.yaml"], {"c.csv": camera_set()}, 2,
+     "argument --intrinsics: missing.yaml: cannot read the camera's intrinsics: No such file or directory"),
+    (CAL, ["irb120", "--data", "c.csv", "--intrinsics", "out/irb120_intrinsics.yaml", "--estimate", "intrinsics",
+           "--method", "lm", "--no-html", "--out", "out"], {"c.csv": camera_set(), "out/irb120_intrinsics.yaml": LENS_CV},
+     2, "out/irb120_intrinsics.yaml is an input of this command (--intrinsics): choose another output"),
+    (PLAN, ["irb120", "--sensor", "camera", "--focus-mm", "900,300", "--out", "p.csv"], {}, 2,
+     "argument --focus-mm: expected NEAR,FAR in mm with 0 < NEAR < FAR, got '900,300'"),
+    (PLAN, [*PLAN5, "--focus-mm", "300,900"], {}, 2,
+     "--focus-mm: a camera's focus range; not an option of drawstring readings"),
+    (PLAN, ["irb120", "--sensor", "camera", "--n", "10", "--candidates", "20", "--out", "p.csv"], {}, 2,
+     "candidates see 12 corners or more of the board, its middle 225 to 900 mm from the camera; ask for more"),
+]
+
+
 #: The rows of the earlier rounds, then round 3's by class (docs/bad_input.md lists them all).
 BASE_CASES = list(CASES)
 SECTIONS: list[tuple[str, list[Case]]] = [
@@ -1331,6 +1376,7 @@ SECTIONS: list[tuple[str, list[Case]]] = [
     ("Issue 34 (B): rows fitted twice, thin sets' noise, collisions, moved fixtures, counts, messages", I34B),
     ("Issue 34: several sets, new sensors and real lab files (part A)", I34_CLASSES),
     ("Issue 35: camera sets (a board's corners in images)", I35_CAMERA),
+    ("Issue 35: a camera's lens file, its exports and planned poses", I35_CAMERA_FILES),
 ]
 CASES += [row for _, rows in SECTIONS for row in rows]
 

@@ -161,3 +161,20 @@ def test_a_camera_set_beside_a_cable_set_is_drawn_with_its_noise_in_px(tmp_path)
     page = write_html_report(report, tmp_path / "r.html").read_text()
     assert "sensor noise assumed</th><td>0.1 px" in page
     assert "<td>0.1 px (file)</td>" in page and " mm (estimate)</td>" in page
+
+
+def test_a_camera_calibration_of_the_lens_draws_its_report(tmp_path):
+    """With the intrinsics estimated (unit-free k1 ... k3 beside fx [px]) report.html is drawn, and report.json's
+    intervals are keyed as its sensor corrections are (k1, not k1_)."""
+    pytest.importorskip("cv2")
+    from calib_pin.sensors import CameraModel, CameraSetup
+    from calib_pin.simulation import simulate_set
+
+    chain = calib_pin.load_chain("irb120")
+    data, _ = simulate_set(CameraModel, chain, calib_pin.parameter_model(chain), 16, 2,
+                           setup={"camera_mount": "eye-in-hand", "noise_px": 0.1})
+    result = calib_pin.calibrate("irb120", data, method="lm", setup=CameraSetup(estimate="intrinsics"))
+    report = build_report(result)
+    assert {"fx_px", "k1", "p2"} <= set(report["sensor_corrections"]) <= set(report["uncertainty"]["parameters"])
+    page = write_html_report(report, tmp_path / "report.html").read_text(encoding="utf-8")
+    assert "<td>k1</td>" in page and "<td>fx</td><td>px</td>" in page

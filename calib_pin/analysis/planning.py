@@ -56,8 +56,9 @@ class Plan:
     reach: int | None
     target: float
     identifiability: Identifiability | None = None
-    #: Each chosen pose's fixture (a sensor whose candidates are touches found by inverse
-    #: kinematics, its ``plan_candidates``: contact fixtures), or None.
+    #: What each chosen pose measures, for a sensor that makes its own candidates (its
+    #: ``plan_candidates``): a contact set's fixture (touches found by inverse kinematics), a
+    #: camera's corners in view; else None.
     points: np.ndarray | None = None
 
 
@@ -221,8 +222,11 @@ def plan_poses(
     rng = np.random.default_rng(seed)
     touches = getattr(model, "plan_candidates", None)
     fixtures: np.ndarray | None = None
-    if touches is not None:  # candidates that touch a fixture, by inverse kinematics (in random order)
+    if touches is not None:  # the sensor's own candidates: touches of a fixture, views of a board (random order)
         pool, fixtures = touches(candidates, rng, margin)
+        if len(pool) < n:
+            rule = getattr(model, "plan_rule", "are usable")
+            raise ValueError(f"only {len(pool)} of {candidates} candidates {rule}; ask for more")
         blocks = model.planning_rows(pool, fixtures)  # type: ignore[attr-defined]
     else:
         pool = _above_base(model, random_poses(model.chain, candidates, rng, margin=margin))
@@ -250,6 +254,7 @@ def plan_poses(
     o1, o3 = chosen.o1, chosen.o3
     random_o1, random_o3, random_total = indices(pool[:n], None if fixtures is None else fixtures[:n])
     target = random_total if target is None else target
-    reach = next((k for k in range(basis.shape[1], n + 1)
+    fewest = int(np.ceil(basis.shape[1] / blocks.shape[1]))  # poses whose rows can span the directions
+    reach = next((k for k in range(fewest, n + 1)
                   if indices(q[:k], None if picked_fixtures is None else picked_fixtures[:k])[2] >= target), None)
     return Plan(q, o1, o3, random_o1, random_o3, reach, target, chosen, picked_fixtures)

@@ -103,7 +103,7 @@ class Uncertainty:
                 entry.update(std=s, ci95=[value * f - Z95 * s, value * f + Z95 * s])
             else:  # no interval of its own: null, so that a reader of the keys finds them
                 entry.update(std=None, ci95=None)
-            out[f"{name}_{suffix}"] = entry
+            out[f"{name}_{suffix}" if suffix else name] = entry  # a unit-free unknown (a lens's k1): its name
         return {"parameters": out, "combinations": [c.as_dict() for c in self.combinations],
                 "noise_mm": self.noise * 1e3}
 

@@ -13,7 +13,7 @@ import pinocchio as pin
 from ..analysis.metrics import Metrics
 from ..estimators.base import EstimateResult
 from ..exceptions import ArgumentError, CalibPinError
-from ..export.urdf import write_calibrated_urdf
+from ..export.urdf import AddedFrame, frame_links, write_calibrated_urdf
 from ..measurements import MeasurementSet
 from ..parameters import ParameterModel
 from ..parameters.prior import Prior
@@ -274,7 +274,25 @@ class CalibrationResult:
                 f"method '{self.method}' learns a correction of the measured values, which a URDF cannot hold: "
                 "there is no corrected URDF to write")
         self.check_sanity()
-        return write_calibrated_urdf(self.chain, self.deltas, path, notes=self.determination_notes())
+        return write_calibrated_urdf(self.chain, self.deltas, path, notes=self.determination_notes(),
+                                     frames=self.added_frames())
+
+    def setup_exports(self) -> list[tuple[str, Any]]:
+        """What each set's calibrated set-up adds to the outputs, in set order: (tag, its
+        :class:`~calib_pin.sensors.base.SetupExports`), the tag "" when one set adds any, else
+        ``_<label>`` (its frames' and files' names carry it)."""
+        import re
+
+        links = frame_links(self.chain)
+        exports = [s.model.setup_exports(s.x, links) for s in self.sets]
+        if sum(bool(e.frames or e.files) for e in exports) <= 1:
+            return [("", e) for e in exports]
+        tags = [f"_{re.sub(r'[^A-Za-z0-9_.-]', '_', s.label)}" for s in self.sets]
+        return [(tag, s.model.setup_exports(s.x, links, tag)) for tag, s in zip(tags, self.sets, strict=True)]
+
+    def added_frames(self) -> tuple[AddedFrame, ...]:
+        """The frames the sets' calibrated set-ups add to the URDF (a camera and its board)."""
+        return tuple(f for _, e in self.setup_exports() for f in e.frames)
 
     @cached_property
     def uncertainty(self) -> Uncertainty | None:

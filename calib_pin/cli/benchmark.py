@@ -45,12 +45,21 @@ def add_benchmark_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    help="also time calibrate ur5 --model placement --test-fraction 0 --no-html on 1 000 simulated "
                    "marker positions (lm, ekf-qibas) as whole processes against a process that only imports numpy, "
                    "Pinocchio and scipy.optimize, interleaved")
+    p.add_argument("--camera", action="store_true",
+                   help="also time calibrate irb120 on a simulated camera set of 100 images of 50 corners each (lm, "
+                   "with report.html, --estimate intrinsics, the default method) as whole processes against the floor "
+                   "process, interleaved")
+    p.add_argument("--hand-eye", action="store_true",
+                   help="instead of timing: the joint calibration against OpenCV's best hand-eye method on the nominal "
+                   "robot, on the same simulated camera sets (--robots irb120,ur5; both mounts; with the robot's "
+                   "deviations, its last link nominal, none; --repeats seeds); the camera's pose relative to the board "
+                   "at fresh poses against the truth")
     p.add_argument("--trust", action="store_true",
                    help="instead of timing: check the gauge, the predicted accuracy and the intervals against the "
                    "simulator's truth (IRB120, UR5, Panda; every sensor; lm, ekf-qibas, de; --repeats seeds) and the "
                    "predicted error against the held-out error on the real IRB120 set (10 splits); long")
-    p.add_argument("--robots", type=_robot_list, default=("irb120", "ur5", "panda"),
-                   help="robots of --trust, comma-separated (irb120,ur5,panda)")
+    p.add_argument("--robots", type=_robot_list,
+                   help="robots of --trust (irb120,ur5,panda) or --hand-eye (irb120,ur5), comma-separated")
     p.add_argument("--against", choices=["figaroh"],
                    help="also race FIGAROH (when installed) on simulated UR5 positions, 100 and 1 000 samples")
     return p
@@ -79,7 +88,7 @@ def _command_list(text: str) -> tuple[str, ...]:
 def benchmark_main(argv: Sequence[str] | None = None) -> int:
     """``benchmark.py [--repeats 5] [--methods ekf-qibas,lm] [--seed 0] [--poses 120]``."""
     args = parse_args("benchmark", argv)
-    return run(lambda: _trust(args) if args.trust else _benchmark(args))
+    return run(lambda: _trust(args) if args.trust else _hand_eye(args) if args.hand_eye else _benchmark(args))
 
 
 def _trust(args: argparse.Namespace) -> int:
@@ -89,11 +98,24 @@ def _trust(args: argparse.Namespace) -> int:
     from ..studies.trust import study, wu_splits
 
     methods = tuple(args.methods) if args.methods else ("lm", "ekf-qibas", "de")
-    print("\n".join(study(robots=args.robots, methods=methods, seeds=args.repeats,
+    robots = args.robots or ("irb120", "ur5", "panda")
+    print("\n".join(study(robots=robots, methods=methods, seeds=args.repeats,
                           notify=lambda line: print(line, file=sys.stderr, flush=True))))
-    if "irb120" in args.robots:
+    if "irb120" in robots:
         print()
         print("\n".join(wu_splits()))
+    return 0
+
+
+def _hand_eye(args: argparse.Namespace) -> int:
+    """``--hand-eye``: the study of :mod:`calib_pin.studies.hand_eye`, printed as a Markdown table."""
+    import sys
+
+    from ..studies.hand_eye import format_rows, study
+
+    rows = study(robots=args.robots or ("irb120", "ur5"), seeds=tuple(range(1, args.repeats + 1)),
+                 notify=lambda line: print(line, file=sys.stderr, flush=True))
+    print(format_rows(rows))
     return 0
 
 
@@ -123,6 +145,8 @@ def _benchmark(args: argparse.Namespace) -> int:
         _commands(args)
     if args.floor:
         _floor(args)
+    if args.camera:
+        _camera(args)
     if args.against == "figaroh":
         _against_figaroh(args)
     return 0
@@ -137,6 +161,19 @@ def _floor(args: argparse.Namespace) -> None:
           f"(seed {args.seed}) as whole processes, interleaved with the floor (a process importing numpy, Pinocchio "
           f"and scipy.optimize), median wall s of {repeats} runs; {PROCESS_NOTE}:")
     print(format_floor(above_floor(repeats=repeats, seed=args.seed)))
+
+
+def _camera(args: argparse.Namespace) -> None:
+    from ..studies.benchmark_camera import CORNERS, format_camera, time_camera
+    from ..studies.benchmark_commands import PROCESS_NOTE
+
+    repeats = max(args.repeats, 5)
+    runs, images, rows = time_camera(repeats=repeats, seed=args.seed)
+    print(f"a camera set: calibrate irb120 on {images} simulated images of {CORNERS} corners each ({rows} rows, eye in "
+          f"hand, 0.1 px, seed {args.seed}) as whole processes, interleaved with the floor, median wall s of {repeats} "
+          f"runs; {PROCESS_NOTE}:")
+    print(format_camera(runs))
+    print("goal: 100 images of 50 corners each calibrate in a few seconds")
 
 
 def _quick_start(args: argparse.Namespace) -> None:

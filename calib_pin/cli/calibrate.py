@@ -209,7 +209,8 @@ def data_keys() -> dict[str, tuple[Any, str]]:
                 continue
             shape = "'x,y,z' " if "'x,y,z'" in f.metadata["help"] else ""
             takers = " and ".join(other.title for other in types if f.name in other.field_names())
-            keys[f.name] = (f.metadata.get("parser"), f"{shape}{f.metadata['unit']}; {takers} sets")
+            unit = f"{f.metadata['unit']}; " if f.metadata["unit"] else ""
+            keys[f.name] = (f.metadata.get("parser"), f"{shape}{unit}{takers} sets")
     keys.update(noise_mm=(assumed_noise, "mm, in (0, 100]: the sensor sigma of the Kalman filters"),
                 role=(None, ", ".join(ROLES)), label=(None, "a name for the printout and report.json"))
     return keys
@@ -490,7 +491,8 @@ def _calibrate(args: argparse.Namespace) -> int:
     sets = {"--data": data[0]} if len(data) == 1 else {f"--data #{k}": d for k, d in enumerate(data, 1)}
     test_file = validation_argument(args.test_data)
     inputs = {**robot_inputs(args.robot), **sets, "--test-data": getattr(test_file, "data", test_file),
-              "--nominal": start_file(args.nominal) if args.nominal is not None else None}  # a folder's file
+              "--nominal": start_file(args.nominal) if args.nominal is not None else None,  # a folder's file
+              **_lens_files(args)}
     # an input in --out is never replaced, nor removed as stale; all files together or none
     # report.html draws figures per set, which only the collector frees: on for several sets
     # (one set's take bounded memory, and the collector's passes over matplotlib take time)
@@ -506,6 +508,14 @@ def _calibrate(args: argparse.Namespace) -> int:
     for path in done.files:
         print(f"wrote {path}")
     return 0
+
+
+def _lens_files(args: argparse.Namespace) -> dict[str, str]:
+    """The lens files read (``--intrinsics FILE.yaml``, ``--data FILE:intrinsics=FILE.yaml``), by label: inputs."""
+    given: list[tuple[str, Any]] = [("--intrinsics", getattr(args, "intrinsics", None))]
+    given += [(f"--data '{text}'", data_argument(text)[1].get("intrinsics")) for text in args.data or ()]
+    sources = [(label, getattr(k, "source", None)) for label, k in given]
+    return {label: source.path for label, source in sources if source is not None}
 
 
 #: Rows from which a calibration is announced on stderr before it starts (it may take minutes).

@@ -113,6 +113,17 @@ def noise_list(text: str) -> tuple[float, ...]:
     return values
 
 
+def _focus(text: str) -> tuple[float, float]:
+    """``--focus-mm NEAR,FAR``: two distances 0 < NEAR < FAR, mm."""
+    try:
+        near, far = (float(v) for v in text.split(","))
+    except ValueError:
+        near = far = float("nan")
+    if not (np.isfinite(far) and 0 < near < far < 1e5):
+        raise argparse.ArgumentTypeError(f"expected NEAR,FAR in mm with 0 < NEAR < FAR, got '{text[:40]}'")
+    return near, far
+
+
 def plan_poses_parser() -> argparse.ArgumentParser:
     """The ``calib-pin plan-poses`` subparser of the one parser (:func:`calib_pin.cli.parser`)."""
     from . import command_parser, parser
@@ -135,6 +146,10 @@ def add_plan_poses_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPar
     p.add_argument("--noise-mm", type=noise_list, default=None,
                    help="each sensor's noise (1 sigma), mm, comma-separated in --sensor's order: a mix weighs each "
                    "sensor's rows by it (default: equal)")
+    p.add_argument("--focus-mm", type=_focus, metavar="NEAR,FAR",
+                   help="a camera's focus range: the planned poses keep the board's middle this far from the camera, "
+                   "mm (default half to twice the simulator's view distance: 225,900 eye in hand, 350,1400 eye to "
+                   "hand)")
     p.add_argument("--geometry", metavar="FILE",
                    help="the sensor's set-up to plan for, a JSON file (as simulate --geometry; e.g. a contact "
                    "fixture layout); default: the sensor's own")
@@ -188,12 +203,18 @@ def _plan_poses(args: argparse.Namespace) -> int:
             raise CalibPinError(f"--geometry: {sensor_for(which).data_name} are planned for their own set-up "
                                 "(give its options instead)")
         geometry = {which: layout}
+    focus = {"focus_mm": args.focus_mm} if args.focus_mm is not None else {}
+    if focus and not any("focus_mm" in inspect.signature(s.planning_model).parameters for s in sensors):
+        raise CalibPinError(f"--focus-mm: a camera's focus range; not an option of "
+                            f"{', '.join(s.data_name for s in sensors)}")
     parts = [s.planning_model(chain, params, setup if type(setup) is s.setup_type else None,
-                              **({"geometry": geometry[k]} if k in geometry else {}))
+                              **({"geometry": geometry[k]} if k in geometry else {}),
+                              **(focus if "focus_mm" in inspect.signature(s.planning_model).parameters else {}))
              for s, k in zip(sensors, kinds, strict=True)]
     if len(parts) > 1 and any(hasattr(part, "plan_candidates") for part in parts):
-        raise CalibPinError(f"--sensor {','.join(kinds)}: a sensor whose poses are touches found by inverse "
-                            "kinematics (contact fixtures) is planned alone: no other sensor reads at its poses")
+        raise CalibPinError(f"--sensor {','.join(kinds)}: a sensor that makes its own candidate poses (a contact "
+                            "fixture's touches, a camera's views of its board) is planned alone: no other sensor "
+                            "reads at its poses")
     noise = None if args.noise_mm is None else [v * 1e-3 for v in args.noise_mm]
     model: Any = parts[0] if len(parts) == 1 else SensorMix(parts, noise, kinds)
     try:
@@ -204,7 +225,7 @@ def _plan_poses(args: argparse.Namespace) -> int:
     notes = {"source": f"plan_poses.py: {args.n} of {args.candidates} candidates (seed {args.seed}), "
                        f"D-optimal for the {name} model and {what}"
                        + (f" with {' and '.join(args.estimate)} estimated" if args.estimate else "")}
-    if plan.points is not None:  # touches of fixtures: the configurations with what each touches, as a set
+    if plan.points is not None and hasattr(model, "planned_set"):  # touches: the configurations with their fixture
         from ..measurements import write_measurements
 
         touches = model.planned_set(plan.q, plan.points)
@@ -230,7 +251,9 @@ def _plan_poses(args: argparse.Namespace) -> int:
           + (f" ({shown})" if shown else ""))
     for name, seen, why in ident.directions:  # the directions the sensor names (a contact set's scale)
         print(f"{name}: {'seen' if seen else 'BLIND'}" + ("" if seen else f" ({why})"))
-    if plan.points is not None:
+    if plan.points is not None and hasattr(model, "plan_summary"):  # a camera's corners in view
+        print(model.plan_summary(plan.q, plan.points))
+    if plan.points is not None and hasattr(model, "planned_set"):
         touched = model.planned_set(plan.q, plan.points)
         labels = [a or b for a, b in zip(touched.labels["contact_id"], touched.labels["plane_id"], strict=True)]
         print("configurations per fixture: " + ", ".join(f"{k} {labels.count(k)}" for k in sorted(set(labels))))

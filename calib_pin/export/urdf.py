@@ -6,11 +6,15 @@ and its own origin, so the change lands on the joint's own origin). The end fram
 perturbation goes on the first fixed joint after the last moving joint, carried through
 the fixed joints that follow, so that the whole tool chain (``flange``, ``tool0``) moves
 rigidly. Names, limits, inertias, meshes, comments and every other element are kept.
+
+A sensor's calibrated set-up may add frames (:class:`AddedFrame`: a camera, a board), each a
+new link on a fixed joint from the end frame's link or the URDF's root link (the base).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +24,74 @@ from lxml import etree
 from ..exceptions import RobotError
 from ..robot.chain import Chain
 from ..util.atomic import write_bytes
+
+
+@dataclass(frozen=True)
+class AddedFrame:
+    """A frame a calibration adds to the URDF: a link ``name`` on the fixed joint ``name_joint``.
+
+    Attributes:
+        name: The new link's name.
+        on: ``end`` (fixed to the end frame's link) or ``base`` (to the URDF's root link).
+        placement: Its placement there (pin.SE3, [m]).
+    """
+
+    name: str
+    on: str
+    placement: pin.SE3
+
+
+def frame_links(chain: Chain) -> tuple[str, str]:
+    """The URDF links of the chain's base (the root link) and of its end frame."""
+    root = etree.parse(str(chain.description.urdf)).getroot()
+    joints = top_level_joints(root)
+    children = {j.find("child").get("link") for j in joints.values()}
+    links = [link.get("name") for link in root.iter("link") if link.getparent() is root]
+    base = next((name for name in links if name not in children), links[0] if links else "base_link")
+    end = chain.end_frame
+    return base, joints[end].find("child").get("link") if end in joints else end
+
+
+def _add_frames(root: etree._Element, chain: Chain, frames: Sequence[AddedFrame]) -> None:
+    """Append each frame's link and fixed joint to ``root``.
+
+    A frame the URDF already has on the same fixed joint (a URDF an earlier calibration
+    wrote) is placed anew.
+
+    Raises:
+        RobotError: a frame whose link or joint name the URDF has otherwise.
+    """
+    taken = {e.get("name") for e in root if e.tag in ("link", "joint")}
+    joints = top_level_joints(root)
+    base, end = frame_links(chain)
+    for frame in frames:
+        joint_name = f"{frame.name}_joint"
+        parent = end if frame.on == "end" else base
+        earlier = joints.get(joint_name)
+        if earlier is not None and earlier.get("type") == "fixed" and earlier.find("parent") is not None \
+                and earlier.find("parent").get("link") == parent and earlier.find("child") is not None \
+                and earlier.find("child").get("link") == frame.name:  # an earlier calibration's: placed anew
+            _set_origin(earlier, frame.placement)
+            continue
+        clash = next((n for n in (frame.name, joint_name) if n in taken), None)
+        if clash is not None:
+            raise RobotError(f"the URDF of '{chain.name}' already has a link or joint '{clash}': the calibrated "
+                             f"{frame.name} cannot be added under that name")
+        taken.update((frame.name, joint_name))
+        if len(root):
+            root[-1].tail = "\n  "
+        root.append(etree.Comment(f" added by calib-pin: {frame.name}, a calibrated sensor frame fixed to the "
+                                  f"{'end frame' if frame.on == 'end' else 'base'} "))
+        root[-1].tail = "\n  "
+        etree.SubElement(root, "link", name=frame.name).tail = "\n  "
+        joint = etree.SubElement(root, "joint", name=joint_name, type="fixed")
+        joint.text = "\n    "
+        origin = etree.SubElement(joint, "origin")
+        origin.tail = "\n    "
+        _set_origin(joint, frame.placement)
+        etree.SubElement(joint, "parent", link=parent).tail = "\n    "
+        etree.SubElement(joint, "child", link=frame.name).tail = "\n  "
+        joint.tail = "\n"
 
 
 def origin_of(joint: etree._Element) -> pin.SE3:
@@ -117,7 +189,7 @@ def corrected_origins(
 
 
 def calibrated_urdf(chain: Chain, deltas: Sequence[pin.SE3], robot_name: str | None = None,
-                    notes: Sequence[str] = ()) -> bytes:
+                    notes: Sequence[str] = (), frames: Sequence[AddedFrame] = ()) -> bytes:
     """The bytes :func:`write_calibrated_urdf` writes: the chain's URDF with perturbed joint origins.
 
     UTF-8.
@@ -127,15 +199,18 @@ def calibrated_urdf(chain: Chain, deltas: Sequence[pin.SE3], robot_name: str | N
         deltas: The perturbation of each joint placement and of the end frame.
         robot_name: The ``<robot name>`` to write; None: the URDF's own.
         notes: Lines written as comments before the root (what the data determined).
+        frames: Frames of a sensor's set-up added as links on fixed joints (a camera, a board).
 
     Raises:
-        RobotError: the end frame has a deviation but no fixed joint to carry it.
+        RobotError: the end frame has a deviation but no fixed joint to carry it; an added
+            frame whose name the URDF has.
     """
     tree = etree.parse(str(chain.description.urdf), etree.XMLParser(remove_blank_text=False))
     root = tree.getroot()
     joints = top_level_joints(root)
     for name, placement in corrected_origins(joints, chain, deltas).items():
         _set_origin(joints[name], placement)
+    _add_frames(root, chain, frames)
     if robot_name:
         root.set("name", robot_name)
     for note in notes:  # "--" may not appear in an XML comment
@@ -148,7 +223,7 @@ def calibrated_urdf(chain: Chain, deltas: Sequence[pin.SE3], robot_name: str | N
 
 def write_calibrated_urdf(
     chain: Chain, deltas: Sequence[pin.SE3], path: str | Path, robot_name: str | None = None,
-    notes: Sequence[str] = (),
+    notes: Sequence[str] = (), frames: Sequence[AddedFrame] = (),
 ) -> Path:
     """Write the chain's URDF with perturbed joint origins.
 
@@ -158,11 +233,13 @@ def write_calibrated_urdf(
         path: Output file.
         robot_name: New ``<robot name>``, or None to keep the source's.
         notes: Lines written as comments before the root (what the data determined).
+        frames: Frames of a sensor's set-up added as links on fixed joints.
 
     Raises:
-        RobotError: the end frame has a deviation but no fixed joint to carry it.
+        RobotError: the end frame has a deviation but no fixed joint to carry it; an added
+            frame whose name the URDF has.
     """
-    data = calibrated_urdf(chain, deltas, robot_name, notes)
+    data = calibrated_urdf(chain, deltas, robot_name, notes, frames)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     write_bytes(path, data)

@@ -47,7 +47,8 @@ EXPORTS = {"urdf": "corrected URDF", "yaml": "corrected joint origins for xacro 
 #: Every file a calibration may write in its folder besides report.json, by name pattern
 #: (one an earlier run left and this run does not write is removed).
 STALE = ("{name}_calibrated.urdf", "{name}_calibration.json", "{name}_joint_origins.yaml",
-         "{name}_default_kinematics.yaml", "{name}_dh.toml", "report.html")
+         "{name}_default_kinematics.yaml", "{name}_dh.toml", "report.html", "{name}_hand_eye.yaml",
+         "{name}_intrinsics.yaml", "{name}_*_hand_eye.yaml", "{name}_*_intrinsics.yaml")
 
 _FILES = {"urdf": "{name}_calibrated.urdf", "yaml": "{name}_joint_origins.yaml", "dh": "{name}_dh.toml",
           "ur_kinematics": "{name}_default_kinematics.yaml"}
@@ -164,6 +165,7 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
 
     name = result.chain.name
     determined = result.determination_notes()
+    setups = result.setup_exports()
     writers = {"urdf": lambda tmp: result.to_urdf(tmp), "yaml": yaml, "dh": dh}
     todo = [(fmt, _FILES[fmt].format(name=name)) for fmt in formats]
     if "yaml" in formats and name.startswith("ur"):
@@ -174,7 +176,8 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
         for fmt, file in todo:
             path = Path(tmp) / file
             if fmt == "urdf":  # made in memory: the bytes result.to_urdf writes (the fit is within the bound here)
-                files[file] = _as_read(calibrated_urdf(result.chain, result.deltas, notes=determined))
+                frames = tuple(f for _, e in setups for f in e.frames)
+                files[file] = _as_read(calibrated_urdf(result.chain, result.deltas, notes=determined, frames=frames))
                 exports[fmt] = file
                 continue
             if fmt == "ur_kinematics":
@@ -188,7 +191,17 @@ def _exports(result: CalibrationResult, formats: Sequence[str], notes: list[str]
                 writers[fmt](path)
             files[file] = path.read_text(encoding="utf-8")
             exports[fmt] = file
+    for tag, e in setups:  # a sensor's calibrated set-up: the hand-eye transform, a camera's intrinsics
+        for ending, text in e.files.items():
+            files[f"{name}{tag}_{ending}"] = text
+            exports[f"{Path(ending).stem}{tag}"] = f"{name}{tag}_{ending}"
     return files, exports
+
+
+def _setup_files(result: CalibrationResult) -> list[str]:
+    """The names of the files the sets' calibrated set-ups add (:meth:`CalibrationResult.setup_exports`)."""
+    name = result.chain.name
+    return [f"{name}{tag}_{ending}" for tag, e in result.setup_exports() for ending in e.files]
 
 
 def _as_read(data: bytes) -> str:
@@ -212,6 +225,7 @@ def planned_files(result: CalibrationResult, formats: str | Sequence[str] = ("ur
         files = [_FILES[fmt].format(name=name) for fmt in formats]
         if "yaml" in formats and name.startswith("ur"):
             files.append(_FILES["ur_kinematics"].format(name=name))
+        files += _setup_files(result)
         if "urdf" in formats:
             files.append(f"{name}_calibration.json")
     return [*files, *(["report.html"] if html else []), "report.json"]
@@ -312,8 +326,21 @@ def add_outputs(out: Outputs, rendered: RenderedOutputs, folder: str | os.PathLi
 
 
 def stale_files(folder: str | os.PathLike[str], robot: str) -> list[Path]:
-    """The files a calibration of ``robot`` may write in ``folder`` besides report.json."""
-    return [Path(folder) / pattern.format(name=robot) for pattern in STALE]
+    """The files a calibration of ``robot`` may write in ``folder`` besides report.json.
+
+    A pattern with ``*`` (a set's own hand-eye file) names the files in ``folder`` it matches.
+    """
+    import glob
+
+    folder = Path(folder)
+    out = []
+    for pattern in STALE:
+        if "*" in pattern:
+            head, tail = pattern.split("*")
+            out += sorted(folder.glob(glob.escape(head.format(name=robot)) + "*" + tail))
+        else:
+            out.append(folder / pattern.format(name=robot))
+    return out
 
 
 def remove_stale(candidates: Sequence[Path], written: Sequence[Path], inputs: Inputs | None = None) -> list[Path]:

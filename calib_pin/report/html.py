@@ -108,6 +108,16 @@ def _summary(r: dict) -> str:
             + _table(header, rows, "num") + "</div></div>")
 
 
+def _name_unit(key: str) -> tuple[str, str]:
+    """A report key's name and unit: ``camera_x_mm`` -> (camera_x, mm); a unit-free one (a lens's ``k1``) -> (k1, "")."""
+    from ..util.units import HUMAN_UNITS
+
+    for _, suffix in HUMAN_UNITS.values():
+        if suffix and key.endswith("_" + suffix):
+            return key[: -len(suffix) - 1], suffix
+    return key, ""
+
+
 def _deviation_section(r: dict, rows: list[dict]) -> str:
     if not r.get("uncertainty"):
         return f"<p>Method {html.escape(r['method'])} estimates no kinematic parameters.</p>"
@@ -120,7 +130,7 @@ def _deviation_section(r: dict, rows: list[dict]) -> str:
              f"[{fmt(d['low'])}, {fmt(d['high'])}]" if d["low"] is not None else "&mdash;",
              f'<span class="{css[d["status"]]}">{label[d["status"]]}</span>'] for d in rows]
     params = r["uncertainty"]["parameters"]
-    sensor = [[html.escape(k.rsplit("_", 1)[0]), k.rsplit("_", 1)[1], fmt(params[k]["value"]),
+    sensor = [[html.escape(_name_unit(k)[0]), _name_unit(k)[1], fmt(params[k]["value"]),
                fmt(params[k].get("std")), f"[{fmt(params[k]['ci95'][0])}, {fmt(params[k]['ci95'][1])}]"
                if params[k].get("ci95") is not None else "&mdash;"] for k in r["sensor_corrections"]]
     ident = r["identifiability"]

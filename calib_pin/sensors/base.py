@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
@@ -32,6 +32,7 @@ from .setup import SensorSetup, given
 DEFAULT_NOISE_MM = 0.05
 
 if TYPE_CHECKING:
+    from ..export.urdf import AddedFrame
     from ..measurements import MeasurementSet
     from ..parameters import ParameterModel
     from .problem import SetProblem
@@ -134,6 +135,19 @@ def chosen(estimate: Any, valid: tuple[str, ...], sensor: str) -> tuple[str, ...
     if unknown:
         raise ArgumentError("estimate", f"{sensor} cannot estimate {sorted(unknown)[0]!r} (valid: {', '.join(valid)})")
     return tuple(e for e in valid if e in names)
+
+
+@dataclass(frozen=True)
+class SetupExports:
+    """What a sensor's calibrated set-up adds to a calibration's outputs (:meth:`MeasurementModel.setup_exports`).
+
+    Attributes:
+        frames: Frames fixed to the robot that the calibrated URDF gets as links (a camera, a board).
+        files: A file's name ending (``hand_eye.yaml``) -> its text; written as ``<robot>_<ending>``.
+    """
+
+    frames: tuple[AddedFrame, ...] = ()
+    files: Mapping[str, str] = field(default_factory=dict)
 
 
 class Draw(Protocol):
@@ -440,6 +454,18 @@ class MeasurementModel(ABC):
         a row is one part, its error the row error in mm.
         """
         return {}
+
+    # --- exports -------------------------------------------------------------------------
+
+    def setup_exports(self, x: np.ndarray, links: tuple[str, str], tag: str = "") -> SetupExports:
+        """What the calibrated set-up at x adds to the outputs: frames for the URDF, files; default none.
+
+        Args:
+            x: This set's unknowns (robot, then sensor).
+            links: The URDF's base link and end frame's link (the frames its files name).
+            tag: Appended to the added frames' names to tell several sets' apart ("" for one).
+        """
+        return SetupExports()
 
     # --- simulation (the one seam calib_pin.simulation asks a sensor for) ----------------------
 

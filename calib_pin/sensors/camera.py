@@ -46,8 +46,8 @@ from ..measurements.schema import SCHEMAS, Schema
 from ..robot.chain import Chain
 from ..robot.deflection import ComplianceSpec
 from ..robot.kinematics import cross_matrices
-from .base import MeasurementModel, NoisePart, chosen, fit_rows_name, frame_unknowns
-from .camera_fit import fit_rig, refit_fixed
+from .base import MeasurementModel, NoisePart, SetupExports, chosen, fit_rows_name, frame_unknowns
+from .camera_fit import fit_rig, hand_eye_alone, refit_fixed
 from .camera_rig import (
     CAMERA_EXTRAS,
     DEFAULT_NOISE_PX,
@@ -60,10 +60,20 @@ from .camera_rig import (
     gauge_note,
     setup_from_notes,
 )
-from .camera_view import session_rig, simulate_camera
+from .camera_view import (
+    MIN_SEEN,
+    board_distance,
+    default_rig,
+    focus_range,
+    planned_views,
+    planning_rows,
+    session_rig,
+    simulate_camera,
+)
 from .lens import INTRINSIC_NAMES, INTRINSIC_SCALE, INTRINSIC_UNITS, Board, Intrinsics
 from .lens import project as project_points
 from .problem import SetProblem
+from .setup import SensorSetup
 
 if TYPE_CHECKING:
     from ..measurements import MeasurementSet
@@ -260,6 +270,86 @@ class CameraModel(MeasurementModel):
         """A later session's set-up, its part fixed in the cell moved: :func:`.camera_view.session_rig`."""
         return session_rig(first, rng)
 
+    # --- the camera's pose, and hand-eye alone ---------------------------------------------
+
+    def camera_to_board(self, x: np.ndarray | None, q: np.ndarray) -> list[pin.SE3]:
+        """The board's pose in the camera frame at each pose of q (T_CW, [m]): what PnP reads of an image."""
+        rig = self.geometry_at(x)
+        rot, origin = self.end_frames(x, q)
+        ends = [pin.SE3(r, t) for r, t in zip(rot, origin, strict=True)]
+        if rig.in_hand:  # T_CE T_EB T_BW
+            return [rig.camera.inverse() * end.inverse() * rig.board_pose for end in ends]
+        return [rig.camera.inverse() * end * rig.board_pose for end in ends]  # T_CB T_BE T_EW
+
+    def hand_eye_alone(self, q: np.ndarray, values: np.ndarray, corners: np.ndarray) -> dict[str, CameraRig]:
+        """OpenCV's hand-eye methods alone on the rows with the nominal robot: :func:`.camera_fit.hand_eye_alone`."""
+        return hand_eye_alone(self, q, values, corners)
+
+    # --- planning (plan-poses --sensor camera) ----------------------------------------------
+
+    @classmethod
+    def planning_model(cls, chain: Chain, params: ParameterModel, setup: SensorSetup | None,
+                       focus_mm: tuple[float, float] | None = None) -> CameraModel:
+        """The simulator's set-up for the robot (:func:`.camera_view.default_rig`) with the caller's mount, board and
+        lens; the placements estimated, and the intrinsics with ``estimate``.
+
+        Args:
+            setup: The caller's :class:`CameraSetup` (None: eye in hand, the default board and lens).
+            focus_mm: The distance range [mm] a planned pose keeps the board's middle in
+                (default :func:`.camera_view.focus_range` of the mount).
+
+        Raises:
+            ArgumentError: a focus range that is not 0 < near < far.
+        """
+        setup = setup if isinstance(setup, CameraSetup) else CameraSetup()
+        mount = setup.camera_mount or MOUNTS[0]
+        rig = default_rig(cls, chain, params, mount, setup.board, setup.intrinsics)
+        estimate = ("camera", "board", *chosen(setup.estimate, cls.estimable, "a camera"))
+        model = cls(chain, params, rig, estimate, noise_px=setup.noise_px or DEFAULT_NOISE_PX)
+        near, far = focus_mm if focus_mm is not None else focus_range(mount)
+        if not 0 < near < far:
+            raise ArgumentError("focus_mm", f"expected 0 < near < far, got {near:g}, {far:g} mm")
+        model.focus_mm = (float(near), float(far))
+        return model
+
+    #: The distance range [mm] a planned pose keeps the board's middle in (:meth:`planning_model` sets it).
+    focus_mm: tuple[float, float] | None = None
+
+    @property
+    def plan_rule(self) -> str:
+        """What a candidate pose must do to be planned, for people."""
+        near, far = self.focus_mm or focus_range(self.rig.mount)
+        return f"see {MIN_SEEN} corners or more of the board, its middle {near:g} to {far:g} mm from the camera"
+
+    def plan_candidates(self, n: int, rng: np.random.Generator, margin: float) -> tuple[np.ndarray, np.ndarray]:
+        """Of ``n`` random poses within the joint limits less ``margin`` [rad], those that see the board in focus.
+
+        Returns their joint angles (m, n_joints) [rad] and the corners each sees (m, n_corners):
+        :func:`.camera_view.planned_views`.
+        """
+        from ..robot.poses import random_poses
+
+        return planned_views(self, random_poses(self.chain, n, rng, margin=margin),
+                             self.focus_mm or focus_range(self.rig.mount))
+
+    def planning_rows(self, q: np.ndarray, visible: np.ndarray) -> np.ndarray:
+        """Each candidate's information from the corners it sees: :func:`.camera_view.planning_rows`."""
+        return planning_rows(self, q, np.asarray(visible, dtype=bool))
+
+    def planning_problem(self, q: np.ndarray, visible: np.ndarray) -> SetProblem:
+        """The problem of the corners each pose of q sees (``visible``, (n, n_corners)), at the nominal robot."""
+        pose, corner = np.nonzero(np.asarray(visible, dtype=bool))
+        rows = np.asarray(q, dtype=float)[pose]
+        return SetProblem(self, rows, self.predict(None, rows, corner), corner)
+
+    def plan_summary(self, q: np.ndarray, visible: np.ndarray) -> str:
+        """The planned poses' corners in view and board distances, one line."""
+        counts = np.asarray(visible, dtype=bool).sum(axis=1)
+        distance = board_distance(self, None, q)
+        return (f"corners in view per planned pose: {counts.min()} to {counts.max()} of {self.rig.board.n_corners} "
+                f"(median {np.median(counts):g}); the board's middle {distance.min():.0f} to {distance.max():.0f} mm "
+                f"from the camera ({self.rig.mount}, {self.rig.board.describe()})")
+
     # --- geometry -------------------------------------------------------------------------
 
     def _corrections(self, x: np.ndarray | None) -> np.ndarray:
@@ -288,6 +378,38 @@ class CameraModel(MeasurementModel):
         estimated = "placements and intrinsics" if "intrinsics" in self.estimate else "placements"
         return (f"camera {self.rig.mount}, {self.rig.board.describe()}, {estimated} estimated (noise "
                 f"{self.noise_px:.4g} px)")
+
+    def setup_exports(self, x: np.ndarray, links: tuple[str, str], tag: str = "") -> SetupExports:
+        """The camera's and the board's frames for the URDF, the hand-eye YAML and, when calibrated, the intrinsics.
+
+        The frames: ``camera_optical_frame`` (x right, y down, z the optical axis) and
+        ``calibration_board`` (its corners' frame), each on a fixed joint from the end frame's
+        link or the base link, by the mount. ``hand_eye.yaml``: :mod:`calib_pin.export.hand_eye`,
+        with the gauge note. ``intrinsics.yaml`` (with ``estimate`` intrinsics): the calibrated
+        intrinsics in the layout they were read in (:mod:`.lens_file`), ROS's ``camera_info``
+        when they were not read from a file.
+        """
+        from ..export.hand_eye import HandEye, hand_eye_text
+        from ..export.urdf import AddedFrame
+        from .lens_file import intrinsics_text
+
+        rig = self.geometry_at(x)
+        base, end = links
+        camera, board = f"camera_optical_frame{tag}", f"calibration_board{tag}"
+        on = ("end", "base") if rig.in_hand else ("base", "end")
+        frames = (AddedFrame(camera, on[0], rig.camera), AddedFrame(board, on[1], rig.board_pose))
+        gauge = f"gauge: {gauge_note(rig.mount)}"
+        namespace = f"{self.chain.name}{tag}_eye_{'on_hand' if rig.in_hand else 'on_base'}"
+        files = {"hand_eye.yaml": hand_eye_text(HandEye(rig.in_hand, rig.camera, rig.board_pose, base, end, camera,
+                                                         board), namespace, [gauge])}
+        if "intrinsics" in self.estimate:
+            source = rig.intrinsics.source
+            start = f" from {source.path}" if source is not None else ""
+            note = (f"calib-pin: intrinsics calibrated with the robot '{self.chain.name}' and the hand-eye placements"
+                    f"{start}")
+            files["intrinsics.yaml"] = intrinsics_text(rig.intrinsics, source.format if source else "ros",
+                                                       (source.camera_name if source else "") or "camera", [note])
+        return SetupExports(frames, files)
 
     @property
     def reference_point(self) -> np.ndarray:

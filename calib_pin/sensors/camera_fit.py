@@ -27,7 +27,7 @@ from ..exceptions import DataError
 from ..util.optional import require
 from .base import refuse_too_few
 from .camera_rig import PX, CameraRig
-from .lens import Board, Intrinsics
+from .lens import OPENCV_EXTRA, Board, Intrinsics
 
 if TYPE_CHECKING:
     from ..parameters import ParameterModel
@@ -35,8 +35,6 @@ if TYPE_CHECKING:
 
 #: A start whose corners miss by more than this (RMS) [px] is tried again with the classic hand-eye solver.
 FALLBACK_PX = 20.0
-#: The extra of calib-pin that installs OpenCV (opencv-python-headless).
-OPENCV_EXTRA = "camera"
 #: Poses a hand-eye start needs at least (two motions between them).
 MIN_POSES = 3
 
@@ -116,6 +114,52 @@ def _hand_eye(cv2: Any, in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3
     r, t = cv2.calibrateHandEye(*_arrays(g), *_arrays(boards), method=method)
     camera = pin.SE3(_project(np.asarray(r)), np.asarray(t, float).reshape(3))  # T_EC, or T_BC
     return camera, _mean([gk * camera * bk for gk, bk in zip(g, boards, strict=True)])
+
+
+#: OpenCV's hand-eye methods, by name: robot-world (A X = Z B) and classic (A X = X B) solvers and their flags.
+HAND_EYE_METHODS = (("shah", "robot_world", "CALIB_ROBOT_WORLD_HAND_EYE_SHAH"),
+                    ("li", "robot_world", "CALIB_ROBOT_WORLD_HAND_EYE_LI"),
+                    ("tsai", "hand_eye", "CALIB_HAND_EYE_TSAI"), ("park", "hand_eye", "CALIB_HAND_EYE_PARK"),
+                    ("horaud", "hand_eye", "CALIB_HAND_EYE_HORAUD"),
+                    ("andreff", "hand_eye", "CALIB_HAND_EYE_ANDREFF"),
+                    ("daniilidis", "hand_eye", "CALIB_HAND_EYE_DANIILIDIS"))
+
+
+def hand_eye_alone(model: Any, q: np.ndarray, values: np.ndarray, corners: np.ndarray) -> dict[str, CameraRig]:
+    """Each of OpenCV's hand-eye methods alone on the rows, with the nominal robot: its camera and board placements.
+
+    PnP per pose (:func:`board_poses`), the end frames of ``model``'s nominal robot, then each
+    method of :data:`HAND_EYE_METHODS` (the classic ones take the other placement as the mean
+    of each pose's); no polish. A method that fails is left out.
+
+    Args:
+        model: A camera's measurement model (its mount, board and intrinsics are used).
+        q, values, corners: The rows' joint angles [rad], image points [px], corner indices.
+
+    Raises:
+        CalibPinError: OpenCV is not installed.
+        DataError: PnP finds the board in fewer than 3 poses.
+    """
+    cv2 = require("cv2", OPENCV_EXTRA)
+    rig = model.rig
+    poses, inverse = np.unique(np.asarray(q, dtype=float), axis=0, return_inverse=True)
+    found = board_poses(cv2, rig.board, rig.intrinsics, values, corners, inverse.reshape(-1), len(poses))
+    good = [j for j, f in enumerate(found) if f is not None]
+    if len(good) < MIN_POSES:
+        raise DataError("the measurement set", f"PnP finds the board in {len(good)} of the {len(poses)} poses: a "
+                        f"hand-eye solution needs {MIN_POSES}")
+    rot, origin = model.end_frames(None, poses[good])
+    ends = [pin.SE3(r, t) for r, t in zip(rot, origin, strict=True)]
+    boards = [found[j] for j in good]
+    out = {}
+    for name, kind, flag in HAND_EYE_METHODS:
+        solve = _robot_world if kind == "robot_world" else _hand_eye
+        try:
+            camera, placed = solve(cv2, rig.in_hand, ends, boards, getattr(cv2, flag))
+        except (cv2.error, np.linalg.LinAlgError, ValueError):
+            continue
+        out[name] = CameraRig(rig.mount, camera, placed, rig.board, rig.intrinsics)
+    return out
 
 
 def fit_rig(cls: Any, chain: Chain, params: ParameterModel, mount: str, board: Board, intrinsics: Intrinsics, q: np.ndarray,

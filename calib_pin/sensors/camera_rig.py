@@ -28,7 +28,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ArgumentError, DataError
-from .lens import INTRINSIC_NAMES, Board, Intrinsics, board_spec, intrinsics_of, intrinsics_spec
+from .lens import INTRINSIC_NAMES, Board, Intrinsics, board_spec, intrinsics_of
+from .lens_file import intrinsics_argument
 from .setup import SensorSetup, option
 
 if TYPE_CHECKING:
@@ -83,7 +84,7 @@ class CameraSetup(SensorSetup):
         board: The printed board (a :class:`~calib_pin.sensors.lens.Board`, or its
             ``--board`` text).
         intrinsics: The camera's intrinsics (an :class:`~calib_pin.sensors.lens.Intrinsics`,
-            or its ``--intrinsics`` text).
+            or its ``--intrinsics`` text: an OpenCV or ROS ``camera_info`` YAML file, or the numbers).
         noise_px: Pixel noise, 1 sigma per coordinate [px].
         estimate: ``intrinsics`` to calibrate them in the same fit (the placements are
             always estimated).
@@ -99,8 +100,9 @@ class CameraSetup(SensorSetup):
     board: Any = option(help="the printed board: 'charuco,COLSxROWS,SQUARE_MM,MARKER_MM[,DICT]' or "
                         "'chessboard,COLSxROWS,SQUARE_MM' (squares, not inner corners)", parser=board_spec,
                         metavar="SPEC")
-    intrinsics: Any = option(help="the camera's intrinsics 'fx,fy,cx,cy,width,height[,k1,k2,p1,p2,k3]' (OpenCV's "
-                             "pinhole and plumb-bob distortion)", unit="px", parser=intrinsics_spec, metavar="K")
+    intrinsics: Any = option(help="the camera's intrinsics: an OpenCV or ROS camera_info YAML file (FILE.yaml), or "
+                             "'fx,fy,cx,cy,width,height[,k1,k2,p1,p2,k3]' in px (OpenCV's pinhole and plumb-bob "
+                             "distortion)", parser=intrinsics_argument, metavar="FILE.yaml|K")
     noise_px: Any = option(help="pixel noise of a camera set, 1 sigma per coordinate", unit="px",
                            parser=_positive_px)
     estimate: Any = ()
@@ -110,7 +112,7 @@ class CameraSetup(SensorSetup):
 
         if self.camera_mount is not None and self.camera_mount not in MOUNTS:
             raise ArgumentError("camera_mount", f"'{self.camera_mount!s:.40}' is not one of {', '.join(MOUNTS)}")
-        for name, kind, parse in (("board", Board, board_spec), ("intrinsics", Intrinsics, intrinsics_spec)):
+        for name, kind, parse in (("board", Board, board_spec), ("intrinsics", Intrinsics, intrinsics_argument)):
             value = getattr(self, name)
             if isinstance(value, str):
                 import argparse

@@ -5,6 +5,10 @@ image (:data:`EDGE_PX` inside its edges), and the board faces the camera: its no
 within :data:`FACING_DEG` of the line of sight to its middle (a board seen more edge-on is
 not detected). A pose is usable when at least :data:`MIN_SEEN` corners are seen.
 
+The planner (``plan-poses --sensor camera``) chooses among poses that see :data:`MIN_SEEN`
+corners or more with the board's middle in the lens's focus range (:func:`focus_range`, or the
+caller's), each pose's information from the corners it sees only (:func:`planning_rows`).
+
 The default set-ups are made for the robot (:func:`default_rig`): eye in hand, a camera
 beside the flange looking along it and a board lying face up where the camera looks down
 most often; eye to hand, the board on the flange facing out along it and a camera 0.7 m
@@ -16,7 +20,7 @@ squares.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import pinocchio as pin
@@ -113,6 +117,55 @@ def seen(model: Any, x: np.ndarray | None, q: np.ndarray) -> np.ndarray:
     sight = centre / np.linalg.norm(centre, axis=1, keepdims=True)
     facing = np.einsum("ni,ni->n", normal, sight) >= np.cos(np.deg2rad(FACING_DEG))
     return inside & facing[:, None]
+
+
+def focus_range(mount: str) -> tuple[float, float]:
+    """The default distance range [mm] a planned pose keeps the board's middle in: half to twice the view distance.
+
+    The default set-up's (:data:`VIEW_DISTANCE_M`) for ``mount``: 225-900 mm eye in hand, 350-1400 mm eye to hand.
+    """
+    d = VIEW_DISTANCE_M[MOUNTS.index(mount)] * 1e3
+    return 0.5 * d, 2.0 * d
+
+
+def board_distance(model: Any, x: np.ndarray | None, q: np.ndarray) -> np.ndarray:
+    """How far the board's middle is from the camera at each pose of q, shape (n,), [mm]."""
+    rig = model.geometry_at(x)
+    centre = model.camera_points(x, q, np.full(len(q), rig.board.n_corners // 2))
+    return np.linalg.norm(centre, axis=1) * 1e3
+
+
+def planned_views(model: Any, q: np.ndarray, focus_mm: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The poses of q a plan may choose (the nominal robot's): :data:`MIN_SEEN` corners seen or more, the board's
+    middle within ``focus_mm`` [mm] of the camera; and which corners each sees, (n_kept, n_corners)."""
+    near, far = focus_mm
+    visible = seen(model, None, q)
+    distance = board_distance(model, None, q)
+    keep = (visible.sum(axis=1) >= MIN_SEEN) & (distance >= near) & (distance <= far)
+    return q[keep], visible[keep]
+
+
+#: Poses whose Jacobian is made at once when planning (bounds the memory: poses x corners x 2 x unknowns).
+PLAN_BATCH = 256
+
+
+def planning_rows(model: Any, q: np.ndarray, visible: np.ndarray) -> np.ndarray:
+    """Each pose's scaled identification rows of the corners it sees, compressed, shape (n, n_params, n_params).
+
+    The R factor of the pose's rows (2 a corner seen; its unseen corners none): the same
+    information (R^T R = J^T J), few rows, so that the D-optimal choice
+    (:func:`calib_pin.analysis.planning.plan_poses`) weighs a pose by what it sees.
+    """
+    k = model.rig.board.n_corners
+    out = np.zeros((len(q), model.n_params, model.n_params))
+    for start in range(0, len(q), PLAN_BATCH):
+        block = q[start : start + PLAN_BATCH]
+        rows = np.repeat(block, k, axis=0)
+        jac = model.predict_with_jacobian(np.zeros(model.n_params), rows, np.tile(np.arange(k), len(block)))[1]
+        jac = (jac * model.scale).reshape(len(block), k, 2, -1) * visible[start : start + PLAN_BATCH, :, None, None]
+        r = cast(np.ndarray, np.linalg.qr(jac.reshape(len(block), 2 * k, -1), mode="r"))
+        out[start : start + len(block), : r.shape[1]] = r
+    return out
 
 
 def _board_normals(model: Any, x: np.ndarray | None, q: np.ndarray) -> np.ndarray:

@@ -24,13 +24,15 @@ from __future__ import annotations
 import argparse
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..exceptions import ArgumentError
 
+#: The extra of calib-pin that installs OpenCV (opencv-python-headless).
+OPENCV_EXTRA = "camera"
 #: The kinds of board: a plain chessboard, or a ChArUco board (ArUco markers in its white squares).
 BOARD_KINDS = ("charuco", "chessboard")
 #: The intrinsics in the order of :meth:`Intrinsics.vector` (and of a camera model's unknowns).
@@ -121,6 +123,21 @@ class Board:
 
 
 @dataclass(frozen=True)
+class LensSource:
+    """Where a camera's intrinsics were read: a YAML file (:mod:`.lens_file`).
+
+    Attributes:
+        format: Its layout, ``opencv`` or ``ros`` (``camera_info``).
+        path: The file as given.
+        camera_name: ROS's ``camera_name`` ("" when it has none).
+    """
+
+    format: str
+    path: str
+    camera_name: str = ""
+
+
+@dataclass(frozen=True)
 class Intrinsics:
     """A camera's pinhole intrinsics and plumb-bob distortion (OpenCV's).
 
@@ -129,6 +146,8 @@ class Intrinsics:
         cx, cy: Principal point [px].
         width, height: Image size [px].
         k1, k2, p1, p2, k3: Distortion coefficients (no unit).
+        source: The file they were read from (None: numbers, notes); not part of the
+            values (two records of equal numbers are equal).
 
     Raises:
         ArgumentError: a focal length or image size not positive, a value not finite.
@@ -145,6 +164,7 @@ class Intrinsics:
     p1: float = 0.0
     p2: float = 0.0
     k3: float = 0.0
+    source: LensSource | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         for name in INTRINSIC_NAMES:
@@ -167,9 +187,9 @@ class Intrinsics:
         return np.array([getattr(self, n) for n in INTRINSIC_NAMES])
 
     def with_vector(self, v: np.ndarray) -> Intrinsics:
-        """The same image size with the nine intrinsics ``v`` (:data:`INTRINSIC_NAMES`' order)."""
+        """The same image size and source with the nine intrinsics ``v`` (:data:`INTRINSIC_NAMES`' order)."""
         values = {n: float(x) for n, x in zip(INTRINSIC_NAMES, v, strict=True)}
-        return Intrinsics(width=self.width, height=self.height, **values)
+        return Intrinsics(width=self.width, height=self.height, source=self.source, **values)
 
     def matrix(self) -> np.ndarray:
         """OpenCV's camera matrix K, shape (3, 3)."""
