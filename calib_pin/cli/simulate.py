@@ -77,6 +77,10 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParse
                    help="true compliance of each --compliance joint, comma-separated, urad/Nm (e.g. 25,40)")
     p.add_argument("--out", required=True, help="output CSV (FILE.truth.json is written beside it; "
                    "with --sessions K, FILE_1.csv .. FILE_K.csv)")
+    p.add_argument("--images", metavar="DIR",
+                   help="a camera set's images too: each pose's image of the board as the true robot's camera takes it "
+                   "(8-bit PNG, a little blur and grey-level noise) into DIR, and DIR/joints.csv naming each pose's "
+                   "image, for calib-pin detect (several camera sessions: DIR/<FILE_k>/)")
     add_force_argument(p, "FILE.csv or FILE.truth.json")
     return p
 
@@ -197,6 +201,7 @@ def _simulate(args: argparse.Namespace) -> int:
     for path, data in zip(csvs, sets, strict=True):
         outputs.add(path, partial(_write_set, data=data))
     outputs.add(truth_path, lambda tmp: truth.to_json(tmp))
+    images = _add_images(outputs, Path(args.images), sets, csvs, truth, chain, params, args.seed) if args.images else []
     written = outputs.commit()
     if kinds is None and not isinstance(args.poses, tuple):
         what = f"{len(sets[0])} poses" if args.sessions == 1 else \
@@ -210,5 +215,51 @@ def _simulate(args: argparse.Namespace) -> int:
     print(f"{chain.name}: {what}, {kind} deviations (seed {args.seed}), "
           f"noise {noise} ({args.noise_kind})")
     for path in written:
-        print(f"wrote {path}")
+        if path.suffix != ".png":
+            print(f"wrote {path}")
+    for folder, n_images in images:
+        print(f"wrote {n_images} images to {folder} (the joints file {folder / JOINTS_FILE} names each pose's)")
     return 0
+
+
+#: The pose list ``simulate --images`` writes beside the images.
+JOINTS_FILE = "joints.csv"
+
+
+def _add_images(outputs: Outputs, folder: Path, sets: list[MeasurementSet], csvs: list[Path], truth: Any, chain: Any,
+                params: Any, seed: int) -> list[tuple[Path, int]]:
+    """Stage each camera set's rendered images and joints file (``--images``); each folder and its image count."""
+    from ..measurements.csv_writer import write_poses
+    from ..sensors.camera_render import render_images
+
+    cameras = [k for k, d in enumerate(sets) if d.kind == "camera"]
+    if not cameras:
+        raise CalibPinError(f"--images renders a camera set's images; this simulates {', '.join(d.kind for d in sets)} "
+                            "(--kinds camera)")
+    out = []
+    for k in cameras:
+        data, where = sets[k], folder if len(cameras) == 1 else folder / csvs[k].name.removesuffix(".csv")
+        true = truth.session(k) if truth.sessions else truth
+        pose_ids, first = np.unique(np.asarray(data.pose_ids), return_index=True)
+        q = data.q[first]
+        names = np.array([f"pose_{int(p):04d}.png" for p in pose_ids])
+        for path in (where / JOINTS_FILE, *(where / n for n in names)):
+            outputs.check(path)
+        rendered = render_images(true.model(chain, params), true.x_model, q, np.random.default_rng(seed))
+        for name, image in zip(names, rendered, strict=True):
+            outputs.add(where / name, partial(_write_png, image=image))
+        outputs.add(where / JOINTS_FILE, partial(write_poses, q=q, robot=data.robot, end_frame=data.end_frame,
+                                                 pose_ids=pose_ids, extra={"image": names},
+                                                 notes={"source": f"calib-pin simulate --images, seed {seed}"}))
+        out.append((where, len(names)))
+    return out
+
+
+def _write_png(tmp: Path, image: np.ndarray) -> None:
+    """Write an 8-bit grey image as PNG to the staged file ``tmp`` (whatever its name)."""
+    import cv2
+
+    ok, encoded = cv2.imencode(".png", image)
+    if not ok:
+        raise OSError(f"{tmp}: OpenCV could not encode the image")
+    encoded.tofile(str(tmp))

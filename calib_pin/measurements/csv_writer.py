@@ -132,17 +132,20 @@ def write_measurements(path: str | Path, data: MeasurementSet) -> None:
 
 def write_poses(
     path: str | Path, q: np.ndarray, *, robot: str | None = None, end_frame: str | None = None,
-    notes: dict[str, str] | None = None,
+    notes: dict[str, str] | None = None, pose_ids: np.ndarray | None = None, extra: dict[str, np.ndarray] | None = None,
 ) -> None:
-    """Write a pose list: ``pose,q1_deg,...`` with poses numbered from 1.
+    """Write a pose list: ``pose,q1_deg,...`` with poses numbered from 1 (or ``pose_ids``), then ``extra``'s columns.
 
     Args:
         q: Joint angles, shape (n_poses, n_joints), [rad].
+        extra: Other columns, name to shape (n_poses,) (text, such as each pose's ``image``).
     """
+    kept = MeasurementSet(q=q, values=np.zeros(len(q)), kind="poses", extra=dict(extra or {}))
+    ids = range(1, len(q) + 1) if pose_ids is None else [int(p) for p in pose_ids]
     lines = [f"# {k}: {v}" for k, v in (("robot", robot), ("end_frame", end_frame)) if v]
     lines += [f"# {k}: {v}" for k, v in (notes or {}).items()]
-    lines.append(header(q.shape[1], "poses", with_pose=True))
-    lines += [row(qk, labels=(k,)) for k, qk in enumerate(q, start=1)]
+    lines.append(",".join([header(q.shape[1], "poses", with_pose=True), *map(text_field, kept.extra)]))
+    lines += [",".join([row(qk, labels=(k,)), *_extra_fields(kept, r)]) for r, (k, qk) in enumerate(zip(ids, q, strict=True))]
     write_text(path, "\n".join(lines) + "\n")
 
 
