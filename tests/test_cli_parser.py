@@ -20,8 +20,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: Shared option -> the commands that take it from its one definition in cli/common.py.
 SHARED = {
-    "robot": ("calibrate", "simulate", "compare", "make-poses", "plan-poses"),
-    "--end-frame": ("calibrate", "simulate", "make-poses", "plan-poses", "collect"),
+    "robot": ("calibrate", "simulate", "compare", "make-poses", "plan-poses", "detect"),
+    "--end-frame": ("calibrate", "simulate", "make-poses", "plan-poses", "collect", "detect"),
     "--seed": ("calibrate", "simulate", "compare", "batch", "benchmark", "make-poses", "plan-poses"),
     "--test-fraction": ("calibrate", "compare", "batch"),
     "--loss": ("calibrate", "batch"),
@@ -159,6 +159,8 @@ ARGV = {
     "compensate": ["irb120", "--calibration", "c", "--targets", "t.csv", "--out", "o.csv", "--force"],
     "benchmark": ["--repeats", "2", "--methods", "lm", "--seed", "4"],
     "batch": ["a.csv+b.csv", "c.csv", "--out", "o", "--loss", "huber", "--test-fraction", "0.25"],
+    "detect": ["irb120", "--images", "img", "--board", "charuco,9x7,30,22", "--camera-mount", "eye-to-hand",
+               "--out", "c.csv"],
 }
 
 

@@ -1,6 +1,6 @@
 """The ``calib-pin`` command: one argparse parser, a subparser for every command.
 
-``calib-pin calibrate|simulate|compare|collect|make-poses|plan-poses|fake-indicator|compensate|benchmark|batch ...``;
+``calib-pin calibrate|simulate|compare|collect|make-poses|plan-poses|fake-indicator|compensate|benchmark|batch|detect ...``;
 the ``scripts/*.py`` wrappers run the same parser (:func:`command`). :func:`parser` builds
 it: ``prog`` ``calib-pin``, ``add_subparsers`` with one :class:`CommandParser` per
 command. Each command's arguments are defined in its own module, by
@@ -35,6 +35,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "compensate": ("compensate", "compensate_main", "correct a program's joint targets with a calibration"),
     "benchmark": ("benchmark", "benchmark_main", "time the estimators"),
     "batch": ("batch", "batch_main", "calibrate many sets, in local processes or on a Dask cluster"),
+    "detect": ("detect", "detect_main", "find a board's corners in images: a camera set"),
 }
 
 

@@ -35,7 +35,7 @@ import sys
 from collections.abc import Iterator, Sequence
 
 #: Commands that make one bounded pass, run with the cyclic collector off (see the module docstring).
-ONE_PASS = frozenset({"calibrate", "simulate", "compensate", "make-poses", "plan-poses"})
+ONE_PASS = frozenset({"calibrate", "simulate", "compensate", "make-poses", "plan-poses", "detect"})
 
 
 def run_command(name: str, argv: Sequence[str] | None = None) -> int:

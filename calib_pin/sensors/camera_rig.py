@@ -232,20 +232,30 @@ def _number(notes: Mapping[str, str], key: str, source: str) -> float:
         raise DataError(source, f"'{notes[key][:40]}' is not a number", None, key) from None
 
 
+def board_notes(board: Board) -> tuple[dict[str, str], dict[str, float]]:
+    """The notes and set-up metadata [m] a camera set's file states for ``board``."""
+    notes = {"board_kind": board.kind, "board_columns": str(board.columns), "board_rows": str(board.rows)}
+    if board.kind == "charuco":
+        notes["board_dictionary"] = board.dictionary
+    meta = {"board_square": board.square_mm * 1e-3}
+    if board.marker_mm is not None:
+        meta["board_marker"] = board.marker_mm * 1e-3
+    return notes, meta
+
+
+def intrinsics_notes(k: Intrinsics) -> dict[str, str]:
+    """The notes a camera set's file states for the lens ``k``."""
+    notes = {f"camera_{n}_px": f"{getattr(k, n):.10g}" for n in ("fx", "fy", "cx", "cy", "width", "height")}
+    notes.update({f"camera_{n}": f"{getattr(k, n):.10g}" for n in INTRINSIC_NAMES[4:]})
+    return notes
+
+
 def setup_notes(rig: CameraRig, noise_px: float | None) -> tuple[dict[str, str], dict[str, float]]:
     """The notes and set-up metadata [m] a camera set's file states for ``rig`` (:func:`setup_from_notes` reads them)."""
-    k = rig.intrinsics
-    notes = {"camera_mount": rig.mount, "board_kind": rig.board.kind, "board_columns": str(rig.board.columns),
-             "board_rows": str(rig.board.rows)}
-    if rig.board.kind == "charuco":
-        notes["board_dictionary"] = rig.board.dictionary
-    notes.update({f"camera_{n}_px": f"{getattr(k, n):.10g}" for n in ("fx", "fy", "cx", "cy", "width", "height")})
-    notes.update({f"camera_{n}": f"{getattr(k, n):.10g}" for n in INTRINSIC_NAMES[4:]})
+    board, meta = board_notes(rig.board)
+    notes = {"camera_mount": rig.mount, **board, **intrinsics_notes(rig.intrinsics)}
     if noise_px:
         notes["noise_px"] = f"{noise_px:g}"
-    meta = {"board_square": rig.board.square_mm * 1e-3}
-    if rig.board.marker_mm is not None:
-        meta["board_marker"] = rig.board.marker_mm * 1e-3
     return notes, meta
 
 

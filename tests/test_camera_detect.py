@@ -1,0 +1,100 @@
+"""A camera set from images: simulate --images, detect, calibrate; a chessboard's numbering; images left out."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import calib_pin as cp
+from calib_pin.cli import command
+from calib_pin.measurements.csv_writer import write_poses
+from calib_pin.measurements.pose_list import read_pose_list
+from calib_pin.sensors import Board, CameraModel
+from calib_pin.sensors.camera_detect import detect_images, orient_chessboards
+from calib_pin.sensors.camera_render import render_images
+from calib_pin.simulation import simulate_set
+
+cv2 = pytest.importorskip("cv2")
+
+ROOT = Path(__file__).resolve().parent.parent
+LENS = "1000,1000,642,509,1280,1024,-0.08,0.05,0.0005,-0.0003,0"
+
+
+def _images(folder: Path, board: Board | None = None, n: int = 6, seed: int = 3, mount: str = "eye-in-hand"):
+    """``n`` rendered images of a simulated set and their joints file in ``folder``; the truth and its model."""
+    chain = cp.load_chain("irb120")
+    params = cp.parameter_model(chain)
+    setup = {"camera_mount": mount, "noise_px": 0.0, **({"board": board} if board else {})}
+    data, truth = simulate_set(CameraModel, chain, params, n, seed, setup=setup)
+    pose_ids, first = np.unique(data.pose_ids, return_index=True)
+    q = data.q[first]
+    model = truth.model(chain, params)
+    folder.mkdir(parents=True, exist_ok=True)
+    names = np.array([f"view {k}.png" for k in pose_ids])
+    for name, image in zip(names, render_images(model, truth.x_model, q, np.random.default_rng(0)), strict=True):
+        cv2.imwrite(str(folder / name), image)
+    write_poses(folder / "joints.csv", q, robot="irb120", pose_ids=pose_ids, extra={"image": names})
+    return chain, truth, model
+
+
+def test_simulated_images_detected_calibrate_at_the_detection_noise(tmp_path, capsys):
+    """simulate --images writes 40 images and joints.csv; detect writes the camera set; calibrate fits it to the
+    detected corners' noise (held-out reprojection within 0.3 px per coordinate, 20 times below the start)."""
+    assert command("simulate")(["irb120", "--kinds", "camera", "--poses", "40", "--noise-px", "0.1", "--seed", "1",
+                                "--images", str(tmp_path / "img"), "--out", str(tmp_path / "cam.csv")]) == 0
+    assert "wrote 40 images to" in capsys.readouterr().out
+    assert len(list((tmp_path / "img").glob("pose_*.png"))) == 40
+    assert command("detect")(["irb120", "--images", str(tmp_path / "img"), "--board", "charuco,9x7,30,22,DICT_5X5_100",
+                              "--intrinsics", LENS, "--camera-mount", "eye-in-hand", "--out",
+                              str(tmp_path / "det.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "40 of 40 images used" in out and "ms an image (median)" in out
+    detected = cp.read_measurements(tmp_path / "det.csv")
+    assert detected.kind == "camera" and detected.notes["camera_mount"] == "eye-in-hand"
+    result = cp.calibrate("irb120", tmp_path / "det.csv", method="lm")
+    test = result.metrics["test"]
+    assert test["after"].rmse_mm / np.sqrt(2) < 0.3 and test["after"].rmse_mm < test["before"].rmse_mm / 20
+
+
+def test_a_chessboards_numbering_follows_the_robot(tmp_path):
+    """A chessboard looks the same turned half a turn: each image's corner 0 is chosen by the robot's motion, so
+    every image's corners are numbered alike (as the board frame numbers them, or all half a turn round: the
+    board's placement takes that)."""
+    board = Board(8, 6, 30.0, None, "", "chessboard")
+    chain, truth, model = _images(tmp_path, board, n=12, seed=4)
+    poses = read_pose_list(tmp_path / "joints.csv", chain)
+    data, outcomes = detect_images(poses, tmp_path, board, truth.sensor.intrinsics, None, chain)
+    assert data is not None and sum(o.reason is None for o in outcomes) >= 4, [o.reason for o in outcomes]
+    ids = np.asarray(data.point_ids, dtype=int)
+    errors = [np.sqrt(np.mean((data.values - model.image_points(truth.x_model, data.q, k)) ** 2))
+              for k in (ids, board.n_corners - 1 - ids)]
+    assert min(errors) < 0.3 < max(errors)
+    # OpenCV's numbering of some images half a turn round: the robot's motion turns them back
+    poses_used = np.unique(data.pose_ids)
+    found = [(ids[data.pose_ids == p], data.values[data.pose_ids == p]) for p in poses_used]
+    q = [data.q[data.pose_ids == p][0] for p in poses_used]
+    turned = [(board.n_corners - 1 - k, uv) if j % 2 else (k, uv) for j, (k, uv) in enumerate(found)]
+    again = orient_chessboards(cv2, board, truth.sensor.intrinsics, chain, q, turned)
+    assert all(np.array_equal(a[0], b[0]) for a, b in zip(again, found, strict=True))
+
+
+def test_images_that_cannot_be_used_are_left_out_with_the_reason(tmp_path):
+    """An unreadable file, a missing one, an image named twice, one of another size, a blank one: each left out
+    with its reason, the others used."""
+    chain, truth, _ = _images(tmp_path, n=6)
+    poses = read_pose_list(tmp_path / "joints.csv", chain)
+    names = list(poses.extra["image"])
+    (tmp_path / names[0]).write_bytes(b"not an image")
+    (tmp_path / names[1]).unlink()
+    cv2.imwrite(str(tmp_path / names[3]), np.full((480, 640), 128, np.uint8))
+    cv2.imwrite(str(tmp_path / names[4]), np.full((1024, 1280), 200, np.uint8))
+    twice = dataclasses.replace(poses, extra={"image": np.array(names[:5] + [names[2]])})  # pose 6 names pose 3's
+    data, outcomes = detect_images(twice, tmp_path, truth.sensor.board, truth.sensor.intrinsics, None, chain)
+    reasons = [o.reason for o in outcomes]
+    assert reasons[0] == "cannot be read as an image" and reasons[1] == "no such file"
+    assert reasons[2] is None and "640x480 px, the lens's intrinsics are 1280x1024 px" in reasons[3]
+    assert reasons[4].startswith("board not found") and reasons[5].startswith("already pose")
+    assert data is not None and set(np.unique(data.pose_ids)) == {int(poses.pose_ids[2])}
