@@ -37,6 +37,8 @@ if TYPE_CHECKING:
 FALLBACK_PX = 20.0
 #: Poses a hand-eye start needs at least (two motions between them).
 MIN_POSES = 3
+#: The board's size is refused when the robot's motion measures its squares this far (relative) from the size given.
+SCALE_TOLERANCE = 0.03
 
 
 def _project(m: np.ndarray) -> np.ndarray:
@@ -206,7 +208,38 @@ def fit_rig(cls: Any, chain: Chain, params: ParameterModel, mount: str, board: B
     if not starts:
         raise DataError(source or "the measurement set", "OpenCV's hand-eye solvers found no camera placement on the "
                         f"{rows} (poses too alike: turn the flange about more axes between images)")
+    best = min(starts, key=lambda s: s[0])[1]
+    scale = board_scale(in_hand, ends, boards, best.camera.rotation)
+    if abs(scale - 1.0) > SCALE_TOLERANCE:
+        raise DataError(source or "the measurement set", f"the board's squares measure {scale * board.square_mm:.1f} mm "
+                        f"by the robot's motion, not the {board.square_mm:g} mm given: a camera measures lengths in "
+                        "the board's squares, so a wrong size scales the whole robot (measure the printed board; "
+                        "--board)", None, "board_square_mm")
     return polish(cls(chain, params, min(starts, key=lambda s: s[0])[1]), q, values, corners)
+
+
+def board_scale(in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3], camera_rotation: np.ndarray) -> float:
+    """How much larger the board is than its given size, by the robot's motion (1: as given).
+
+    PnP's translations scale with the board's size and the robot's do not: with the camera's
+    rotation (which the size does not change), the translations of every pose's loop, eye in
+    hand R_BE R_EC (s t_CW) + R_BE t_EC + t_BE = t_BW and eye to hand R_BC (s t_CW) + t_BC =
+    R_BE t_EW + t_BE, are linear in the scale s and the two unknown translations: least squares.
+
+    Args:
+        ends: The end frame's placement in the base at each pose (nominal robot).
+        boards: PnP's board in the camera frame at each pose, T_CW, with the given size.
+        camera_rotation: R_EC eye in hand, R_BC eye to hand.
+    """
+    a, b = [], []
+    for end, board in zip(ends, boards, strict=True):
+        if in_hand:
+            a.append(np.column_stack([end.rotation @ camera_rotation @ board.translation, end.rotation, -np.eye(3)]))
+            b.append(-end.translation)
+        else:
+            a.append(np.column_stack([camera_rotation @ board.translation, np.eye(3), -end.rotation]))
+            b.append(end.translation)
+    return float(np.linalg.lstsq(np.concatenate(a), np.concatenate(b), rcond=None)[0][0])
 
 
 def _rms(model: Any, q: np.ndarray, values: np.ndarray, corners: np.ndarray) -> float:
