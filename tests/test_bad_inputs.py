@@ -1362,6 +1362,63 @@ I35_CAMERA_FILES: list[Case] = [
 ]
 
 
+DET = "detect"
+
+
+def board_png(spec: str = "charuco,9x7,30,22", blank: bool = False) -> bytes:
+    """A 600x480 image of a board seen face on (2 px a mm), PNG; ``blank``: a grey image of that size."""
+    import cv2
+
+    from calib_pin.sensors.camera_render import board_texture
+    from calib_pin.sensors.lens import board_spec
+
+    image = board_texture(cv2, board_spec(spec), 2.0)[0]
+    return cv2.imencode(".png", image * 0 + 128 if blank else image)[1].tobytes()
+
+
+def joints(*names: str, column: str = "image") -> str:
+    """A joints file naming one image a pose (within the IRB120's limits)."""
+    rows = [f"{k},{5 * k},10,10,0,{20 + k},0,{name}" for k, name in enumerate(names, 1)]
+    return "\n".join([f"pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,{column}", *rows]) + "\n"
+
+
+BOARD = ["--board", "charuco,9x7,30,22"]
+DETECT = ["irb120", "--images", "img", *BOARD, "--out", "d.csv"]
+IMAGES = {"img/a.png": board_png(), "img/b.png": board_png()}
+#: detect (calib_pin/cli/detect.py): images that cannot be read, show no board or another size, a joints file that
+#: does not match the folder; a board of the wrong size in mm (calibrate), --images without a camera (simulate).
+I35_IMAGES: list[Case] = [
+    (DET, DETECT, {**IMAGES, "img/joints.csv": joints("a.png", "b.png")}, 0, "2 of 2 images used, 96 corners"),
+    (DET, DETECT, {**IMAGES, "img/b.png": b"not an image", "img/joints.csv": joints("a.png", "b.png")}, 0,
+     "img/joints.csv: pose 2: b.png: cannot be read as an image; left out"),
+    (DET, DETECT, {**IMAGES, "img/joints.csv": joints("a.png", "b.png", "c.png")}, 0,
+     "img/joints.csv: pose 3: c.png: no such file; left out"),
+    (DET, DETECT, {**IMAGES, "img/c.png": board_png(blank=True), "img/joints.csv": joints("a.png", "b.png", "c.png")},
+     0, "pose 3: c.png: board not found (charuco 9x7 squares of 30 mm, markers 22 mm, DICT_5X5_100); left out"),
+    (DET, ["irb120", "--images", "img", "--board", "charuco,5x5,30,22", "--out", "d.csv"],
+     {**IMAGES, "img/joints.csv": joints("a.png", "b.png")}, 2,
+     "img: no usable image among the 2 the joints file img/joints.csv names (board not found (charuco 5x5"),
+    (DET, [*DETECT, "--intrinsics", "1000,1000,640,512,1280,1024"], {**IMAGES, "img/joints.csv": joints("a.png", "b.png")},
+     2, "(600x480 px, the lens's intrinsics are 1280x1024 px (another camera's or resolution's?))"),
+    (DET, DETECT, {**IMAGES, "img/joints.csv": joints("a.png", "b.png", column="file")}, 2,
+     "img/joints.csv: image: no 'image' column: name each pose's image file"),
+    (DET, DETECT, {**IMAGES, "img/x.png": board_png(), "img/joints.csv": joints("a.png", "b.png")}, 0,
+     "img: 1 image(s) the joints file does not name, left out: x.png"),
+    (DET, DETECT, {**IMAGES, "img/joints.csv": joints("a.png", "b.png", "a.png")}, 0,
+     "pose 3: a.png: already pose 1's image (one image cannot show two poses); left out"),
+    (DET, DETECT, {"img/joints.csv": joints()}, 2, "img/joints.csv: has a header but no data rows"),
+    (DET, ["irb120", "--images", "nothere", *BOARD, "--out", "d.csv"], {}, 2, "nothere: --images: no such folder"),
+    (DET, ["irb120", "--images", "img", "--board", "chessboard,9x7,30", "--out", "d.csv"],
+     {**IMAGES, "img/joints.csv": joints("a.png", "b.png")}, 2,
+     "intrinsics: a chessboard's corner numbering needs the lens (--intrinsics)"),
+    (CAL, ["irb120", "--data", "c.csv", "--method", "lm", "--no-html", "--out", "out"],
+     {"c.csv": "\n".join(camera_set().splitlines()).replace("# board_square_mm: 30.000000", "# board_square_mm: 25")},
+     2, "c.csv: board_square_mm: the board's squares measure 30.1 mm by the robot's motion, not the 25 mm given"),
+    (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--images", "img"], {}, 2,
+     "--images renders a camera set's images; this simulates cable (--kinds camera)"),
+]
+
+
 #: The rows of the earlier rounds, then round 3's by class (docs/bad_input.md lists them all).
 BASE_CASES = list(CASES)
 SECTIONS: list[tuple[str, list[Case]]] = [
@@ -1377,6 +1434,7 @@ SECTIONS: list[tuple[str, list[Case]]] = [
     ("Issue 34: several sets, new sensors and real lab files (part A)", I34_CLASSES),
     ("Issue 35: camera sets (a board's corners in images)", I35_CAMERA),
     ("Issue 35: a camera's lens file, its exports and planned poses", I35_CAMERA_FILES),
+    ("Issue 35: images: detect, and a board's size", I35_IMAGES),
 ]
 CASES += [row for _, rows in SECTIONS for row in rows]
 
