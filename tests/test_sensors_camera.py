@@ -273,6 +273,11 @@ def test_simulate_and_calibrate_a_camera_set_from_the_command_line(tmp_path, cap
                            str(tmp_path / "o")]) == 0
     printed = capsys.readouterr().out
     assert "RMSE px" in printed and "reprojection 0.2 px (file)" in printed and "last link" in printed
+    assert calibrate_main(["irb120", "--data", str(out), "--noise-px", "0.3", "--method", "lm", "--no-html", "--out",
+                           str(tmp_path / "o2")]) == 0
+    assert "reprojection 0.3 px (caller)" in capsys.readouterr().out
+    result = cp.calibrate("irb120", out, method="lm", setup=CameraSetup(noise_px=0.3))
+    assert result.sets[0].sigma == pytest.approx(0.3e-3) and result.sets[0].sigma_origin == "caller"
 
 
 def test_without_opencv_a_camera_set_is_one_line_with_the_install_hint(monkeypatch):

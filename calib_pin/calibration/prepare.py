@@ -403,7 +403,7 @@ def prepare(
         if stated is not None:  # a noise in the sensor's own unit (a camera's pixels)
             sigma, origin = stated
         options: dict[str, Any] = {**one_for_all, **own, "estimate": estimate, "compliance": soft}
-        if sigma is not None and origin == "caller":
+        if sigma is not None and origin == "caller" and stated is None:
             options["noise_mm"] = sigma * 1e3  # a sensor whose rows have parts reads its own
         sets.append(PreparedSet(d, label, s.role, sigma, origin, options, tuple(own), overridden))
     if all(s.role == "test" for s in sets):
