@@ -4,9 +4,12 @@
 its board (:mod:`.camera`): each pixel's ray through the lens (OpenCV's inverse of the
 plumb-bob distortion) meets the board's plane, where the board's printed face
 (:func:`board_texture`, OpenCV's own drawing of a ChArUco board, or a chessboard) is sampled;
-off the board the image is a mid grey. The board is drawn at about :data:`SUPERSAMPLE` times
-the image's own scale at its middle (less aliasing), then the image is blurred (a Gaussian
-of ``blur_px``) and given Gaussian grey-level noise (``noise_grey``, of 255), 8-bit.
+off the board the image is a mid grey. Each pixel is the mean of :data:`SAMPLES` x
+:data:`SAMPLES` points over its area, as a sensor's pixel integrates the light on it (a
+point sample per pixel would snap the squares' edges to the pixel grid), on a board drawn at
+about :data:`SUPERSAMPLE` times the image's own scale at its middle; then the image is
+blurred (a Gaussian of ``blur_px``, the optics) and given Gaussian grey-level noise
+(``noise_grey``, of 255), 8-bit.
 
 So a corner's place in a rendered image is where the model projects it, to the detector's
 accuracy: the images are the true robot's and camera's when the model is.
@@ -22,7 +25,9 @@ from ..util.optional import require
 from .lens import OPENCV_EXTRA, Board, Intrinsics
 
 #: The board is drawn at about this many times the image's scale at the board's middle.
-SUPERSAMPLE = 2.0
+SUPERSAMPLE = 4.0
+#: A pixel is the mean of SAMPLES x SAMPLES points spread over its area (no aliased edges).
+SAMPLES = 3
 #: The white paper around the printed squares, in squares (each side).
 MARGIN_SQUARES = 0.5
 #: Grey level of the scene off the board (of 255).
@@ -91,10 +96,18 @@ def render_image(cv2: Any, board: Board, intrinsics: Intrinsics, board_in_camera
     px_per_mm = SUPERSAMPLE * intrinsics.fx / max(float(np.linalg.norm(centre)) * 1e3, 1.0)
     texture, margin = board_texture(cv2, board, float(np.clip(px_per_mm, 0.5, 40.0)))
     step = (texture.shape[1] - 2 * margin) / board.columns / board.square_mm  # the texture's px per mm
-    map_u = np.where(ahead, margin + plane[..., 0] * scale * step - 0.5, -1e6).astype(np.float32)
-    map_v = np.where(ahead, margin + plane[..., 1] * scale * step - 0.5, -1e6).astype(np.float32)
-    image = cv2.remap(texture, map_u, map_v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                      borderValue=BACKGROUND).astype(np.float64)
+    map_u = np.where(ahead, margin + plane[..., 0] * scale * step - 0.5, np.nan)
+    map_v = np.where(ahead, margin + plane[..., 1] * scale * step - 0.5, np.nan)
+    # a pixel is the mean of SAMPLES x SAMPLES points over its area (the maps' local slopes move each point)
+    slopes = [np.nan_to_num(np.gradient(m, axis=axis)).astype(np.float32) for m in (map_u, map_v) for axis in (1, 0)]
+    map_u, map_v = (np.nan_to_num(m, nan=-1e6).astype(np.float32) for m in (map_u, map_v))
+    offsets = (np.arange(SAMPLES, dtype=np.float32) + 0.5) / SAMPLES - 0.5
+    total = np.zeros(map_u.shape, dtype=np.float32)
+    for dx in offsets:
+        for dy in offsets:
+            total += cv2.remap(texture, map_u + dx * slopes[0] + dy * slopes[1], map_v + dx * slopes[2] + dy * slopes[3],
+                               cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=BACKGROUND)
+    image = total.astype(np.float64) / SAMPLES**2
     if blur_px > 0:
         image = cv2.GaussianBlur(image, (0, 0), blur_px)
     image += rng.normal(size=image.shape) * noise_grey
