@@ -53,3 +53,20 @@ def test_runaway_deviation_is_refused(session, tmp_path):
     with pytest.raises(cp.CalibPinError, match=r"d_4 = \+50 mm is beyond the sanity bound 20 mm"):
         result.to_urdf(tmp_path / "x.urdf")
     assert not (tmp_path / "x.urdf").exists()
+
+
+def test_a_sensor_direction_seen_weakly_keeps_its_variance():
+    """A sensor unknown's variance is the inverse of the information left to it: a combination of sensor unknowns
+    the data sees at 1e-4 of the strongest direction (a lens's k1, k2, k3 together) keeps its large variance,
+    where the estimators' cut (1e-3) would drop it and report a std many times too small."""
+    from calib_pin.analysis.determined import Determined
+    from calib_pin.analysis.uncertainty import sensor_variance
+
+    rng = np.random.default_rng(0)
+    q, _ = np.linalg.qr(rng.normal(size=(4, 4)))
+    jac = q @ np.diag([1.0, 0.5, 0.2, 1e-4]) @ np.linalg.qr(rng.normal(size=(4, 4)))[0]
+    gram = jac.T @ jac
+    split = Determined(robot=np.array([0, 1]), sigma=np.ones(2), singular_values=np.ones(2), vt=np.eye(2), rank=2,
+                       noise=0.1, n_params=4, free=np.arange(4), gram=gram)
+    np.testing.assert_allclose(sensor_variance(split, np.ones(4)), 0.01 * np.diag(np.linalg.inv(gram))[2:], rtol=1e-6)
+    assert np.sqrt(sensor_variance(split, np.ones(4))).max() > 100

@@ -11,9 +11,10 @@ the data's. A deviation the data does not see at all is ``not determined`` (it k
 start); one ``--fix`` holds is ``held``. Neither has an interval.
 
 The noise covariance of the robot's determined part is sigma^2 W V_d S_d^-2 V_d^T W; a
-sensor unknown's interval comes from the covariance of the whole problem in the estimators'
-identifiable subspace (:class:`~calib_pin.estimators.subspace.Subspace`), where the sensor
-takes whatever the robot does not explain.
+sensor unknown's interval comes from the information left to the sensor's unknowns with the
+robot free along what the data determines and held along the rest
+(:func:`sensor_variance`): a sensor direction the data sees only weakly keeps its large
+variance, since the fit moves along it.
 """
 
 from __future__ import annotations
@@ -23,7 +24,6 @@ from typing import Any
 
 import numpy as np
 
-from ..estimators.subspace import RCOND
 from ..util.units import human_unit
 from .determined import UNSEEN, Determined, pinv_gram
 
@@ -201,8 +201,33 @@ def _ratio_unit(lead: str, other: str) -> str:
     return f" {human_unit(lead)[1]}/{human_unit(other)[1]}"
 
 
-def estimate_uncertainty(problem: Any, x: np.ndarray, split: Determined, *, held: tuple[int, ...] = (),
-                         rcond: float = RCOND) -> Uncertainty:
+#: The sensor unknowns' covariance leaves out only directions whose singular value is below this times the
+#: largest: an exact gauge among them, not a direction the data sees weakly (which the fit does move along).
+GAUGE_RCOND = 1e-6
+
+
+def sensor_variance(split: Determined, scale: np.ndarray) -> np.ndarray:
+    """The noise variance of each free sensor unknown, SI^2, in the order of ``split.free``'s sensor unknowns.
+
+    The robot moves only along the directions the data determines (it is held at its start
+    along the others), the sensor's unknowns freely: the Gram matrix of those moves is
+    inverted, leaving out only an exact gauge among them (:data:`GAUGE_RCOND`). A sensor
+    direction the data sees weakly (a lens's k1, k2, k3 together) keeps its large variance:
+    the fit moves along it with the noise.
+    """
+    scale = np.asarray(scale, dtype=float)[split.free]
+    on_robot = np.isin(split.free, split.robot)
+    n_robot = int(on_robot.sum())
+    basis = (split.sigma / scale[on_robot])[:, None] * split.vt[: split.rank].T  # robot moves, scaled units
+    moves = np.zeros((len(split.free), split.rank + len(split.free) - n_robot))
+    moves[np.ix_(on_robot, np.arange(split.rank))] = basis
+    moves[~on_robot, split.rank:] = np.eye(len(split.free) - n_robot)
+    inverse = pinv_gram(moves.T @ split.gram @ moves, GAUGE_RCOND)
+    return split.noise**2 * np.diag(inverse)[split.rank:] * scale[~on_robot] ** 2
+
+
+def estimate_uncertainty(problem: Any, x: np.ndarray, split: Determined, *,
+                         held: tuple[int, ...] = ()) -> Uncertainty:
     """Uncertainty of the estimate x fitted to ``problem`` (the training rows).
 
     Args:
@@ -228,12 +253,10 @@ def estimate_uncertainty(problem: Any, x: np.ndarray, split: Determined, *, held
         else:
             std[i] = np.sqrt(max(noise_cov[i, i], 0.0))
     sensor = [i for i in range(model.sensor_start, n) if i not in held]
-    if sensor:  # the estimators' identifiable subspace: the Gram matrix's pseudo-inverse, cut at rcond
-        scale = np.asarray(model.scale, dtype=float)[split.free]
-        variance = split.noise**2 * np.diag(pinv_gram(split.gram, rcond)) * scale**2
-        for k, i in enumerate(split.free):
-            if i >= model.sensor_start:
-                std[i] = np.sqrt(max(variance[k], 0.0))
+    if sensor:
+        for i, variance in zip(split.free[split.free >= model.sensor_start], sensor_variance(split, model.scale),
+                               strict=True):
+            std[i] = np.sqrt(max(variance, 0.0))
     position = {int(i): j for j, i in enumerate(split.robot)}
     mixed = [position[i] for i in split.robot if status[i] == "combination"]
     combinations: list[Combination] = []
