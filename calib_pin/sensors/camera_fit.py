@@ -39,6 +39,9 @@ FALLBACK_PX = 20.0
 MIN_POSES = 3
 #: The board's size is refused when the robot's motion measures its squares this far (relative) from the size given.
 SCALE_TOLERANCE = 0.03
+#: The board's size by the robot's motion: a pose whose loop misses by more than this many times the median is
+#: left out, for at most SCALE_ROUNDS rounds.
+SCALE_OUTLIER, SCALE_ROUNDS = 3.0, 5
 
 
 def _project(m: np.ndarray) -> np.ndarray:
@@ -224,7 +227,9 @@ def board_scale(in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3], camer
     PnP's translations scale with the board's size and the robot's do not: with the camera's
     rotation (which the size does not change), the translations of every pose's loop, eye in
     hand R_BE R_EC (s t_CW) + R_BE t_EC + t_BE = t_BW and eye to hand R_BC (s t_CW) + t_BC =
-    R_BE t_EW + t_BE, are linear in the scale s and the two unknown translations: least squares.
+    R_BE t_EW + t_BE, are linear in the scale s and the two unknown translations: least
+    squares, then again without the poses whose loop misses by more than
+    :data:`SCALE_OUTLIER` times the median (a PnP gone wrong on a few corners).
 
     Args:
         ends: The end frame's placement in the base at each pose (nominal robot).
@@ -239,7 +244,16 @@ def board_scale(in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3], camer
         else:
             a.append(np.column_stack([camera_rotation @ board.translation, np.eye(3), -end.rotation]))
             b.append(end.translation)
-    return float(np.linalg.lstsq(np.concatenate(a), np.concatenate(b), rcond=None)[0][0])
+    keep = np.ones(len(a), dtype=bool)
+    for _ in range(SCALE_ROUNDS):  # a pose whose PnP went wrong (a few corners, the planar flip) left out
+        solution = np.linalg.lstsq(np.concatenate([a[i] for i in np.flatnonzero(keep)]),
+                                   np.concatenate([b[i] for i in np.flatnonzero(keep)]), rcond=None)[0]
+        misfit = np.array([np.linalg.norm(ak @ solution - bk) for ak, bk in zip(a, b, strict=True)])
+        kept = misfit <= SCALE_OUTLIER * np.median(misfit)
+        if np.array_equal(kept, keep) or kept.sum() < MIN_POSES:
+            break
+        keep = kept
+    return float(solution[0])
 
 
 def _rms(model: Any, q: np.ndarray, values: np.ndarray, corners: np.ndarray) -> float:
