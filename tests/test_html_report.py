@@ -163,6 +163,28 @@ def test_a_camera_set_beside_a_cable_set_is_drawn_with_its_noise_in_px(tmp_path)
     assert "<td>0.1 px (file)</td>" in page and " mm (estimate)</td>" in page
 
 
+def test_a_camera_set_reports_its_error_per_image(tmp_path):
+    """A camera set's report gives each image's corners and RMS reprojection error before and after, in px
+    (report.json's per_pose, report.html's 'Error per image', the worst first); a cable set, one row a pose,
+    has none."""
+    pytest.importorskip("cv2")
+    result = calib_pin.calibrate("irb120", [ROBOTS_DIR / "irb120_camera_example.csv", ROBOTS_DIR / "irb120_default.csv"],
+                                 method="lm")
+    report = build_report(result)
+    camera, cable = report["sets"]
+    assert "per_pose" not in cable
+    images = camera["per_pose"]
+    assert len(images) == 12 and sum(p["rows"] for p in images) == camera["train_rows"] + camera["test_rows"]
+    assert {p["split"] for p in images} == {"train", "test"}
+    assert all(p["rms_after_px"] < 0.5 < p["rms_before_px"] for p in images)
+    pooled = np.sqrt(sum(p["rms_after_px"] ** 2 * p["rows"] for p in images if p["split"] == "test")
+                     / sum(p["rows"] for p in images if p["split"] == "test"))
+    assert pooled == pytest.approx(camera["test"]["after"]["rmse_mm"], rel=1e-6)  # the set's own RMSE, in px
+    page = write_html_report(report, tmp_path / "r.html").read_text()
+    assert "Error per image" in page and "12 images, the worst after the fit first" in page
+    assert "<th>corners</th><th>RMS before (px)</th><th>RMS after (px)</th>" in page
+
+
 def test_a_camera_calibration_of_the_lens_draws_its_report(tmp_path):
     """With the intrinsics estimated (unit-free k1 ... k3 beside fx [px]) report.html is drawn, and report.json's
     intervals are keyed as its sensor corrections are (k1, not k1_)."""

@@ -207,8 +207,34 @@ def _set_reports(result: CalibrationResult) -> list[dict[str, Any]]:
     not with a learnt correction, nor beside a separate validation session).
     """
     own = result.estimate.correction is None and not result.test_source
-    return [{**s.as_dict(), **(part_report(s.problem, s.x, {"train": s.train, "test": s.test}) if own else {})}
-            for s in result.sets]
+    return [{**s.as_dict(), **(part_report(s.problem, s.x, {"train": s.train, "test": s.test}) if own else {}),
+             **(_per_pose(result, s) if own else {})} for s in result.sets]
+
+
+def _per_pose(result: CalibrationResult, s: Any) -> dict[str, Any]:
+    """A set's error per pose (an image's corners, a pose's markers), in its unit: ``{"per_pose": [...]}``.
+
+    Each pose's label, split, rows and RMS row error before and after; empty for a set of one
+    row a pose (its per-row residuals say it all) or without pose labels.
+    """
+    pose_ids = result.data.pose_ids
+    problem = s.problem
+    if pose_ids is None or problem is None or problem.n_rows != len(s.rows):
+        return {}
+    labels = np.asarray(pose_ids, dtype=object)[s.rows]
+    if len(set(labels.tolist())) == len(labels):
+        return {}
+    before = problem.row_errors(problem.residual(np.zeros(len(s.x)))) * 1e3
+    after = problem.row_errors(problem.residual(s.x)) * 1e3
+    split = np.full(len(labels), "train", dtype=object)
+    split[s.test] = "test"
+    out = []
+    for label in dict.fromkeys(labels.tolist()):
+        rows = labels == label
+        out.append({"pose": label if isinstance(label, str) else int(label), "split": str(split[rows][0]),
+                    "rows": int(rows.sum()), f"rms_before_{s.unit}": float(np.sqrt(np.mean(before[rows] ** 2))),
+                    f"rms_after_{s.unit}": float(np.sqrt(np.mean(after[rows] ** 2)))})
+    return {"per_pose": out}
 
 
 def build_report(result: CalibrationResult) -> dict[str, Any]:

@@ -290,6 +290,24 @@ def _sets_section(r: dict) -> str:
             f"pools {html.escape(r.get('metrics_pooled', 'every set'))}.</p>")
 
 
+def _per_pose_section(r: dict) -> str:
+    """Each set's error per pose (a camera's per image), in its unit: a table a set, worst after-fit first."""
+    out = []
+    for s in r.get("sets", ()):
+        rows = s.get("per_pose")
+        if not rows:
+            continue
+        unit = s.get("error_unit", "mm")
+        what, items = ("image", "corners") if s.get("data_kind") == "camera" else ("pose", "rows")
+        ranked = sorted(rows, key=lambda p: -p[f"rms_after_{unit}"])
+        body = [[html.escape(str(p["pose"])), p["split"], str(p["rows"]), fmt(p[f"rms_before_{unit}"]),
+                 fmt(p[f"rms_after_{unit}"])] for p in ranked]
+        title = f"<p>Set {html.escape(s['label'])}: {len(rows)} {what}s, the worst after the fit first.</p>" \
+            if len(r["sets"]) > 1 else f"<p>{len(rows)} {what}s, the worst after the fit first.</p>"
+        out.append(title + _table([what, "split", items, f"RMS before ({unit})", f"RMS after ({unit})"], body, "num"))
+    return "".join(out)
+
+
 def sensor_views(r: dict) -> list[tuple[str, dict]]:
     """The report's sensor geometry as (title, report-like dict) pairs: one, or one per set.
 
@@ -374,6 +392,10 @@ def render_html(r: dict) -> str:
                           if r.get("workspace_uncertainty") else "") + f"<pre>{html.escape(lines)}</pre>"))
     if len(r.get("sets", ())) > 1:  # one set's table is the summary's
         sections.insert(1, ("sets", "Measurement sets", _sets_section(r)))
+    per_pose = _per_pose_section(r)
+    if per_pose:
+        camera = any(s.get("data_kind") == "camera" and s.get("per_pose") for s in r.get("sets", ()))
+        sections.append(("per-pose", "Error per image" if camera else "Error per pose", per_pose))
     sections.append(("sensor", "Sensor", sensor_html(r)))
     nav = "".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
     body = "".join(f'<section id="{key}"><h2>{html.escape(title)}</h2>{content}</section>'
