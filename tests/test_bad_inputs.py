@@ -1383,6 +1383,7 @@ def joints(*names: str, column: str = "image") -> str:
 
 
 BOARD = ["--board", "charuco,9x7,30,22"]
+BOARD_FILE = "kind: charuco\ncolumns: 9\nrows: 7\nsquare_mm: 30\nmarker_mm: 22\ndictionary: DICT_5X5_100\n"
 DETECT = ["irb120", "--images", "img", *BOARD, "--out", "d.csv"]
 IMAGES = {"img/a.png": board_png(), "img/b.png": board_png()}
 #: detect (calib_pin/cli/detect.py): images that cannot be read, show no board or another size, a joints file that
@@ -1414,6 +1415,19 @@ I35_IMAGES: list[Case] = [
     (CAL, ["irb120", "--data", "c.csv", "--method", "lm", "--no-html", "--out", "out"],
      {"c.csv": "\n".join(camera_set().splitlines()).replace("# board_square_mm: 30.000000", "# board_square_mm: 25")},
      2, "c.csv: board_square_mm: the board's squares measure 30.1 mm by the robot's motion, not the 25 mm given"),
+    (DET, ["irb120", "--images", "img", "--board", "b.yaml", "--out", "d.csv"],
+     {**IMAGES, "img/joints.csv": joints("a.png", "b.png"), "b.yaml": BOARD_FILE}, 0, "2 of 2 images used, 96 corners"),
+    (DET, ["irb120", "--images", "img", "--board", "b.yaml", "--out", "d.csv"],
+     {"b.yaml": BOARD_FILE.replace("marker_mm", "markr_mm")}, 2,
+     "argument --board: b.yaml:5: markr_mm: not a key of a board (it has kind, columns, rows, square_mm, marker_mm"),
+    (DET, ["irb120", "--images", "img", "--board", "b.yaml", "--out", "d.csv"],
+     {"b.yaml": BOARD_FILE.replace("rows: 7", "rows: seven")}, 2, "b.yaml:3: rows: expected a number, got 'seven'"),
+    (DET, ["irb120", "--images", "img", "--board", "b.yaml", "--out", "d.csv"],
+     {"b.yaml": BOARD_FILE.replace("marker_mm: 22", "marker_mm: 40")}, 2,
+     "b.yaml:5: marker_mm: marker size 40.0 mm is not positive and smaller than the square (30 mm)"),
+    (DET, ["irb120", "--images", "img", "--board", "b.yaml", "--out", "d.csv"],
+     {"b.yaml": BOARD_FILE.replace("marker_mm: 22\n", "")}, 2,
+     "b.yaml: marker_mm: missing (a charuco file has kind, columns, rows, square_mm, marker_mm)"),
     (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--images", "img"], {}, 2,
      "--images renders a camera set's images; this simulates cable (--kinds camera)"),
 ]

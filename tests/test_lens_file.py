@@ -137,3 +137,15 @@ def test_the_intrinsics_option_takes_a_lens_file_or_the_numbers(tmp_path):
         intrinsics_argument(str(tmp_path / "bad.yaml"))
     with pytest.raises(argparse.ArgumentTypeError, match=r"nothere.yaml: cannot read the camera's intrinsics"):
         intrinsics_argument(str(tmp_path / "nothere.yaml"))
+
+
+def test_a_board_file_reads_as_its_spec(tmp_path):
+    """--board board.yaml gives the board its spec text gives; a chessboard's file needs no marker."""
+    from calib_pin.sensors.lens import board_spec
+    from calib_pin.sensors.lens_file import board_argument, read_board
+
+    path = tmp_path / "board.yaml"
+    path.write_text("kind: charuco\ncolumns: 9\nrows: 7\nsquare_mm: 30\nmarker_mm: 22\ndictionary: DICT_4X4_50\n")
+    assert read_board(path) == board_spec("charuco,9x7,30,22,DICT_4X4_50") == board_argument(str(path))
+    path.write_text("kind: chessboard\ncolumns: 8\nrows: 6\nsquare_mm: 25.5\n")
+    assert read_board(path) == board_spec("chessboard,8x6,25.5")

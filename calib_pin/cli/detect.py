@@ -31,8 +31,7 @@ def detect_parser() -> argparse.ArgumentParser:
 def add_detect_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     """detect's arguments, added to its subparser ``p``."""
     from ..sensors.camera_rig import _mount
-    from ..sensors.lens import board_spec
-    from ..sensors.lens_file import intrinsics_argument
+    from ..sensors.lens_file import board_argument, intrinsics_argument
 
     p.description = ("Find a printed board's corners in each pose's image (OpenCV: a ChArUco board, or a chessboard) "
                      "and write the camera set calibrate reads: one row per corner found, with the pose's joint "
@@ -43,9 +42,10 @@ def add_detect_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("--joints", metavar="FILE",
                    help=f"the pose list naming each pose's image: pose, q1_deg.., image (a file name within DIR, or "
                    f"a path); default DIR/{JOINTS_FILE}")
-    p.add_argument("--board", required=True, type=board_spec, metavar="SPEC",
+    p.add_argument("--board", required=True, type=board_argument, metavar="SPEC|FILE.yaml",
                    help="the printed board: 'charuco,COLSxROWS,SQUARE_MM,MARKER_MM[,DICT]' or "
-                   "'chessboard,COLSxROWS,SQUARE_MM' (squares, not inner corners)")
+                   "'chessboard,COLSxROWS,SQUARE_MM' (squares, not inner corners), or a board file (FILE.yaml: "
+                   "kind, columns, rows, square_mm, marker_mm, dictionary)")
     p.add_argument("--intrinsics", type=intrinsics_argument, metavar="FILE.yaml|K",
                    help="the camera's intrinsics (an OpenCV or ROS camera_info YAML file, or "
                    "'fx,fy,cx,cy,width,height[,k1,k2,p1,p2,k3]' px): each image's size is checked against them and "

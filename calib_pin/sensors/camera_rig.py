@@ -28,8 +28,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ArgumentError, DataError
-from .lens import INTRINSIC_NAMES, Board, Intrinsics, board_spec, intrinsics_of
-from .lens_file import intrinsics_argument
+from .lens import INTRINSIC_NAMES, Board, Intrinsics, intrinsics_of
+from .lens_file import board_argument, intrinsics_argument
 from .setup import SensorSetup, option
 
 if TYPE_CHECKING:
@@ -98,8 +98,9 @@ class CameraSetup(SensorSetup):
     camera_mount: Any = option(help="where the camera is: eye-in-hand (on the flange, the board fixed) or "
                                "eye-to-hand (fixed, the board on the flange)", parser=_mount)
     board: Any = option(help="the printed board: 'charuco,COLSxROWS,SQUARE_MM,MARKER_MM[,DICT]' or "
-                        "'chessboard,COLSxROWS,SQUARE_MM' (squares, not inner corners)", parser=board_spec,
-                        metavar="SPEC")
+                        "'chessboard,COLSxROWS,SQUARE_MM' (squares, not inner corners), or a board file "
+                        "(FILE.yaml: kind, columns, rows, square_mm, marker_mm, dictionary)", parser=board_argument,
+                        metavar="SPEC|FILE.yaml")
     intrinsics: Any = option(help="the camera's intrinsics: an OpenCV or ROS camera_info YAML file (FILE.yaml), or "
                              "'fx,fy,cx,cy,width,height[,k1,k2,p1,p2,k3]' in px (OpenCV's pinhole and plumb-bob "
                              "distortion)", parser=intrinsics_argument, metavar="FILE.yaml|K")
@@ -112,7 +113,7 @@ class CameraSetup(SensorSetup):
 
         if self.camera_mount is not None and self.camera_mount not in MOUNTS:
             raise ArgumentError("camera_mount", f"'{self.camera_mount!s:.40}' is not one of {', '.join(MOUNTS)}")
-        for name, kind, parse in (("board", Board, board_spec), ("intrinsics", Intrinsics, intrinsics_argument)):
+        for name, kind, parse in (("board", Board, board_argument), ("intrinsics", Intrinsics, intrinsics_argument)):
             value = getattr(self, name)
             if isinstance(value, str):
                 import argparse

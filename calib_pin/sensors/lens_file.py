@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import ArgumentError, DataError
-from .lens import OPENCV_EXTRA, Intrinsics, LensSource, intrinsics_spec
+from .lens import OPENCV_EXTRA, Board, Intrinsics, LensSource, board_spec, intrinsics_spec
 
 #: The YAML layouts of a camera's intrinsics (module docstring).
 LENS_FORMATS = ("opencv", "ros")
@@ -100,7 +100,8 @@ def _opencv_as_yaml(text: str) -> str:
     return re.sub(r"\A(\s*)%YAML:[^\n]*", r"\1", text)
 
 
-def _load(source: str, text: str) -> dict[str, Any]:
+def _load(source: str, text: str, what: str = "not a camera file: expected keys (image_width, camera_matrix, ...)"
+          ) -> dict[str, Any]:
     """The top-level mapping of a YAML text, with ``__lines__``: each key's 1-based line.
 
     Raises:
@@ -130,8 +131,7 @@ def _load(source: str, text: str) -> dict[str, Any]:
         what = getattr(e, "problem", None) or str(e).splitlines()[0]
         raise DataError(source, f"not valid YAML: {what}", line) from None
     if not isinstance(doc, dict):
-        raise DataError(source, "not a camera file: expected keys (image_width, camera_matrix, ...), got "
-                        f"{type(doc).__name__ if doc is not None else 'nothing'}")
+        raise DataError(source, f"{what}, got {type(doc).__name__ if doc is not None else 'nothing'}")
     lines = {str(k.value): k.start_mark.line + 1 for k, _ in node.value} if isinstance(node, yaml.MappingNode) else {}
     return {**{str(k): v for k, v in doc.items()}, "__lines__": lines}
 
@@ -284,4 +284,82 @@ def intrinsics_argument(text: str) -> Intrinsics:
     return intrinsics_spec(text)
 
 
-__all__ = ["LENS_FORMATS", "intrinsics_argument", "intrinsics_text", "read_intrinsics"]
+#: A board file's keys: required, and those a ChArUco board adds (the dictionary optional).
+BOARD_KEYS = ("kind", "columns", "rows", "square_mm")
+CHARUCO_KEYS = ("marker_mm", "dictionary")
+
+
+def read_board(path: str | Path) -> Board:
+    """A printed board from a small YAML file (``--board board.yaml``).
+
+    ``kind`` (charuco or chessboard), ``columns`` and ``rows`` (squares), ``square_mm``, and
+    for a ChArUco board ``marker_mm`` and ``dictionary`` (default ``DICT_5X5_100``)::
+
+        kind: charuco
+        columns: 9
+        rows: 7
+        square_mm: 30
+        marker_mm: 22
+        dictionary: DICT_5X5_100
+
+    Raises:
+        DataError: the file cannot be read, is not YAML, misses a key or has one no board has,
+            or a value no board takes, naming the file, the line and the key.
+    """
+    source = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        why = e.strerror if isinstance(e, OSError) and e.strerror else str(e)
+        raise DataError(source, f"cannot read the board: {why}") from None
+    doc = _load(source, text, "not a board file: expected keys (kind, columns, rows, square_mm, ...)")
+    lines = doc.pop("__lines__")
+    unknown = [k for k in doc if k not in BOARD_KEYS + CHARUCO_KEYS]
+    if unknown:
+        raise DataError(source, f"not a key of a board (it has {', '.join(BOARD_KEYS + CHARUCO_KEYS)})",
+                        lines.get(unknown[0]), unknown[0])
+    kind = str(doc.get("kind", "")).strip()
+    need = BOARD_KEYS + (("marker_mm",) if kind == "charuco" else ())
+    missing = [k for k in need if k not in doc]
+    if missing:
+        raise DataError(source, f"missing (a {kind or 'board'} file has {', '.join(need)})", None, missing[0])
+    try:
+        columns, rows = (int(doc[k]) if float(doc[k]).is_integer() else -1 for k in ("columns", "rows"))
+        square = float(doc["square_mm"])
+        marker = float(doc["marker_mm"]) if kind == "charuco" else None
+    except (TypeError, ValueError):
+        bad = next(k for k in ("columns", "rows", "square_mm", "marker_mm") if k in doc and not _is_number(doc[k]))
+        raise DataError(source, f"expected a number, got {str(doc[bad])[:40]!r}", lines.get(bad), bad) from None
+    try:
+        dictionary = str(doc.get("dictionary", "DICT_5X5_100")).strip() if kind == "charuco" else ""
+        return Board(columns, rows, square, marker, dictionary, kind)
+    except ArgumentError as e:
+        key = next((k for k, said in (("marker_mm", "marker size"), ("square_mm", "square size"), ("kind", "kind"),
+                                      ("columns", "columns")) if e.reason.startswith(said)), "rows")
+        raise DataError(source, e.reason, lines.get(key), key) from None
+
+
+def _is_number(value: Any) -> bool:
+    try:
+        float(value)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def board_argument(text: str) -> Board:
+    """``--board``: a board file (``.yaml``, ``.yml``: :func:`read_board`) or its spec text (:func:`~.lens.board_spec`).
+
+    Raises:
+        argparse.ArgumentTypeError: naming the file and key, or the expected spec.
+    """
+    if Path(str(text).strip()).suffix.lower() in LENS_SUFFIXES:
+        try:
+            return read_board(str(text).strip())
+        except DataError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+    return board_spec(text)
+
+
+__all__ = ["BOARD_KEYS", "LENS_FORMATS", "board_argument", "intrinsics_argument", "intrinsics_text", "read_board",
+           "read_intrinsics"]
