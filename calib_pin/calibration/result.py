@@ -320,7 +320,12 @@ class CalibrationResult:
         free = np.setdiff1d(np.arange(self.problem.n_params), np.asarray(held, dtype=int))
         gauge = self.estimate.extras.get("gauge")
         noise = gauge.noise if gauge is not None and gauge.noise > 0 else self.noise  # as the gauge judged them
-        return determined(self.problem.subset(self.train), self.x, free, self.prior, noise)
+        training = self.problem.subset(self.train)
+        if self.loss != "linear":  # a robust fit's covariance is that of a larger noise on heavy tails
+            from ..estimators.robust import robust_noise
+
+            noise = max(noise, robust_noise(training.residual(self.x), self.loss))
+        return determined(training, self.x, free, self.prior, noise)
 
     @property
     def named_points(self) -> tuple[NamedPoint, ...]:

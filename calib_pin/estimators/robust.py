@@ -50,6 +50,34 @@ def robust_scale(residual: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(residual - np.median(residual))))
 
 
+#: The influence function psi(u) of each loss and its derivative, u = r / s (rho' and what it gives d/du).
+_PSI: dict[str, tuple[Callable[[np.ndarray], np.ndarray], Callable[[np.ndarray], np.ndarray]]] = {
+    "linear": (lambda u: u, lambda u: np.ones_like(u)),
+    "huber": (lambda u: np.clip(u, -1.0, 1.0), lambda u: (np.abs(u) <= 1.0).astype(float)),
+    "soft_l1": (lambda u: u / np.sqrt(1.0 + u**2), lambda u: (1.0 + u**2) ** -1.5),
+    "cauchy": (lambda u: u / (1.0 + u**2), lambda u: (1.0 - u**2) / (1.0 + u**2) ** 2),
+}
+
+
+def robust_noise(residual: np.ndarray, loss: str) -> float:
+    """The noise [unit of the residual] whose Gaussian covariance a fit with ``loss`` has: Huber's sandwich.
+
+    An M-estimate with scale s and influence psi has the covariance of a least-squares fit
+    of noise s^2 mean(psi(u)^2) / mean(psi'(u))^2, u = r / s (Huber 1981, 7.6): on Gaussian
+    residuals about sigma, on heavy-tailed ones larger than sigma and smaller than their RMS.
+    ``linear``: the RMS (its own least squares). ``s`` is :func:`robust_scale`'s.
+    """
+    r = np.asarray(residual, dtype=float)
+    if loss == "linear" or not len(r):
+        return float(np.sqrt(np.mean(r**2))) if len(r) else 0.0
+    scale = robust_scale(r)
+    if scale <= 0:
+        return 0.0
+    psi, slope = _PSI[loss]
+    u = r / scale
+    return float(scale * np.sqrt(np.mean(psi(u) ** 2)) / max(float(np.mean(slope(u))), 1e-12))
+
+
 def refit_scales(residual_of: Callable[[], np.ndarray]) -> Iterator[float]:
     """The scales of the refit scheme, at most MAX_REFITS.
 
