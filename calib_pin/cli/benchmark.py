@@ -54,12 +54,16 @@ def add_benchmark_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    "robot, on the same simulated camera sets (--robots irb120,ur5; both mounts; with the robot's "
                    "deviations, its last link nominal, none; --repeats seeds); the camera's pose relative to the board "
                    "at fresh poses against the truth")
+    p.add_argument("--images", action="store_true",
+                   help="instead of timing: rendered images of simulated camera sets (--robots irb120,ur5; both mounts; "
+                   "with the robot's deviations and its last link nominal; --repeats seeds) detected and calibrated, "
+                   "against an oracle fit and the truth; the detection time per image")
     p.add_argument("--trust", action="store_true",
                    help="instead of timing: check the gauge, the predicted accuracy and the intervals against the "
                    "simulator's truth (IRB120, UR5, Panda; every sensor; lm, ekf-qibas, de; --repeats seeds) and the "
                    "predicted error against the held-out error on the real IRB120 set (10 splits); long")
     p.add_argument("--robots", type=_robot_list,
-                   help="robots of --trust (irb120,ur5,panda) or --hand-eye (irb120,ur5), comma-separated")
+                   help="robots of --trust (irb120,ur5,panda), --hand-eye or --images (irb120,ur5), comma-separated")
     p.add_argument("--against", choices=["figaroh"],
                    help="also race FIGAROH (when installed) on simulated UR5 positions, 100 and 1 000 samples")
     return p
@@ -88,7 +92,8 @@ def _command_list(text: str) -> tuple[str, ...]:
 def benchmark_main(argv: Sequence[str] | None = None) -> int:
     """``benchmark.py [--repeats 5] [--methods ekf-qibas,lm] [--seed 0] [--poses 120]``."""
     args = parse_args("benchmark", argv)
-    return run(lambda: _trust(args) if args.trust else _hand_eye(args) if args.hand_eye else _benchmark(args))
+    return run(lambda: _trust(args) if args.trust else _hand_eye(args) if args.hand_eye else _images(args)
+               if args.images else _benchmark(args))
 
 
 def _trust(args: argparse.Namespace) -> int:
@@ -116,6 +121,26 @@ def _hand_eye(args: argparse.Namespace) -> int:
     rows = study(robots=args.robots or ("irb120", "ur5"), seeds=tuple(range(1, args.repeats + 1)),
                  notify=lambda line: print(line, file=sys.stderr, flush=True))
     print(format_rows(rows))
+    return 0
+
+
+def _images(args: argparse.Namespace) -> int:
+    """``--images``: the study of :mod:`calib_pin.studies.camera_images`, a Markdown table, detection time and goals."""
+    import statistics
+    import sys
+
+    from ..sensors.camera_view import default_intrinsics
+    from ..studies.camera_images import format_rows, goal_lines, study
+
+    rows = study(robots=args.robots or ("irb120", "ur5"), seeds=tuple(range(1, args.repeats + 1)),
+                 notify=lambda line: print(line, file=sys.stderr, flush=True))
+    print(format_rows(rows))
+    times = [r.detect_ms for r in rows]
+    lens = default_intrinsics()
+    print(f"detection time per image (ChArUco, {lens.width}x{lens.height} px, cv2.aruco.CharucoDetector): median "
+          f"{statistics.median(times):.1f} "
+          f"ms (each case's median over its {rows[0].images} images; cases {min(times):.1f} to {max(times):.1f} ms)")
+    print("\n".join(goal_lines(rows)))
     return 0
 
 

@@ -106,6 +106,7 @@ def _detect(args: argparse.Namespace) -> int:
           f"{seconds * 1e3:.0f} ms an image (median)")
     if args.intrinsics is None:
         print("the lens is not in the set: give it to calibrate (--intrinsics)")
+    print("calibrate it with --loss huber: a few detected corners (beside a marker, seen steeply) are a pixel off")
     print(f"wrote {args.out}")
     return 0
 
