@@ -19,7 +19,7 @@ from scipy.optimize import least_squares
 
 from .base import Callback, EstimateResult, Tracker, rmse
 from .problem import LeastSquares
-from .robust import outlier_rows, refit_scales
+from .robust import outlier_rows, refit_scales, value_unit
 
 
 @dataclass(frozen=True)
@@ -89,6 +89,7 @@ class LevenbergMarquardt:
         track.record(rmse(robust.fun))
         return track.result(
             space.to_x(robust.x), iterations[0],
-            f"LM: {fit.message}; {self.loss} (scale {scale * 1e3:.3g} mm): {robust.message}",
+            f"LM: {fit.message}; {self.loss} (scale {scale * 1e3:.3g} {value_unit(problem)}): "
+            f"{robust.message}",
             status=status, outliers=outlier_rows(problem, robust.fun, scale),
         )

@@ -42,6 +42,11 @@ _RHO: dict[str, Callable[[np.ndarray], np.ndarray]] = {
 }
 
 
+def value_unit(problem: Any) -> str:
+    """The unit of a problem's values as its model names it (``px`` for a camera), else ``mm``."""
+    return str(getattr(getattr(problem, "model", None), "value_unit", "mm"))
+
+
 def robust_scale(residual: np.ndarray) -> float:
     """1.4826 x median absolute deviation [unit of the residual].
 
@@ -136,7 +141,8 @@ def refit(estimator: Any, problem: LeastSquares, x0: np.ndarray, loss: str, *, s
         messages.append(step.message)
     return EstimateResult(
         x=x, success=first.success, status=first.status, iterations=first.iterations + refits, nfev=nfev,
-        message=f"{messages[0]}; {refits} {loss} refit(s) (scale {scale * 1e3:.3g} mm): {messages[-1]}",
+        message=f"{messages[0]}; {refits} {loss} refit(s) (scale {scale * 1e3:.3g} {value_unit(problem)}): "
+                f"{messages[-1]}",
         extras={**first.extras, "stages": {**(first.stages or {"linear": first.iterations}), loss: inner},
                 "outliers": outlier_rows(problem, problem.residual(x), scale)},
     )
