@@ -230,12 +230,13 @@ def _add_images(outputs: Outputs, folder: Path, sets: list[MeasurementSet], csvs
                 params: Any, seed: int) -> list[tuple[Path, int]]:
     """Stage each camera set's rendered images and joints file (``--images``); each folder and its image count."""
     from ..measurements.csv_writer import write_poses
-    from ..sensors.camera_render import render_images
+    from ..sensors import SENSORS, sensor_for
 
-    cameras = [k for k, d in enumerate(sets) if d.kind == "camera"]
+    cameras = [k for k, d in enumerate(sets) if hasattr(sensor_for(d.kind), "render_images")]
     if not cameras:
+        takers = ",".join(s.kind for s in SENSORS.values() if hasattr(s, "render_images"))
         raise CalibPinError(f"--images renders a camera set's images; this simulates {', '.join(d.kind for d in sets)} "
-                            "(--kinds camera)")
+                            f"(--kinds {takers})")
     out = []
     for k in cameras:
         data, where = sets[k], folder if len(cameras) == 1 else folder / csvs[k].name.removesuffix(".csv")
@@ -245,7 +246,7 @@ def _add_images(outputs: Outputs, folder: Path, sets: list[MeasurementSet], csvs
         names = np.array([f"pose_{int(p):04d}.png" for p in pose_ids])
         for path in (where / JOINTS_FILE, *(where / n for n in names)):
             outputs.check(path)
-        rendered = render_images(true.model(chain, params), true.x_model, q, np.random.default_rng(seed))
+        rendered = true.model(chain, params).render_images(true.x_model, q, np.random.default_rng(seed))
         for name, image in zip(names, rendered, strict=True):
             outputs.add(where / name, partial(_write_png, image=image))
         outputs.add(where / JOINTS_FILE, partial(write_poses, q=q, robot=data.robot, end_frame=data.end_frame,

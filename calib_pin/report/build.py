@@ -214,7 +214,8 @@ def _set_reports(result: CalibrationResult) -> list[dict[str, Any]]:
 def _per_pose(result: CalibrationResult, s: Any) -> dict[str, Any]:
     """A set's error per pose (an image's corners, a pose's markers), in its unit: ``{"per_pose": [...]}``.
 
-    Each pose's label, split, rows and RMS row error before and after; empty for a set of one
+    Each pose's label (``id``), split, rows and RMS row error before and after, and what its
+    sensor calls a pose and a row (``pose_name``: ``image``; ``row_name``: ``corners``); empty for a set of one
     row a pose (its per-row residuals say it all) or without pose labels.
     """
     pose_ids = result.data.pose_ids
@@ -231,10 +232,10 @@ def _per_pose(result: CalibrationResult, s: Any) -> dict[str, Any]:
     out = []
     for label in dict.fromkeys(labels.tolist()):
         rows = labels == label
-        out.append({"pose": label if isinstance(label, str) else int(label), "split": str(split[rows][0]),
+        out.append({"id": label if isinstance(label, str) else int(label), "split": str(split[rows][0]),
                     "rows": int(rows.sum()), f"rms_before_{s.unit}": float(np.sqrt(np.mean(before[rows] ** 2))),
                     f"rms_after_{s.unit}": float(np.sqrt(np.mean(after[rows] ** 2)))})
-    return {"per_pose": out}
+    return {"per_pose": out, "pose_name": s.model.pose_name, "row_name": s.model.row_name}
 
 
 def build_report(result: CalibrationResult) -> dict[str, Any]:

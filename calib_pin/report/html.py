@@ -298,9 +298,9 @@ def _per_pose_section(r: dict) -> str:
         if not rows:
             continue
         unit = s.get("error_unit", "mm")
-        what, items = ("image", "corners") if s.get("data_kind") == "camera" else ("pose", "rows")
+        what, items = s["pose_name"], s["row_name"]
         ranked = sorted(rows, key=lambda p: -p[f"rms_after_{unit}"])
-        body = [[html.escape(str(p["pose"])), p["split"], str(p["rows"]), fmt(p[f"rms_before_{unit}"]),
+        body = [[html.escape(str(p["id"])), p["split"], str(p["rows"]), fmt(p[f"rms_before_{unit}"]),
                  fmt(p[f"rms_after_{unit}"])] for p in ranked]
         title = f"<p>Set {html.escape(s['label'])}: {len(rows)} {what}s, the worst after the fit first.</p>" \
             if len(r["sets"]) > 1 else f"<p>{len(rows)} {what}s, the worst after the fit first.</p>"
@@ -394,8 +394,8 @@ def render_html(r: dict) -> str:
         sections.insert(1, ("sets", "Measurement sets", _sets_section(r)))
     per_pose = _per_pose_section(r)
     if per_pose:
-        camera = any(s.get("data_kind") == "camera" and s.get("per_pose") for s in r.get("sets", ()))
-        sections.append(("per-pose", "Error per image" if camera else "Error per pose", per_pose))
+        names = {s["pose_name"] for s in r.get("sets", ()) if s.get("per_pose")}
+        sections.append(("per-pose", f"Error per {names.pop()}" if len(names) == 1 else "Error per pose", per_pose))
     sections.append(("sensor", "Sensor", sensor_html(r)))
     nav = "".join(f'<a href="#{key}">{html.escape(title)}</a>' for key, title, _ in sections)
     body = "".join(f'<section id="{key}"><h2>{html.escape(title)}</h2>{content}</section>'

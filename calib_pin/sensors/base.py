@@ -202,6 +202,9 @@ class MeasurementModel(ABC):
     data_name: ClassVar[str]
     values_per_row: ClassVar[int] = 1
     error_name: ClassVar[str] = "error"
+    #: What one pose's rows are, for people, and what a row is (a report's error per pose).
+    pose_name: ClassVar[str] = "pose"
+    row_name: ClassVar[str] = "rows"
     #: The unit of a row's error (:meth:`row_errors`, and the ``*_mm`` fields of its
     #: :class:`~calib_pin.analysis.metrics.Metrics`): ``mm`` unless the sensor says
     #: otherwise (``deg`` for a sensor of angles). Several sets' row errors are pooled

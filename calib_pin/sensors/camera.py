@@ -86,6 +86,7 @@ class CameraModel(MeasurementModel):
     values_per_row = 2
     value_unit = "px"
     error_name = "reprojection error (u, v)"
+    pose_name, row_name = "image", "corners"
     geometry_type = CameraRig
     setup_type = CameraSetup
     estimable = ("intrinsics",)
@@ -271,6 +272,12 @@ class CameraModel(MeasurementModel):
         return session_rig(first, rng)
 
     # --- the camera's pose, and hand-eye alone ---------------------------------------------
+
+    def render_images(self, x: np.ndarray | None, q: np.ndarray, rng: np.random.Generator) -> list[np.ndarray]:
+        """The 8-bit grey image the camera takes of the board at each pose of q [rad] (:mod:`.camera_render`)."""
+        from .camera_render import render_images
+
+        return render_images(self, x, q, rng)
 
     def camera_to_board(self, x: np.ndarray | None, q: np.ndarray) -> list[pin.SE3]:
         """The board's pose in the camera frame at each pose of q (T_CW, [m]): what PnP reads of an image."""

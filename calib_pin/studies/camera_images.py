@@ -47,7 +47,7 @@ from ..robot import load_chain
 from ..robot.poses import random_poses
 from ..sensors.camera_detect import find_corners
 from ..sensors.camera_render import render_images
-from ..sensors.camera_rig import MIN_CORNERS, CameraRig, CameraSetup
+from ..sensors.camera_rig import MIN_CORNERS
 from ..sensors.camera_view import MIN_SEEN, seen
 from ..sensors.lens import OPENCV_EXTRA, Intrinsics
 from ..simulation.simulator import simulate_set
@@ -152,7 +152,7 @@ def gauge_free_rms(model: Any, x: np.ndarray | None, q: np.ndarray, true_points:
     return float(np.sqrt(np.mean(np.sum((points - true_points) ** 2, axis=1))) * 1e3)
 
 
-def camera_point(rig: CameraRig) -> np.ndarray:
+def camera_point(rig: Any) -> np.ndarray:
     """The end-frame point [m] the camera scores are taken at: the optical centre eye in hand, the board's middle eye to hand."""
     return np.asarray(rig.camera.translation if rig.in_hand else rig.board_pose.act(rig.board.centre), dtype=float)
 
@@ -206,7 +206,7 @@ def lens_errors(robot: str, detected: MeasurementSet, true: Intrinsics, seed: in
     lens off by :data:`LENS_OFF`."""
     off = dataclasses.replace(true, **{k: getattr(true, k) + v for k, v in LENS_OFF.items()})
     result = calibrate(robot, detected, method="lm", test_fraction=0.0, seed=seed, loss=LOSS,
-                       setup=CameraSetup(intrinsics=off, estimate="intrinsics"))
+                       setup=camera_sensor().setup_type(intrinsics=off, estimate="intrinsics"))
     names = list(result.problem.model.names)
     uncertainty: Any = result.uncertainty
     errors = {n: abs(getattr(result.sensor.intrinsics, n) - getattr(true, n)) for n in LENS_SCORED}
@@ -255,7 +255,7 @@ def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES
     method = min(scored, key=lambda name: scored[name][0])
     hand_eye: tuple[tuple[float, float] | None, tuple[float, float] | None] = (None, None)
     if case == "last link nominal":
-        def placed(r: CameraRig) -> pin.SE3:
+        def placed(r: Any) -> pin.SE3:
             return r.camera if r.in_hand else r.board_pose
 
         hand_eye = (pose_rms([placed(model.geometry_at(result.x))], [placed(rig)]),
