@@ -24,7 +24,7 @@ import argparse
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -276,12 +276,21 @@ def intrinsics_argument(text: str) -> Intrinsics:
     Raises:
         argparse.ArgumentTypeError: naming the file and key, or the expected numbers.
     """
+    return cast(Intrinsics, _file_or_text(text, read_intrinsics, intrinsics_spec))
+
+
+def _file_or_text(text: str, read: Any, parse: Any) -> Any:
+    """An option's value: ``read`` of a YAML file (``.yaml``, ``.yml``), else ``parse`` of its text.
+
+    Raises:
+        argparse.ArgumentTypeError: the file's refusal (naming the file and key), or the text's.
+    """
     if Path(str(text).strip()).suffix.lower() in LENS_SUFFIXES:
         try:
-            return read_intrinsics(str(text).strip())
+            return read(str(text).strip())
         except DataError as e:
             raise argparse.ArgumentTypeError(str(e)) from None
-    return intrinsics_spec(text)
+    return parse(text)
 
 
 #: A board file's keys: required, and those a ChArUco board adds (the dictionary optional).
@@ -353,12 +362,7 @@ def board_argument(text: str) -> Board:
     Raises:
         argparse.ArgumentTypeError: naming the file and key, or the expected spec.
     """
-    if Path(str(text).strip()).suffix.lower() in LENS_SUFFIXES:
-        try:
-            return read_board(str(text).strip())
-        except DataError as e:
-            raise argparse.ArgumentTypeError(str(e)) from None
-    return board_spec(text)
+    return cast(Board, _file_or_text(text, read_board, board_spec))
 
 
 __all__ = ["BOARD_KEYS", "LENS_FORMATS", "board_argument", "intrinsics_argument", "intrinsics_text", "read_board",

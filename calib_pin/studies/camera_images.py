@@ -52,7 +52,7 @@ from ..sensors.camera_view import MIN_SEEN, seen
 from ..sensors.lens import OPENCV_EXTRA, Intrinsics
 from ..simulation.simulator import simulate_set
 from ..util.optional import require
-from .hand_eye import FLANGE_NOTE, camera_sensor, last_link, pose_rms
+from .hand_eye import FLANGE_NOTE, camera_sensor, each_case, flange_placement, last_link, pose_rms
 
 #: The robot cases (module docstring).
 CASES = ("deviations", "last link nominal")
@@ -255,11 +255,8 @@ def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES
     method = min(scored, key=lambda name: scored[name][0])
     hand_eye: tuple[tuple[float, float] | None, tuple[float, float] | None] = (None, None)
     if case == "last link nominal":
-        def placed(r: Any) -> pin.SE3:
-            return r.camera if r.in_hand else r.board_pose
-
-        hand_eye = (pose_rms([placed(model.geometry_at(result.x))], [placed(rig)]),
-                    pose_rms([placed(alone[method].rig)], [placed(rig)]))
+        hand_eye = (pose_rms([flange_placement(model.geometry_at(result.x))], [flange_placement(rig)]),
+                    pose_rms([flange_placement(alone[method].rig)], [flange_placement(rig)]))
     return ImagesRow(
         robot, mount, case, seed, len(seconds), len(np.unique(np.asarray(detected.pose_ids))), len(data), len(detected),
         float(np.sqrt(np.mean(error**2))), float(np.median(seconds)) * 1e3, (fit[0], oracle[0]), (fit[1], oracle[1]),
@@ -271,15 +268,7 @@ def study(robots: Sequence[str] = ("irb120", "ur5"), mounts: Sequence[str] = ("e
           cases: Sequence[str] = CASES, seeds: Sequence[int] = (1, 2, 3),
           notify: Callable[[str], Any] | None = None) -> list[ImagesRow]:
     """Every case of the study, each robot, mount, case and seed."""
-    rows = []
-    for robot in robots:
-        for mount in mounts:
-            for case in cases:
-                for seed in seeds:
-                    if notify is not None:
-                        notify(f"{robot}, {mount}, {case}, seed {seed}")
-                    rows.append(compare(robot, mount, case, seed))
-    return rows
+    return each_case(compare, robots, mounts, cases, seeds, notify)
 
 
 def _median(values: Sequence[float]) -> float:

@@ -97,7 +97,8 @@ def pose_rms(a: Sequence[pin.SE3], b: Sequence[pin.SE3]) -> tuple[float, float]:
     return float(t), float(np.rad2deg(r))
 
 
-def _flange(rig: Any) -> pin.SE3:
+def flange_placement(rig: Any) -> pin.SE3:
+    """The placement on the flange of a camera set-up: the camera's eye in hand, the board's eye to hand."""
     return rig.camera if rig.in_hand else rig.board_pose
 
 
@@ -137,18 +138,17 @@ def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES
     method = min(scored, key=lambda name: scored[name][0])
     flange = None
     if case == "last link nominal":
-        true_flange = _flange(truth.sensor)
-        flange = (pose_rms([_flange(model.geometry_at(fitted.x))], [true_flange]),
-                  pose_rms([_flange(alone[method].rig)], [true_flange]))
+        true_flange = flange_placement(truth.sensor)
+        flange = (pose_rms([flange_placement(model.geometry_at(fitted.x))], [true_flange]),
+                  pose_rms([flange_placement(alone[method].rig)], [true_flange]))
     return HandEyeRow(robot, mount, case, seed, len(data), error(model, fitted.x), scored[method], method,
                       error(model, None), flange[0] if flange else None, flange[1] if flange else None,
                       float(result.estimate.time_s))
 
 
-def study(robots: Sequence[str] = ("irb120", "ur5"), mounts: Sequence[str] = ("eye-in-hand", "eye-to-hand"),
-          cases: Sequence[str] = CASES, seeds: Sequence[int] = (1, 2, 3),
-          notify: Callable[[str], Any] | None = None) -> list[HandEyeRow]:
-    """Every case of the study, each robot, mount, case and seed."""
+def each_case(run: Callable[[str, str, str, int], Any], robots: Sequence[str], mounts: Sequence[str],
+              cases: Sequence[str], seeds: Sequence[int], notify: Callable[[str], Any] | None = None) -> list[Any]:
+    """``run(robot, mount, case, seed)`` of every robot, mount, case and seed, in that order (a camera study's loop)."""
     rows = []
     for robot in robots:
         for mount in mounts:
@@ -156,8 +156,15 @@ def study(robots: Sequence[str] = ("irb120", "ur5"), mounts: Sequence[str] = ("e
                 for seed in seeds:
                     if notify is not None:
                         notify(f"{robot}, {mount}, {case}, seed {seed}")
-                    rows.append(compare(robot, mount, case, seed))
+                    rows.append(run(robot, mount, case, seed))
     return rows
+
+
+def study(robots: Sequence[str] = ("irb120", "ur5"), mounts: Sequence[str] = ("eye-in-hand", "eye-to-hand"),
+          cases: Sequence[str] = CASES, seeds: Sequence[int] = (1, 2, 3),
+          notify: Callable[[str], Any] | None = None) -> list[HandEyeRow]:
+    """Every case of the study, each robot, mount, case and seed."""
+    return each_case(compare, robots, mounts, cases, seeds, notify)
 
 
 def _cell(pair: tuple[float, float] | None) -> str:
@@ -191,5 +198,5 @@ def format_rows(rows: Sequence[HandEyeRow]) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["CASES", "FLANGE_NOTE", "HandEyeRow", "camera_sensor", "compare", "format_rows", "last_link", "pose_rms",
-           "study"]
+__all__ = ["CASES", "FLANGE_NOTE", "HandEyeRow", "camera_sensor", "compare", "each_case", "flange_placement",
+           "format_rows", "last_link", "pose_rms", "study"]
