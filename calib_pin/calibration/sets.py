@@ -229,3 +229,23 @@ def mixed_setups_warning(data: MeasurementSet, train: np.ndarray, after_rmse_mm:
                     f"{after_rmse_mm / (sigma * 1e3):.0f} x the noise {sigma * 1e3:.3g} mm): give each set-up its "
                     "own file with its own metadata and pass them together (--data a.csv --data b.csv)")
     return None
+
+
+#: Held-out rows that miss by this many times the training rows (and by SETUP_SIGMAS noise sigmas) get a warning.
+HELD_OUT_TIMES = 10.0
+
+
+def held_out_warning(label: str, train_rmse: float, test_rmse: float, sigma_mm: float, unit: str) -> str | None:
+    """The warning for a set whose held-out rows miss by far more than its training rows, or None.
+
+    RMSE and noise in the set's unit (``unit``; mm, px). Such a fit follows its training rows
+    and not the robot: too few poses for its unknowns, or held-out rows that do not belong (an
+    image of another pose, a set-up moved between the rows).
+    """
+    if test_rmse <= HELD_OUT_TIMES * train_rmse or test_rmse <= SETUP_SIGMAS * sigma_mm:
+        return None
+    return (f"{label}: the held-out rows miss by {test_rmse:.3g} {unit}, {test_rmse / max(train_rmse, 1e-12):.0f} "
+            f"times the training rows' {train_rmse:.3g} {unit}: too few poses for the unknowns, or held-out rows that "
+            "do not belong (an image of another pose, a set-up moved between rows); report.json's per_pose names "
+            "the worst poses")
+

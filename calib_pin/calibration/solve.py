@@ -36,7 +36,7 @@ from .noise import PILOT, Noise, apply, estimate_noise
 from .prepare import Calibration, prepare
 from .problem import Problem, values_error
 from .result import CalibrationResult, SetResult
-from .sets import mixed_setups_warning
+from .sets import held_out_warning, mixed_setups_warning
 from .validation import register_session, score_session, session_notes
 
 
@@ -240,6 +240,11 @@ def score(calibration: Calibration, method: Method, done: Fit, train: np.ndarray
         if "train" in metrics:
             mixed = mixed_setups_warning(s.data, tr, metrics["train"]["after"].rmse_mm, float(sigma))
             warnings_ += [mixed] if mixed else []
+            if "test" in metrics:
+                unit = str(getattr(part.model, "value_unit", "mm"))
+                held = held_out_warning(s.label, metrics["train"]["after"].rmse_mm, metrics["test"]["after"].rmse_mm,
+                                        float(sigma) * 1e3, unit)
+                warnings_ += [held] if held else []
         results.append(SetResult(
             label=s.label, source=s.data.source, kind=s.kind, role=s.role, sigma=float(sigma), sigma_origin=origin,
             rows=np.arange(offsets[k], offsets[k + 1]), train=tr, test=te, metrics=metrics,

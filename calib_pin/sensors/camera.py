@@ -230,8 +230,10 @@ class CameraModel(MeasurementModel):
         mount, board, intrinsics, noise, origin = cls.options_of(data, options)
         corners = cls.check_rows(data, board, intrinsics)
         fit_rows = np.asarray(fit_rows, dtype=int)
+        labels = data.pose_ids[fit_rows] if data.pose_ids is not None else None
+        lines = data.lines[fit_rows] if data.lines is not None else None
         rig = fit_rig(cls, chain, params, mount, board, intrinsics, data.q[fit_rows], data.values[fit_rows],
-                      corners[fit_rows], data.source, fit_rows_name(options))
+                      corners[fit_rows], data.source, fit_rows_name(options), labels, lines)
         model = cls(chain, params, rig, ("camera", "board", *intrinsics_too), options.get("compliance"), noise, origin)
         return SetProblem(model, data.q, np.asarray(data.values, dtype=float) * PX, corners)
 

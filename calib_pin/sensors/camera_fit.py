@@ -168,7 +168,8 @@ def hand_eye_alone(model: Any, q: np.ndarray, values: np.ndarray, corners: np.nd
 
 
 def fit_rig(cls: Any, chain: Chain, params: ParameterModel, mount: str, board: Board, intrinsics: Intrinsics, q: np.ndarray,
-            values: np.ndarray, corners: np.ndarray, source: str = "", rows: str = "training rows") -> CameraRig:
+            values: np.ndarray, corners: np.ndarray, source: str = "", rows: str = "training rows",
+            labels: np.ndarray | None = None, lines: np.ndarray | None = None) -> CameraRig:
     """The camera's and board's placements that fit the rows best with the nominal robot (module docstring).
 
     Args:
@@ -177,6 +178,7 @@ def fit_rig(cls: Any, chain: Chain, params: ParameterModel, mount: str, board: B
         values: Image points, shape (n_rows, 2), [px].
         corners: Each row's corner index.
         source, rows: The data's name and what its rows are called, for a refusal.
+        labels, lines: Each row's pose label and file line, for a refusal (None: not known).
 
     Raises:
         CalibPinError: OpenCV is not installed (the line names the extra).
@@ -193,36 +195,92 @@ def fit_rig(cls: Any, chain: Chain, params: ParameterModel, mount: str, board: B
     if len(good) < MIN_POSES:
         raise DataError(source or "the measurement set", f"PnP finds the board in {len(good)} of the {len(poses)} poses "
                         f"of the {rows}: a hand-eye start needs {MIN_POSES} (more poses, each of 4 corners or more)")
-    ends = [pin.SE3(rot[j], origin[j]) for j in good]
-    boards = [found[j] for j in good]
     in_hand = mount == "eye-in-hand"
-    starts: list[tuple[float, CameraRig]] = []
-    for solve, method in ((_robot_world, cv2.CALIB_ROBOT_WORLD_HAND_EYE_SHAH),
-                          (_robot_world, cv2.CALIB_ROBOT_WORLD_HAND_EYE_LI),
-                          (_hand_eye, cv2.CALIB_HAND_EYE_TSAI), (_hand_eye, cv2.CALIB_HAND_EYE_PARK)):
-        if solve is _hand_eye and starts and min(s[0] for s in starts) < FALLBACK_PX:
-            break  # the robot-world start fits: no fallback
-        try:
-            camera, placed = solve(cv2, in_hand, ends, boards, method)
-        except (cv2.error, np.linalg.LinAlgError, ValueError):
-            continue
-        rig = CameraRig(mount, camera, placed, board, intrinsics)
-        starts.append((_rms(cls(chain, params, rig, estimate=()), q, values, corners), rig))
-    if not starts:
-        raise DataError(source or "the measurement set", "OpenCV's hand-eye solvers found no camera placement on the "
-                        f"{rows} (poses too alike: turn the flange about more axes between images)")
-    best = min(starts, key=lambda s: s[0])[1]
-    scale = board_scale(in_hand, ends, boards, best.camera.rotation)
+
+    def start(use: list[int]) -> tuple[CameraRig, float, np.ndarray]:
+        """The best hand-eye start of the poses ``use``, the board's scale and each of those poses' loop misfit [m]."""
+        ends, boards = [pin.SE3(rot[j], origin[j]) for j in use], [found[j] for j in use]
+        starts: list[tuple[float, CameraRig]] = []
+        for solve, method in ((_robot_world, cv2.CALIB_ROBOT_WORLD_HAND_EYE_SHAH),
+                              (_robot_world, cv2.CALIB_ROBOT_WORLD_HAND_EYE_LI),
+                              (_hand_eye, cv2.CALIB_HAND_EYE_TSAI), (_hand_eye, cv2.CALIB_HAND_EYE_PARK)):
+            if solve is _hand_eye and starts and min(s[0] for s in starts) < FALLBACK_PX:
+                break  # the robot-world start fits: no fallback
+            try:
+                camera, placed = solve(cv2, in_hand, ends, boards, method)
+            except (cv2.error, np.linalg.LinAlgError, ValueError):
+                continue
+            rig = CameraRig(mount, camera, placed, board, intrinsics)
+            starts.append((_rms(cls(chain, params, rig, estimate=()), q, values, corners), rig))
+        if not starts:
+            raise DataError(source or "the measurement set", "OpenCV's hand-eye solvers found no camera placement on "
+                            f"the {rows} (poses too alike: turn the flange about more axes between images)")
+        best = min(starts, key=lambda s: s[0])[1]
+        return (best, *board_loops(in_hand, ends, boards, best.camera.rotation))
+
+    best, scale, misfit = start(good)
+    if not 1.0 / MOTION_MISMATCH < scale < MOTION_MISMATCH:
+        raise DataError(source or "the measurement set", f"the images do not follow the robot's motion (the board's "
+                        f"squares would measure {scale * board.square_mm:.3g} mm): the wrong --camera-mount ({mount} "
+                        "given), or images of other poses (the joints file's image names in the wrong order?)",
+                        None, "camera_mount")
     if abs(scale - 1.0) > SCALE_TOLERANCE:
         raise DataError(source or "the measurement set", f"the board's squares measure {scale * board.square_mm:.1f} mm "
                         f"by the robot's motion, not the {board.square_mm:g} mm given: a camera measures lengths in "
                         "the board's squares, so a wrong size scales the whole robot (measure the printed board; "
                         "--board)", None, "board_square_mm")
-    return polish(cls(chain, params, min(starts, key=lambda s: s[0])[1]), q, values, corners)
+    loose = misfit > max(STRAY_TIMES * float(np.median(misfit)), STRAY_MM * 1e-3)  # PnP gone wrong, or a stray
+    if loose.any() and len(good) - loose.sum() >= MIN_POSES:  # the start of the others, then every pose's pixels
+        best = start([j for j, out in zip(good, loose, strict=True) if not out])[0]
+        rows_in = ~np.isin(inverse, np.asarray(good)[loose])
+        best = polish(cls(chain, params, best), q[rows_in], values[rows_in], corners[rows_in])
+    error = np.linalg.norm(cls(chain, params, best, estimate=()).image_points(None, q, corners) - values, axis=1)
+    per_pose = np.sqrt(np.bincount(inverse, weights=error**2) / np.maximum(np.bincount(inverse), 1))
+    far = np.flatnonzero(per_pose > max(STRAY_TIMES * float(np.median(per_pose)), STRAY_PX))
+    if len(far):
+        refuse_strays(far, per_pose, inverse, source, labels, lines)
+    return polish(cls(chain, params, best), q, values, corners)
+
+
+#: The board's scale by the robot's motion beyond this factor (either way) is no board's misprint: the images
+#: and the joints do not belong together.
+MOTION_MISMATCH = 1.5
+#: A pose whose board the robot's motion puts this many times the median pose's loop away, and STRAY_MM, is
+#: left out of the start (a PnP gone wrong on a few corners, or an image not of its pose); a pose whose corners
+#: then miss by this many times the median pose's, and STRAY_PX, does not belong to its joints (refused).
+STRAY_TIMES, STRAY_MM, STRAY_PX = 10.0, 20.0, 30.0
+
+
+def refuse_strays(stray: np.ndarray, per_pose: np.ndarray, inverse: np.ndarray, source: str,
+                  labels: np.ndarray | None, lines: np.ndarray | None) -> None:
+    """Refuse the poses ``stray`` (indices of the distinct poses) whose image does not belong to their joints.
+
+    ``per_pose``: each pose's RMS reprojection error at the start [px].
+
+    Raises:
+        DataError: naming the poses (their labels and file lines).
+    """
+    named = []
+    for j in stray[:5]:
+        rows = np.flatnonzero(inverse == j)
+        label = f"pose {labels[rows[0]]}" if labels is not None else f"the pose of row {rows[0] + 1}"
+        where = f" (lines {int(lines[rows].min())}-{int(lines[rows].max())})" if lines is not None else ""
+        named.append(f"{label}{where} {per_pose[j]:.0f} px off")
+    more = f" and {len(stray) - 5} more" if len(stray) > 5 else ""
+    raise DataError(source or "the measurement set", f"{len(stray)} pose(s) whose corners do not belong to their "
+                    f"joints: {', '.join(named)}{more}, where the median pose is {np.median(per_pose):.1f} px off at "
+                    "the start: an image of another pose, or turned? (remove those "
+                    "rows, or fix the joints file's image names)", None, "pose")
 
 
 def board_scale(in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3], camera_rotation: np.ndarray) -> float:
-    """How much larger the board is than its given size, by the robot's motion (1: as given).
+    """How much larger the board is than its given size, by the robot's motion (1: as given): :func:`board_loops`'."""
+    return board_loops(in_hand, ends, boards, camera_rotation)[0]
+
+
+def board_loops(in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3],
+                camera_rotation: np.ndarray) -> tuple[float, np.ndarray]:
+    """The board's scale by the robot's motion (1: as given), and how far each pose's loop misses then [m].
 
     PnP's translations scale with the board's size and the robot's do not: with the camera's
     rotation (which the size does not change), the translations of every pose's loop, eye in
@@ -253,7 +311,7 @@ def board_scale(in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3], camer
         if np.array_equal(kept, keep) or kept.sum() < MIN_POSES:
             break
         keep = kept
-    return float(solution[0])
+    return float(solution[0]), misfit
 
 
 def _rms(model: Any, q: np.ndarray, values: np.ndarray, corners: np.ndarray) -> float:
