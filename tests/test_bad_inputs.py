@@ -1293,6 +1293,14 @@ def camera_set(row: int | None = None, column: int = 0, value: str = "", drop: s
     return "\n".join([*meta, CAMERA_SHIPPED[CAMERA_HEAD], *rows]) + "\n"
 
 
+def turned_pose() -> str:
+    """The shipped camera example, pose 3's joints turned 30 deg at joint 1: its corners belong to another pose."""
+    rows = CAMERA_SHIPPED[CAMERA_HEAD + 1 :]
+    third = sorted({r.split(",")[0] for r in rows}, key=int)[2]
+    rows = [swap(r, 2, f"{float(r.split(',')[2]) + 30:.6f}") if r.split(",")[0] == third else r for r in rows]
+    return "\n".join([*CAMERA_SHIPPED[: CAMERA_HEAD + 1], *rows]) + "\n"
+
+
 #: Camera sets (calib_pin/sensors/camera.py): a corner not on the board, a pixel outside the image, a pose of too
 #: few corners, no intrinsics, a noise in mm.
 I35_CAMERA: list[Case] = [
@@ -1395,7 +1403,8 @@ I35_IMAGES: list[Case] = [
     (DET, DETECT, {**IMAGES, "img/joints.csv": joints("a.png", "b.png", "c.png")}, 0,
      "img/joints.csv: pose 3: c.png: no such file; left out"),
     (DET, DETECT, {**IMAGES, "img/c.png": board_png(blank=True), "img/joints.csv": joints("a.png", "b.png", "c.png")},
-     0, "pose 3: c.png: board not found (charuco 9x7 squares of 30 mm, markers 22 mm, DICT_5X5_100); left out"),
+     0, "pose 3: c.png: board not found (charuco 9x7 squares of 30 mm, markers 22 mm, DICT_5X5_100; its size counts "
+     "squares, not inner corners); left out"),
     (DET, ["irb120", "--images", "img", "--board", "charuco,5x5,30,22", "--out", "d.csv"],
      {**IMAGES, "img/joints.csv": joints("a.png", "b.png")}, 2,
      "img: no usable image among the 2 the joints file img/joints.csv names (board not found (charuco 5x5"),
@@ -1428,6 +1437,19 @@ I35_IMAGES: list[Case] = [
     (DET, ["irb120", "--images", "img", "--board", "b.yaml", "--out", "d.csv"],
      {"b.yaml": BOARD_FILE.replace("marker_mm: 22\n", "")}, 2,
      "b.yaml: marker_mm: missing (a charuco file has kind, columns, rows, square_mm, marker_mm)"),
+    (CAL, ["irb120", "--data", "c.csv", "--test-fraction", "0", "--method", "lm", "--no-html", "--out", "out"],
+     {"c.csv": turned_pose()}, 2, "c.csv: pose: 1 pose(s) whose corners do not belong to their joints: pose 3 (lines"),
+    (CAL, ["irb120", "--data", "c.csv", "--method", "lm", "--no-html", "--out", "out"], {"c.csv": turned_pose()}, 2,
+     "c.csv: pose: 1 pose(s) whose corners do not belong to their joints: pose 3 (lines"),
+    (CAL, ["irb120", "--data", "c.csv", "--camera-mount", "eye-to-hand", "--method", "lm", "--no-html", "--out", "out"],
+     {"c.csv": camera_set()}, 2, "c.csv: camera_mount: the images do not follow the robot's motion"),
+    (DET, ["irb120", "--images", "img", "--board", "charuco,9x7,30,22,DICT_FOO", "--out", "d.csv"], {}, 2,
+     "dictionary 'DICT_FOO' is not one of OpenCV's ArUco dictionaries"),
+    (DET, ["irb120", "--images", "img", "--board", "b.yaml", "--out", "d.csv"],
+     {"b.yaml": "kind: chessboard\ncolumns: 9\nrows: 7\nsquare_mm: 30\nmarker_mm: 22\n"}, 2,
+     "b.yaml:5: marker_mm: marker size: a chessboard has no markers"),
+    (DET, [*DETECT[:-2], "--out", "img/a.png", "--force"], {**IMAGES, "img/joints.csv": joints("a.png", "b.png")}, 2,
+     "img/a.png is an input of this command (--images (a.png))"),
     (SIM, ["irb120", "--out", "s.csv", "--poses", "5", "--images", "img"], {}, 2,
      "--images renders a camera set's images; this simulates cable (--kinds camera)"),
 ]

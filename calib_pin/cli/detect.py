@@ -73,12 +73,14 @@ def _detect(args: argparse.Namespace) -> int:
     if not folder.is_dir():
         raise DataError(str(folder), "--images: no such folder")
     joints = Path(args.joints) if args.joints else folder / JOINTS_FILE
-    out = Outputs(Path(args.out).parent, force=args.force, inputs={**robot_inputs(args.robot), "--joints": joints})
-    out.check(args.out)
     chain = load_chain(args.robot, args.end_frame)
     poses = read_pose_list(joints, chain)
-    names = poses.extra.get("image")
+    names = next((v for k, v in poses.extra.items() if k.strip().lower() == "image"), None)
     named = {image_path(str(n).strip(), folder).resolve() for n in names} if names is not None else set()
+    images = {f"--images ({path.name})": path for path in named}
+    out = Outputs(Path(args.out).parent, force=args.force,
+                  inputs={**robot_inputs(args.robot), "--joints": joints, **images})
+    out.check(args.out)
     unnamed = sorted(p.name for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.resolve() not in named)
 
     def show(o: ImageOutcome) -> None:
@@ -86,9 +88,17 @@ def _detect(args: argparse.Namespace) -> int:
             print(f"  pose {o.pose}: {o.image}: {o.corners} corners")
 
     data, outcomes = detect_images(poses, folder, args.board, args.intrinsics, args.camera_mount, chain, show)
+    by_reason: dict[str, list[ImageOutcome]] = {}
     for o in outcomes:
         if o.reason is not None:
-            warn(f"{joints}: pose {o.pose}: {o.image}: {o.reason}; left out", "note")
+            by_reason.setdefault(o.reason, []).append(o)
+    for reason, left in by_reason.items():  # one note an image, or one for many images left out alike
+        if len(left) <= LISTED:
+            for o in left:
+                warn(f"{joints}: pose {o.pose}: {o.image + ': ' if o.image else ''}{reason}; left out", "note")
+        else:
+            which = ", ".join(str(o.pose) for o in left[:LISTED])
+            warn(f"{joints}: {len(left)} images left out: {reason} (poses {which}, ...)", "note")
     if unnamed:
         listed = ", ".join(unnamed[:LISTED]) + (", ..." if len(unnamed) > LISTED else "")
         warn(f"{folder}: {len(unnamed)} image(s) the joints file does not name, left out: {listed}", "note")
@@ -106,7 +116,10 @@ def _detect(args: argparse.Namespace) -> int:
           f"{seconds * 1e3:.0f} ms an image (median)")
     if args.intrinsics is None:
         print("the lens is not in the set: give it to calibrate (--intrinsics)")
-    print("calibrate it with --loss huber: a few detected corners (beside a marker, seen steeply) are a pixel off")
+    if args.board.kind == "charuco":
+        print("calibrate it with --loss huber: a few detected corners (beside a marker, seen steeply) are a pixel off")
+    if args.camera_mount is None:
+        print("the mount is not in the set: give it to calibrate (--camera-mount eye-in-hand or eye-to-hand)")
     print(f"wrote {args.out}")
     return 0
 

@@ -156,7 +156,7 @@ def detect_images(poses: MeasurementSet, folder: Path, board: Board, intrinsics:
 
     cv2 = require("cv2", OPENCV_EXTRA)
     source = poses.source or "the pose list"
-    names = poses.extra.get("image")
+    names = next((v for k, v in poses.extra.items() if k.strip().lower() == "image"), None)
     if names is None:
         raise DataError(source, "no 'image' column: name each pose's image file (relative to the images folder)",
                         None, "image")
@@ -187,7 +187,7 @@ def detect_images(poses: MeasurementSet, folder: Path, board: Board, intrinsics:
             (np.zeros(0, dtype=int), np.zeros((0, 2)))
         if reason is None and len(ids) < MIN_CORNERS:
             reason = (f"board not found ({len(ids)} corners; {MIN_CORNERS} needed)" if len(ids) else
-                      f"board not found ({board.describe()})")
+                      f"board not found ({board.describe()}; its size counts squares, not inner corners)")
         outcome = ImageOutcome(int(pose), text, 0 if reason else len(ids), reason, time.perf_counter() - start)
         outcomes.append(outcome)
         if reason is None:

@@ -35,6 +35,10 @@ from ..exceptions import ArgumentError
 OPENCV_EXTRA = "camera"
 #: The kinds of board: a plain chessboard, or a ChArUco board (ArUco markers in its white squares).
 BOARD_KINDS = ("charuco", "chessboard")
+#: OpenCV's predefined ArUco dictionaries a ChArUco board may use.
+ARUCO_DICTIONARIES = tuple(f"DICT_{bits}X{bits}_{n}" for bits in (4, 5, 6, 7) for n in (50, 100, 250, 1000)) + (
+    "DICT_ARUCO_ORIGINAL", "DICT_APRILTAG_16h5", "DICT_APRILTAG_25h9", "DICT_APRILTAG_36h10", "DICT_APRILTAG_36h11",
+    "DICT_ARUCO_MIP_36h12")
 #: The intrinsics in the order of :meth:`Intrinsics.vector` (and of a camera model's unknowns).
 INTRINSIC_NAMES = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
 #: Their units: pixels for the focal lengths and the principal point, none for the distortion.
@@ -77,6 +81,12 @@ class Board:
         if not (np.isfinite(self.square_mm) and 0 < self.square_mm < 1e4):
             raise ArgumentError("board", f"square size {self.square_mm!r:.20} mm is not a positive length below 10 m")
         object.__setattr__(self, "square_mm", float(self.square_mm))
+        if self.kind == "charuco" and self.dictionary not in ARUCO_DICTIONARIES:
+            raise ArgumentError("board", f"dictionary '{self.dictionary!s:.40}' is not one of OpenCV's ArUco "
+                                f"dictionaries (DICT_4X4_50 ... DICT_7X7_1000, DICT_ARUCO_ORIGINAL, DICT_APRILTAG_36h11, "
+                                "...)")
+        if self.kind == "chessboard" and self.marker_mm is not None:
+            raise ArgumentError("board", "marker size: a chessboard has no markers (marker_mm is a ChArUco board's)")
         if self.marker_mm is not None:
             if not (np.isfinite(self.marker_mm) and 0 < self.marker_mm < self.square_mm):
                 raise ArgumentError("board", f"marker size {self.marker_mm!r:.20} mm is not positive and smaller than "

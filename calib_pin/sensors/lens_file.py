@@ -333,9 +333,12 @@ def read_board(path: str | Path) -> Board:
     if missing:
         raise DataError(source, f"missing (a {kind or 'board'} file has {', '.join(need)})", None, missing[0])
     try:
-        columns, rows = (int(doc[k]) if float(doc[k]).is_integer() else -1 for k in ("columns", "rows"))
+        for key in ("columns", "rows"):
+            if not float(doc[key]).is_integer():
+                raise DataError(source, f"{doc[key]!s:.20} is not a whole number of squares", lines.get(key), key)
+        columns, rows = int(float(doc["columns"])), int(float(doc["rows"]))
         square = float(doc["square_mm"])
-        marker = float(doc["marker_mm"]) if kind == "charuco" else None
+        marker = float(doc["marker_mm"]) if kind == "charuco" or "marker_mm" in doc else None
     except (TypeError, ValueError):
         bad = next(k for k in ("columns", "rows", "square_mm", "marker_mm") if k in doc and not _is_number(doc[k]))
         raise DataError(source, f"expected a number, got {str(doc[bad])[:40]!r}", lines.get(bad), bad) from None
@@ -344,7 +347,8 @@ def read_board(path: str | Path) -> Board:
         return Board(columns, rows, square, marker, dictionary, kind)
     except ArgumentError as e:
         key = next((k for k, said in (("marker_mm", "marker size"), ("square_mm", "square size"), ("kind", "kind"),
-                                      ("columns", "columns")) if e.reason.startswith(said)), "rows")
+                                      ("columns", "columns"), ("dictionary", "dictionary")) if e.reason.startswith(said)),
+                   "rows")
         raise DataError(source, e.reason, lines.get(key), key) from None
 
 
