@@ -84,3 +84,17 @@ def test_the_planned_files_are_the_files_written(result, tmp_path):
 
     done = cp.write_outputs(result, tmp_path, "urdf,dh", html=False)
     assert planned_files(result, "urdf,dh", html=False) == [p.name for p in done.files]
+
+
+def test_calibrate_names_an_earlier_runs_files_it_removes(tmp_path, capsys):
+    """A run into the folder of an earlier one whose exports it does not write (rbf: no kinematics) removes them
+    and says so in one note on stderr, naming the files."""
+    from calib_pin.cli import command
+
+    out = str(tmp_path / "out")
+    assert command("calibrate")(["irb120", "--method", "lm", "--no-html", "--out", out]) == 0
+    capsys.readouterr()
+    assert command("calibrate")(["irb120", "--method", "rbf", "--no-html", "--out", out]) == 0
+    err = capsys.readouterr().err
+    assert "note: removed 2 file(s) an earlier run wrote in" in err and "irb120_calibrated.urdf" in err
+    assert not (tmp_path / "out" / "irb120_calibrated.urdf").exists()

@@ -501,6 +501,10 @@ def _calibrate(args: argparse.Namespace) -> int:
                              silence="--no-html silences this")
     report = done.report
     _summary(result, report)  # a refused fit still shows what was computed, then the refusal
+    if done.removed:  # an earlier run's exports would pass for this fit's
+        names = ", ".join(str(p) for p in done.removed[:4]) + (", ..." if len(done.removed) > 4 else "")
+        warn(f"removed {len(done.removed)} file(s) an earlier run wrote in {done.folder}, which this fit does not "
+             f"write: {names}", "note")
     if done.refused:
         return fail(f"{done.refused} (report: {done.folder / 'report.json'})")
     for note in done.notes:
