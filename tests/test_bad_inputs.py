@@ -1443,6 +1443,8 @@ I35_IMAGES: list[Case] = [
      "c.csv: pose: 1 pose(s) whose corners do not belong to their joints: pose 3 (lines"),
     (CAL, ["irb120", "--data", "c.csv", "--camera-mount", "eye-to-hand", "--method", "lm", "--no-html", "--out", "out"],
      {"c.csv": camera_set()}, 2, "c.csv: camera_mount: the images do not follow the robot's motion"),
+    (CAL, ["irb120", "--data", "c.csv", "--estimate", "intrinsics", "--analyze"], {"c.csv": camera_set(drop="# camera_")},
+     2, "(--estimate intrinsics refines a starting lens: give one, the nominal values will do)"),
     (DET, ["irb120", "--images", "img", "--board", "charuco,9x7,30,22,DICT_FOO", "--out", "d.csv"], {}, 2,
      "dictionary 'DICT_FOO' is not one of OpenCV's ArUco dictionaries"),
     (DET, ["irb120", "--images", "img", "--board", "b.yaml", "--out", "d.csv"],

@@ -188,10 +188,12 @@ class CameraModel(MeasurementModel):
 
         mount, board, intrinsics = pick("camera_mount"), pick("board"), pick("intrinsics")
         if intrinsics is None:
+            start = " (--estimate intrinsics refines a starting lens: give one, the nominal values will do)" \
+                if "intrinsics" in (options.get("estimate") or ()) else ""
             raise DataError(source, "no camera intrinsics: add '# camera_fx_px', '# camera_fy_px', '# camera_cx_px', "
                             "'# camera_cy_px', '# camera_width_px', '# camera_height_px' (and distortion "
-                            "'# camera_k1' ...) or pass --intrinsics fx,fy,cx,cy,width,height[,k1,k2,p1,p2,k3]",
-                            None, "intrinsics")
+                            "'# camera_k1' ...) or pass --intrinsics fx,fy,cx,cy,width,height[,k1,k2,p1,p2,k3]"
+                            f"{start}", None, "intrinsics")
         if board is None:
             raise DataError(source, "no board: add '# board_columns', '# board_rows', '# board_square_mm' (and "
                             "'# board_marker_mm') or pass --board charuco,COLSxROWS,SQUARE_MM,MARKER_MM", None, "board")
