@@ -222,19 +222,23 @@ def _per_pose(result: CalibrationResult, s: Any) -> dict[str, Any]:
     problem = s.problem
     if pose_ids is None or problem is None or problem.n_rows != len(s.rows):
         return {}
-    labels = np.asarray(pose_ids, dtype=object)[s.rows]
-    if len(set(labels.tolist())) == len(labels):
+    labels = [str(v) for v in np.asarray(pose_ids, dtype=object)[s.rows]]
+    order = dict.fromkeys(labels)  # the poses in file order
+    if len(order) == len(labels):
         return {}
-    before = problem.row_errors(problem.residual(np.zeros(len(s.x)))) * 1e3
-    after = problem.row_errors(problem.residual(s.x)) * 1e3
-    split = np.full(len(labels), "train", dtype=object)
-    split[s.test] = "test"
-    out = []
-    for label in dict.fromkeys(labels.tolist()):
-        rows = labels == label
-        out.append({"id": label if isinstance(label, str) else int(label), "split": str(split[rows][0]),
-                    "rows": int(rows.sum()), f"rms_before_{s.unit}": float(np.sqrt(np.mean(before[rows] ** 2))),
-                    f"rms_after_{s.unit}": float(np.sqrt(np.mean(after[rows] ** 2)))})
+    index = {label: k for k, label in enumerate(order)}
+    pose = np.array([index[label] for label in labels])
+    rows = np.bincount(pose)
+
+    def rms(residual: np.ndarray) -> np.ndarray:
+        return np.sqrt(np.bincount(pose, weights=(problem.row_errors(residual) * 1e3) ** 2) / rows)
+
+    before, after = rms(problem.residual(np.zeros(len(s.x)))), rms(problem.residual(s.x))
+    tested = np.zeros(len(order), dtype=bool)
+    tested[pose[s.test]] = True
+    out = [{"id": int(label) if label.lstrip("+-").isdigit() else label, "split": "test" if tested[k] else "train",
+            "rows": int(rows[k]), f"rms_before_{s.unit}": float(before[k]), f"rms_after_{s.unit}": float(after[k])}
+           for k, label in enumerate(order)]
     return {"per_pose": out, "pose_name": s.model.pose_name, "row_name": s.model.row_name}
 
 

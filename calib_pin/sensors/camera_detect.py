@@ -99,16 +99,13 @@ def _flipped(board: Board) -> np.ndarray:
 def orient_chessboards(cv2: Any, board: Board, intrinsics: Intrinsics, chain: Chain, q: list[np.ndarray],
                         found: list[tuple[np.ndarray, np.ndarray]]) -> list[tuple[np.ndarray, np.ndarray]]:
     """Each image's chessboard numbering chosen to turn as the robot's end frame turns (module docstring)."""
+    from ..robot.kinematics import Kinematics
     from .camera_fit import board_poses
 
     def pose_of(ids: np.ndarray, uv: np.ndarray) -> pin.SE3 | None:
         return board_poses(cv2, board, intrinsics, uv, ids, np.zeros(len(ids), dtype=int), 1)[0]
 
-    data = chain.model.createData()
-    ends = []
-    for qk in q:  # the nominal end frame's rotation in the base
-        pin.framesForwardKinematics(chain.model, data, chain.configuration(qk))
-        ends.append(data.oMf[chain.frame_id].rotation.copy())
+    ends = Kinematics(chain).frames(np.asarray(q))[0]  # the nominal end frame's rotations in the base
     first = pose_of(*found[0])
     if first is None:
         return found

@@ -273,11 +273,6 @@ def refuse_strays(stray: np.ndarray, per_pose: np.ndarray, inverse: np.ndarray, 
                     "rows, or fix the joints file's image names)", None, "pose")
 
 
-def board_scale(in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3], camera_rotation: np.ndarray) -> float:
-    """How much larger the board is than its given size, by the robot's motion (1: as given): :func:`board_loops`'."""
-    return board_loops(in_hand, ends, boards, camera_rotation)[0]
-
-
 def board_loops(in_hand: bool, ends: list[pin.SE3], boards: list[pin.SE3],
                 camera_rotation: np.ndarray) -> tuple[float, np.ndarray]:
     """The board's scale by the robot's motion (1: as given), and how far each pose's loop misses then [m].
