@@ -71,3 +71,13 @@ def test_benchmark_images_prints_the_table_the_detection_time_and_the_goals(monk
     assert "detection time per image" in out and "ms" in out and out.count("goal:") == 4
     assert "oracle: Levenberg-Marquardt started from the true robot" in out.replace("Oracle", "oracle")
     assert "shares a gauge with the last link's deviations" in out
+
+
+@pytest.mark.parametrize("flag", ["--images", "--hand-eye"])
+def test_a_camera_study_of_another_robot_is_refused_in_one_line(flag, capsys):
+    """benchmark --images (or --hand-eye) --robots panda: one error line naming the robots studied, exit 2."""
+    from calib_pin.cli.benchmark import benchmark_main
+
+    assert benchmark_main([flag, "--robots", "irb120,panda"]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == f"error: --robots: {flag} studies irb120 and ur5, not 'panda'"

@@ -77,6 +77,25 @@ def _robot_list(text: str) -> tuple[str, ...]:
     return names
 
 
+#: The robots the camera studies (--hand-eye, --images) simulate: those whose end frame is tool0.
+CAMERA_ROBOTS = ("irb120", "ur5")
+
+
+def _camera_robots(args: argparse.Namespace, flag: str) -> tuple[str, ...]:
+    """The robots of a camera study, checked where they enter.
+
+    Raises:
+        CalibPinError: a robot the study does not simulate.
+    """
+    from ..exceptions import CalibPinError
+
+    robots = tuple(args.robots or CAMERA_ROBOTS)
+    other = [r for r in robots if r not in CAMERA_ROBOTS]
+    if other:
+        raise CalibPinError(f"--robots: {flag} studies {' and '.join(CAMERA_ROBOTS)}, not '{other[0]}'")
+    return robots
+
+
 def _command_list(text: str) -> tuple[str, ...]:
     """``calibrate,no-html,...`` or ``all``: the commands of ``--commands``."""
     from ..studies.benchmark_commands import COMMANDS
@@ -118,7 +137,7 @@ def _hand_eye(args: argparse.Namespace) -> int:
 
     from ..studies.hand_eye import format_rows, study
 
-    rows = study(robots=args.robots or ("irb120", "ur5"), seeds=tuple(range(1, args.repeats + 1)),
+    rows = study(robots=_camera_robots(args, "--hand-eye"), seeds=tuple(range(1, args.repeats + 1)),
                  notify=lambda line: print(line, file=sys.stderr, flush=True))
     print(format_rows(rows))
     return 0
@@ -132,7 +151,7 @@ def _images(args: argparse.Namespace) -> int:
     from ..sensors.camera_view import default_intrinsics
     from ..studies.camera_images import format_rows, goal_lines, study
 
-    rows = study(robots=args.robots or ("irb120", "ur5"), seeds=tuple(range(1, args.repeats + 1)),
+    rows = study(robots=_camera_robots(args, "--images"), seeds=tuple(range(1, args.repeats + 1)),
                  notify=lambda line: print(line, file=sys.stderr, flush=True))
     print(format_rows(rows))
     times = [r.detect_ms for r in rows]
