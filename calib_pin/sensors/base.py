@@ -164,7 +164,8 @@ class Draw(Protocol):
     compliance: ComplianceSpec | None
     setup: dict[str, Any]
 
-    def poses(self, keep: Callable[[np.ndarray], np.ndarray] | None = None, why: str = "") -> np.ndarray: ...
+    def poses(self, keep: Callable[[np.ndarray], np.ndarray] | None = None, why: str = "",
+              batches: int = 50) -> np.ndarray: ...
 
     def deviations(self, gap: Callable[[np.ndarray], np.ndarray]) -> np.ndarray: ...
 

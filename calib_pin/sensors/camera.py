@@ -61,10 +61,10 @@ from .camera_rig import (
     setup_from_notes,
 )
 from .camera_view import (
-    MIN_SEEN,
     board_distance,
     default_rig,
     focus_range,
+    min_seen,
     planned_views,
     planning_rows,
     session_rig,
@@ -330,7 +330,7 @@ class CameraModel(MeasurementModel):
     def plan_rule(self) -> str:
         """What a candidate pose must do to be planned, for people."""
         near, far = self.focus_mm or focus_range(self.rig.mount)
-        return f"see {MIN_SEEN} corners or more of the board, its middle {near:g} to {far:g} mm from the camera"
+        return f"see {min_seen(self.rig.board)} corners or more of the board, its middle {near:g} to {far:g} mm from the camera"
 
     def plan_candidates(self, n: int, rng: np.random.Generator, margin: float) -> tuple[np.ndarray, np.ndarray]:
         """Of ``n`` random poses within the joint limits less ``margin`` [rad], those that see the board in focus.

@@ -3,7 +3,8 @@
 A board corner is seen when it is in front of the camera (:data:`MIN_DEPTH_M`), in the
 image (:data:`EDGE_PX` inside its edges), and the board faces the camera: its normal is
 within :data:`FACING_DEG` of the line of sight to its middle (a board seen more edge-on is
-not detected). A pose is usable when at least :data:`MIN_SEEN` corners are seen.
+not detected). A pose is usable when at least :data:`MIN_SEEN` corners are seen, every one
+of a chessboard's (found all or none: :func:`min_seen`).
 
 The planner (``plan-poses --sensor camera``) chooses among poses that see :data:`MIN_SEEN`
 corners or more with the board's middle in the lens's focus range (:func:`focus_range`, or the
@@ -119,6 +120,16 @@ def seen(model: Any, x: np.ndarray | None, q: np.ndarray) -> np.ndarray:
     return inside & facing[:, None]
 
 
+#: Random poses see a whole chessboard rarely (about 1 in 130 with the default set-up): so many batches of
+#: twice the poses are drawn at most for one.
+WHOLE_BATCHES = 1000
+
+
+def min_seen(board: Board) -> int:
+    """Corners a usable pose sees: :data:`MIN_SEEN`; a chessboard's every inner corner (it is found all or none)."""
+    return board.n_corners if board.kind == "chessboard" else MIN_SEEN
+
+
 def focus_range(mount: str) -> tuple[float, float]:
     """The default distance range [mm] a planned pose keeps the board's middle in: half to twice the view distance.
 
@@ -136,12 +147,12 @@ def board_distance(model: Any, x: np.ndarray | None, q: np.ndarray) -> np.ndarra
 
 
 def planned_views(model: Any, q: np.ndarray, focus_mm: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """The poses of q a plan may choose (the nominal robot's): :data:`MIN_SEEN` corners seen or more, the board's
+    """The poses of q a plan may choose (the nominal robot's): :func:`min_seen` corners seen or more, the board's
     middle within ``focus_mm`` [mm] of the camera; and which corners each sees, (n_kept, n_corners)."""
     near, far = focus_mm
     visible = seen(model, None, q)
     distance = board_distance(model, None, q)
-    keep = (visible.sum(axis=1) >= MIN_SEEN) & (distance >= near) & (distance <= far)
+    keep = (visible.sum(axis=1) >= min_seen(model.rig.board)) & (distance >= near) & (distance <= far)
     return q[keep], visible[keep]
 
 
@@ -181,11 +192,12 @@ def _board_normals(model: Any, x: np.ndarray | None, q: np.ndarray) -> np.ndarra
 def simulate_camera(cls: Any, draw: Any, geometry: CameraRig | None) -> tuple[MeasurementSet, CameraRig]:
     """A simulated camera set (:meth:`~calib_pin.sensors.base.MeasurementModel.simulate_rows`).
 
-    Random poses that see :data:`MIN_SEEN` corners or more of the nominal robot's board, the
-    true robot's image points of the corners it sees there, each coordinate with Gaussian
-    noise ``draw.setup["noise_px"]`` (else :data:`SIMULATED_NOISE_PX`); ``geometry`` None:
-    :func:`default_rig` of ``draw.setup``'s ``camera_mount`` (else eye in hand), ``board``
-    and ``intrinsics``.
+    Random poses that see :func:`min_seen` corners or more of the nominal robot's board (a
+    chessboard whole: :data:`WHOLE_BATCHES` batches drawn at most), the true robot's image
+    points of the corners it sees there (a chessboard: of the poses the true robot sees it
+    whole), each coordinate with Gaussian noise ``draw.setup["noise_px"]`` (else
+    :data:`SIMULATED_NOISE_PX`); ``geometry`` None: :func:`default_rig` of ``draw.setup``'s
+    ``camera_mount`` (else eye in hand), ``board`` and ``intrinsics``.
     """
     from ..measurements import MeasurementSet
 
@@ -194,14 +206,17 @@ def simulate_camera(cls: Any, draw: Any, geometry: CameraRig | None) -> tuple[Me
     rig = geometry if geometry is not None else default_rig(cls, draw.chain, draw.params, mount, setup.get("board"),
                                                             setup.get("intrinsics"))
     model = cls(draw.chain, draw.params, rig, estimate=())
-    poses = draw.poses(lambda q: seen(model, None, q).sum(axis=1) >= MIN_SEEN,
-                       f"see {MIN_SEEN} corners of the board (the camera set-up cannot see it?)")
+    needed = min_seen(rig.board)
+    whole = rig.board.kind == "chessboard"
+    poses = draw.poses(lambda q: seen(model, None, q).sum(axis=1) >= needed,
+                       f"see {needed} corners of the board (the camera set-up cannot see it?)",
+                       WHOLE_BATCHES if whole else 50)
     flange = rig.camera.translation if rig.in_hand else rig.board_pose.act(rig.board.centre)
     nominal = model.points_at(None, poses, flange)
     draw.deviations(lambda x: np.linalg.norm(model.points_at(x, poses, flange) - nominal, axis=1))
     truth = cls(draw.chain, draw.params, rig, estimate=(), compliance=draw.compliance)
     visible = seen(truth, draw.x_model, poses)
-    keep = visible.sum(axis=1) >= 4
+    keep = visible.sum(axis=1) >= (needed if whole else 4)
     pose_of, corner = np.nonzero(visible[keep])
     q = poses[keep][pose_of]
     given = setup.get("noise_px")

@@ -254,7 +254,8 @@ class SimulationDraw:
     def __post_init__(self) -> None:
         self.rng = np.random.default_rng(self.seed)
 
-    def poses(self, keep: Callable[[np.ndarray], np.ndarray] | None = None, why: str = "") -> np.ndarray:
+    def poses(self, keep: Callable[[np.ndarray], np.ndarray] | None = None, why: str = "",
+              batches: int = 50) -> np.ndarray:
         """The set's joint angles, shape (n_poses, n_joints), [rad]: the caller's, or random.
 
         Random ones are within the limits (:func:`calib_pin.robot.poses.random_poses`).
@@ -262,6 +263,7 @@ class SimulationDraw:
         Args:
             keep: A mask of the usable poses, ``keep(q)``; only those kept when given.
             why: What the kept poses must do, for the refusal.
+            batches: At most so many batches of twice the poses are drawn for ``keep``.
 
         Raises:
             CalibPinError: too few random poses kept.
@@ -271,13 +273,13 @@ class SimulationDraw:
         if keep is None:
             return random_poses(self.chain, self.n_poses, self.rng)
         poses = np.empty((0, self.chain.n_joints))
-        for _ in range(50):
+        for _ in range(batches):
             batch = random_poses(self.chain, 2 * self.n_poses, self.rng)
             poses = np.vstack([poses, batch[keep(batch)]])
             if len(poses) >= self.n_poses:
                 break
         else:
-            raise CalibPinError(f"robot '{self.chain.name}': only {len(poses)} of {100 * self.n_poses} random "
+            raise CalibPinError(f"robot '{self.chain.name}': only {len(poses)} of {2 * batches * self.n_poses} random "
                                 f"poses {why}")
         return poses[: self.n_poses]
 
