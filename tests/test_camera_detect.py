@@ -13,8 +13,8 @@ from calib_pin.cli import command
 from calib_pin.measurements.csv_writer import write_poses
 from calib_pin.measurements.pose_list import read_pose_list
 from calib_pin.sensors import Board, CameraModel
-from calib_pin.sensors.camera_detect import detect_images, orient_chessboards
-from calib_pin.sensors.camera_render import render_images
+from calib_pin.sensors.camera_detect import detect_images, find_corners, orient_chessboards, refine_clear_of_markers
+from calib_pin.sensors.camera_render import opencv_board, render_images
 from calib_pin.simulation import simulate_set
 
 cv2 = pytest.importorskip("cv2")
@@ -98,3 +98,29 @@ def test_images_that_cannot_be_used_are_left_out_with_the_reason(tmp_path):
     assert reasons[2] is None and "640x480 px, the lens's intrinsics are 1280x1024 px" in reasons[3]
     assert reasons[4].startswith("board not found") and reasons[5].startswith("already pose")
     assert data is not None and set(np.unique(data.pose_ids)) == {int(poses.pose_ids[2])}
+
+
+def test_charuco_corners_refined_clear_of_the_markers_are_nearer_the_truth():
+    """Rendered eye-to-hand images (the board on the flange, often seen steeply): the corners refined with the
+    markers painted out are nearer the true projection than OpenCV's own, RMS and the worst; an image without
+    markers keeps OpenCV's corners."""
+    chain = cp.load_chain("irb120")
+    params = cp.parameter_model(chain)
+    data, truth = simulate_set(CameraModel, chain, params, 8, 2, setup={"camera_mount": "eye-to-hand", "noise_px": 0.0})
+    model = truth.model(chain, params)
+    board = truth.sensor.board
+    q = data.q[np.unique(data.pose_ids, return_index=True)[1]]
+    ours, opencv = [], []
+    for qk, image in zip(q, render_images(model, truth.x_model, q, np.random.default_rng(0)), strict=True):
+        corners, ids, _, _ = cv2.aruco.CharucoDetector(opencv_board(cv2, board)).detectBoard(image)
+        ids = np.asarray(ids, dtype=int).reshape(-1)
+        true = model.image_points(truth.x_model, np.repeat(qk[None], len(ids), axis=0), ids)
+        opencv.append(np.asarray(corners, dtype=float).reshape(-1, 2) - true)
+        found, uv = find_corners(cv2, image, board)
+        assert np.array_equal(found, ids)
+        ours.append(uv - true)
+    ours_n, opencv_n = (np.linalg.norm(np.concatenate(e), axis=1) for e in (ours, opencv))
+    assert np.sqrt(np.mean(ours_n**2)) < 0.5 * np.sqrt(np.mean(opencv_n**2))
+    assert ours_n.max() < opencv_n.max()
+    uv = np.array([[10.0, 20.0]])
+    assert np.array_equal(refine_clear_of_markers(cv2, np.zeros((50, 50), np.uint8), uv, np.zeros((0, 4, 2)), board), uv)

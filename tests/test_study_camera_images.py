@@ -25,10 +25,11 @@ def _row(robot: str, mount: str) -> ImagesRow:
 @pytest.mark.parametrize(("robot", "mount"), CASES)
 def test_the_robot_is_as_good_as_the_oracle_on_the_detected_corners(robot, mount):
     """Gauge-free fresh error at the flange origin and at the camera within 1.2 x the oracle's (LM from the
-    truth on the same detected corners); nearly every image used, its corners near the true projection."""
+    truth on the same detected corners); nearly every image used, its corners within 0.05 px RMS of the true
+    projection."""
     row = _row(robot, mount)
     assert row.images == 40 and row.used >= 38 and row.detected > 0.7 * row.visible
-    assert row.detect_px < 0.2
+    assert row.detect_px < 0.05
     assert row.flange[0] <= RATIO_GOAL * row.flange[1]
     assert row.at_camera[0] <= RATIO_GOAL * row.at_camera[1]
 
@@ -56,10 +57,13 @@ def test_the_joint_fit_is_nearer_the_truth_than_opencvs_best_hand_eye(robot, mou
 
 def test_benchmark_images_prints_the_table_the_detection_time_and_the_goals(monkeypatch, capsys):
     """benchmark --images --robots irb120 --repeats 1: one row per mount and case, the detection time, the goals,
-    the oracle and the gauge sentence (the cases' rows those computed above)."""
+    the oracle and the gauge sentence (the cases' rows those computed above); --opencv-corners says whose corners."""
     from calib_pin.cli.benchmark import benchmark_main
 
-    def canned(robot: str, mount: str, case: str, seed: int = 1) -> ImagesRow:
+    asked = []
+
+    def canned(robot: str, mount: str, case: str, seed: int = 1, opencv_corners: bool = False) -> ImagesRow:
+        asked.append(opencv_corners)
         row = dataclasses.replace(_row(robot, "eye-in-hand"), mount=mount, case=case, seed=seed)
         return row if case == "deviations" else dataclasses.replace(row, hand_eye_fit=(0.1, 0.01),
                                                                     hand_eye_opencv=(2.0, 0.2))
@@ -71,6 +75,10 @@ def test_benchmark_images_prints_the_table_the_detection_time_and_the_goals(monk
     assert "detection time per image" in out and "ms" in out and out.count("goal:") == 4
     assert "oracle: Levenberg-Marquardt started from the true robot" in out.replace("Oracle", "oracle")
     assert "shares a gauge with the last link's deviations" in out
+    assert "found by find_corners" in out and "refined clear of the markers" in out and not any(asked)
+    assert benchmark_main(["--images", "--robots", "irb120", "--repeats", "1", "--opencv-corners"]) == 0
+    out = capsys.readouterr().out
+    assert "its own corners, not refined again clear of the markers" in out and all(asked[4:]) and len(asked) == 8
 
 
 @pytest.mark.parametrize("flag", ["--images", "--hand-eye"])

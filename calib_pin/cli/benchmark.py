@@ -58,6 +58,9 @@ def add_benchmark_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentPars
                    help="instead of timing: rendered images of simulated camera sets (--robots irb120,ur5; both mounts; "
                    "with the robot's deviations and its last link nominal; --repeats seeds) detected and calibrated, "
                    "against an oracle fit and the truth; the detection time per image")
+    p.add_argument("--opencv-corners", action="store_true",
+                   help="with --images: detect OpenCV's own ChArUco corners, not refined again clear of the markers "
+                   "(a comparison)")
     p.add_argument("--trust", action="store_true",
                    help="instead of timing: check the gauge, the predicted accuracy and the intervals against the "
                    "simulator's truth (IRB120, UR5, Panda; every sensor; lm, ekf-qibas, de; --repeats seeds) and the "
@@ -152,11 +155,12 @@ def _images(args: argparse.Namespace) -> int:
     from ..studies.camera_images import format_rows, goal_lines, study
 
     rows = study(robots=_camera_robots(args, "--images"), seeds=tuple(range(1, args.repeats + 1)),
-                 notify=lambda line: print(line, file=sys.stderr, flush=True))
-    print(format_rows(rows))
+                 notify=lambda line: print(line, file=sys.stderr, flush=True), opencv_corners=args.opencv_corners)
+    print(format_rows(rows, args.opencv_corners))
     times = [r.detect_ms for r in rows]
     lens = default_intrinsics()
-    print(f"detection time per image (ChArUco, {lens.width}x{lens.height} px, cv2.aruco.CharucoDetector): median "
+    how = "cv2.aruco.CharucoDetector" + ("" if args.opencv_corners else ", refined clear of the markers")
+    print(f"detection time per image (ChArUco, {lens.width}x{lens.height} px, {how}): median "
           f"{statistics.median(times):.1f} "
           f"ms (each case's median over its {rows[0].images} images; cases {min(times):.1f} to {max(times):.1f} ms)")
     print("\n".join(goal_lines(rows)))

@@ -117,7 +117,8 @@ def _detect(args: argparse.Namespace) -> int:
     if args.intrinsics is None:
         print("the lens is not in the set: give it to calibrate (--intrinsics)")
     if args.board.kind == "charuco":
-        print("calibrate it with --loss huber: a few detected corners (beside a marker, seen steeply) are a pixel off")
+        print("calibrate it with --loss huber: in a real image a corner can be off (glare, a smudge, a crease in the "
+              "print), and a robust loss does not follow it")
     if args.camera_mount is None:
         print("the mount is not in the set: give it to calibrate (--camera-mount eye-in-hand or eye-to-hand)")
     print(f"wrote {args.out}")

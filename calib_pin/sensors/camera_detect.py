@@ -2,11 +2,11 @@
 
 :func:`detect_images` takes a pose list whose ``image`` column names each pose's image and
 finds the board's corners in each (:func:`find_corners`): a ChArUco board by OpenCV's
-``CharucoDetector`` (the markers, then the corners between them, refined to a fraction of
-a pixel), a chessboard by ``findChessboardCornersSB`` (all its inner corners or none). An
-image that cannot be read, is not of the lens's size, or shows fewer than
-:data:`~.camera_rig.MIN_CORNERS` corners is left out, with the reason
-(:class:`ImageOutcome`); the usable ones make the set.
+``CharucoDetector`` (the markers, then the corners between them), each corner refined again
+with the markers painted out (:func:`refine_clear_of_markers`), a chessboard by
+``findChessboardCornersSB`` (all its inner corners or none). An image that cannot be read,
+is not of the lens's size, or shows fewer than :data:`~.camera_rig.MIN_CORNERS` corners is
+left out, with the reason (:class:`ImageOutcome`); the usable ones make the set.
 
 A chessboard looks the same turned half a turn, so which of its corners is corner 0 is
 not in one image: each image's numbering is chosen so that its board pose (PnP) turns from
@@ -57,24 +57,82 @@ class ImageOutcome:
     seconds: float
 
 
-def find_corners(cv2: Any, gray: np.ndarray, board: Board) -> tuple[np.ndarray, np.ndarray]:
+def find_corners(cv2: Any, gray: np.ndarray, board: Board, clear_of_markers: bool = True
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """The board's corners found in an 8-bit grey image: their ids (k,) and places (k, 2) [px].
 
     OpenCV's pixel convention ((0, 0) the top-left pixel's centre); none found: empty arrays.
-    A chessboard's corners are numbered as OpenCV returns them (see the module docstring).
+    A ChArUco board's corners are refined again clear of its markers (:func:`refine_clear_of_markers`;
+    ``clear_of_markers`` False: OpenCV's own, for a comparison); a chessboard's are numbered as
+    OpenCV returns them (see the module docstring).
     """
     if board.kind == "charuco":
         from .camera_render import opencv_board
 
-        corners, ids, _, _ = cv2.aruco.CharucoDetector(opencv_board(cv2, board)).detectBoard(gray)
+        corners, ids, markers, _ = cv2.aruco.CharucoDetector(opencv_board(cv2, board)).detectBoard(gray)
         if ids is None or len(ids) == 0:
             return np.zeros(0, dtype=int), np.zeros((0, 2))
-        return np.asarray(ids, dtype=int).reshape(-1), np.asarray(corners, dtype=float).reshape(-1, 2)
+        uv = np.asarray(corners, dtype=float).reshape(-1, 2)
+        quads = np.asarray(markers, dtype=float).reshape(-1, 4, 2)
+        if clear_of_markers:
+            uv = refine_clear_of_markers(cv2, gray, uv, quads, board)
+        return np.asarray(ids, dtype=int).reshape(-1), uv
     pattern = (board.columns - 1, board.rows - 1)
     found, corners = cv2.findChessboardCornersSB(gray, pattern, flags=cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY)
     if not found:
         return np.zeros(0, dtype=int), np.zeros((0, 2))
     return np.arange(board.n_corners), np.asarray(corners, dtype=float).reshape(-1, 2)
+
+
+#: The refinement window's half-size [px]: half the corner's square's shortest side less 1, within these.
+WINDOW_PX = (2, 10)
+#: A painted-out marker is grown by up to this [px] (the blur of its border), at most PAINT_GAP of its white gap.
+PAINT_PX, PAINT_GAP = 1.5, 0.4
+
+
+def refine_clear_of_markers(cv2: Any, gray: np.ndarray, uv: np.ndarray, markers: np.ndarray, board: Board
+                            ) -> np.ndarray:
+    """ChArUco corners (k, 2) [px] refined again with the found markers (m, 4, 2) [px] painted out.
+
+    OpenCV refines a ChArUco corner in a window that stops short of its two markers' nearest
+    corners only along its sides: the window reaches into the markers, and their black borders
+    pull the corner, unequally when the board is seen steeply. Here each marker is filled with
+    the white of the paper around it (the median of the image half-way across its white gap),
+    grown by the blur (:data:`PAINT_PX`), so a corner's neighbourhood holds only the two lines
+    of the squares' edges that cross at it; each corner is then refined by ``cornerSubPix`` in a
+    window of half the shortest side of its square in the image, less 1 px (:data:`WINDOW_PX`).
+    A corner the refinement moves by more than half its window keeps OpenCV's place.
+    """
+    marker_mm = board.marker_mm
+    if not len(uv) or not len(markers) or marker_mm is None:
+        return uv
+    h, w = gray.shape[:2]
+    image = gray.astype(np.float32)
+    centre = markers.mean(axis=1, keepdims=True)
+    sides = np.linalg.norm(markers - np.roll(markers, 1, axis=1), axis=2)  # (m, 4)
+    half = sides.mean(axis=1)[:, None, None] / 2
+    gap = (board.square_mm - marker_mm) / marker_mm * half  # the white gap [px], (m, 1, 1)
+    ring = centre + (markers - centre) * (1 + 0.5 * gap / half)
+    steps = np.linspace(0.0, 1.0, 8, endpoint=False)[None, None, :, None]
+    points = (ring[:, :, None] + steps * (np.roll(ring, -1, axis=1) - ring)[:, :, None]).reshape(len(markers), -1, 2)
+    cols = np.clip(np.rint(points[..., 0]).astype(int), 0, w - 1)
+    rows = np.clip(np.rint(points[..., 1]).astype(int), 0, h - 1)
+    white = np.median(image[rows, cols], axis=1)
+    grown = centre + (markers - centre) * (1 + np.minimum(PAINT_PX, PAINT_GAP * gap) / half)
+    for quad, level in zip(grown, white, strict=True):
+        cv2.fillConvexPoly(image, np.rint(quad * 16).astype(np.int32), float(level), lineType=cv2.LINE_AA, shift=4)
+    nearest = np.linalg.norm(uv[:, None] - markers.reshape(-1, 2)[None], axis=-1).argmin(axis=1) // 4
+    square = sides.min(axis=1)[nearest] * board.square_mm / marker_mm  # the square's shortest side [px]
+    window = np.clip(np.floor(square / 2) - 1, *WINDOW_PX).astype(int)
+    refined = uv.copy()
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 100, 1e-4)
+    for size in np.unique(window):
+        at = np.flatnonzero(window == size)
+        start = uv[at].astype(np.float32).reshape(-1, 1, 2)
+        refined[at] = cv2.cornerSubPix(image, start.copy(), (int(size), int(size)), (-1, -1), criteria).reshape(-1, 2)
+    moved = np.linalg.norm(refined - uv, axis=1) > window / 2
+    refined[moved] = uv[moved]
+    return refined
 
 
 def image_path(name: str, folder: Path) -> Path:

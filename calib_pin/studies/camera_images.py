@@ -6,11 +6,12 @@ last joint's and the end frame's deviations zero). Its simulated corners are not
 pose's image is rendered from the true robot and camera (:func:`~calib_pin.sensors.camera_render.render_images`:
 the board's printed face warped into the camera, blur and grey-level noise), its ChArUco corners
 found by OpenCV (:func:`~calib_pin.sensors.camera_detect.find_corners`), and those detected corners
-make the set. On it:
+make the set (``opencv_corners``: OpenCV's own corners, not refined again clear of the
+markers, for a comparison). On it:
 
 - **fit**: calib-pin's joint fit of the robot and both placements (``lm``, every row, with
-  the robust :data:`LOSS`: detected corners have heavy tails, a few beside a marker seen
-  steeply a pixel off), and the same fit with the plain squares (``linear``) beside it;
+  the robust :data:`LOSS` that ``detect`` recommends for detected corners), and the same fit
+  with the plain squares (``linear``) beside it;
 - **oracle**: Levenberg-Marquardt started from the true robot and the true placements, on the
   same detected rows with the same loss (what the detected corners allow at best);
 - **OpenCV**: each of OpenCV's hand-eye methods on PnP's board poses and the nominal robot, the
@@ -30,6 +31,7 @@ the truth only on the robot whose last link is nominal (:data:`~.hand_eye.FLANGE
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -157,9 +159,11 @@ def camera_point(rig: Any) -> np.ndarray:
     return np.asarray(rig.camera.translation if rig.in_hand else rig.board_pose.act(rig.board.centre), dtype=float)
 
 
-def detected_set(data: MeasurementSet, true_model: Any, x_true: np.ndarray, seed: int
+def detected_set(data: MeasurementSet, true_model: Any, x_true: np.ndarray, seed: int, opencv_corners: bool = False
                  ) -> tuple[MeasurementSet, list[float], np.ndarray]:
     """The set of corners found in images rendered at ``data``'s poses from the truth (module docstring).
+
+    ``opencv_corners``: OpenCV's own ChArUco corners, not refined again clear of the markers.
 
     Returns:
         The set (``data``'s notes and set-up; its own rows, poses and corners), each image's
@@ -173,7 +177,7 @@ def detected_set(data: MeasurementSet, true_model: Any, x_true: np.ndarray, seed
     for pose, qk, image in zip(pose_ids, q, render_images(true_model, x_true, q, np.random.default_rng(seed + 2000)),
                                strict=True):
         start = time.perf_counter()
-        ids, uv = find_corners(cv2, image, board)
+        ids, uv = find_corners(cv2, image, board, clear_of_markers=not opencv_corners)
         seconds.append(time.perf_counter() - start)
         if len(ids) >= MIN_CORNERS:
             kept.append((pose, qk, ids, uv))
@@ -213,8 +217,9 @@ def lens_errors(robot: str, detected: MeasurementSet, true: Intrinsics, seed: in
     return tuple(errors[n] / float(uncertainty.std[names.index(n)]) for n in LENS_SCORED)
 
 
-def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES, fresh: int = FRESH) -> ImagesRow:
-    """One case of the study (module docstring), seeded.
+def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES, fresh: int = FRESH,
+            opencv_corners: bool = False) -> ImagesRow:
+    """One case of the study (module docstring), seeded; ``opencv_corners``: on OpenCV's own ChArUco corners.
 
     Raises:
         ValueError: an unknown case.
@@ -230,7 +235,7 @@ def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES
         x = np.where(last_link(chain, params), 0.0, truth.x)
         data, truth = simulate_set(sensor, chain, params, poses, seed, setup=setup, nominal_rmse_mm=2.0, true_x=x)
     true_model: Any = truth.model(chain, params)
-    detected, seconds, error = detected_set(data, true_model, truth.x_model, seed)
+    detected, seconds, error = detected_set(data, true_model, truth.x_model, seed, opencv_corners)
     result = calibrate(robot, detected, method="lm", test_fraction=0.0, seed=seed, loss=LOSS)
     linear = calibrate(robot, detected, method="lm", test_fraction=0.0, seed=seed)
     model: Any = result.problem.model.one
@@ -266,9 +271,10 @@ def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES
 
 def study(robots: Sequence[str] = ("irb120", "ur5"), mounts: Sequence[str] = ("eye-in-hand", "eye-to-hand"),
           cases: Sequence[str] = CASES, seeds: Sequence[int] = (1, 2, 3),
-          notify: Callable[[str], Any] | None = None) -> list[ImagesRow]:
-    """Every case of the study, each robot, mount, case and seed."""
-    return each_case(compare, robots, mounts, cases, seeds, notify)
+          notify: Callable[[str], Any] | None = None, opencv_corners: bool = False) -> list[ImagesRow]:
+    """Every case of the study, each robot, mount, case and seed (``opencv_corners``: on OpenCV's own corners)."""
+    run = functools.partial(compare, opencv_corners=True) if opencv_corners else compare
+    return each_case(run, robots, mounts, cases, seeds, notify)
 
 
 def _median(values: Sequence[float]) -> float:
@@ -283,8 +289,11 @@ def _pose(pair: tuple[float, float] | None) -> str:
     return "-" if pair is None else f"{pair[0]:.4f} / {pair[1]:.5f}"
 
 
-def format_rows(rows: Sequence[ImagesRow]) -> str:
-    """The study as a Markdown table, medians over the seeds of each robot, mount and case, and its notes."""
+def format_rows(rows: Sequence[ImagesRow], opencv_corners: bool = False) -> str:
+    """The study as a Markdown table, medians over the seeds of each robot, mount and case, and its notes.
+
+    ``opencv_corners``: the rows are of OpenCV's own ChArUco corners (the notes say so).
+    """
     groups: dict[tuple[str, str, str], list[ImagesRow]] = {}
     for r in rows:
         groups.setdefault((r.robot, r.mount, r.case), []).append(r)
@@ -312,7 +321,9 @@ def format_rows(rows: Sequence[ImagesRow]) -> str:
             f"{hand_eye} |")
     seeds = sorted({r.seed for r in rows})
     lines += ["", f"{POSES} poses per set, each pose's image rendered from the true robot and camera (blur and grey-level "
-              f"noise), its ChArUco corners found by OpenCV; medians of seeds {', '.join(map(str, seeds))}. At "
+              f"noise), its ChArUco corners found by "
+              f"{'OpenCV (its own corners, not refined again clear of the markers)' if opencv_corners else 'find_corners'}"
+              f"; medians of seeds {', '.join(map(str, seeds))}. At "
               f"{FRESH} fresh poses: the robot's error, {GAUGE_FREE_NOTE}; the fit with the {LOSS} loss (linear "
               f"loss: the plain squares); T_CW, the board's pose in the camera frame, "
               "RMS against the truth. Detected px: the corners' error against the true projection, RMS per "
@@ -345,7 +356,8 @@ def goal_lines(rows: Sequence[ImagesRow]) -> list[str]:
         f"{deg:.5f} deg, {verdict(mm < POSE_GOAL[0] and deg < POSE_GOAL[1])}",
         f"goal: intrinsics within {SIGMA_GOAL:g} reported sigma: {len(z) - beyond} of {len(z)} values "
         f"({100 * (1 - beyond / len(z)):.1f} %; {100 * (1 - 2 * norm.sf(SIGMA_GOAL)):.1f} % for a true sigma, so many or "
-        f"more beyond by chance {100 * chance:.0f} %), worst {z.max():.2f}, {verdict(chance >= CHANCE)}",
+        f"more beyond by chance {100 * chance:.0f} %), worst {z.max():.2f}, RMS {np.sqrt(np.mean(z**2)):.2f} (1 for a "
+        f"true sigma), {verdict(chance >= CHANCE)}",
         f"goal: the joint fit's T_CW nearer the truth than OpenCV's best on the nominal robot (robot deviations "
         f"present): {nearer} of {len(dev)} cases, {verdict(nearer == len(dev))}",
     ]
