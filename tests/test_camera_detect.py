@@ -6,6 +6,7 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import calib_pin as cp
@@ -13,8 +14,16 @@ from calib_pin.cli import command
 from calib_pin.measurements.csv_writer import write_poses
 from calib_pin.measurements.pose_list import read_pose_list
 from calib_pin.sensors import Board, CameraModel
-from calib_pin.sensors.camera_detect import detect_images, find_corners, orient_chessboards, refine_clear_of_markers
-from calib_pin.sensors.camera_render import opencv_board, render_images
+from calib_pin.sensors.camera_detect import (
+    detect_images,
+    find_corners,
+    grown_quads,
+    marker_widths,
+    orient_chessboards,
+    refine_clear_of_markers,
+)
+from calib_pin.sensors.camera_render import opencv_board, pixel_rays, render_image, render_images
+from calib_pin.sensors.camera_view import default_board, default_intrinsics
 from calib_pin.simulation import simulate_set
 
 cv2 = pytest.importorskip("cv2")
@@ -124,3 +133,34 @@ def test_charuco_corners_refined_clear_of_the_markers_are_nearer_the_truth():
     assert ours_n.max() < opencv_n.max()
     uv = np.array([[10.0, 20.0]])
     assert np.array_equal(refine_clear_of_markers(cv2, np.zeros((50, 50), np.uint8), uv, np.zeros((0, 4, 2)), board), uv)
+
+
+def test_corners_of_a_board_seen_steeply_are_refined_within_its_narrow_squares():
+    """A board tilted 70 deg from the camera's axis (its squares a third as wide one way): the corners refined
+    clear of the markers are within half a pixel of the truth, OpenCV's own a few beyond."""
+    board, lens = default_board(), default_intrinsics()
+    rays, rng = pixel_rays(cv2, lens), np.random.default_rng(3)
+    ours, opencv = [], []
+    for _ in range(3):
+        axis = np.append(rng.normal(size=2), 0.0)
+        turn = pin.exp3(axis / np.linalg.norm(axis) * np.deg2rad(70.0)) @ pin.exp3(np.array([0, 0, rng.uniform(-3, 3)]))
+        pose = pin.SE3(turn, np.array([0.0, 0.0, 0.6]) - turn @ board.centre)
+        image = render_image(cv2, board, lens, pose, rays, rng)
+        for clear, out in ((True, ours), (False, opencv)):
+            ids, uv = find_corners(cv2, image, board, clear_of_markers=clear)
+            true = cv2.projectPoints(board.points[ids], cv2.Rodrigues(turn)[0], pose.translation, lens.matrix(),
+                                     lens.distortion())[0].reshape(-1, 2)
+            out.append(np.linalg.norm(uv - true, axis=1))
+    ours_n, opencv_n = np.concatenate(ours), np.concatenate(opencv)
+    assert len(ours_n) >= 60 and ours_n.max() < 0.5 < opencv_n.max()
+    assert np.sqrt(np.mean(ours_n**2)) < 0.5 * np.sqrt(np.mean(opencv_n**2))
+
+
+def test_a_markers_narrowest_width_and_its_sides_moved_out():
+    """A 10 x 4 parallelogram is 4 px wide across its long sides; a unit square's sides moved out by 1 px make
+    a 3 px square about the same middle, whichever way its corners go round."""
+    assert marker_widths(np.array([[[0, 0], [10, 0], [13, 4], [3, 4]]], dtype=float)) == pytest.approx([4.0])
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    grown = grown_quads(np.stack([square, square[::-1]]), np.array([1.0, 1.0]))
+    assert np.allclose(grown[0], [[-1, -1], [2, -1], [2, 2], [-1, 2]])
+    assert np.allclose(grown[1], [[-1, 2], [2, 2], [2, -1], [-1, -1]])

@@ -84,10 +84,29 @@ def find_corners(cv2: Any, gray: np.ndarray, board: Board, clear_of_markers: boo
     return np.arange(board.n_corners), np.asarray(corners, dtype=float).reshape(-1, 2)
 
 
-#: The refinement window's half-size [px]: half the corner's square's shortest side less 1, within these.
+#: The refinement window's half-size [px]: half the corner's square's narrowest width less 1, within these.
 WINDOW_PX = (2, 10)
-#: A painted-out marker is grown by up to this [px] (the blur of its border), at most PAINT_GAP of its white gap.
+#: A painted-out marker's edges are moved out by this [px] (the blur of its border), at most PAINT_GAP of its white gap.
 PAINT_PX, PAINT_GAP = 1.5, 0.4
+def marker_widths(markers: np.ndarray) -> np.ndarray:
+    """Each quadrilateral's narrowest width, across opposite sides, shape (m,) [px]; ``markers`` (m, 4, 2) [px].
+
+    Each corner's distance from the line of the side opposite it (the side two corners on), the least.
+    """
+    edge = np.roll(markers, -1, axis=1) - markers
+    normal = np.stack([-edge[..., 1], edge[..., 0]], axis=-1) / np.linalg.norm(edge, axis=-1, keepdims=True)
+    return np.abs(np.einsum("mki,mki->mk", np.roll(markers, -2, axis=1) - markers, normal)).min(axis=1)
+
+
+def grown_quads(markers: np.ndarray, by: np.ndarray) -> np.ndarray:
+    """Convex quadrilaterals (m, 4, 2) [px] with each side moved out by ``by`` (m,) [px]."""
+    edge = np.roll(markers, -1, axis=1) - markers  # side k: corner k to corner k + 1
+    normal = np.stack([edge[..., 1], -edge[..., 0]], axis=-1) / np.linalg.norm(edge, axis=-1, keepdims=True)
+    inward = np.einsum("mki,mki->mk", normal, markers.mean(axis=1, keepdims=True) - markers) > 0
+    normal[inward] *= -1  # outward
+    offset = np.einsum("mki,mki->mk", normal, markers) + by[:, None]  # side k's line: normal . p = offset
+    lines = np.stack([np.roll(normal, 1, axis=1), normal], axis=2)  # corner k on sides k - 1 and k
+    return np.linalg.solve(lines, np.stack([np.roll(offset, 1, axis=1), offset], axis=2)[..., None])[..., 0]
 
 
 def refine_clear_of_markers(cv2: Any, gray: np.ndarray, uv: np.ndarray, markers: np.ndarray, board: Board
@@ -98,10 +117,11 @@ def refine_clear_of_markers(cv2: Any, gray: np.ndarray, uv: np.ndarray, markers:
     corners only along its sides: the window reaches into the markers, and their black borders
     pull the corner, unequally when the board is seen steeply. Here each marker is filled with
     the white of the paper around it (the median of the image half-way across its white gap),
-    grown by the blur (:data:`PAINT_PX`), so a corner's neighbourhood holds only the two lines
-    of the squares' edges that cross at it; each corner is then refined by ``cornerSubPix`` in a
-    window of half the shortest side of its square in the image, less 1 px (:data:`WINDOW_PX`).
-    A corner the refinement moves by more than half its window keeps OpenCV's place.
+    its sides moved out by the blur (:data:`PAINT_PX`), so a corner's neighbourhood holds only
+    the two lines of the squares' edges that cross at it; each corner is then refined by
+    ``cornerSubPix`` in a window of half the narrowest width of its square in the image (its
+    nearest marker's, scaled), less 1 px (:data:`WINDOW_PX`). A corner the refinement moves by
+    more than half its window keeps OpenCV's place (the refinement gone astray).
     """
     marker_mm = board.marker_mm
     if not len(uv) or not len(markers) or marker_mm is None:
@@ -109,20 +129,19 @@ def refine_clear_of_markers(cv2: Any, gray: np.ndarray, uv: np.ndarray, markers:
     h, w = gray.shape[:2]
     image = gray.astype(np.float32)
     centre = markers.mean(axis=1, keepdims=True)
-    sides = np.linalg.norm(markers - np.roll(markers, 1, axis=1), axis=2)  # (m, 4)
-    half = sides.mean(axis=1)[:, None, None] / 2
-    gap = (board.square_mm - marker_mm) / marker_mm * half  # the white gap [px], (m, 1, 1)
-    ring = centre + (markers - centre) * (1 + 0.5 * gap / half)
+    # the white half-way across the gap: each corner moved out from the centre by half the gap (in proportion)
+    ring = centre + (markers - centre) * (1 + 0.5 * (board.square_mm - marker_mm) / marker_mm)
     steps = np.linspace(0.0, 1.0, 8, endpoint=False)[None, None, :, None]
     points = (ring[:, :, None] + steps * (np.roll(ring, -1, axis=1) - ring)[:, :, None]).reshape(len(markers), -1, 2)
     cols = np.clip(np.rint(points[..., 0]).astype(int), 0, w - 1)
     rows = np.clip(np.rint(points[..., 1]).astype(int), 0, h - 1)
     white = np.median(image[rows, cols], axis=1)
-    grown = centre + (markers - centre) * (1 + np.minimum(PAINT_PX, PAINT_GAP * gap) / half)
-    for quad, level in zip(grown, white, strict=True):
-        cv2.fillConvexPoly(image, np.rint(quad * 16).astype(np.int32), float(level), lineType=cv2.LINE_AA, shift=4)
+    narrowest = marker_widths(markers)
+    gap = (board.square_mm - marker_mm) / 2 / marker_mm * narrowest  # the narrowest white gap [px]
+    for quad, level in zip(grown_quads(markers, np.minimum(PAINT_PX, PAINT_GAP * gap)), white, strict=True):
+        cv2.fillConvexPoly(image, np.rint(quad * 16).astype(np.int32), float(level), shift=4)
     nearest = np.linalg.norm(uv[:, None] - markers.reshape(-1, 2)[None], axis=-1).argmin(axis=1) // 4
-    square = sides.min(axis=1)[nearest] * board.square_mm / marker_mm  # the square's shortest side [px]
+    square = narrowest[nearest] * board.square_mm / marker_mm  # the square's narrowest width [px]
     window = np.clip(np.floor(square / 2) - 1, *WINDOW_PX).astype(int)
     refined = uv.copy()
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 100, 1e-4)
@@ -130,8 +149,8 @@ def refine_clear_of_markers(cv2: Any, gray: np.ndarray, uv: np.ndarray, markers:
         at = np.flatnonzero(window == size)
         start = uv[at].astype(np.float32).reshape(-1, 1, 2)
         refined[at] = cv2.cornerSubPix(image, start.copy(), (int(size), int(size)), (-1, -1), criteria).reshape(-1, 2)
-    moved = np.linalg.norm(refined - uv, axis=1) > window / 2
-    refined[moved] = uv[moved]
+    astray = np.linalg.norm(refined - uv, axis=1) > window
+    refined[astray] = uv[astray]
     return refined
 
 
