@@ -44,17 +44,21 @@ from scipy.stats import binom, norm
 from ..calibration.solve import calibrate
 from ..estimators import get_method, run_method
 from ..measurements import MeasurementSet
-from ..parameters import parameter_model
-from ..robot import load_chain
-from ..robot.poses import random_poses
 from ..sensors.camera_detect import find_corners
 from ..sensors.camera_render import render_images
 from ..sensors.camera_rig import MIN_CORNERS
-from ..sensors.camera_view import MIN_SEEN, seen
 from ..sensors.lens import OPENCV_EXTRA, Intrinsics
-from ..simulation.simulator import simulate_set
 from ..util.optional import require
-from .hand_eye import FLANGE_NOTE, camera_sensor, each_case, flange_placement, last_link, pose_rms
+from .hand_eye import (
+    FLANGE_NOTE,
+    camera_sensor,
+    each_case,
+    flange_placement,
+    fresh_poses,
+    opencv_best,
+    pose_rms,
+    simulated_case,
+)
 
 #: The robot cases (module docstring).
 CASES = ("deviations", "last link nominal")
@@ -226,14 +230,7 @@ def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES
     """
     if case not in CASES:
         raise ValueError(f"unknown case '{case}' (valid: {', '.join(CASES)})")
-    sensor = camera_sensor()
-    chain = load_chain(robot)
-    params = parameter_model(chain)
-    setup = {"camera_mount": mount, "noise_px": 0.0}
-    data, truth = simulate_set(sensor, chain, params, poses, seed, setup=setup, nominal_rmse_mm=2.0)
-    if case == "last link nominal":
-        x = np.where(last_link(chain, params), 0.0, truth.x)
-        data, truth = simulate_set(sensor, chain, params, poses, seed, setup=setup, nominal_rmse_mm=2.0, true_x=x)
+    chain, params, data, truth = simulated_case(robot, mount, case, seed, poses, 0.0)
     true_model: Any = truth.model(chain, params)
     detected, seconds, error = detected_set(data, true_model, truth.x_model, seed, opencv_corners)
     result = calibrate(robot, detected, method="lm", test_fraction=0.0, seed=seed, loss=LOSS)
@@ -241,8 +238,7 @@ def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES
     model: Any = result.problem.model.one
     x_oracle = oracle_fit(result, truth)
 
-    q = random_poses(chain, 40 * fresh, np.random.default_rng(seed + 1000))
-    q = q[seen(true_model, truth.x_model, q).sum(axis=1) >= MIN_SEEN][:fresh]
+    q = fresh_poses(chain, true_model, truth.x_model, seed, fresh)
     rig = truth.sensor
     flange_true = true_model.points_at(truth.x_model, q, np.zeros(3))
     camera_true = true_model.points_at(truth.x_model, q, camera_point(rig))
@@ -253,11 +249,7 @@ def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES
                 pose_rms(m.camera_to_board(x, q), true_poses))
 
     fit, oracle = scores(model, result.x), scores(model, x_oracle)
-    corners = np.asarray(model.point_index(detected.point_ids, len(detected))).astype(int)
-    alone = {name: sensor(chain, params, r, estimate=()) for name, r in
-             model.hand_eye_alone(detected.q, np.asarray(detected.values, dtype=float), corners).items()}
-    scored = {name: pose_rms(m.camera_to_board(None, q), true_poses) for name, m in alone.items()}
-    method = min(scored, key=lambda name: scored[name][0])
+    alone, scored, method = opencv_best(model, detected, q, true_poses)
     hand_eye: tuple[tuple[float, float] | None, tuple[float, float] | None] = (None, None)
     if case == "last link nominal":
         hand_eye = (pose_rms([flange_placement(model.geometry_at(result.x))], [flange_placement(rig)]),

@@ -102,9 +102,12 @@ def flange_placement(rig: Any) -> pin.SE3:
     return rig.camera if rig.in_hand else rig.board_pose
 
 
-def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES, noise_px: float = NOISE_PX,
-            fresh: int = FRESH) -> HandEyeRow:
-    """One case of the study (module docstring), seeded.
+def simulated_case(robot: str, mount: str, case: str, seed: int, poses: int, noise_px: float
+                   ) -> tuple[Chain, ParameterModel, Any, Any]:
+    """A case's simulated camera set and its truth: the robot's deviations, its last link nominal, or none.
+
+    Returns:
+        The chain, its parameter model, the set and the simulator's truth.
 
     Raises:
         ValueError: an unknown case.
@@ -120,22 +123,50 @@ def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES
     if case == "last link nominal":
         x = np.where(last_link(chain, params), 0.0, truth.x)
         data, truth = simulate_set(sensor, chain, params, poses, seed, setup=setup, nominal_rmse_mm=rmse, true_x=x)
+    return chain, params, data, truth
+
+
+def fresh_poses(chain: Chain, true_model: Any, x_true: np.ndarray, seed: int, fresh: int) -> np.ndarray:
+    """``fresh`` random poses [rad], shape (fresh, n_joints), at which the true camera sees FRESH_CORNERS corners or more."""
+    q = random_poses(chain, 40 * fresh, np.random.default_rng(seed + 1000))
+    return q[seen(true_model, x_true, q).sum(axis=1) >= FRESH_CORNERS][:fresh]
+
+
+def opencv_best(model: Any, data: Any, q: np.ndarray, true_poses: Sequence[pin.SE3]
+                ) -> tuple[dict[str, Any], dict[str, tuple[float, float]], str]:
+    """OpenCV's hand-eye methods on ``data``'s PnP board poses and the nominal robot, scored at q against ``true_poses``.
+
+    Returns:
+        Each method's camera model, its T_CW error at q (RMS mm, deg), and the method nearest the truth
+        in translation.
+    """
+    sensor = camera_sensor()
+    corners = np.asarray(model.point_index(data.point_ids, len(data)), dtype=int)
+    alone = {name: sensor(model.chain, model.params, rig, estimate=()) for name, rig in
+             model.hand_eye_alone(data.q, np.asarray(data.values, dtype=float), corners).items()}
+    scored = {name: pose_rms(m.camera_to_board(None, q), true_poses) for name, m in alone.items()}
+    return alone, scored, min(scored, key=lambda name: scored[name][0])
+
+
+def compare(robot: str, mount: str, case: str, seed: int = 1, poses: int = POSES, noise_px: float = NOISE_PX,
+            fresh: int = FRESH) -> HandEyeRow:
+    """One case of the study (module docstring), seeded.
+
+    Raises:
+        ValueError: an unknown case.
+    """
+    chain, params, data, truth = simulated_case(robot, mount, case, seed, poses, noise_px)
     result = calibrate(robot, data, method="lm", test_fraction=0.0, seed=seed)
     fitted = result.sets[0]
     model = fitted.model
     true_model: Any = truth.model(chain, params)
-    q = random_poses(chain, 40 * fresh, np.random.default_rng(seed + 1000))
-    q = q[seen(true_model, truth.x_model, q).sum(axis=1) >= FRESH_CORNERS][:fresh]
+    q = fresh_poses(chain, true_model, truth.x_model, seed, fresh)
     true_poses = true_model.camera_to_board(truth.x_model, q)
 
     def error(m: Any, x: Any) -> tuple[float, float]:
         return pose_rms(m.camera_to_board(x, q), true_poses)
 
-    corners = np.asarray(model.point_index(data.point_ids, len(data)), dtype=int)
-    alone = {name: sensor(chain, params, rig, estimate=()) for name, rig in
-             model.hand_eye_alone(data.q, np.asarray(data.values, dtype=float), corners).items()}
-    scored = {name: error(m, None) for name, m in alone.items()}
-    method = min(scored, key=lambda name: scored[name][0])
+    alone, scored, method = opencv_best(model, data, q, true_poses)
     flange = None
     if case == "last link nominal":
         true_flange = flange_placement(truth.sensor)
@@ -199,4 +230,4 @@ def format_rows(rows: Sequence[HandEyeRow]) -> str:
 
 
 __all__ = ["CASES", "FLANGE_NOTE", "HandEyeRow", "camera_sensor", "compare", "each_case", "flange_placement",
-           "format_rows", "last_link", "pose_rms", "study"]
+           "format_rows", "fresh_poses", "last_link", "opencv_best", "pose_rms", "simulated_case", "study"]
