@@ -44,6 +44,19 @@ REQUIRED = {"opencv": ("image_width", "image_height", "camera_matrix", "distorti
 OPENCV_LENGTHS = (4, 5, 8, 12, 14)
 
 
+def _read_text(path: str | Path, what: str) -> tuple[str, str]:
+    """A lens or board file's name and its UTF-8 text.
+
+    Raises:
+        DataError: it cannot be read, naming the file and ``what`` it should hold.
+    """
+    try:
+        return str(path), Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        why = e.strerror if isinstance(e, OSError) and e.strerror else str(e)
+        raise DataError(str(path), f"cannot read {what}: {why}") from None
+
+
 def read_intrinsics(path: str | Path) -> Intrinsics:
     """The intrinsics of an OpenCV or ROS ``camera_info`` YAML file (module docstring).
 
@@ -55,12 +68,7 @@ def read_intrinsics(path: str | Path) -> Intrinsics:
             a camera matrix with skew, a distortion model the lens has not: naming the file,
             and the line and key where it can.
     """
-    source = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        why = e.strerror if isinstance(e, OSError) and e.strerror else str(e)
-        raise DataError(source, f"cannot read the camera's intrinsics: {why}") from None
+    source, text = _read_text(path, "the camera's intrinsics")
     fmt = "opencv" if _is_opencv(text) else "ros"
     doc = _load(source, _opencv_as_yaml(text) if fmt == "opencv" else text)
     lines = doc.pop("__lines__")
@@ -315,12 +323,7 @@ def read_board(path: str | Path) -> Board:
         DataError: the file cannot be read, is not YAML, misses a key or has one no board has,
             or a value no board takes, naming the file, the line and the key.
     """
-    source = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        why = e.strerror if isinstance(e, OSError) and e.strerror else str(e)
-        raise DataError(source, f"cannot read the board: {why}") from None
+    source, text = _read_text(path, "the board")
     doc = _load(source, text, "not a board file: expected keys (kind, columns, rows, square_mm, ...)")
     lines = doc.pop("__lines__")
     unknown = [k for k in doc if k not in BOARD_KEYS + CHARUCO_KEYS]
