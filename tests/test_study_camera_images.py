@@ -89,3 +89,11 @@ def test_a_camera_study_of_another_robot_is_refused_in_one_line(flag, capsys):
     assert benchmark_main([flag, "--robots", "irb120,panda"]) == 2
     err = capsys.readouterr().err
     assert err.strip() == f"error: --robots: {flag} studies irb120 and ur5, not 'panda'"
+
+
+def test_opencv_corners_without_images_is_refused_in_one_line(capsys):
+    """benchmark --opencv-corners alone: one error line saying it needs --images, exit 2."""
+    from calib_pin.cli.benchmark import benchmark_main
+
+    assert benchmark_main(["--opencv-corners"]) == 2
+    assert capsys.readouterr().err.strip() == "error: --opencv-corners: it chooses the corners of --images; give --images too"

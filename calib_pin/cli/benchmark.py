@@ -115,7 +115,14 @@ def benchmark_main(argv: Sequence[str] | None = None) -> int:
     """``benchmark.py [--repeats 5] [--methods ekf-qibas,lm] [--seed 0] [--poses 120]``."""
     args = parse_args("benchmark", argv)
     return run(lambda: _trust(args) if args.trust else _hand_eye(args) if args.hand_eye else _images(args)
-               if args.images else _benchmark(args))
+               if args.images else _benchmark(args) if not args.opencv_corners else _without_images())
+
+
+def _without_images() -> int:
+    """``--opencv-corners`` without ``--images``: refused (it would time the estimators and say nothing of corners)."""
+    from ..exceptions import CalibPinError
+
+    raise CalibPinError("--opencv-corners: it chooses the corners of --images; give --images too")
 
 
 def _trust(args: argparse.Namespace) -> int:
